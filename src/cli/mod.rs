@@ -1,0 +1,85 @@
+//! Commands of the `crackle` binary.
+
+mod convert;
+mod info;
+pub mod logger;
+
+use clap::{Parser, Subcommand};
+use std::path::PathBuf;
+
+/// Grow surface crack patterns on 3D meshes and write cracked glTF.
+///
+/// Exit codes: 0 success, 1 processing failed, 2 bad usage or configuration.
+#[derive(Parser, Debug)]
+#[command(name = "crackle", version, about, long_about = None)]
+pub struct Cli {
+    /// More log output on stderr (-v: info, -vv: debug).
+    #[arg(short, long, action = clap::ArgAction::Count, global = true, conflicts_with = "quiet")]
+    pub verbose: u8,
+    /// Only errors on stderr.
+    #[arg(short, long, global = true)]
+    pub quiet: bool,
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Print a scene summary and a mesh defect report
+    Info {
+        /// Input mesh (.obj, .gltf, .glb)
+        input: PathBuf,
+        /// Print the report as JSON on stdout
+        #[arg(long)]
+        json: bool,
+        /// Weld tolerance, relative to each mesh's bounding-box diagonal
+        #[arg(long, value_name = "REL", default_value_t = crackle::mesh::WeldOptions::default().relative_tolerance)]
+        weld_tolerance: f64,
+    },
+    /// Read, weld and write a mesh (.gltf or .glb output)
+    Convert {
+        /// Input mesh (.obj, .gltf, .glb)
+        input: PathBuf,
+        /// Output file: .gltf (with .bin and images beside it) or .glb
+        output: PathBuf,
+        /// Weld tolerance, relative to each mesh's bounding-box diagonal
+        #[arg(long, value_name = "REL", default_value_t = crackle::mesh::WeldOptions::default().relative_tolerance)]
+        weld_tolerance: f64,
+        /// Print a JSON report on stdout
+        #[arg(long)]
+        json: bool,
+    },
+}
+
+/// An error whose exit code is 2 (bad usage or configuration).
+#[derive(Debug, thiserror::Error)]
+#[error("{0}")]
+pub struct UsageError(pub String);
+
+/// Exit code for an error: 2 for usage/configuration, 1 otherwise.
+pub fn exit_code(e: &anyhow::Error) -> u8 {
+    if e.downcast_ref::<UsageError>().is_some()
+        || matches!(e.downcast_ref::<crackle::Error>(), Some(crackle::Error::Config(_)))
+    {
+        2
+    } else {
+        1
+    }
+}
+
+fn weld_options(rel: f64) -> anyhow::Result<crackle::mesh::WeldOptions> {
+    if !(rel.is_finite() && (0.0..0.1).contains(&rel)) {
+        return Err(UsageError(format!("--weld-tolerance {rel} must be in [0, 0.1)")).into());
+    }
+    Ok(crackle::mesh::WeldOptions { relative_tolerance: rel, ..Default::default() })
+}
+
+/// Run the parsed command.
+pub fn run(cli: Cli) -> anyhow::Result<()> {
+    match cli.command {
+        Command::Info { input, json, weld_tolerance } => info::run(&input, json, &weld_options(weld_tolerance)?),
+        Command::Convert { input, output, weld_tolerance, json } => {
+            convert::run(&input, &output, &weld_options(weld_tolerance)?, json, cli.quiet)
+        }
+    }
+}

@@ -1,0 +1,531 @@
+//! Triangulation of polygon faces (OBJ n-gons): ear clipping on the polygon
+//! projected onto its best-fit plane, so concave polygons are triangulated
+//! correctly and collinear vertices do not produce zero-area triangles.
+
+/// Polygons up to this size pick the best-shaped ear in every step; larger
+/// ones clip the first valid ear found (cheaper, still correct).
+const EXHAUSTIVE_LIMIT: usize = 48;
+
+/// Sine of the smallest turn angle taken as a convex corner; flatter corners
+/// count as collinear (this absorbs `f32` rounding of straight edges).
+const MIN_TURN_SINE: f64 = 1e-6;
+
+/// The Newell normal of a polygon: a vector along the normal of its best-fit
+/// plane, oriented by the winding (counter-clockwise seen from its tip), whose
+/// length is twice the polygon's area (for a planar polygon).
+pub fn newell_normal(points: &[[f64; 3]]) -> [f64; 3] {
+    let n = points.len();
+    if n < 3 {
+        return [0.0; 3];
+    }
+    let c = centroid(points);
+    let mut acc = [0.0; 3];
+    for i in 0..n {
+        let a = sub(points[i], c);
+        let b = sub(points[(i + 1) % n], c);
+        let x = cross(a, b);
+        acc = [acc[0] + x[0], acc[1] + x[1], acc[2] + x[2]];
+    }
+    acc
+}
+
+/// Triangulate one polygon given by its vertices in order.
+///
+/// Returns triangles as indices into `points`, with the polygon's winding.
+/// Concave polygons are handled (ear clipping in the polygon's best-fit plane,
+/// found with the Newell normal); collinear and duplicate vertices are kept
+/// (every vertex is used, so no T-junction appears with neighbouring faces) and
+/// clipped only where they do not make a zero-area triangle, when that is
+/// possible. Self-intersecting or degenerate polygons still get `n - 2`
+/// triangles (the best remaining ear is clipped when no valid one exists).
+/// Fewer than 3 points give no triangle. Never panics.
+pub fn triangulate_polygon(points: &[[f64; 3]]) -> Vec<[u32; 3]> {
+    let n = points.len();
+    if n < 3 || n > u32::MAX as usize {
+        return Vec::new();
+    }
+    if n == 3 {
+        return vec![[0, 1, 2]];
+    }
+    let Some((p2, scale)) = project(points) else {
+        return fan(n);
+    };
+    if n == 4 {
+        return quad(&p2, scale);
+    }
+    ear_clip(&p2, scale)
+}
+
+/// Fan triangulation, for polygons without any area (all points collinear).
+fn fan(n: usize) -> Vec<[u32; 3]> {
+    (1..n - 1).map(|i| [0, i as u32, (i + 1) as u32]).collect()
+}
+
+/// Project the polygon onto its best-fit plane so that its winding is
+/// counter-clockwise in 2D. Returns the 2D points and the polygon's extent,
+/// or `None` when the polygon has no area or non-finite coordinates.
+fn project(points: &[[f64; 3]]) -> Option<(Vec<[f64; 2]>, f64)> {
+    if points.iter().flatten().any(|c| !c.is_finite()) {
+        return None;
+    }
+    let mut lo = points[0];
+    let mut hi = points[0];
+    for p in points {
+        for k in 0..3 {
+            lo[k] = lo[k].min(p[k]);
+            hi[k] = hi[k].max(p[k]);
+        }
+    }
+    let scale = (0..3).map(|k| hi[k] - lo[k]).fold(0.0, f64::max);
+    let normal = newell_normal(points);
+    let len = dot(normal, normal).sqrt();
+    if !(len.is_finite() && scale > 0.0 && len > 1e-12 * scale * scale) {
+        return None;
+    }
+    let nz = [normal[0] / len, normal[1] / len, normal[2] / len];
+    // The axis least aligned with the normal gives a stable in-plane direction.
+    let mut axis = [0.0; 3];
+    let k = (0..3)
+        .min_by(|&a, &b| nz[a].abs().total_cmp(&nz[b].abs()))
+        .unwrap_or(0);
+    axis[k] = 1.0;
+    let along = dot(axis, nz);
+    let u = sub(axis, [nz[0] * along, nz[1] * along, nz[2] * along]);
+    let ul = dot(u, u).sqrt();
+    let u = [u[0] / ul, u[1] / ul, u[2] / ul];
+    let v = cross(nz, u); // u x v = nz: counter-clockwise in (u, v)
+    let c = centroid(points);
+    let p2 = points
+        .iter()
+        .map(|&p| {
+            let d = sub(p, c);
+            [dot(d, u), dot(d, v)]
+        })
+        .collect();
+    Some((p2, scale))
+}
+
+/// A quad: split along the diagonal that keeps both triangles positively
+/// oriented (0-2 when both do).
+fn quad(p: &[[f64; 2]], scale: f64) -> Vec<[u32; 3]> {
+    let a = |i: usize, j: usize, k: usize| cross2(p[i], p[j], p[k]);
+    let m02 = a(0, 1, 2).min(a(0, 2, 3));
+    let m13 = a(0, 1, 3).min(a(1, 2, 3));
+    let tiny = 1e-12 * scale * scale;
+    if m02 > tiny || m02 >= m13 {
+        vec![[0, 1, 2], [0, 2, 3]]
+    } else {
+        vec![[0, 1, 3], [1, 2, 3]]
+    }
+}
+
+/// Ear clipping of a counter-clockwise 2D polygon.
+fn ear_clip(p: &[[f64; 2]], scale: f64) -> Vec<[u32; 3]> {
+    let n = p.len();
+    let mut rem: Vec<usize> = (0..n).collect();
+    let mut out = Vec::with_capacity(n - 2);
+    let exhaustive = n <= EXHAUSTIVE_LIMIT;
+    let mut start = 0;
+    while rem.len() > 3 {
+        let m = rem.len();
+        let k = find_ear(p, &rem, scale, exhaustive, start)
+            .unwrap_or_else(|| fallback_ear(p, &rem, scale));
+        let (a, b, c) = corner(&rem, k);
+        out.push([a as u32, b as u32, c as u32]);
+        rem.remove(k);
+        start = if k >= m - 1 { 0 } else { k };
+    }
+    out.push([rem[0] as u32, rem[1] as u32, rem[2] as u32]);
+    out
+}
+
+/// The vertex at position `k` of `rem` with its neighbours.
+fn corner(rem: &[usize], k: usize) -> (usize, usize, usize) {
+    let m = rem.len();
+    (rem[(k + m - 1) % m], rem[k], rem[(k + 1) % m])
+}
+
+/// The turn at `b` when it is strictly convex (twice the triangle's area), else `None`.
+fn convex_turn(p: &[[f64; 2]], a: usize, b: usize, c: usize) -> Option<f64> {
+    let t = cross2(p[a], p[b], p[c]);
+    let e1 = dist(p[a], p[b]);
+    let e2 = dist(p[b], p[c]);
+    (t > MIN_TURN_SINE * e1 * e2 && t > 0.0).then_some(t)
+}
+
+/// Shape quality of a triangle with doubled area `t`: 0 for slivers, larger is rounder.
+fn quality(p: &[[f64; 2]], a: usize, b: usize, c: usize, t: f64) -> f64 {
+    let s = dist2(p[a], p[b]) + dist2(p[b], p[c]) + dist2(p[c], p[a]);
+    if s > 0.0 {
+        t / s
+    } else {
+        0.0
+    }
+}
+
+/// Number of remaining vertices (other than the ear's own, or points
+/// coinciding with them) inside or on the ear triangle at position `k`;
+/// stops counting at 1 when `first_only`.
+fn blockers(p: &[[f64; 2]], rem: &[usize], k: usize, scale: f64, first_only: bool) -> usize {
+    let (a, b, c) = corner(rem, k);
+    let (pa, pb, pc) = (p[a], p[b], p[c]);
+    let tol = 1e-9 * scale;
+    let (lab, lbc, lca) = (dist(pa, pb), dist(pb, pc), dist(pc, pa));
+    let lo = [
+        pa[0].min(pb[0]).min(pc[0]) - tol,
+        pa[1].min(pb[1]).min(pc[1]) - tol,
+    ];
+    let hi = [
+        pa[0].max(pb[0]).max(pc[0]) + tol,
+        pa[1].max(pb[1]).max(pc[1]) + tol,
+    ];
+    let mut count = 0;
+    for &q in rem {
+        if q == a || q == b || q == c {
+            continue;
+        }
+        let pq = p[q];
+        if pq[0] < lo[0] || pq[0] > hi[0] || pq[1] < lo[1] || pq[1] > hi[1] {
+            continue;
+        }
+        if dist(pq, pa) <= tol || dist(pq, pb) <= tol || dist(pq, pc) <= tol {
+            continue;
+        }
+        if cross2(pa, pb, pq) >= -tol * lab
+            && cross2(pb, pc, pq) >= -tol * lbc
+            && cross2(pc, pa, pq) >= -tol * lca
+        {
+            count += 1;
+            if first_only {
+                break;
+            }
+        }
+    }
+    count
+}
+
+/// A valid ear (strictly convex, nothing inside): the best-shaped one when
+/// `exhaustive`, else the first found from `start`.
+fn find_ear(
+    p: &[[f64; 2]],
+    rem: &[usize],
+    scale: f64,
+    exhaustive: bool,
+    start: usize,
+) -> Option<usize> {
+    let m = rem.len();
+    let mut best: Option<(usize, f64)> = None;
+    for step in 0..m {
+        let k = (start + step) % m;
+        let (a, b, c) = corner(rem, k);
+        let Some(t) = convex_turn(p, a, b, c) else {
+            continue;
+        };
+        let q = quality(p, a, b, c, t);
+        if best.is_some_and(|(_, bq)| q <= bq) {
+            continue;
+        }
+        if blockers(p, rem, k, scale, true) == 0 {
+            if !exhaustive {
+                return Some(k);
+            }
+            best = Some((k, q));
+        }
+    }
+    best.map(|(k, _)| k)
+}
+
+/// When no valid ear exists (self-intersecting or degenerate polygon): prefer
+/// convex corners, then the fewest vertices inside, then the largest turn.
+fn fallback_ear(p: &[[f64; 2]], rem: &[usize], scale: f64) -> usize {
+    let mut best = 0;
+    let mut best_key = (false, usize::MAX, f64::NEG_INFINITY);
+    for k in 0..rem.len() {
+        let (a, b, c) = corner(rem, k);
+        let t = cross2(p[a], p[b], p[c]);
+        let convex = convex_turn(p, a, b, c).is_some();
+        let inside = if convex {
+            blockers(p, rem, k, scale, false)
+        } else {
+            usize::MAX
+        };
+        let better = match (convex, best_key.0) {
+            (true, false) => true,
+            (false, true) => false,
+            _ => inside < best_key.1 || (inside == best_key.1 && t > best_key.2),
+        };
+        if better {
+            best = k;
+            best_key = (convex, inside, t);
+        }
+    }
+    best
+}
+
+fn centroid(points: &[[f64; 3]]) -> [f64; 3] {
+    let n = points.len().max(1) as f64;
+    let mut c = [0.0; 3];
+    for p in points {
+        for k in 0..3 {
+            c[k] += p[k];
+        }
+    }
+    [c[0] / n, c[1] / n, c[2] / n]
+}
+
+fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
+fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+
+/// Twice the signed area of the 2D triangle (o, a, b).
+fn cross2(o: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
+    (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
+}
+
+fn dist2(a: [f64; 2], b: [f64; 2]) -> f64 {
+    (a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2)
+}
+
+fn dist(a: [f64; 2], b: [f64; 2]) -> f64 {
+    dist2(a, b).sqrt()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn tri_normal(p: &[[f64; 3]], t: [u32; 3]) -> [f64; 3] {
+        let (a, b, c) = (p[t[0] as usize], p[t[1] as usize], p[t[2] as usize]);
+        cross(sub(b, a), sub(c, a))
+    }
+
+    fn len(v: [f64; 3]) -> f64 {
+        dot(v, v).sqrt()
+    }
+
+    /// Checks count, index validity, orientation, total area and that every
+    /// vertex is used; returns the smallest triangle area.
+    fn check(points: &[[f64; 3]]) -> f64 {
+        let tris = triangulate_polygon(points);
+        let n = points.len();
+        assert_eq!(tris.len(), n - 2, "{tris:?}");
+        let normal = newell_normal(points);
+        let poly_area = len(normal) / 2.0;
+        let mut sum = 0.0;
+        let mut min_area = f64::INFINITY;
+        let mut used = vec![false; n];
+        for &t in &tris {
+            for i in t {
+                assert!((i as usize) < n);
+                used[i as usize] = true;
+            }
+            let tn = tri_normal(points, t);
+            assert!(
+                dot(tn, normal) > 0.0,
+                "triangle {t:?} is flipped or degenerate in {tris:?}"
+            );
+            sum += len(tn) / 2.0;
+            min_area = min_area.min(len(tn) / 2.0);
+        }
+        assert!(
+            (sum - poly_area).abs() <= 1e-9 * poly_area.max(1.0),
+            "area {sum} != {poly_area}: {tris:?}"
+        );
+        assert!(used.iter().all(|&u| u), "a vertex is unused: {tris:?}");
+        min_area
+    }
+
+    fn xy(points: &[[f64; 2]]) -> Vec<[f64; 3]> {
+        points.iter().map(|p| [p[0], p[1], 0.0]).collect()
+    }
+
+    /// Shoelace area in the xy plane.
+    fn shoelace(points: &[[f64; 2]]) -> f64 {
+        let n = points.len();
+        (0..n)
+            .map(|i| cross2([0.0, 0.0], points[i], points[(i + 1) % n]))
+            .sum::<f64>()
+            / 2.0
+    }
+
+    #[test]
+    fn small_polygons() {
+        assert!(triangulate_polygon(&[]).is_empty());
+        assert!(triangulate_polygon(&[[0.0; 3], [1.0, 0.0, 0.0]]).is_empty());
+        assert_eq!(
+            triangulate_polygon(&[[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]),
+            vec![[0, 1, 2]]
+        );
+    }
+
+    #[test]
+    fn convex_pentagon() {
+        let pts: Vec<[f64; 2]> = (0..5)
+            .map(|i| {
+                let a = i as f64 * std::f64::consts::TAU / 5.0;
+                [a.cos(), a.sin()]
+            })
+            .collect();
+        check(&xy(&pts));
+        assert!((len(newell_normal(&xy(&pts))) / 2.0 - shoelace(&pts)).abs() < 1e-12);
+    }
+
+    #[test]
+    fn concave_l_hexagon() {
+        let pts = [
+            [0.0, 0.0],
+            [2.0, 0.0],
+            [2.0, 1.0],
+            [1.0, 1.0],
+            [1.0, 2.0],
+            [0.0, 2.0],
+        ];
+        assert!((shoelace(&pts) - 3.0).abs() < 1e-12);
+        check(&xy(&pts));
+        // Clockwise: the triangles follow the winding.
+        let mut rev = pts;
+        rev.reverse();
+        check(&xy(&rev));
+    }
+
+    #[test]
+    fn notched_square_where_a_fan_fails() {
+        // A square with a deep notch at the top; the fan from vertex 0 would
+        // make triangles outside the polygon.
+        let pts = [
+            [0.0, 0.0],
+            [4.0, 0.0],
+            [4.0, 4.0],
+            [3.0, 4.0],
+            [2.0, 1.0],
+            [1.0, 4.0],
+            [0.0, 4.0],
+            [0.0, 2.0],
+        ];
+        let fan_area: f64 = (1..pts.len() - 1)
+            .map(|i| cross2(pts[0], pts[i], pts[i + 1]).abs() / 2.0)
+            .sum();
+        assert!(
+            (fan_area - shoelace(&pts)).abs() > 0.1,
+            "the fan should be wrong here"
+        );
+        let min = check(&xy(&pts));
+        assert!(min > 1e-6);
+        assert!((shoelace(&pts) - 13.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn tilted_plane() {
+        // The L hexagon rotated about two axes and moved away from the origin.
+        let pts = [
+            [0.0, 0.0],
+            [2.0, 0.0],
+            [2.0, 1.0],
+            [1.0, 1.0],
+            [1.0, 2.0],
+            [0.0, 2.0],
+        ];
+        let (s1, c1) = 0.7f64.sin_cos();
+        let (s2, c2) = 1.1f64.sin_cos();
+        let p3: Vec<[f64; 3]> = pts
+            .iter()
+            .map(|p| {
+                let (x, y, z) = (p[0], p[1] * c1, p[1] * s1);
+                [x * c2 - z * s2 + 100.0, y - 50.0, x * s2 + z * c2 + 7.0]
+            })
+            .collect();
+        check(&p3);
+        assert!((len(newell_normal(&p3)) / 2.0 - 3.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn collinear_points_make_no_zero_area_triangle() {
+        // A square with a vertex in the middle of every side.
+        let pts = [
+            [0.0, 0.0],
+            [1.0, 0.0],
+            [2.0, 0.0],
+            [2.0, 1.0],
+            [2.0, 2.0],
+            [1.0, 2.0],
+            [0.0, 2.0],
+            [0.0, 1.0],
+        ];
+        assert!(check(&xy(&pts)) > 0.1);
+        // A triangle with many points on one side (only a fan from the apex works).
+        let mut tri = vec![[0.0, 0.0]];
+        tri.extend((1..=6).map(|i| [i as f64, 0.0]));
+        tri.push([3.0, 5.0]);
+        assert!(check(&xy(&tri)) > 0.1);
+        // Quad with a collinear corner: the 0-2 split would be degenerate.
+        let q = [[0.0, 0.0], [1.0, 0.0], [2.0, 0.0], [1.0, 1.0]];
+        assert!(check(&xy(&q)) > 0.1);
+        // Concave quads (darts), reflex at vertex 3, then at vertex 1.
+        check(&xy(&[[0.0, 0.0], [2.0, -2.0], [4.0, 0.0], [2.0, -1.0]]));
+        check(&xy(&[[4.0, 0.0], [2.0, -1.0], [0.0, 0.0], [2.0, -2.0]]));
+    }
+
+    #[test]
+    fn degenerate_inputs_do_not_panic() {
+        // All collinear.
+        let line: Vec<[f64; 3]> = (0..6).map(|i| [i as f64, 0.0, 0.0]).collect();
+        assert_eq!(triangulate_polygon(&line).len(), 4);
+        // All the same point.
+        assert_eq!(triangulate_polygon(&[[1.0; 3]; 5]).len(), 3);
+        // Duplicate consecutive points.
+        let dup = xy(&[[0.0, 0.0], [1.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]);
+        assert_eq!(triangulate_polygon(&dup).len(), 3);
+        // Non-finite coordinates.
+        let nan = [
+            [0.0, 0.0, 0.0],
+            [f64::NAN, 0.0, 0.0],
+            [1.0, 1.0, 0.0],
+            [0.0, 1.0, 0.0],
+            [0.5, 0.5, 0.0],
+        ];
+        assert_eq!(triangulate_polygon(&nan).len(), 3);
+        // Self-intersecting (bow tie and star polygon).
+        let bow = xy(&[[0.0, 0.0], [2.0, 2.0], [2.0, 0.0], [0.0, 2.0], [-1.0, 1.0]]);
+        assert_eq!(triangulate_polygon(&bow).len(), 3);
+        let star: Vec<[f64; 3]> = (0..7)
+            .map(|i| {
+                let a = (i * 3) as f64 * std::f64::consts::TAU / 7.0;
+                [a.cos(), a.sin(), 0.0]
+            })
+            .collect();
+        let t = triangulate_polygon(&star);
+        assert_eq!(t.len(), 5);
+        assert!(t.iter().flatten().all(|&i| i < 7));
+    }
+
+    #[test]
+    fn large_concave_polygon() {
+        // A comb with many teeth: exercises the non-exhaustive path.
+        let mut pts = vec![[0.0, 0.0]];
+        let teeth = 40;
+        for i in 0..teeth {
+            let x = i as f64 * 2.0;
+            pts.push([x + 1.0, 0.0]);
+            pts.push([x + 1.0, 5.0]);
+            pts.push([x + 2.0, 5.0]);
+            pts.push([x + 2.0, 0.0]);
+        }
+        pts.push([teeth as f64 * 2.0 + 1.0, 0.0]);
+        pts.push([teeth as f64 * 2.0 + 1.0, -1.0]);
+        pts.push([0.0, -1.0]);
+        assert!(pts.len() > EXHAUSTIVE_LIMIT);
+        check(&xy(&pts));
+    }
+}

@@ -1,0 +1,404 @@
+//! Bounds-checked decoding of glTF accessors.
+//!
+//! Every size an asset declares (buffer lengths, view ranges, strides, accessor
+//! counts, sparse counts) is checked against the real data before anything is
+//! allocated, so a malformed or hostile file gives an error, never a panic or a
+//! huge allocation.
+
+use serde_json::Value;
+
+/// Most bytes a zero-initialised accessor (no bufferView) may claim: 256 MiB.
+const MAX_ZERO_ACCESSOR_BYTES: u64 = 256 << 20;
+
+/// Size in bytes of a glTF componentType.
+pub fn component_size(component_type: u32) -> Option<usize> {
+    match component_type {
+        5120 | 5121 => Some(1),
+        5122 | 5123 => Some(2),
+        5125 | 5126 => Some(4),
+        _ => None,
+    }
+}
+
+/// Number of components of a glTF accessor type.
+pub fn type_components(kind: &str) -> Option<usize> {
+    match kind {
+        "SCALAR" => Some(1),
+        "VEC2" => Some(2),
+        "VEC3" => Some(3),
+        "VEC4" | "MAT2" => Some(4),
+        "MAT3" => Some(9),
+        "MAT4" => Some(16),
+        _ => None,
+    }
+}
+
+/// The glTF accessor type for `n` components of a vertex attribute.
+pub fn vector_type(n: usize) -> &'static str {
+    match n {
+        1 => "SCALAR",
+        2 => "VEC2",
+        3 => "VEC3",
+        _ => "VEC4",
+    }
+}
+
+/// Byte size of one element, with glTF's column padding for small matrices.
+pub fn element_size(component_type: u32, kind: &str) -> Option<usize> {
+    let cs = component_size(component_type)?;
+    let (cols, rows) = match kind {
+        "MAT2" => (2, 2),
+        "MAT3" => (3, 3),
+        "MAT4" => (4, 4),
+        _ => return Some(type_components(kind)? * cs),
+    };
+    let col = (rows * cs).div_ceil(4) * 4;
+    Some(cols * col)
+}
+
+/// Parsed and validated description of one accessor.
+#[derive(Clone, Debug)]
+pub struct AccessorInfo {
+    /// componentType.
+    pub component_type: u32,
+    /// type (`VEC3`...).
+    pub kind: String,
+    /// Components per element.
+    pub components: usize,
+    /// Bytes per element.
+    pub element_size: usize,
+    /// Element count.
+    pub count: usize,
+    /// normalized flag.
+    pub normalized: bool,
+}
+
+/// Decodes accessors of one document against its loaded buffers.
+pub struct AccessorReader<'a> {
+    root: &'a Value,
+    buffers: &'a [Option<Vec<u8>>],
+}
+
+fn get_usize(v: &Value, key: &str) -> Result<Option<usize>, String> {
+    match v.get(key) {
+        None => Ok(None),
+        Some(x) => x
+            .as_u64()
+            .and_then(|n| usize::try_from(n).ok())
+            .map(Some)
+            .ok_or_else(|| format!("'{key}' must be a non-negative integer")),
+    }
+}
+
+impl<'a> AccessorReader<'a> {
+    /// A reader over the document `root` and its buffers (index-aligned with `root.buffers`;
+    /// `None` for a buffer that was not loaded).
+    pub fn new(root: &'a Value, buffers: &'a [Option<Vec<u8>>]) -> Self {
+        AccessorReader { root, buffers }
+    }
+
+    fn accessor_json(&self, index: usize) -> Result<&'a Value, String> {
+        self.root
+            .get("accessors")
+            .and_then(|a| a.get(index))
+            .ok_or_else(|| format!("accessor {index} does not exist"))
+    }
+
+    /// Describe accessor `index`, checking its fields.
+    pub fn info(&self, index: usize) -> Result<AccessorInfo, String> {
+        let a = self.accessor_json(index)?;
+        let ct = get_usize(a, "componentType")?.ok_or_else(|| format!("accessor {index}: missing componentType"))? as u32;
+        let kind = a
+            .get("type")
+            .and_then(Value::as_str)
+            .ok_or_else(|| format!("accessor {index}: missing type"))?
+            .to_string();
+        let components = type_components(&kind).ok_or_else(|| format!("accessor {index}: invalid type '{kind}'"))?;
+        let element_size =
+            element_size(ct, &kind).ok_or_else(|| format!("accessor {index}: invalid componentType {ct}"))?;
+        let count = get_usize(a, "count")?.ok_or_else(|| format!("accessor {index}: missing count"))?;
+        if count == 0 {
+            return Err(format!("accessor {index}: count must be at least 1"));
+        }
+        let normalized = a.get("normalized").and_then(Value::as_bool).unwrap_or(false);
+        Ok(AccessorInfo { component_type: ct, kind, components, element_size, count, normalized })
+    }
+
+    /// The bytes of buffer view `view`, and its stride (None when tightly packed).
+    fn view(&self, view: usize) -> Result<(&'a [u8], Option<usize>), String> {
+        let v = self
+            .root
+            .get("bufferViews")
+            .and_then(|a| a.get(view))
+            .ok_or_else(|| format!("bufferView {view} does not exist"))?;
+        let buffer = get_usize(v, "buffer")?.ok_or_else(|| format!("bufferView {view}: missing buffer"))?;
+        let offset = get_usize(v, "byteOffset")?.unwrap_or(0);
+        let length = get_usize(v, "byteLength")?.ok_or_else(|| format!("bufferView {view}: missing byteLength"))?;
+        let stride = get_usize(v, "byteStride")?;
+        if let Some(s) = stride {
+            if !(4..=252).contains(&s) || s % 4 != 0 {
+                return Err(format!("bufferView {view}: byteStride {s} is invalid (must be a multiple of 4 in 4..=252)"));
+            }
+        }
+        let data = self
+            .buffers
+            .get(buffer)
+            .ok_or_else(|| format!("bufferView {view}: buffer {buffer} does not exist"))?
+            .as_deref()
+            .ok_or_else(|| format!("bufferView {view}: buffer {buffer} has no data"))?;
+        let end = offset
+            .checked_add(length)
+            .filter(|&e| e <= data.len())
+            .ok_or_else(|| {
+                format!(
+                    "bufferView {view}: range {offset}+{length} exceeds buffer {buffer} ({} bytes)",
+                    data.len()
+                )
+            })?;
+        Ok((&data[offset..end], stride))
+    }
+
+    /// Tightly packed element bytes of accessor `index` (sparse substitution applied).
+    pub fn read_packed(&self, index: usize) -> Result<(AccessorInfo, Vec<u8>), String> {
+        let info = self.info(index)?;
+        let a = self.accessor_json(index)?;
+        let es = info.element_size;
+        let total = info
+            .count
+            .checked_mul(es)
+            .ok_or_else(|| format!("accessor {index}: count {} overflows", info.count))?;
+        let mut out;
+        match get_usize(a, "bufferView")? {
+            Some(view) => {
+                let (bytes, stride) = self.view(view)?;
+                let offset = get_usize(a, "byteOffset")?.unwrap_or(0);
+                let stride = stride.unwrap_or(es);
+                if stride < es {
+                    return Err(format!("accessor {index}: byteStride {stride} is smaller than the element size {es}"));
+                }
+                // Last byte needed: offset + stride*(count-1) + es
+                let need = stride
+                    .checked_mul(info.count - 1)
+                    .and_then(|x| x.checked_add(es))
+                    .and_then(|x| x.checked_add(offset));
+                match need {
+                    Some(n) if n <= bytes.len() => {}
+                    _ => {
+                        return Err(format!(
+                            "accessor {index}: {} elements of {es} bytes (stride {stride}, offset {offset}) do not fit in bufferView {view} ({} bytes)",
+                            info.count,
+                            bytes.len()
+                        ))
+                    }
+                }
+                if stride == es {
+                    out = bytes[offset..offset + total].to_vec();
+                } else {
+                    out = Vec::with_capacity(total);
+                    for i in 0..info.count {
+                        let s = offset + i * stride;
+                        out.extend_from_slice(&bytes[s..s + es]);
+                    }
+                }
+            }
+            None => {
+                if a.get("sparse").is_none() {
+                    // Legal but unusual: all zeros. Bound it.
+                }
+                if total as u64 > MAX_ZERO_ACCESSOR_BYTES {
+                    return Err(format!(
+                        "accessor {index}: {} elements without a bufferView would need {total} bytes; refused",
+                        info.count
+                    ));
+                }
+                out = vec![0u8; total];
+            }
+        }
+        if let Some(sparse) = a.get("sparse") {
+            self.apply_sparse(index, &info, sparse, &mut out)?;
+        }
+        Ok((info, out))
+    }
+
+    fn apply_sparse(&self, index: usize, info: &AccessorInfo, sparse: &Value, out: &mut [u8]) -> Result<(), String> {
+        let n = get_usize(sparse, "count")?.ok_or_else(|| format!("accessor {index}: sparse.count missing"))?;
+        if n == 0 || n > info.count {
+            return Err(format!("accessor {index}: sparse.count {n} must be in 1..={}", info.count));
+        }
+        let idx = sparse.get("indices").ok_or_else(|| format!("accessor {index}: sparse.indices missing"))?;
+        let vals = sparse.get("values").ok_or_else(|| format!("accessor {index}: sparse.values missing"))?;
+        let ict = get_usize(idx, "componentType")?.unwrap_or(0) as u32;
+        let ics = match ict {
+            5121 => 1,
+            5123 => 2,
+            5125 => 4,
+            _ => return Err(format!("accessor {index}: sparse.indices componentType {ict} is invalid")),
+        };
+        let iview = get_usize(idx, "bufferView")?.ok_or_else(|| format!("accessor {index}: sparse.indices.bufferView missing"))?;
+        let ioff = get_usize(idx, "byteOffset")?.unwrap_or(0);
+        let (ibytes, _) = self.view(iview)?;
+        let ineed = n.checked_mul(ics).and_then(|x| x.checked_add(ioff));
+        if ineed.is_none_or(|x| x > ibytes.len()) {
+            return Err(format!("accessor {index}: sparse indices do not fit in bufferView {iview}"));
+        }
+        let vview = get_usize(vals, "bufferView")?.ok_or_else(|| format!("accessor {index}: sparse.values.bufferView missing"))?;
+        let voff = get_usize(vals, "byteOffset")?.unwrap_or(0);
+        let (vbytes, _) = self.view(vview)?;
+        let es = info.element_size;
+        let vneed = n.checked_mul(es).and_then(|x| x.checked_add(voff));
+        if vneed.is_none_or(|x| x > vbytes.len()) {
+            return Err(format!("accessor {index}: sparse values do not fit in bufferView {vview}"));
+        }
+        let mut prev: Option<usize> = None;
+        for k in 0..n {
+            let p = ioff + k * ics;
+            let target = match ics {
+                1 => ibytes[p] as usize,
+                2 => u16::from_le_bytes([ibytes[p], ibytes[p + 1]]) as usize,
+                _ => u32::from_le_bytes([ibytes[p], ibytes[p + 1], ibytes[p + 2], ibytes[p + 3]]) as usize,
+            };
+            if target >= info.count {
+                return Err(format!("accessor {index}: sparse index {target} out of range ({} elements)", info.count));
+            }
+            if prev.is_some_and(|q| target <= q) {
+                return Err(format!("accessor {index}: sparse indices are not strictly increasing"));
+            }
+            prev = Some(target);
+            let src = voff + k * es;
+            out[target * es..(target + 1) * es].copy_from_slice(&vbytes[src..src + es]);
+        }
+        Ok(())
+    }
+
+    /// Accessor `index` as `f32` components (normalized integers are mapped to
+    /// [0,1] or [-1,1], other integers converted). Matrices are refused.
+    pub fn read_f32(&self, index: usize) -> Result<(AccessorInfo, Vec<f32>), String> {
+        let (info, bytes) = self.read_packed(index)?;
+        if info.kind.starts_with("MAT") {
+            return Err(format!("accessor {index}: matrix accessor where a vector was expected"));
+        }
+        let n = info.count * info.components;
+        let mut out = Vec::with_capacity(n);
+        let norm = info.normalized;
+        match info.component_type {
+            5126 => out.extend(bytes.chunks_exact(4).map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))),
+            5120 => out.extend(bytes.iter().map(|&b| {
+                let v = b as i8 as f32;
+                if norm { (v / 127.0).max(-1.0) } else { v }
+            })),
+            5121 => out.extend(bytes.iter().map(|&b| if norm { b as f32 / 255.0 } else { b as f32 })),
+            5122 => out.extend(bytes.chunks_exact(2).map(|c| {
+                let v = i16::from_le_bytes([c[0], c[1]]) as f32;
+                if norm { (v / 32767.0).max(-1.0) } else { v }
+            })),
+            5123 => out.extend(bytes.chunks_exact(2).map(|c| {
+                let v = u16::from_le_bytes([c[0], c[1]]) as f32;
+                if norm { v / 65535.0 } else { v }
+            })),
+            5125 => out.extend(bytes.chunks_exact(4).map(|c| {
+                let v = u32::from_le_bytes([c[0], c[1], c[2], c[3]]) as f32;
+                if norm { v / 4294967295.0 } else { v }
+            })),
+            ct => return Err(format!("accessor {index}: invalid componentType {ct}")),
+        }
+        Ok((info, out))
+    }
+
+    /// An index accessor as `u32` values (SCALAR, unsigned byte/short/int, not normalized).
+    pub fn read_indices(&self, index: usize) -> Result<Vec<u32>, String> {
+        let (info, bytes) = self.read_packed(index)?;
+        if info.kind != "SCALAR" || info.normalized {
+            return Err(format!("accessor {index}: indices must be SCALAR and not normalized"));
+        }
+        Ok(match info.component_type {
+            5121 => bytes.iter().map(|&b| b as u32).collect(),
+            5123 => bytes.chunks_exact(2).map(|c| u16::from_le_bytes([c[0], c[1]]) as u32).collect(),
+            5125 => bytes.chunks_exact(4).map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect(),
+            ct => return Err(format!("accessor {index}: index componentType {ct} is not an unsigned integer type")),
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use serde_json::json;
+
+    fn f32s(v: &[f32]) -> Vec<u8> {
+        v.iter().flat_map(|x| x.to_le_bytes()).collect()
+    }
+
+    #[test]
+    fn strided_and_sparse() {
+        // 3 VEC2 floats interleaved with 8 bytes of padding (stride 16)
+        let mut buf = Vec::new();
+        for i in 0..3 {
+            buf.extend(f32s(&[i as f32, 10.0 + i as f32]));
+            buf.extend([0u8; 8]);
+        }
+        let sparse_idx_off = buf.len();
+        buf.extend(2u16.to_le_bytes());
+        buf.extend([0u8; 2]);
+        let sparse_val_off = buf.len();
+        buf.extend(f32s(&[-1.0, -2.0]));
+        let root = json!({
+            "bufferViews": [
+                {"buffer":0, "byteOffset":0, "byteLength":48, "byteStride":16},
+                {"buffer":0, "byteOffset":sparse_idx_off, "byteLength":2},
+                {"buffer":0, "byteOffset":sparse_val_off, "byteLength":8}
+            ],
+            "accessors": [
+                {"bufferView":0, "componentType":5126, "type":"VEC2", "count":3,
+                 "sparse": {"count":1, "indices":{"bufferView":1,"componentType":5123}, "values":{"bufferView":2}}},
+                {"bufferView":0, "componentType":5126, "type":"VEC2", "count":4}
+            ]
+        });
+        let bufs = vec![Some(buf)];
+        let r = AccessorReader::new(&root, &bufs);
+        let (_, v) = r.read_f32(0).unwrap();
+        assert_eq!(v, vec![0.0, 10.0, 1.0, 11.0, -1.0, -2.0]);
+        let e = r.read_f32(1).unwrap_err();
+        assert!(e.contains("do not fit"), "{e}");
+    }
+
+    #[test]
+    fn hostile_sizes_are_errors() {
+        let root = json!({
+            "bufferViews": [{"buffer":0, "byteLength":8}],
+            "accessors": [
+                {"bufferView":0, "componentType":5126, "type":"VEC3", "count": 4000000000u64},
+                {"componentType":5126, "type":"MAT4", "count": 100000000},
+                {"bufferView":0, "componentType":5126, "type":"VEC3", "count": 0},
+                {"bufferView":5, "componentType":5126, "type":"VEC3", "count": 1},
+                {"bufferView":0, "componentType":1234, "type":"VEC3", "count": 1}
+            ]
+        });
+        let bufs = vec![Some(vec![0u8; 8])];
+        let r = AccessorReader::new(&root, &bufs);
+        for i in 0..5 {
+            assert!(r.read_packed(i).is_err(), "accessor {i} must be refused");
+        }
+    }
+
+    #[test]
+    fn normalized_integers() {
+        let buf: Vec<u8> = [0u16, 65535, 32768].iter().flat_map(|x| x.to_le_bytes()).chain([0, 0]).collect();
+        let root = json!({
+            "bufferViews": [{"buffer":0, "byteLength":8}],
+            "accessors": [{"bufferView":0, "componentType":5123, "type":"SCALAR", "count":3, "normalized": true}]
+        });
+        let bufs = vec![Some(buf)];
+        let (_, v) = AccessorReader::new(&root, &bufs).read_f32(0).unwrap();
+        assert_eq!(v[0], 0.0);
+        assert_eq!(v[1], 1.0);
+        assert!((v[2] - 0.5).abs() < 1e-4);
+    }
+
+    #[test]
+    fn matrix_padding() {
+        assert_eq!(element_size(5121, "MAT3"), Some(12));
+        assert_eq!(element_size(5122, "MAT3"), Some(24));
+        assert_eq!(element_size(5126, "MAT4"), Some(64));
+        assert_eq!(element_size(5121, "MAT2"), Some(8));
+    }
+}

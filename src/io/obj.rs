@@ -1,0 +1,1764 @@
+//! Wavefront OBJ reader (with its MTL material libraries).
+//!
+//! Parsing is done by `tobj` on a preprocessed copy of the text that fills
+//! its gaps: continuation lines are joined, indices are checked and made
+//! absolute, `o`/`g`/`usemtl` state changes become numbered sections (so
+//! objects and groups stay distinct), empty `usemtl` means "no material",
+//! `l`/`p` elements are dropped with a warning. MTL files are cleaned the same
+//! way before `tobj` reads them, and texture-map options are parsed here.
+//!
+//! Mapping: one [`Mesh`] and one root [`Node`] per OBJ object (`o`; the part
+//! of the file before the first `o` is an object named after the file), one
+//! [`Primitive`] per (group, material) in order of first use, polygons
+//! triangulated with [`triangulate_polygon`] (correct for concave faces).
+
+use crate::error::Error;
+use crate::geometry::triangulate_polygon;
+use crate::io::paths::resolve_inside;
+use crate::scene::{
+    Geometry, Image, ImageSource, Material, Mesh, Node, Primitive, Scene, SceneRoot, TriGeometry,
+    VertexAttribute,
+};
+use serde_json::{json, Map, Value};
+use std::cell::RefCell;
+use std::collections::{HashMap, HashSet};
+use std::io::Cursor;
+use std::path::{Path, PathBuf};
+
+/// Read an OBJ file (and the MTL libraries and textures it names, all inside
+/// its folder) into a [`Scene`].
+///
+/// # Errors
+/// [`Error::Io`] when the file cannot be read; [`Error::Input`] naming the
+/// line when it is malformed (bad number, index out of range...) or has no
+/// face. Missing material libraries and textures are only warnings
+/// ([`Scene::warnings`]).
+pub fn read_obj(path: &Path) -> Result<Scene, Error> {
+    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    let text = String::from_utf8_lossy(&bytes);
+    let base_dir = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    let name = path.file_name().map_or_else(
+        || "model.obj".to_string(),
+        |n| n.to_string_lossy().into_owned(),
+    );
+    read_impl(&text, &base_dir, &name, path)
+}
+
+/// Read OBJ text as if it were the file `name` in the folder `base_dir`
+/// (material libraries and textures are looked up there).
+///
+/// # Errors
+/// As [`read_obj`]; errors name `base_dir/name`.
+pub fn read_obj_from_str(text: &str, base_dir: &Path, name: &str) -> Result<Scene, Error> {
+    read_impl(text, base_dir, name, &base_dir.join(name))
+}
+
+/// Marks an absent texture-coordinate or normal index.
+const ABSENT: u32 = u32::MAX;
+
+/// One face corner: 0-based indices into the file's `v`, `vt`, `vn` lists.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+struct Corner {
+    v: u32,
+    vt: u32,
+    vn: u32,
+}
+
+/// A run of the file with one (object, group, material) state.
+#[derive(Clone, Debug, PartialEq)]
+struct Section {
+    object: usize,
+    group: Option<String>,
+    material: Option<String>,
+}
+
+/// One face: `len` corners from `start` in [`Prepared::corners`].
+#[derive(Clone, Copy, Debug)]
+struct FaceRec {
+    section: usize,
+    start: usize,
+    len: usize,
+}
+
+/// The preprocessed file: text for `tobj` plus what the preprocessing learnt.
+#[derive(Default)]
+struct Prepared {
+    text: String,
+    objects: Vec<String>,
+    sections: Vec<Section>,
+    faces: Vec<FaceRec>,
+    corners: Vec<Corner>,
+    n_v: usize,
+    n_vt: usize,
+    n_vn: usize,
+    colored: usize,
+    strip_colors: bool,
+    skipped_elements: usize,
+    short_faces: usize,
+    freeform: usize,
+    odd_vertex_lines: usize,
+}
+
+fn read_impl(text: &str, base_dir: &Path, name: &str, path: &Path) -> Result<Scene, Error> {
+    let stem = Path::new(name)
+        .file_stem()
+        .map_or_else(|| name.to_string(), |s| s.to_string_lossy().into_owned());
+    let mut prep = preprocess(text, &stem, false).map_err(|m| Error::input(path, m))?;
+    if prep.colored > 0 && prep.colored < prep.n_v {
+        // tobj would misalign colours when only some vertices have one.
+        prep = preprocess(text, &stem, true).map_err(|m| Error::input(path, m))?;
+    }
+    if prep.faces.is_empty() {
+        return Err(Error::input(
+            path,
+            "no faces: the OBJ file has no polygon (f) element to crack",
+        ));
+    }
+    let mut warnings = Vec::new();
+    if prep.strip_colors {
+        warnings.push(format!(
+            "{name}: only some vertices have a colour; vertex colours are ignored"
+        ));
+    }
+    if prep.skipped_elements > 0 {
+        warnings.push(format!(
+            "{name}: {} point/line element(s) (p, l) ignored: only faces are read",
+            prep.skipped_elements
+        ));
+    }
+    if prep.short_faces > 0 {
+        warnings.push(format!(
+            "{name}: {} face(s) with fewer than 3 vertices ignored",
+            prep.short_faces
+        ));
+    }
+    if prep.freeform > 0 {
+        warnings.push(format!("{name}: free-form curves/surfaces (curv, curv2, surf) are not supported and were ignored"));
+    }
+    if prep.odd_vertex_lines > 0 {
+        warnings.push(format!(
+            "{name}: {} vertex line(s) with 5 values (neither w nor r g b): the extra values were ignored",
+            prep.odd_vertex_lines
+        ));
+    }
+
+    // Parse with tobj; material libraries come through the callback.
+    let mtl = RefCell::new(MtlState::default());
+    #[allow(clippy::needless_update)]
+    let options = tobj::LoadOptions {
+        single_index: false,
+        triangulate: false,
+        ignore_points: true,
+        ignore_lines: true,
+        ..Default::default()
+    };
+    let loader = |lib: &Path| -> tobj::MTLLoadResult {
+        mtl.borrow_mut().load_libraries(base_dir, name, lib);
+        Ok((Vec::new(), Default::default()))
+    };
+    let (models, _) = tobj::load_obj_buf(&mut Cursor::new(prep.text.as_bytes()), &options, loader)
+        .map_err(|e| Error::input(path, format!("OBJ parser (tobj) failed: {e}")))?;
+    let mtl = mtl.into_inner();
+    warnings.extend(mtl.warnings.iter().cloned());
+
+    let data = gather(&prep, &models)
+        .map_err(|m| Error::input(path, format!("internal OBJ reader error: {m}")))?;
+
+    let mut scene = Scene {
+        warnings,
+        ..Default::default()
+    };
+    let mut materials = MaterialBuilder {
+        base_dir,
+        lib: &mtl.materials,
+        by_name: HashMap::new(),
+        textures: HashMap::new(),
+        file_names: HashSet::new(),
+    };
+    let has_colors = prep.colored > 0 && !prep.strip_colors;
+
+    // Primitives per object, in order of first use.
+    let mut objects: Vec<Vec<PrimBuilder>> = vec![Vec::new(); prep.objects.len()];
+    let mut prim_of_section: Vec<Option<usize>> = vec![None; prep.sections.len()];
+    let mut scratch = Vec::new();
+    for face in &prep.faces {
+        let prim = match prim_of_section[face.section] {
+            Some(p) => p,
+            None => {
+                let section = &prep.sections[face.section];
+                let material = section
+                    .material
+                    .as_ref()
+                    .and_then(|m| materials.material(m, &mut scene));
+                let prims = &mut objects[section.object];
+                let p = match prims
+                    .iter()
+                    .position(|p| p.group == section.group && p.material == material)
+                {
+                    Some(p) => p,
+                    None => {
+                        prims.push(PrimBuilder::new(section.group.clone(), material));
+                        prims.len() - 1
+                    }
+                };
+                prim_of_section[face.section] = Some(p);
+                p
+            }
+        };
+        let object = prep.sections[face.section].object;
+        let corners = &prep.corners[face.start..face.start + face.len];
+        objects[object][prim].add_face(corners, &data.positions, &mut scratch);
+    }
+
+    for (object, prims) in objects.into_iter().enumerate() {
+        if prims.is_empty() {
+            continue;
+        }
+        let object_name = &prep.objects[object];
+        let primitives = prims
+            .into_iter()
+            .map(|p| p.finish(&data, has_colors, object_name, &mut scene))
+            .collect();
+        scene.meshes.push(Mesh {
+            name: Some(object_name.clone()),
+            primitives,
+            ..Default::default()
+        });
+        scene.nodes.push(Node {
+            name: Some(object_name.clone()),
+            mesh: Some(scene.meshes.len() - 1),
+            ..Default::default()
+        });
+    }
+    scene.scenes = vec![SceneRoot {
+        name: None,
+        nodes: (0..scene.nodes.len()).collect(),
+        rest: Map::new(),
+    }];
+    scene.default_scene = Some(0);
+    Ok(scene)
+}
+
+// ---------------------------------------------------------------------------
+// Preprocessing of the OBJ text
+
+/// Call `f` with every logical line (continuation lines joined) and the
+/// number of its first physical line.
+fn logical_lines(
+    text: &str,
+    mut f: impl FnMut(&str, usize) -> Result<(), String>,
+) -> Result<(), String> {
+    let mut pending = String::new();
+    let mut pending_no = 0;
+    for (i, raw) in text.lines().enumerate() {
+        let t = raw.trim_end();
+        if let Some(head) = t.strip_suffix('\\') {
+            if pending.is_empty() {
+                pending_no = i + 1;
+            }
+            pending.push_str(head);
+            pending.push(' ');
+            continue;
+        }
+        if pending.is_empty() {
+            f(raw, i + 1)?;
+        } else {
+            pending.push_str(raw);
+            f(&pending, pending_no)?;
+            pending.clear();
+        }
+    }
+    if !pending.is_empty() {
+        f(&pending, pending_no)?;
+    }
+    Ok(())
+}
+
+/// The first word of `s` and the rest (trimmed at the start).
+fn split_keyword(s: &str) -> (&str, &str) {
+    let s = s.trim_start();
+    match s.find(char::is_whitespace) {
+        Some(i) => (&s[..i], s[i..].trim_start()),
+        None => (s, ""),
+    }
+}
+
+/// A finite number as `tobj` reads it (`f32`).
+fn number(tok: &str) -> Option<f32> {
+    tok.parse::<f32>().ok().filter(|x| x.is_finite())
+}
+
+fn preprocess(text: &str, stem: &str, strip_colors: bool) -> Result<Prepared, String> {
+    let mut p = Prepared {
+        objects: vec![stem.to_string()],
+        sections: vec![Section {
+            object: 0,
+            group: None,
+            material: None,
+        }],
+        strip_colors,
+        ..Default::default()
+    };
+    p.text.reserve(text.len() + 64);
+    p.text.push_str("g 0\n");
+    let mut state = Section {
+        object: 0,
+        group: None,
+        material: None,
+    };
+    logical_lines(text, |line, no| p.line(line, no, stem, &mut state))?;
+    Ok(p)
+}
+
+impl Prepared {
+    fn line(
+        &mut self,
+        line: &str,
+        no: usize,
+        stem: &str,
+        state: &mut Section,
+    ) -> Result<(), String> {
+        let (kw, rest) = split_keyword(line);
+        match kw {
+            "v" => self.vertex(strip_comment(rest), no),
+            "vt" => self.texcoord(strip_comment(rest), no),
+            "vn" => self.normal(strip_comment(rest), no),
+            "f" | "fo" => self.face(strip_comment(rest), no),
+            "l" | "p" => {
+                self.skipped_elements += 1;
+                Ok(())
+            }
+            "o" => {
+                let name = rest.trim();
+                self.objects.push(if name.is_empty() {
+                    stem.to_string()
+                } else {
+                    name.to_string()
+                });
+                state.object = self.objects.len() - 1;
+                state.group = None;
+                self.set_state(state);
+                Ok(())
+            }
+            "g" => {
+                let name = rest.trim();
+                state.group = (!name.is_empty()).then(|| name.to_string());
+                self.set_state(state);
+                Ok(())
+            }
+            "usemtl" => {
+                let name = rest.trim();
+                state.material = (!name.is_empty()).then(|| name.to_string());
+                self.set_state(state);
+                Ok(())
+            }
+            "mtllib" => {
+                let lib = rest.trim();
+                if !lib.is_empty() {
+                    self.text.push_str("mtllib ");
+                    self.text.push_str(lib);
+                    self.text.push('\n');
+                }
+                Ok(())
+            }
+            "curv" | "curv2" | "surf" => {
+                self.freeform += 1;
+                Ok(())
+            }
+            _ => Ok(()),
+        }
+    }
+
+    /// Start a new section (a `g <index>` line for tobj) when the state changed.
+    fn set_state(&mut self, state: &Section) {
+        let current = self.sections.last();
+        if current == Some(state) {
+            return;
+        }
+        self.sections.push(state.clone());
+        self.text
+            .push_str(&format!("g {}\n", self.sections.len() - 1));
+    }
+
+    fn vertex(&mut self, rest: &str, no: usize) -> Result<(), String> {
+        let toks: Vec<&str> = rest.split_whitespace().collect();
+        if toks.len() < 3 || toks.iter().any(|t| number(t).is_none()) {
+            return Err(format!("line {no}: invalid vertex 'v {rest}' (expected x y z [w | r g b] as finite numbers)"));
+        }
+        self.n_v += 1;
+        let out = match toks.len() {
+            3 => toks.join(" "),
+            4 => {
+                if number(toks[3]) == Some(0.0) {
+                    return Err(format!("line {no}: vertex 'v {rest}' has w = 0"));
+                }
+                toks.join(" ")
+            }
+            5 => {
+                self.odd_vertex_lines += 1;
+                toks[..3].join(" ")
+            }
+            _ => {
+                self.colored += 1;
+                if self.strip_colors {
+                    toks[..3].join(" ")
+                } else {
+                    toks[..6].join(" ")
+                }
+            }
+        };
+        self.text.push_str("v ");
+        self.text.push_str(&out);
+        self.text.push('\n');
+        Ok(())
+    }
+
+    fn texcoord(&mut self, rest: &str, no: usize) -> Result<(), String> {
+        let toks: Vec<&str> = rest.split_whitespace().take(3).collect();
+        if toks.is_empty() || toks.iter().any(|t| number(t).is_none()) {
+            return Err(format!("line {no}: invalid texture coordinate 'vt {rest}' (expected u [v [w]] as finite numbers)"));
+        }
+        self.n_vt += 1;
+        let v = toks.get(1).copied().unwrap_or("0");
+        self.text.push_str(&format!("vt {} {v}\n", toks[0]));
+        Ok(())
+    }
+
+    fn normal(&mut self, rest: &str, no: usize) -> Result<(), String> {
+        let toks: Vec<&str> = rest.split_whitespace().take(3).collect();
+        if toks.len() < 3 || toks.iter().any(|t| number(t).is_none()) {
+            return Err(format!(
+                "line {no}: invalid normal 'vn {rest}' (expected x y z as finite numbers)"
+            ));
+        }
+        self.n_vn += 1;
+        self.text
+            .push_str(&format!("vn {} {} {}\n", toks[0], toks[1], toks[2]));
+        Ok(())
+    }
+
+    fn face(&mut self, rest: &str, no: usize) -> Result<(), String> {
+        let start = self.corners.len();
+        for tok in rest.split_whitespace() {
+            let mut parts = tok.split('/');
+            let v = parts.next().unwrap_or("");
+            let vt = parts.next().unwrap_or("");
+            let vn = parts.next().unwrap_or("");
+            if parts.next().is_some() || v.is_empty() {
+                self.corners.truncate(start);
+                return Err(format!(
+                    "line {no}: invalid face vertex '{tok}' (expected v, v/vt, v//vn or v/vt/vn)"
+                ));
+            }
+            let corner = Corner {
+                v: resolve_index(v, self.n_v, "vertex", no)?,
+                vt: if vt.is_empty() {
+                    ABSENT
+                } else {
+                    resolve_index(vt, self.n_vt, "texture coordinate", no)?
+                },
+                vn: if vn.is_empty() {
+                    ABSENT
+                } else {
+                    resolve_index(vn, self.n_vn, "normal", no)?
+                },
+            };
+            self.corners.push(corner);
+        }
+        let len = self.corners.len() - start;
+        if len < 3 {
+            self.corners.truncate(start);
+            self.short_faces += 1;
+            return Ok(());
+        }
+        self.text.push('f');
+        for c in &self.corners[start..] {
+            self.text.push_str(&format!(" {}", c.v + 1));
+            match (c.vt != ABSENT, c.vn != ABSENT) {
+                (false, false) => {}
+                (true, false) => self.text.push_str(&format!("/{}", c.vt + 1)),
+                (false, true) => self.text.push_str(&format!("//{}", c.vn + 1)),
+                (true, true) => self.text.push_str(&format!("/{}/{}", c.vt + 1, c.vn + 1)),
+            }
+        }
+        self.text.push('\n');
+        self.faces.push(FaceRec {
+            section: self.sections.len() - 1,
+            start,
+            len,
+        });
+        Ok(())
+    }
+}
+
+/// Drop a trailing `# comment` from a numeric line.
+fn strip_comment(s: &str) -> &str {
+    s.split('#').next().unwrap_or("")
+}
+
+/// A 1-based (or negative, relative) OBJ index to a 0-based one, checked
+/// against the `count` elements defined so far.
+fn resolve_index(tok: &str, count: usize, what: &str, no: usize) -> Result<u32, String> {
+    let i: i64 = tok
+        .parse()
+        .map_err(|_| format!("line {no}: invalid {what} index '{tok}'"))?;
+    let idx = if i > 0 { i - 1 } else { count as i64 + i };
+    if i == 0 || idx < 0 || idx >= count as i64 || idx >= ABSENT as i64 {
+        return Err(format!(
+            "line {no}: {what} index {i} is out of range ({count} {what}{} defined before this line)",
+            if count == 1 { "" } else { "s" }
+        ));
+    }
+    Ok(idx as u32)
+}
+
+// ---------------------------------------------------------------------------
+// Collecting the numbers tobj parsed
+
+/// The file's vertex data by global (file) index; only referenced entries are filled.
+struct Data {
+    positions: Vec<[f32; 3]>,
+    colors: Vec<[f32; 3]>,
+    texcoords: Vec<[f32; 2]>,
+    normals: Vec<[f32; 3]>,
+}
+
+/// Map tobj's per-model data back to the file's indices, checking that tobj
+/// saw the same faces as the preprocessing.
+fn gather(prep: &Prepared, models: &[tobj::Model]) -> Result<Data, String> {
+    let mut d = Data {
+        positions: vec![[0.0; 3]; prep.n_v],
+        colors: if prep.colored > 0 && !prep.strip_colors {
+            vec![[1.0; 3]; prep.n_v]
+        } else {
+            Vec::new()
+        },
+        texcoords: vec![[0.0; 2]; prep.n_vt],
+        normals: vec![[0.0; 3]; prep.n_vn],
+    };
+    let mismatch = || "the parsed faces do not match the file's faces".to_string();
+    let mut next_face = 0;
+    for model in models {
+        let m = &model.mesh;
+        if m.indices.is_empty() {
+            continue;
+        }
+        let section: usize = model.name.parse().map_err(|_| mismatch())?;
+        let faces = if m.face_arities.is_empty() {
+            m.indices.len() / 3
+        } else {
+            m.face_arities.len()
+        };
+        let mut c = 0;
+        for f in 0..faces {
+            let len = if m.face_arities.is_empty() {
+                3
+            } else {
+                m.face_arities[f] as usize
+            };
+            let rec = prep.faces.get(next_face).ok_or_else(mismatch)?;
+            if rec.section != section || rec.len != len {
+                return Err(mismatch());
+            }
+            for j in 0..len {
+                let corner = prep.corners[rec.start + j];
+                let li = *m.indices.get(c + j).ok_or_else(mismatch)? as usize;
+                d.positions[corner.v as usize] = get3(&m.positions, li).ok_or_else(mismatch)?;
+                if !d.colors.is_empty() {
+                    d.colors[corner.v as usize] = get3(&m.vertex_color, li).ok_or_else(mismatch)?;
+                }
+                if corner.vt != ABSENT {
+                    let ti = *m.texcoord_indices.get(c + j).ok_or_else(mismatch)? as usize;
+                    let t = m.texcoords.get(2 * ti..2 * ti + 2).ok_or_else(mismatch)?;
+                    d.texcoords[corner.vt as usize] = [t[0], t[1]];
+                }
+                if corner.vn != ABSENT {
+                    let ni = *m.normal_indices.get(c + j).ok_or_else(mismatch)? as usize;
+                    d.normals[corner.vn as usize] = get3(&m.normals, ni).ok_or_else(mismatch)?;
+                }
+            }
+            c += len;
+            next_face += 1;
+        }
+    }
+    if next_face != prep.faces.len() {
+        return Err(mismatch());
+    }
+    Ok(d)
+}
+
+fn get3(data: &[f32], i: usize) -> Option<[f32; 3]> {
+    let s = data.get(3 * i..3 * i + 3)?;
+    Some([s[0], s[1], s[2]])
+}
+
+// ---------------------------------------------------------------------------
+// Primitives
+
+/// A primitive being built: unique (v, vt, vn) corners become its vertices.
+#[derive(Clone)]
+struct PrimBuilder {
+    group: Option<String>,
+    material: Option<usize>,
+    vertex_of: HashMap<Corner, u32>,
+    vertices: Vec<Corner>,
+    triangles: Vec<[u32; 3]>,
+    some_vt: bool,
+    missing_vt: bool,
+    some_vn: bool,
+    missing_vn: bool,
+}
+
+impl PrimBuilder {
+    fn new(group: Option<String>, material: Option<usize>) -> Self {
+        PrimBuilder {
+            group,
+            material,
+            vertex_of: HashMap::new(),
+            vertices: Vec::new(),
+            triangles: Vec::new(),
+            some_vt: false,
+            missing_vt: false,
+            some_vn: false,
+            missing_vn: false,
+        }
+    }
+
+    fn add_face(&mut self, corners: &[Corner], positions: &[[f32; 3]], scratch: &mut Vec<u32>) {
+        scratch.clear();
+        for &c in corners {
+            if c.vt == ABSENT {
+                self.missing_vt = true;
+            } else {
+                self.some_vt = true;
+            }
+            if c.vn == ABSENT {
+                self.missing_vn = true;
+            } else {
+                self.some_vn = true;
+            }
+            let next = self.vertices.len() as u32;
+            let id = *self.vertex_of.entry(c).or_insert(next);
+            if id == next {
+                self.vertices.push(c);
+            }
+            scratch.push(id);
+        }
+        if scratch.len() == 3 {
+            self.triangles.push([scratch[0], scratch[1], scratch[2]]);
+            return;
+        }
+        let points: Vec<[f64; 3]> = corners
+            .iter()
+            .map(|c| {
+                let p = positions[c.v as usize];
+                [p[0] as f64, p[1] as f64, p[2] as f64]
+            })
+            .collect();
+        for t in triangulate_polygon(&points) {
+            self.triangles.push([
+                scratch[t[0] as usize],
+                scratch[t[1] as usize],
+                scratch[t[2] as usize],
+            ]);
+        }
+    }
+
+    fn finish(self, data: &Data, has_colors: bool, object: &str, scene: &mut Scene) -> Primitive {
+        let label = || {
+            let mut s = format!("object '{object}'");
+            if let Some(g) = &self.group {
+                s.push_str(&format!(", group '{g}'"));
+            }
+            if let Some(m) = self
+                .material
+                .and_then(|m| scene.materials.get(m))
+                .and_then(Material::name)
+            {
+                s.push_str(&format!(", material '{m}'"));
+            }
+            s
+        };
+        let mut warnings = Vec::new();
+        let positions = self
+            .vertices
+            .iter()
+            .map(|c| data.positions[c.v as usize])
+            .collect();
+        let mut attributes = Vec::new();
+        if self.some_vn {
+            if self.missing_vn {
+                warnings.push(format!(
+                    "{}: only some face corners have a normal; NORMAL left out",
+                    label()
+                ));
+            } else {
+                let mut normals = Vec::with_capacity(self.vertices.len() * 3);
+                let mut ok = true;
+                for c in &self.vertices {
+                    let n = data.normals[c.vn as usize];
+                    let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+                    if !len.is_finite() || len <= 1e-12 {
+                        ok = false;
+                        break;
+                    }
+                    normals.extend([n[0] / len, n[1] / len, n[2] / len]);
+                }
+                if ok {
+                    attributes.push(VertexAttribute {
+                        semantic: "NORMAL".into(),
+                        components: 3,
+                        data: normals,
+                    });
+                } else {
+                    warnings.push(format!(
+                        "{}: a normal is zero or invalid; NORMAL left out",
+                        label()
+                    ));
+                }
+            }
+        }
+        if self.some_vt {
+            if self.missing_vt {
+                warnings.push(format!(
+                    "{}: only some face corners have texture coordinates; TEXCOORD_0 left out",
+                    label()
+                ));
+            } else {
+                let uv = self
+                    .vertices
+                    .iter()
+                    .flat_map(|c| {
+                        let t = data.texcoords[c.vt as usize];
+                        [t[0], 1.0 - t[1]]
+                    })
+                    .collect();
+                attributes.push(VertexAttribute {
+                    semantic: "TEXCOORD_0".into(),
+                    components: 2,
+                    data: uv,
+                });
+            }
+        }
+        if has_colors {
+            let colors = self
+                .vertices
+                .iter()
+                .flat_map(|c| data.colors[c.v as usize].map(|x| x.clamp(0.0, 1.0)))
+                .collect();
+            attributes.push(VertexAttribute {
+                semantic: "COLOR_0".into(),
+                components: 3,
+                data: colors,
+            });
+        }
+        scene.warnings.extend(warnings);
+        Primitive {
+            material: self.material,
+            geometry: Geometry::Triangles(TriGeometry {
+                positions,
+                attributes,
+                triangles: self.triangles,
+                group: self.group,
+                ..Default::default()
+            }),
+            rest: Map::new(),
+        }
+    }
+}
+
+// ---------------------------------------------------------------------------
+// Material libraries
+
+/// What the material-library callback collected.
+#[derive(Default)]
+struct MtlState {
+    materials: Vec<tobj::Material>,
+    warnings: Vec<String>,
+    loaded: HashSet<PathBuf>,
+}
+
+impl MtlState {
+    /// Load the libraries of one `mtllib` line (one file name, possibly with
+    /// spaces, or several names separated by spaces).
+    fn load_libraries(&mut self, base_dir: &Path, obj_name: &str, lib: &Path) {
+        let reference = lib.to_string_lossy().trim().to_string();
+        let whole_exists = resolve_inside(base_dir, &reference).is_ok_and(|p| p.is_file());
+        if whole_exists || !reference.contains(char::is_whitespace) {
+            self.load_one(base_dir, obj_name, &reference);
+        } else {
+            for part in reference.split_whitespace() {
+                self.load_one(base_dir, obj_name, part);
+            }
+        }
+    }
+
+    fn load_one(&mut self, base_dir: &Path, obj_name: &str, reference: &str) {
+        let path = match resolve_inside(base_dir, reference) {
+            Ok(p) => p,
+            Err(msg) => {
+                self.warnings.push(format!(
+                    "{obj_name}: material library '{reference}' not read: {msg}"
+                ));
+                return;
+            }
+        };
+        if !self.loaded.insert(path.clone()) {
+            return;
+        }
+        let bytes = match std::fs::read(&path) {
+            Ok(b) => b,
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+                self.warnings.push(format!(
+                    "{obj_name}: material library '{reference}' not found; faces using its materials get no material"
+                ));
+                return;
+            }
+            Err(e) => {
+                self.warnings.push(format!(
+                    "{obj_name}: material library '{reference}' could not be read: {e}"
+                ));
+                return;
+            }
+        };
+        let text = String::from_utf8_lossy(&bytes);
+        let (clean, warnings) = clean_mtl(&text, reference);
+        self.warnings.extend(warnings);
+        match tobj::load_mtl_buf(&mut Cursor::new(clean.as_bytes())) {
+            Ok((materials, _)) => self.materials.extend(materials),
+            Err(e) => self.warnings.push(format!(
+                "{reference}: material library could not be parsed ({e}); it is ignored"
+            )),
+        }
+    }
+}
+
+/// Canonical spelling of the MTL keywords this reader uses.
+const MTL_KEYWORDS: [&str; 19] = [
+    "newmtl", "Ka", "Kd", "Ks", "Ke", "Ns", "Ni", "d", "Tr", "illum", "map_Ka", "map_Kd", "map_Ks",
+    "map_Ke", "map_Ns", "map_d", "map_bump", "bump", "norm",
+];
+
+/// Rewrite an MTL file so tobj reads it without failing (or panicking):
+/// continuation lines joined, keywords in canonical case, one-value colours
+/// expanded, unsupported or malformed statements dropped with a warning.
+fn clean_mtl(text: &str, lib: &str) -> (String, Vec<String>) {
+    let mut out = String::with_capacity(text.len());
+    let mut warnings = Vec::new();
+    let _ = logical_lines(text, |line, no| {
+        let t = line.trim();
+        if t.is_empty() || t.starts_with('#') {
+            return Ok(());
+        }
+        let (kw, rest) = split_keyword(t);
+        let canon = MTL_KEYWORDS
+            .iter()
+            .find(|k| k.eq_ignore_ascii_case(kw))
+            .copied();
+        let mut skip = |why: &str| warnings.push(format!("{lib} line {no}: '{t}' ignored ({why})"));
+        match canon {
+            Some("newmtl") => {
+                if rest.is_empty() {
+                    skip("material without a name");
+                } else {
+                    out.push_str(&format!("newmtl {rest}\n"));
+                }
+            }
+            Some(k @ ("Ka" | "Kd" | "Ks" | "Ke")) => {
+                let nums: Vec<f32> = rest.split_whitespace().take(3).map_while(number).collect();
+                match nums.len() {
+                    1 => out.push_str(&format!("{k} {0} {0} {0}\n", nums[0])),
+                    3 => out.push_str(&format!("{k} {} {} {}\n", nums[0], nums[1], nums[2])),
+                    _ => skip("expected r g b numbers; spectral and xyz colours are not supported"),
+                }
+            }
+            Some(k @ ("Ns" | "Ni" | "d" | "Tr")) => {
+                match rest.split_whitespace().find_map(number) {
+                    Some(x) => out.push_str(&format!("{k} {x}\n")),
+                    None => skip("expected a number"),
+                }
+            }
+            Some("illum") => match rest.split_whitespace().next().and_then(number) {
+                Some(x) if (0.0..=255.0).contains(&x) => {
+                    out.push_str(&format!("illum {}\n", x.round() as u8))
+                }
+                _ => skip("expected an illumination model number"),
+            },
+            Some(k) => {
+                // Texture maps: keep the whole value (options and file name).
+                if !rest.is_empty() {
+                    out.push_str(&format!("{k} {rest}\n"));
+                }
+            }
+            None => {
+                if kw.is_empty() || kw.starts_with('#') {
+                    return Ok(());
+                }
+                out.push_str(&format!("{kw} {rest}\n"));
+            }
+        }
+        Ok(())
+    });
+    (out, warnings)
+}
+
+/// Split a texture-map value into its file name and the `-bm` (bump
+/// multiplier) option; other options (`-s 1 1 1`, `-clamp on`...) are skipped.
+/// The file name is the rest of the value after the options, spaces included.
+fn parse_map(value: &str) -> (String, Option<f32>) {
+    let mut rest = value.trim();
+    let mut bm = None;
+    loop {
+        let (opt, after) = split_keyword(rest);
+        let lower = opt.to_ascii_lowercase();
+        let (min_args, max_args) = match lower.as_str() {
+            "-blendu" | "-blendv" | "-cc" | "-clamp" | "-bm" | "-boost" | "-texres"
+            | "-imfchan" | "-type" => (1, 1),
+            "-mm" => (2, 2),
+            "-o" | "-s" | "-t" => (1, 3),
+            _ => break,
+        };
+        let mut r = after;
+        for taken in 0..max_args {
+            let (arg, after_arg) = split_keyword(r);
+            if arg.is_empty() || (taken >= min_args && number(arg).is_none()) {
+                break;
+            }
+            if lower == "-bm" {
+                bm = number(arg);
+            }
+            r = after_arg;
+        }
+        rest = r;
+    }
+    (rest.trim().to_string(), bm)
+}
+
+/// Turns used MTL materials into glTF materials, textures and images.
+struct MaterialBuilder<'a> {
+    base_dir: &'a Path,
+    lib: &'a [tobj::Material],
+    by_name: HashMap<String, Option<usize>>,
+    textures: HashMap<PathBuf, Option<usize>>,
+    file_names: HashSet<String>,
+}
+
+/// An `f32` as a JSON number with its shortest decimal form (0.8, not 0.800000011920929).
+fn jnum(x: f32) -> Value {
+    x.to_string()
+        .parse::<f64>()
+        .map_or(Value::Null, |v| json!(v))
+}
+
+impl MaterialBuilder<'_> {
+    /// The scene material for `usemtl name`, created on first use.
+    fn material(&mut self, name: &str, scene: &mut Scene) -> Option<usize> {
+        if let Some(&m) = self.by_name.get(name) {
+            return m;
+        }
+        let result = match self.lib.iter().rev().find(|m| m.name == name) {
+            Some(m) => {
+                let json = self.build(m, scene);
+                scene.materials.push(Material { json });
+                Some(scene.materials.len() - 1)
+            }
+            None => {
+                scene.warnings.push(format!(
+                    "usemtl '{name}': no such material in the loaded material libraries; its faces get no material"
+                ));
+                None
+            }
+        };
+        self.by_name.insert(name.to_string(), result);
+        result
+    }
+
+    fn build(&mut self, m: &tobj::Material, scene: &mut Scene) -> Map<String, Value> {
+        let mut json = Map::new();
+        json.insert("name".into(), json!(m.name));
+        let kd = m.diffuse.unwrap_or([1.0; 3]).map(|x| x.clamp(0.0, 1.0));
+        let tr = m
+            .unknown_param
+            .get("Tr")
+            .and_then(|v| v.split_whitespace().next())
+            .and_then(number);
+        let alpha = match (m.dissolve, tr) {
+            (Some(d), _) => d.clamp(0.0, 1.0),
+            (None, Some(t)) => {
+                let a = 1.0 - t.clamp(0.0, 1.0);
+                if a <= 0.0 {
+                    scene.warnings.push(format!(
+                        "material '{}': 'Tr {t}' would make it fully transparent; taken as opaque (some exporters write Tr as opacity)",
+                        m.name
+                    ));
+                    1.0
+                } else {
+                    a
+                }
+            }
+            (None, None) => 1.0,
+        };
+        let ns = m.shininess.unwrap_or(0.0).max(0.0) as f64;
+        let roughness = (2.0 / (ns + 2.0)).sqrt().clamp(0.0, 1.0);
+        let mut pbr = Map::new();
+        pbr.insert(
+            "baseColorFactor".into(),
+            json!([jnum(kd[0]), jnum(kd[1]), jnum(kd[2]), jnum(alpha)]),
+        );
+        pbr.insert("metallicFactor".into(), json!(0.0));
+        pbr.insert("roughnessFactor".into(), json!(roughness));
+        if let Some(t) = m
+            .diffuse_texture
+            .as_deref()
+            .and_then(|v| self.texture(v, &m.name, scene))
+        {
+            pbr.insert("baseColorTexture".into(), json!({ "index": t }));
+        }
+        json.insert("pbrMetallicRoughness".into(), Value::Object(pbr));
+        let normal_map = m.unknown_param.get("norm").or(m.normal_texture.as_ref());
+        if let Some(value) = normal_map {
+            let (_, bm) = parse_map(value);
+            if let Some(t) = self.texture(value, &m.name, scene) {
+                let mut info = json!({ "index": t });
+                if let Some(bm) = bm.filter(|&b| b != 1.0) {
+                    info["scale"] = jnum(bm);
+                }
+                json.insert("normalTexture".into(), info);
+            }
+        }
+        let emissive_tex = m
+            .unknown_param
+            .get("map_Ke")
+            .and_then(|v| self.texture(v, &m.name, scene));
+        let ke = m.emissive.map(|e| e.map(|x| x.clamp(0.0, 1.0)));
+        let ke = match (ke, emissive_tex) {
+            (Some(ke), _) => Some(ke),
+            (None, Some(_)) => Some([1.0; 3]),
+            (None, None) => None,
+        };
+        if let Some(ke) = ke.filter(|ke| ke.iter().any(|&x| x > 0.0)) {
+            json.insert(
+                "emissiveFactor".into(),
+                json!([jnum(ke[0]), jnum(ke[1]), jnum(ke[2])]),
+            );
+        }
+        if let Some(t) = emissive_tex {
+            json.insert("emissiveTexture".into(), json!({ "index": t }));
+        }
+        if alpha < 1.0 {
+            json.insert("alphaMode".into(), json!("BLEND"));
+        }
+        json
+    }
+
+    /// The texture index for a map value, adding the image on first use;
+    /// `None` (with a warning) when the file is refused, missing or not PNG/JPEG.
+    fn texture(&mut self, value: &str, material: &str, scene: &mut Scene) -> Option<usize> {
+        let (file, _) = parse_map(value);
+        if file.is_empty() {
+            scene.warnings.push(format!(
+                "material '{material}': texture map '{value}' names no file; ignored"
+            ));
+            return None;
+        }
+        let path = match resolve_inside(self.base_dir, &file) {
+            Ok(p) => p,
+            Err(msg) => {
+                scene.warnings.push(format!(
+                    "material '{material}': texture '{file}' not read: {msg}"
+                ));
+                return None;
+            }
+        };
+        if let Some(&t) = self.textures.get(&path) {
+            return t;
+        }
+        let ext = path
+            .extension()
+            .map(|e| e.to_string_lossy().to_ascii_lowercase());
+        let mime = match ext.as_deref() {
+            Some("png") => Some("image/png"),
+            Some("jpg" | "jpeg") => Some("image/jpeg"),
+            _ => None,
+        };
+        let result = match mime {
+            None => {
+                scene.warnings.push(format!(
+                    "material '{material}': texture '{file}' is not PNG or JPEG (the only image types of core glTF); the texture is dropped"
+                ));
+                None
+            }
+            Some(_) if !path.is_file() => {
+                scene.warnings.push(format!("material '{material}': texture file '{file}' not found; the texture is dropped"));
+                None
+            }
+            Some(mime) => {
+                let own = path.file_name().map_or_else(
+                    || "texture".to_string(),
+                    |n| n.to_string_lossy().into_owned(),
+                );
+                let mut file_name = own.clone();
+                let mut k = 1;
+                while !self.file_names.insert(file_name.clone()) {
+                    file_name = format!("{k}_{own}");
+                    k += 1;
+                }
+                scene.images.push(Image {
+                    name: Some(own),
+                    mime_type: Some(mime.to_string()),
+                    source: ImageSource::File(path.clone()),
+                    file_name,
+                    rest: Map::new(),
+                });
+                scene
+                    .textures
+                    .push(json!({ "source": scene.images.len() - 1 }));
+                Some(scene.textures.len() - 1)
+            }
+        };
+        self.textures.insert(path, result);
+        result
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::newell_normal;
+
+    /// A file of the shared evaluation data, or `None` (skip) when the data is
+    /// not there; with `CI=true` missing data is a failure.
+    fn eval(rel: &str) -> Option<PathBuf> {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/eval-data");
+        if !root.is_dir() {
+            if std::env::var("CI").as_deref() == Ok("true") {
+                panic!("eval-data missing: {}", root.display());
+            }
+            eprintln!(
+                "SKIP: eval-data not found at {} (test {rel} not run)",
+                root.display()
+            );
+            return None;
+        }
+        let p = root.join(rel);
+        assert!(p.is_file(), "eval file missing: {}", p.display());
+        Some(p)
+    }
+
+    fn prims(scene: &Scene) -> Vec<(&Primitive, &TriGeometry)> {
+        scene
+            .meshes
+            .iter()
+            .flat_map(|m| &m.primitives)
+            .map(|p| match &p.geometry {
+                Geometry::Triangles(t) => (p, t),
+                Geometry::Raw(_) => panic!("OBJ primitives are triangles"),
+            })
+            .collect()
+    }
+
+    fn tri_areas(t: &TriGeometry) -> impl Iterator<Item = f64> + '_ {
+        t.triangles.iter().map(|tri| {
+            let p = tri.map(|i| t.positions[i as usize].map(f64::from));
+            let n = newell_normal(&p);
+            (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt() / 2.0
+        })
+    }
+
+    fn total_area(scene: &Scene) -> f64 {
+        prims(scene).iter().flat_map(|(_, t)| tri_areas(t)).sum()
+    }
+
+    fn has_warning(scene: &Scene, needle: &str) -> bool {
+        scene.warnings.iter().any(|w| w.contains(needle))
+    }
+
+    fn read_str(text: &str) -> Result<Scene, Error> {
+        read_obj_from_str(text, Path::new("/nonexistent-dir"), "test.obj")
+    }
+
+    fn check_consistent(scene: &Scene) {
+        assert_eq!(scene.scenes.len(), 1);
+        assert_eq!(scene.default_scene, Some(0));
+        assert_eq!(
+            scene.scenes[0].nodes,
+            (0..scene.nodes.len()).collect::<Vec<_>>()
+        );
+        assert_eq!(scene.nodes.len(), scene.meshes.len());
+        for (_, t) in prims(scene) {
+            let n = t.positions.len();
+            assert!(t.triangles.iter().flatten().all(|&i| (i as usize) < n));
+            for a in &t.attributes {
+                assert_eq!(a.len(), n, "{}", a.semantic);
+            }
+        }
+    }
+
+    #[test]
+    fn spot_triangulated_and_quadrangulated() {
+        let Some(tri) = eval("obj/spot/spot_triangulated.obj") else {
+            return;
+        };
+        let Some(quad) = eval("obj/spot/spot_quadrangulated.obj") else {
+            return;
+        };
+        let t = read_obj(&tri).unwrap();
+        check_consistent(&t);
+        assert_eq!(t.triangle_count(), 5856);
+        assert_eq!(t.meshes.len(), 1);
+        assert_eq!(t.meshes[0].name.as_deref(), Some("spot_triangulated"));
+        assert!(prims(&t)
+            .iter()
+            .all(|(p, g)| p.material.is_none() && g.attribute("TEXCOORD_0").is_some()));
+        let q = read_obj(&quad).unwrap();
+        check_consistent(&q);
+        let quads = std::fs::read_to_string(&quad)
+            .unwrap()
+            .lines()
+            .filter(|l| l.starts_with("f "))
+            .count();
+        assert_eq!(q.triangle_count(), 2 * quads);
+        let (at, aq) = (total_area(&t), total_area(&q));
+        assert!((at - aq).abs() < 0.02 * at, "areas {at} vs {aq}");
+    }
+
+    #[test]
+    fn bunny_textured_with_negative_indices() {
+        let Some(path) = eval("obj/bunny10k_textured/bunny10k_textured.obj") else {
+            return;
+        };
+        let s = read_obj(&path).unwrap();
+        check_consistent(&s);
+        assert_eq!(s.triangle_count(), 9999);
+        let ps = prims(&s);
+        assert!(ps.iter().all(|(_, g)| g.attribute("TEXCOORD_0").is_some()));
+        let m = ps[0].0.material.expect("material");
+        let json = &s.materials[m].json;
+        assert_eq!(json["name"], "01_-_Default");
+        let tex = json["pbrMetallicRoughness"]["baseColorTexture"]["index"]
+            .as_u64()
+            .unwrap() as usize;
+        let img = s.textures[tex]["source"].as_u64().unwrap() as usize;
+        let ImageSource::File(f) = &s.images[img].source else {
+            panic!()
+        };
+        assert!(f.is_file());
+        assert_eq!(s.images[img].file_name, "TextureDouble_A.png");
+        assert_eq!(s.images[img].mime_type.as_deref(), Some("image/png"));
+        // Kd 0.6, d 1, Ns 0.
+        assert_eq!(
+            json["pbrMetallicRoughness"]["baseColorFactor"],
+            json!([0.6, 0.6, 0.6, 1.0])
+        );
+        assert_eq!(json["pbrMetallicRoughness"]["roughnessFactor"], json!(1.0));
+        assert!(json.get("alphaMode").is_none());
+    }
+
+    #[test]
+    fn spider_backslash_texture_paths() {
+        let Some(path) = eval("obj/spider/spider.obj") else {
+            return;
+        };
+        let s = read_obj(&path).unwrap();
+        check_consistent(&s);
+        assert_eq!(s.triangle_count(), 1368);
+        assert_eq!(s.meshes.len(), 1);
+        let ps = prims(&s);
+        assert_eq!(ps.len(), 19);
+        assert!(ps.iter().all(|(_, g)| g.group.is_some()));
+        assert_eq!(ps[0].1.group.as_deref(), Some("HLeib01"));
+        assert_eq!(s.materials.len(), 4);
+        assert_eq!(s.images.len(), 4);
+        assert_eq!(s.textures.len(), 4);
+        for m in &s.materials {
+            assert!(
+                m.json["pbrMetallicRoughness"]["baseColorTexture"]["index"].is_u64(),
+                "{:?}",
+                m.json
+            );
+        }
+        for img in &s.images {
+            let ImageSource::File(f) = &img.source else {
+                panic!()
+            };
+            assert!(f.is_file(), "{}", f.display());
+            assert_eq!(img.mime_type.as_deref(), Some("image/jpeg"));
+            assert!(!img.file_name.contains(['\\', '/']));
+        }
+        // The file has one zero normal (`vn 0 0 0`), used by 4 groups.
+        assert_eq!(s.warnings.len(), 4, "{:?}", s.warnings);
+        assert!(
+            s.warnings.iter().all(|w| w.contains("NORMAL")),
+            "{:?}",
+            s.warnings
+        );
+    }
+
+    #[test]
+    fn fuze_texture_name_with_space() {
+        let Some(path) = eval("obj/fuze/fuze.obj") else {
+            return;
+        };
+        let s = read_obj(&path).unwrap();
+        check_consistent(&s);
+        assert_eq!(s.triangle_count(), 1000);
+        assert_eq!(s.images.len(), 1);
+        assert_eq!(s.images[0].file_name, "fuze uv.jpg");
+        let ImageSource::File(f) = &s.images[0].source else {
+            panic!()
+        };
+        assert!(f.is_file());
+        let m = &s.materials[0].json;
+        assert_eq!(m["pbrMetallicRoughness"]["baseColorTexture"]["index"], 0);
+        // `Tr 1` without `d`: taken as opaque, with a warning.
+        assert_eq!(m["pbrMetallicRoughness"]["baseColorFactor"][3], 1.0);
+        assert!(has_warning(&s, "Tr"), "{:?}", s.warnings);
+        assert!(prims(&s)
+            .iter()
+            .all(|(_, g)| g.attribute("NORMAL").is_some() && g.attribute("TEXCOORD_0").is_some()));
+    }
+
+    #[test]
+    fn polygonfaces_missing_mtllib() {
+        let Some(path) = eval("obj/edge_cases/polygonfaces.obj") else {
+            return;
+        };
+        let s = read_obj(&path).unwrap();
+        check_consistent(&s);
+        assert_eq!(s.triangle_count(), 3);
+        assert!(has_warning(&s, "surface.mtl"), "{:?}", s.warnings);
+        assert_eq!(s.meshes[0].name.as_deref(), Some("textureSurface"));
+        assert!(prims(&s)[0].0.material.is_none());
+        assert!(s.materials.is_empty());
+    }
+
+    /// Polygons of an OBJ with absolute indices, parsed independently (continuation lines joined).
+    fn raw_polygons(text: &str) -> Vec<Vec<[f64; 3]>> {
+        let joined = text.replace("\\\r\n", " ").replace("\\\n", " ");
+        let mut v = Vec::new();
+        let mut polys = Vec::new();
+        for line in joined.lines() {
+            let mut w = line.split_whitespace();
+            match w.next() {
+                Some("v") => v.push([0, 1, 2].map(|_| w.next().unwrap().parse::<f64>().unwrap())),
+                Some("f") => polys.push(
+                    w.map(|c| v[c.split('/').next().unwrap().parse::<usize>().unwrap() - 1])
+                        .collect(),
+                ),
+                _ => {}
+            }
+        }
+        polys
+    }
+
+    #[test]
+    fn wallhole_concave_polygons_and_continuations() {
+        let Some(path) = eval("obj/edge_cases/wallhole.obj") else {
+            return;
+        };
+        let s = read_obj(&path).unwrap();
+        check_consistent(&s);
+        let polys = raw_polygons(&std::fs::read_to_string(&path).unwrap());
+        assert!(polys.iter().any(|p| p.len() == 11));
+        let expected_tris: usize = polys.iter().map(|p| p.len() - 2).sum();
+        assert_eq!(s.triangle_count(), expected_tris);
+        assert_eq!(s.triangle_count(), 66);
+        let poly_area: f64 = polys
+            .iter()
+            .map(|p| {
+                let n = newell_normal(p);
+                (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt() / 2.0
+            })
+            .sum();
+        let area = total_area(&s);
+        assert!(
+            (area - poly_area).abs() < 1e-6 * poly_area,
+            "{area} vs {poly_area}"
+        );
+        let min = prims(&s)
+            .iter()
+            .flat_map(|(_, t)| tri_areas(t))
+            .fold(f64::INFINITY, f64::min);
+        assert!(min > 1e-3, "zero-area triangle: {min}");
+        assert!(has_warning(&s, "00.mtl"), "{:?}", s.warnings);
+        assert!(prims(&s).iter().all(|(p, _)| p.material.is_none()));
+    }
+
+    #[test]
+    fn negative_indices_file() {
+        let Some(path) = eval("obj/edge_cases/negative_indices.obj") else {
+            return;
+        };
+        let s = read_obj(&path).unwrap();
+        check_consistent(&s);
+        assert_eq!(s.triangle_count(), 12);
+        let (_, g) = prims(&s)[0];
+        assert!(g.attribute("TEXCOORD_0").is_some() && g.attribute("NORMAL").is_some());
+        assert!(g.positions.iter().flatten().all(|c| c.abs() == 1.0));
+        // The same cube with absolute indices gives the same positions.
+        let text = std::fs::read_to_string(&path).unwrap();
+        let nv = text.lines().filter(|l| l.starts_with("v ")).count() as i64;
+        let abs: String = text
+            .lines()
+            .map(|l| {
+                if let Some(rest) = l.strip_prefix("f ") {
+                    let corners: Vec<String> = rest
+                        .split_whitespace()
+                        .map(|c| {
+                            let v: i64 = c.split('/').next().unwrap().parse().unwrap();
+                            format!("{}", if v < 0 { nv + v + 1 } else { v })
+                        })
+                        .collect();
+                    format!("f {}\n", corners.join(" "))
+                } else {
+                    format!("{l}\n")
+                }
+            })
+            .collect();
+        let s2 = read_str(&abs).unwrap();
+        let tris = |s: &Scene| {
+            let (_, g) = prims(s)[0];
+            g.triangles
+                .iter()
+                .map(|t| t.map(|i| g.positions[i as usize]))
+                .collect::<Vec<_>>()
+        };
+        assert_eq!(tris(&s), tris(&s2));
+    }
+
+    #[test]
+    fn groups_file() {
+        let Some(path) = eval("obj/edge_cases/groups.obj") else {
+            return;
+        };
+        let s = read_obj(&path).unwrap();
+        check_consistent(&s);
+        assert_eq!(s.triangle_count(), 2308);
+        // 14 `g` groups, then an `o` (a second object) with 7 faces.
+        assert_eq!(s.meshes.len(), 2);
+        assert_eq!(s.meshes[0].name.as_deref(), Some("groups"));
+        assert_eq!(s.meshes[1].name.as_deref(), Some("something!"));
+        let groups: Vec<_> = s.meshes[0].primitives.iter().map(prims_group).collect();
+        assert_eq!(
+            groups,
+            (1..=14)
+                .map(|i| Some(format!("mmGroup{i}")))
+                .collect::<Vec<_>>()
+        );
+        assert_eq!(s.meshes[1].primitives.len(), 1);
+        assert!(prims(&s)
+            .iter()
+            .all(|(_, g)| g.attribute("NORMAL").is_some()));
+    }
+
+    fn prims_group(p: &Primitive) -> Option<String> {
+        match &p.geometry {
+            Geometry::Triangles(t) => t.group.clone(),
+            Geometry::Raw(_) => None,
+        }
+    }
+
+    #[test]
+    fn two_objects_file() {
+        let Some(path) = eval("obj/edge_cases/two_objects.obj") else {
+            return;
+        };
+        let s = read_obj(&path).unwrap();
+        check_consistent(&s);
+        assert_eq!(s.meshes.len(), 2);
+        assert_eq!(s.nodes.len(), 2);
+        assert_eq!(s.nodes[0].name.as_deref(), Some("cube"));
+        assert_eq!(s.nodes[1].name.as_deref(), Some("tetra"));
+        assert_eq!(s.nodes[1].mesh, Some(1));
+        let count = |m: &Mesh| m.primitives.iter().map(prims_tris).sum::<usize>();
+        assert_eq!(count(&s.meshes[0]), 12);
+        assert_eq!(count(&s.meshes[1]), 4);
+        assert_eq!(s.scenes[0].nodes, vec![0, 1]);
+    }
+
+    fn prims_tris(p: &Primitive) -> usize {
+        match &p.geometry {
+            Geometry::Triangles(t) => t.triangles.len(),
+            Geometry::Raw(_) => 0,
+        }
+    }
+
+    #[test]
+    fn concave_quad_face() {
+        // A dart whose reflex corner is vertex 4: the 1-3 fan split would fold.
+        let s = read_str("v 0 0 0\nv 2 -2 0\nv 4 0 0\nv 2 -1 0\nf 1 2 3 4\n").unwrap();
+        let (_, g) = prims(&s)[0];
+        assert_eq!(g.triangles.len(), 2);
+        for t in &g.triangles {
+            let p = t.map(|i| g.positions[i as usize].map(f64::from));
+            assert!(newell_normal(&p)[2] > 0.0, "{:?}", g.triangles);
+        }
+        assert!((total_area(&s) - 2.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn errors_name_the_problem() {
+        let e = read_str("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n").unwrap_err();
+        let msg = e.to_string();
+        assert!(matches!(e, Error::Input { .. }));
+        assert!(
+            msg.contains("line 4") && msg.contains("out of range") && msg.contains("test.obj"),
+            "{msg}"
+        );
+        let e = read_str("v 0 0 0\nv 1 0 0\nv 0 1 0\nf -1 -2 -4\n")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("out of range"), "{e}");
+        let e = read_str("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1/1 2/2 3/3\n")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("texture coordinate index"), "{e}");
+        let e = read_str("v 0 0 0\nv 1 zero 0\n").unwrap_err().to_string();
+        assert!(e.contains("line 2") && e.contains("invalid vertex"), "{e}");
+        let e = read_str("v 0 0 0\nv 1 0 0\nv 0 1 0\n")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("no faces"), "{e}");
+        let e = read_str("").unwrap_err().to_string();
+        assert!(e.contains("no faces"), "{e}");
+        assert!(read_str("v 1e40 0 0\n").is_err());
+        assert!(read_str("v nan 0 0\n").is_err());
+        assert!(read_str("v 0 0 0 0\n").is_err());
+        assert!(read_str("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 0 1 2\n").is_err());
+        assert!(read_str("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1/1/1/1 2 3\n").is_err());
+        assert!(read_str("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3x\n").is_err());
+        assert!(read_str("vn 1 0\n").is_err());
+        assert!(read_str("vt\n").is_err());
+    }
+
+    #[test]
+    fn garbage_does_not_panic() {
+        let garbage = [
+            "\0\0\0\x01",
+            "f",
+            "f 1",
+            "f /",
+            "f //",
+            "f 1/ 2/ 3/",
+            "v\nf 1 1 1",
+            "o\ng\nusemtl\nmtllib\n",
+            "\\",
+            "\\\n\\\n",
+        ];
+        for g in garbage {
+            let _ = read_str(g);
+        }
+        // Pseudo-random token soup.
+        let toks = [
+            "v", "vt", "vn", "f", "o", "g", "usemtl", "mtllib", "l", "p", "s", "1", "-1", "0",
+            "2/3", "1//1", "-5/-1/2", "3/1/1", "nan", "1e50", "\\", "#", "x", "3.5", "-0.25", "\n",
+            "\n", "\n",
+        ];
+        let mut state = 12345u64;
+        for _ in 0..300 {
+            let mut text = String::new();
+            for _ in 0..60 {
+                state = state
+                    .wrapping_mul(6364136223846793005)
+                    .wrapping_add(1442695040888963407);
+                text.push_str(toks[(state >> 33) as usize % toks.len()]);
+                text.push(' ');
+            }
+            let _ = read_str(&text);
+        }
+        let many = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\n".repeat(3)
+            + "f 1 2 3 4 5 6 7 8 9 10 11 12\nf 1 2 3 1 2 3\nf 1 1 1\n";
+        let s = read_str(&many).unwrap();
+        assert_eq!(s.triangle_count(), 10 + 4 + 1);
+    }
+
+    #[test]
+    fn objects_groups_materials_and_continuations() {
+        let text = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\n\
+                    f 1 2 3\n\
+                    o first\ng left\nf 1 2 3\ng right\nf 2 4 3\ng left\nf 1 2 3\n\
+                    usemtl\nf 2 4 \\\n 3\n\
+                    l 1 2\np 3\n\
+                    o second\nf 1 2 4\n";
+        let s = read_str(text).unwrap();
+        check_consistent(&s);
+        let names: Vec<_> = s.meshes.iter().map(|m| m.name.clone().unwrap()).collect();
+        assert_eq!(names, ["test", "first", "second"]);
+        let groups: Vec<_> = s.meshes[1].primitives.iter().map(prims_group).collect();
+        assert_eq!(
+            groups,
+            [Some("left".to_string()), Some("right".to_string())]
+        );
+        assert_eq!(
+            s.meshes[1]
+                .primitives
+                .iter()
+                .map(prims_tris)
+                .collect::<Vec<_>>(),
+            [3, 1]
+        );
+        assert_eq!(prims_group(&s.meshes[2].primitives[0]), None);
+        assert!(has_warning(&s, "2 point/line element"), "{:?}", s.warnings);
+        assert_eq!(s.triangle_count(), 6);
+    }
+
+    #[test]
+    fn attributes_and_partial_attributes() {
+        // Vertex colours, v flipped, normals normalized.
+        let s = read_str(
+            "v 0 0 0 1 0 0\nv 1 0 0 0 1 0\nv 0 1 0 0 0 2\nvt 0 0\nvt 1 0.25\nvt 0 1\nvn 0 0 2\n\
+             f 1/1/1 2/2/1 3/3/1\n",
+        )
+        .unwrap();
+        let (_, g) = prims(&s)[0];
+        assert_eq!(
+            g.attribute("COLOR_0").unwrap().data,
+            [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0]
+        );
+        assert_eq!(
+            g.attribute("TEXCOORD_0").unwrap().data,
+            [0.0, 1.0, 1.0, 0.75, 0.0, 0.0]
+        );
+        assert_eq!(g.attribute("NORMAL").unwrap().get(0), [0.0, 0.0, 1.0]);
+        // Some corners without vt/vn: attributes left out with warnings.
+        let s = read_str("v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvn 0 0 1\nf 1/1/1 2 3//1\n").unwrap();
+        let (_, g) = prims(&s)[0];
+        assert!(g.attribute("TEXCOORD_0").is_none() && g.attribute("NORMAL").is_none());
+        assert!(
+            has_warning(&s, "TEXCOORD_0") && has_warning(&s, "NORMAL"),
+            "{:?}",
+            s.warnings
+        );
+        // Zero normal.
+        let s = read_str("v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 0\nf 1//1 2//1 3//1\n").unwrap();
+        assert!(prims(&s)[0].1.attribute("NORMAL").is_none());
+        assert!(has_warning(&s, "zero"), "{:?}", s.warnings);
+        // Colours on only some vertices: ignored with a warning.
+        let s = read_str("v 0 0 0 1 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
+        assert!(prims(&s)[0].1.attribute("COLOR_0").is_none());
+        assert!(has_warning(&s, "colour"), "{:?}", s.warnings);
+        // Shared corners become one vertex; distinct (v, vt) pairs are split.
+        let s = read_str(
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nvt 0 0\nvt 1 1\nf 1/1 2/1 3/1\nf 2/1 4/1 3/2\n",
+        )
+        .unwrap();
+        assert_eq!(prims(&s)[0].1.positions.len(), 5);
+    }
+
+    #[test]
+    fn mtllib_outside_the_folder_is_not_read() {
+        let dir = tempfile::tempdir().unwrap();
+        let sub = dir.path().join("sub");
+        std::fs::create_dir(&sub).unwrap();
+        std::fs::write(dir.path().join("evil.mtl"), "newmtl evil\nKd 1 0 0\n").unwrap();
+        let s = read_obj_from_str(
+            "mtllib ../evil.mtl\nusemtl evil\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",
+            &sub,
+            "a.obj",
+        )
+        .unwrap();
+        assert!(has_warning(&s, "../evil.mtl"), "{:?}", s.warnings);
+        assert!(s.materials.is_empty());
+        assert!(prims(&s)[0].0.material.is_none());
+    }
+
+    #[test]
+    fn materials_from_mtl() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        std::fs::create_dir(d.join("tex")).unwrap();
+        std::fs::write(d.join("tex").join("a b.png"), b"\x89PNG").unwrap();
+        std::fs::write(d.join("n.JPG"), b"jpg").unwrap();
+        std::fs::write(d.join("e.tga"), b"tga").unwrap();
+        std::fs::write(
+            d.join("m.mtl"),
+            "newmtl glass\nkd 0.5\nd 0.25\nNs 98\nmap_Kd -s 1 1 1 -clamp on tex\\a b.png\n\
+             map_Bump -bm 0.5 n.JPG\nKe 2 0.5 0\nmap_Ke e.tga\n\
+             newmtl plain\nKd 0.1 0.2 0.3\nTr 0.5\nmap_Kd missing.png\nillum 2\nKa spectral x.rfl\n\
+             newmtl same\nmap_kd tex/a b.png\nnorm n.JPG\n\
+             newmtl unused\nKd 1 1 1\n",
+        )
+        .unwrap();
+        let obj = "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\n\
+                   usemtl glass\nf 1 2 3\nusemtl plain\nf 1 2 3\nusemtl same\nf 1 2 3\nusemtl nope\nf 1 2 3\n";
+        let s = read_obj_from_str(obj, d, "m.obj").unwrap();
+        check_consistent(&s);
+        assert_eq!(s.materials.len(), 3);
+        let ps = prims(&s);
+        assert_eq!(
+            ps.iter().map(|(p, _)| p.material).collect::<Vec<_>>(),
+            [Some(0), Some(1), Some(2), None]
+        );
+        let glass = &s.materials[0].json;
+        assert_eq!(glass["name"], "glass");
+        let pbr = &glass["pbrMetallicRoughness"];
+        assert_eq!(pbr["baseColorFactor"], json!([0.5, 0.5, 0.5, 0.25]));
+        assert_eq!(pbr["metallicFactor"], json!(0.0));
+        assert!((pbr["roughnessFactor"].as_f64().unwrap() - 0.02f64.sqrt()).abs() < 1e-9);
+        assert_eq!(glass["alphaMode"], "BLEND");
+        assert_eq!(glass["emissiveFactor"], json!([1.0, 0.5, 0.0]));
+        assert!(glass.get("emissiveTexture").is_none());
+        assert_eq!(glass["normalTexture"]["scale"], json!(0.5));
+        let base = pbr["baseColorTexture"]["index"].as_u64().unwrap() as usize;
+        let img = &s.images[s.textures[base]["source"].as_u64().unwrap() as usize];
+        assert_eq!(img.file_name, "a b.png");
+        assert_eq!(img.mime_type.as_deref(), Some("image/png"));
+        let nimg = &s.images[s.textures[glass["normalTexture"]["index"].as_u64().unwrap() as usize]
+            ["source"]
+            .as_u64()
+            .unwrap() as usize];
+        assert_eq!(nimg.mime_type.as_deref(), Some("image/jpeg"));
+        let plain = &s.materials[1].json;
+        assert_eq!(
+            plain["pbrMetallicRoughness"]["baseColorFactor"],
+            json!([0.1, 0.2, 0.3, 0.5])
+        );
+        assert!(plain["pbrMetallicRoughness"]
+            .get("baseColorTexture")
+            .is_none());
+        // The same files are shared: 2 images, 2 textures in all.
+        let same = &s.materials[2].json;
+        assert_eq!(
+            same["pbrMetallicRoughness"]["baseColorTexture"]["index"].as_u64(),
+            Some(base as u64)
+        );
+        assert!(same["normalTexture"].is_object());
+        assert_eq!(s.images.len(), 2);
+        assert_eq!(s.textures.len(), 2);
+        for needle in ["e.tga", "missing.png", "spectral", "nope"] {
+            assert!(has_warning(&s, needle), "{needle}: {:?}", s.warnings);
+        }
+    }
+
+    #[test]
+    fn map_values() {
+        assert_eq!(parse_map("fuze uv.jpg"), ("fuze uv.jpg".to_string(), None));
+        assert_eq!(
+            parse_map(".\\SpiderTex.jpg"),
+            (".\\SpiderTex.jpg".to_string(), None)
+        );
+        assert_eq!(parse_map("-s 1 1 1 tex.png"), ("tex.png".to_string(), None));
+        assert_eq!(parse_map("-o 0.5 tex.png"), ("tex.png".to_string(), None));
+        assert_eq!(
+            parse_map("-bm 0.3 -mm 0 1 my normal.png"),
+            ("my normal.png".to_string(), Some(0.3))
+        );
+        assert_eq!(parse_map("-clamp on"), (String::new(), None));
+    }
+
+    /// Parse speed on the 18 MB OBJ (run with `--ignored --release`).
+    #[test]
+    #[ignore]
+    fn large_obj_parses() {
+        let Some(path) = eval("large/ogre_loop1_496k.obj") else {
+            return;
+        };
+        let t = std::time::Instant::now();
+        let s = read_obj(&path).unwrap();
+        eprintln!("{} triangles in {:?}", s.triangle_count(), t.elapsed());
+        assert_eq!(s.triangle_count(), 496_032);
+    }
+}

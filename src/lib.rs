@@ -1,0 +1,16 @@
+//! crackle: grow physically plausible surface crack patterns on 3D meshes and
+//! write cracked glTF.
+//!
+//! Pipeline of one asset: read ([`io`]) into a [`scene::Scene`], weld each
+//! crackable mesh into a simulation mesh ([`mesh`]), simulate, write glTF.
+//! The library does no printing; the binary owns files, progress and exit codes.
+#![warn(missing_docs)]
+
+pub mod bridge;
+pub mod error;
+pub mod geometry;
+pub mod io;
+pub mod mesh;
+pub mod scene;
+
+pub use error::{Error, Result};

@@ -1,0 +1,309 @@
+//! Local edits used by the crack engine: edge and face splits, and opening
+//! an edge into a crack.
+//!
+//! Every edit keeps all invariants checked by
+//! [`SimMesh::validate`](super::SimMesh::validate), grows every per-vertex,
+//! per-face, per-halfedge and wedge array, and bumps the
+//! [generation](super::SimMesh::generation). New vertices and faces are
+//! appended (ids `n_vertices()` / `n_faces()` before the edit, in order);
+//! existing ids stay valid, although a split face keeps its id while losing
+//! part of its area, and the halfedges of a split face may change their
+//! endpoints.
+
+use super::error::MeshError;
+use super::halfedge::SimMesh;
+use super::ids::{FaceId, HalfedgeId, VertexId, WedgeId, INVALID};
+
+/// What [`SimMesh::split_edge`] created.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct SplitEdgeResult {
+    /// The new vertex on the edge.
+    pub vertex: VertexId,
+    /// `(parent, child)`: each face adjacent to the edge and the new face
+    /// split off it (one pair on a boundary edge, two otherwise).
+    pub new_faces: Vec<(FaceId, FaceId)>,
+    /// The new halfedges from the origin of the split halfedge to the new
+    /// vertex and from the new vertex to its old destination.
+    pub halves: [HalfedgeId; 2],
+}
+
+/// What [`SimMesh::split_face`] created.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct SplitFaceResult {
+    /// The new vertex inside the face.
+    pub vertex: VertexId,
+    /// `(parent, child)` for the two new faces; the parent keeps a third of
+    /// the split.
+    pub new_faces: Vec<(FaceId, FaceId)>,
+}
+
+/// What [`SimMesh::open_edge`] changed.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct OpenEdgeResult {
+    /// The two halfedges of the opened edge, now both boundary halfedges.
+    pub halfedges: [HalfedgeId; 2],
+    /// `(new, source)`: vertices created by duplicating an endpoint whose
+    /// fan the opening cut in two, with the vertex they were copied from
+    /// (same position). Per-vertex arrays of the caller should copy the
+    /// source's entry.
+    pub new_vertices: Vec<(VertexId, VertexId)>,
+}
+
+impl SimMesh {
+    fn check_halfedge(&self, h: HalfedgeId) -> Result<(), MeshError> {
+        if h.idx() < self.n_halfedges() {
+            Ok(())
+        } else {
+            Err(MeshError::InvalidEdit(format!(
+                "halfedge {h} out of range ({} halfedges)",
+                self.n_halfedges()
+            )))
+        }
+    }
+
+    fn push_vertex(&mut self, p: [f64; 3], source: u32, parent: Option<u32>) -> u32 {
+        let v = self.positions.len() as u32;
+        self.positions.push(p);
+        self.vertex_halfedge.push(INVALID);
+        self.vertex_source.push(source);
+        self.vertex_parent.push(parent.unwrap_or(v));
+        v
+    }
+
+    /// Appends a face with the given corner vertices, wedges, group and
+    /// source; twins are unset. Returns its first halfedge index.
+    fn push_face(&mut self, v: [u32; 3], w: [u32; 3], group: u32, source: u32) -> usize {
+        let b = self.he_origin.len();
+        self.he_origin.extend_from_slice(&v);
+        self.he_wedge.extend_from_slice(&w);
+        self.he_twin.extend_from_slice(&[INVALID; 3]);
+        self.face_groups.push(group);
+        self.face_source.push(source);
+        b
+    }
+
+    #[inline]
+    fn link(&mut self, a: usize, b: usize) {
+        self.he_twin[a] = b as u32;
+        self.he_twin[b] = a as u32;
+    }
+
+    /// Sets the twin of `a` to `t` (which may be `INVALID`) and back.
+    #[inline]
+    fn relink(&mut self, a: usize, t: u32) {
+        self.he_twin[a] = t;
+        if t != INVALID {
+            self.he_twin[t as usize] = a as u32;
+        }
+    }
+
+    /// Splits the edge of `h` at `(1 - t) * origin + t * dest`, splitting
+    /// each adjacent face in two.
+    ///
+    /// On each side the new corner gets a wedge interpolated at `t` between
+    /// the wedges of the edge's corners in that face; if both sides use the
+    /// same two wedges (no seam), one new wedge is shared. Halfedge `h`
+    /// becomes the first half (origin to new vertex).
+    ///
+    /// # Errors
+    /// `h` out of range or `t` not strictly inside `(0, 1)`.
+    pub fn split_edge(&mut self, h: HalfedgeId, t: f64) -> Result<SplitEdgeResult, MeshError> {
+        self.check_halfedge(h)?;
+        if !(t > 0.0 && t < 1.0) {
+            return Err(MeshError::InvalidEdit(format!(
+                "split_edge parameter {t} not in (0, 1)"
+            )));
+        }
+        let h0 = h.idx();
+        let h1 = self.next(h).idx();
+        let h2 = self.prev(h).idx();
+        let f0 = h0 / 3;
+        let (a, b, c) = (self.he_origin[h0], self.he_origin[h1], self.he_origin[h2]);
+        let (wa, wb) = (self.he_wedge[h0], self.he_wedge[h1]);
+        let pa = self.positions[a as usize];
+        let pb = self.positions[b as usize];
+        let p = std::array::from_fn(|k| (1.0 - t) * pa[k] + t * pb[k]);
+        let m = self.push_vertex(p, INVALID, None);
+        let wm1 = self
+            .wedges
+            .push_interpolated(&[(WedgeId(wa), 1.0 - t), (WedgeId(wb), t)])
+            .0;
+        let opp = self.he_twin[h0];
+
+        // Side of h: (a, b, c) -> (a, m, c) + (m, b, c).
+        let g = self.push_face(
+            [m, b, c],
+            [wm1, wb, self.he_wedge[h2]],
+            self.face_groups[f0],
+            self.face_source[f0],
+        );
+        let (g0, g1, g2) = (g, g + 1, g + 2);
+        let old_t1 = self.he_twin[h1];
+        self.he_origin[h1] = m;
+        self.he_wedge[h1] = wm1;
+        self.relink(g1, old_t1);
+        self.link(h1, g2);
+        if self.vertex_halfedge[b as usize] == h1 as u32 {
+            self.vertex_halfedge[b as usize] = g1 as u32;
+        }
+        let mut new_faces = vec![(FaceId(f0 as u32), FaceId((g / 3) as u32))];
+
+        if opp == INVALID {
+            // g0 (m -> b) is the boundary halfedge of the new vertex.
+            self.he_twin[h0] = INVALID;
+            self.he_twin[g0] = INVALID;
+            self.vertex_halfedge[m as usize] = g0 as u32;
+        } else {
+            // Side of o = (b -> a): (b, a, d) -> (b, m, d) + (m, a, d).
+            let o0 = opp as usize;
+            let o1 = self.next(HalfedgeId(opp)).idx();
+            let o2 = self.prev(HalfedgeId(opp)).idx();
+            let f1 = o0 / 3;
+            let d = self.he_origin[o2];
+            let (wb2, wa2) = (self.he_wedge[o0], self.he_wedge[o1]);
+            let wm2 = if wa2 == wa && wb2 == wb {
+                wm1
+            } else {
+                self.wedges
+                    .push_interpolated(&[(WedgeId(wa2), 1.0 - t), (WedgeId(wb2), t)])
+                    .0
+            };
+            let k = self.push_face(
+                [m, a, d],
+                [wm2, wa2, self.he_wedge[o2]],
+                self.face_groups[f1],
+                self.face_source[f1],
+            );
+            let (k0, k1, k2) = (k, k + 1, k + 2);
+            let old_o1 = self.he_twin[o1];
+            self.he_origin[o1] = m;
+            self.he_wedge[o1] = wm2;
+            self.relink(k1, old_o1);
+            self.link(o1, k2);
+            self.link(h0, k0);
+            self.link(o0, g0);
+            if self.vertex_halfedge[a as usize] == o1 as u32 {
+                self.vertex_halfedge[a as usize] = k1 as u32;
+            }
+            self.vertex_halfedge[m as usize] = h1 as u32;
+            new_faces.push((FaceId(f1 as u32), FaceId((k / 3) as u32)));
+        }
+        self.bump();
+        Ok(SplitEdgeResult {
+            vertex: VertexId(m),
+            new_faces,
+            halves: [h, HalfedgeId(g0 as u32)],
+        })
+    }
+
+    /// Splits face `f` in three at the point with barycentric coordinates
+    /// `bary` (relative to [`face_vertices`](SimMesh::face_vertices);
+    /// normalized to sum 1). The new corner wedge is interpolated
+    /// barycentrically from the face's three wedges.
+    ///
+    /// # Errors
+    /// `f` out of range, or a coordinate not finite and strictly positive.
+    pub fn split_face(&mut self, f: FaceId, bary: [f64; 3]) -> Result<SplitFaceResult, MeshError> {
+        if f.idx() >= self.n_faces() {
+            return Err(MeshError::InvalidEdit(format!(
+                "face {f} out of range ({} faces)",
+                self.n_faces()
+            )));
+        }
+        if !bary.iter().all(|&x| x.is_finite() && x > 0.0) {
+            return Err(MeshError::InvalidEdit(format!(
+                "split_face barycentric coordinates {bary:?} must be finite and > 0"
+            )));
+        }
+        let sum: f64 = bary.iter().sum();
+        let bary = bary.map(|x| x / sum);
+        let [h0, h1, h2] = self.face_halfedges(f).map(|h| h.idx());
+        let [a, b, c] = [h0, h1, h2].map(|h| self.he_origin[h]);
+        let [wa, wb, wc] = [h0, h1, h2].map(|h| self.he_wedge[h]);
+        let [pa, pb, pc] = [a, b, c].map(|v| self.positions[v as usize]);
+        let p = std::array::from_fn(|k| bary[0] * pa[k] + bary[1] * pb[k] + bary[2] * pc[k]);
+        let m = self.push_vertex(p, INVALID, None);
+        let wm = self
+            .wedges
+            .push_interpolated(&[
+                (WedgeId(wa), bary[0]),
+                (WedgeId(wb), bary[1]),
+                (WedgeId(wc), bary[2]),
+            ])
+            .0;
+        let (group, source) = (self.face_groups[f.idx()], self.face_source[f.idx()]);
+        // f: (a, b, c) -> (a, b, m); new (b, c, m) and (c, a, m).
+        let p0 = self.push_face([b, c, m], [wb, wc, wm], group, source);
+        let q0 = self.push_face([c, a, m], [wc, wa, wm], group, source);
+        let (old1, old2) = (self.he_twin[h1], self.he_twin[h2]);
+        self.he_origin[h2] = m;
+        self.he_wedge[h2] = wm;
+        self.relink(p0, old1);
+        self.relink(q0, old2);
+        self.link(h1, p0 + 2);
+        self.link(h2, q0 + 1);
+        self.link(p0 + 1, q0 + 2);
+        if self.vertex_halfedge[b as usize] == h1 as u32 {
+            self.vertex_halfedge[b as usize] = p0 as u32;
+        }
+        if self.vertex_halfedge[c as usize] == h2 as u32 {
+            self.vertex_halfedge[c as usize] = q0 as u32;
+        }
+        self.vertex_halfedge[m as usize] = h2 as u32;
+        self.bump();
+        Ok(SplitFaceResult {
+            vertex: VertexId(m),
+            new_faces: vec![(f, FaceId((p0 / 3) as u32)), (f, FaceId((q0 / 3) as u32))],
+        })
+    }
+
+    /// Opens the interior edge of `h` into a crack: its two faces stop
+    /// sharing it, leaving two boundary halfedges.
+    ///
+    /// An endpoint that was already on a boundary (mesh border or earlier
+    /// crack) has its fan cut in two; the fan starting at the opened
+    /// halfedge leaving it moves to a new vertex at the same position. An
+    /// interior endpoint (a crack tip) keeps a single, now open, fan and is
+    /// not duplicated.
+    ///
+    /// # Errors
+    /// `h` out of range or already a boundary halfedge.
+    pub fn open_edge(&mut self, h: HalfedgeId) -> Result<OpenEdgeResult, MeshError> {
+        self.check_halfedge(h)?;
+        let Some(t) = self.twin(h) else {
+            return Err(MeshError::InvalidEdit(format!(
+                "open_edge: halfedge {h} is already on a boundary"
+            )));
+        };
+        let ends = [(self.origin(h), h), (self.origin(t), t)];
+        let was_boundary = ends.map(|(v, _)| self.is_boundary_vertex(v));
+        self.he_twin[h.idx()] = INVALID;
+        self.he_twin[t.idx()] = INVALID;
+        let mut new_vertices = Vec::new();
+        for ((v, start), boundary) in ends.into_iter().zip(was_boundary) {
+            if !boundary {
+                // Crack tip: the cycle became one open fan starting here.
+                self.vertex_halfedge[v.idx()] = start.0;
+                continue;
+            }
+            // The fan starting at `start` moves to a copy of `v`.
+            let source = self.vertex_source[v.idx()];
+            let nv = self.push_vertex(self.positions[v.idx()], source, Some(v.0));
+            self.vertex_halfedge[nv as usize] = start.0;
+            let mut x = start;
+            for _ in 0..self.n_halfedges() {
+                self.he_origin[x.idx()] = nv;
+                match self.twin(self.prev(x)) {
+                    Some(y) => x = y,
+                    None => break,
+                }
+            }
+            new_vertices.push((VertexId(nv), v));
+        }
+        self.bump();
+        Ok(OpenEdgeResult {
+            halfedges: [h, t],
+            new_vertices,
+        })
+    }
+}

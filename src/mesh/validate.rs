@@ -1,0 +1,204 @@
+//! Full invariant check of a [`SimMesh`].
+
+use super::error::MeshError;
+use super::halfedge::SimMesh;
+use super::ids::INVALID;
+
+macro_rules! ensure {
+    ($cond:expr, $($arg:tt)*) => {
+        if !$cond {
+            return Err(MeshError::Invariant(format!($($arg)*)));
+        }
+    };
+}
+
+impl SimMesh {
+    /// Checks every invariant of the mesh: array lengths, ids in range,
+    /// finite positions, faces with three distinct vertices, twin symmetry
+    /// and opposite direction, no two halfedges with the same (origin,
+    /// dest), and for every vertex: its outgoing halfedge leaves it, is a
+    /// boundary halfedge if the vertex is on a boundary, and its incident
+    /// faces form a single fan reached from that halfedge.
+    ///
+    /// `next^3 = id` and per-face halfedges hold by construction (halfedge
+    /// `3f + k` belongs to face `f`). Costs `O(n log n)`.
+    ///
+    /// # Errors
+    /// [`MeshError::Invariant`] describing the first violation found.
+    pub fn validate(&self) -> Result<(), MeshError> {
+        let nv = self.n_vertices();
+        let nf = self.face_groups.len();
+        let nh = self.he_origin.len();
+        let nw = self.wedges.len();
+
+        // Lengths.
+        ensure!(nh == 3 * nf, "{nh} halfedges for {nf} faces");
+        ensure!(
+            self.he_twin.len() == nh && self.he_wedge.len() == nh,
+            "halfedge arrays have lengths {} {} {}",
+            nh,
+            self.he_twin.len(),
+            self.he_wedge.len()
+        );
+        ensure!(
+            self.face_source.len() == nf,
+            "face_source has {} entries for {nf} faces",
+            self.face_source.len()
+        );
+        ensure!(
+            self.vertex_halfedge.len() == nv
+                && self.vertex_source.len() == nv
+                && self.vertex_parent.len() == nv,
+            "vertex arrays have lengths {} {} {} {}",
+            nv,
+            self.vertex_halfedge.len(),
+            self.vertex_source.len(),
+            self.vertex_parent.len()
+        );
+        ensure!(
+            self.wedges.is_consistent(),
+            "wedge channel lengths do not match {nw} wedges"
+        );
+        ensure!(nh < INVALID as usize, "too many halfedges");
+
+        // Per-element ranges.
+        for (v, p) in self.positions.iter().enumerate() {
+            ensure!(
+                p.iter().all(|x| x.is_finite()),
+                "vertex {v} has non-finite position {p:?}"
+            );
+            let o = self.vertex_halfedge[v];
+            ensure!(
+                (o as usize) < nh,
+                "vertex {v} has no valid outgoing halfedge ({o})"
+            );
+            ensure!(
+                (self.vertex_parent[v] as usize) < nv,
+                "vertex {v} has parent {} out of range",
+                self.vertex_parent[v]
+            );
+        }
+        for h in 0..nh {
+            let o = self.he_origin[h];
+            ensure!(
+                (o as usize) < nv,
+                "halfedge {h} has origin {o} out of range"
+            );
+            let w = self.he_wedge[h];
+            ensure!(
+                (w as usize) < nw,
+                "halfedge {h} has wedge {w} out of range ({nw})"
+            );
+            let t = self.he_twin[h];
+            ensure!(
+                t == INVALID || (t as usize) < nh,
+                "halfedge {h} has twin {t} out of range"
+            );
+        }
+
+        // Faces and twins.
+        for f in self.faces() {
+            let [a, b, c] = self.face_vertices(f);
+            ensure!(
+                a != b && b != c && a != c,
+                "face {f} has repeated vertex: {a} {b} {c}"
+            );
+        }
+        for h in self.halfedges() {
+            ensure!(
+                self.next(self.next(self.next(h))) == h && self.face(self.next(h)) == self.face(h),
+                "halfedge {h}: next^3 != id"
+            );
+            if let Some(t) = self.twin(h) {
+                ensure!(t != h, "halfedge {h} is its own twin");
+                ensure!(
+                    self.twin(t) == Some(h),
+                    "twin of {h} is {t} but twin of {t} is not {h}"
+                );
+                ensure!(
+                    self.origin(t) == self.dest(h) && self.dest(t) == self.origin(h),
+                    "halfedge {h} ({} -> {}) and twin {t} ({} -> {}) not opposite",
+                    self.origin(h),
+                    self.dest(h),
+                    self.origin(t),
+                    self.dest(t)
+                );
+            }
+        }
+
+        // Unique directed edges.
+        let mut keys: Vec<(u32, u32, u32)> = self
+            .halfedges()
+            .map(|h| (self.origin(h).0, self.dest(h).0, h.0))
+            .collect();
+        keys.sort_unstable();
+        for w in keys.windows(2) {
+            ensure!(
+                (w[0].0, w[0].1) != (w[1].0, w[1].1),
+                "halfedges h{} and h{} both go from v{} to v{}",
+                w[0].2,
+                w[1].2,
+                w[0].0,
+                w[0].1
+            );
+        }
+
+        // Fans: from each vertex's outgoing halfedge, the rotation must
+        // visit all its outgoing halfedges.
+        let mut degree = vec![0u32; nv];
+        let mut boundary_out = vec![0u32; nv];
+        for h in self.halfedges() {
+            let v = self.origin(h).idx();
+            degree[v] += 1;
+            if self.is_boundary_halfedge(h) {
+                boundary_out[v] += 1;
+            }
+        }
+        for v in self.vertices() {
+            let start = self.vertex_halfedge(v);
+            ensure!(
+                self.origin(start) == v,
+                "outgoing halfedge {start} of vertex {v} leaves {}",
+                self.origin(start)
+            );
+            let i = v.idx();
+            ensure!(
+                boundary_out[i] <= 1,
+                "vertex {v} has {} boundary outgoing halfedges (several fans)",
+                boundary_out[i]
+            );
+            ensure!(
+                boundary_out[i] == 0 || self.is_boundary_halfedge(start),
+                "vertex {v} is on a boundary but its outgoing halfedge {start} is not"
+            );
+            let mut count = 0u32;
+            let mut x = start;
+            loop {
+                ensure!(
+                    self.origin(x) == v,
+                    "fan of {v} reaches {x} leaving {}",
+                    self.origin(x)
+                );
+                count += 1;
+                ensure!(count <= degree[i], "fan of vertex {v} does not close");
+                match self.twin(self.prev(x)) {
+                    None => {
+                        ensure!(
+                            self.is_boundary_halfedge(start),
+                            "fan of interior vertex {v} ends at {x}"
+                        );
+                        break;
+                    }
+                    Some(y) if y == start => break,
+                    Some(y) => x = y,
+                }
+            }
+            ensure!(
+                count == degree[i],
+                "vertex {v} has {} incident faces but its fan has {count} (non-manifold)",
+                degree[i]
+            );
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,178 @@
+//! Welding of input vertices by position.
+//!
+//! Vertices are processed in input order; each one joins the earliest
+//! representative within the tolerance (Euclidean distance), or becomes a
+//! new representative. Candidates are found with a uniform grid of cell size
+//! `2 * tolerance`, so only the 2x2x2 block of cells nearest to a point can
+//! hold representatives within the tolerance. The result depends only on the
+//! input order (no hash-iteration order, no threads).
+
+use super::ids::INVALID;
+use std::collections::HashMap;
+use std::hash::{BuildHasherDefault, Hasher};
+
+/// Result of welding.
+pub(super) struct Welded {
+    /// Input vertex -> welded id, `INVALID` for vertices not welded
+    /// (unreferenced or non-finite).
+    pub map: Vec<u32>,
+    /// Welded id -> representative input vertex (increasing).
+    pub reps: Vec<u32>,
+}
+
+/// A small, fast, deterministic hasher for grid keys (FxHash mixing).
+#[derive(Default)]
+struct FxHasher(u64);
+
+impl Hasher for FxHasher {
+    #[inline]
+    fn write(&mut self, bytes: &[u8]) {
+        for chunk in bytes.chunks(8) {
+            let mut b = [0u8; 8];
+            b[..chunk.len()].copy_from_slice(chunk);
+            self.write_u64(u64::from_le_bytes(b));
+        }
+    }
+    #[inline]
+    fn write_u64(&mut self, i: u64) {
+        self.0 = (self.0.rotate_left(5) ^ i).wrapping_mul(0x51_7c_c1_b7_27_22_0a_95);
+    }
+    #[inline]
+    fn write_i64(&mut self, i: i64) {
+        self.write_u64(i as u64);
+    }
+    #[inline]
+    fn finish(&self) -> u64 {
+        // Final avalanche so that neighbouring cells spread over buckets.
+        let mut x = self.0;
+        x ^= x >> 33;
+        x = x.wrapping_mul(0xff51_afd7_ed55_8ccd);
+        x ^= x >> 33;
+        x
+    }
+}
+
+type Grid = HashMap<[i64; 3], u32, BuildHasherDefault<FxHasher>>;
+
+/// Welds the vertices `i` with `use_vertex[i]` (which must have finite
+/// positions) within `tolerance` (absolute; 0 welds exactly equal
+/// positions). `origin` is subtracted before quantization.
+pub(super) fn weld(
+    positions: &[[f64; 3]],
+    use_vertex: &[bool],
+    tolerance: f64,
+    origin: [f64; 3],
+) -> Welded {
+    let n = positions.len();
+    let mut map = vec![INVALID; n];
+    let mut reps: Vec<u32> = Vec::new();
+    let n_used = use_vertex.iter().filter(|&&u| u).count();
+    let mut grid: Grid = HashMap::with_capacity_and_hasher(n_used, Default::default());
+    // Chain of representatives in the same cell.
+    let mut next_in_cell: Vec<u32> = Vec::new();
+
+    if tolerance > 0.0 && tolerance.is_finite() {
+        let inv = 1.0 / (2.0 * tolerance);
+        let tol2 = tolerance * tolerance;
+        for i in 0..n {
+            if !use_vertex[i] {
+                continue;
+            }
+            let p = positions[i];
+            let mut cell = [0i64; 3];
+            let mut off = [0i64; 3];
+            for k in 0..3 {
+                let q = (p[k] - origin[k]) * inv;
+                let c = q.floor();
+                cell[k] = c as i64;
+                off[k] = if q - c < 0.5 { -1 } else { 1 };
+            }
+            let mut best = INVALID;
+            for dx in [0, off[0]] {
+                for dy in [0, off[1]] {
+                    for dz in [0, off[2]] {
+                        let key = [cell[0] + dx, cell[1] + dy, cell[2] + dz];
+                        let mut r = grid.get(&key).copied().unwrap_or(INVALID);
+                        while r != INVALID {
+                            // Lower welded ids are earlier representatives.
+                            if r < best {
+                                let q = positions[reps[r as usize] as usize];
+                                let d = [q[0] - p[0], q[1] - p[1], q[2] - p[2]];
+                                if d[0] * d[0] + d[1] * d[1] + d[2] * d[2] <= tol2 {
+                                    best = r;
+                                }
+                            }
+                            r = next_in_cell[r as usize];
+                        }
+                    }
+                }
+            }
+            if best == INVALID {
+                let id = reps.len() as u32;
+                reps.push(i as u32);
+                let head = grid.entry(cell).or_insert(INVALID);
+                next_in_cell.push(*head);
+                *head = id;
+                map[i] = id;
+            } else {
+                map[i] = best;
+            }
+        }
+    } else {
+        // Exact welding on the bit patterns (with -0.0 == 0.0).
+        let key_of = |p: [f64; 3]| p.map(|x| if x == 0.0 { 0i64 } else { x.to_bits() as i64 });
+        for i in 0..n {
+            if !use_vertex[i] {
+                continue;
+            }
+            let key = key_of(positions[i]);
+            let next_id = reps.len() as u32;
+            let id = *grid.entry(key).or_insert(next_id);
+            if id == next_id {
+                reps.push(i as u32);
+            }
+            map[i] = id;
+        }
+    }
+    Welded { map, reps }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn welds_within_tolerance_first_seen_wins() {
+        let p = vec![
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [0.0, 0.0, 0.0009],
+            [1.0005, 0.0, 0.0],
+            [0.5, 0.0, 0.0],
+            [0.0, 0.0, -0.0009],
+        ];
+        let w = weld(&p, &[true; 6], 1e-3, [0.0; 3]);
+        assert_eq!(w.map, vec![0, 1, 0, 1, 2, 0]);
+        assert_eq!(w.reps, vec![0, 1, 4]);
+    }
+
+    #[test]
+    fn exact_mode_and_unused() {
+        let p = vec![
+            [0.0, 0.0, 0.0],
+            [-0.0, 0.0, 0.0],
+            [1e-9, 0.0, 0.0],
+            [0.0; 3],
+        ];
+        let w = weld(&p, &[true, true, true, false], 0.0, [0.0; 3]);
+        assert_eq!(w.map, vec![0, 0, 1, INVALID]);
+    }
+
+    #[test]
+    fn across_cell_borders() {
+        // Points straddling a cell border (cell size 2e-3) must weld.
+        let p = vec![[0.0019999, 0.0, 0.0], [0.0020001, 0.0, 0.0]];
+        let w = weld(&p, &[true; 2], 1e-3, [0.0; 3]);
+        assert_eq!(w.map, vec![0, 0]);
+    }
+}

@@ -1,0 +1,255 @@
+//! Helpers shared by the integration tests (`mod common;` in each `tests/*.rs`).
+//!
+//! - [`eval_data`]: files from the shared evaluation corpus at `../shared/eval-data`.
+//! - [`fixture`]: the project's own small meshes in `fixtures/`.
+//! - [`validator`]: the Khronos glTF-Validator, run through `node scripts/validate.mjs`
+//!   (installed into `tools/node_modules` by `scripts/install-validator.sh`).
+//! - [`crackle_bin`] / [`run`]: the built `crackle` CLI.
+//!
+//! Missing eval data or a missing validator makes a test skip (with a `SKIP:` line on
+//! stderr) locally, and fail when the environment variable `CI` is `true`.
+#![allow(dead_code)]
+
+use std::ffi::OsStr;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output, Stdio};
+
+/// The crate root (where Cargo.toml is).
+pub fn manifest_dir() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// True when running under CI (`CI=true`, or `CI=1`), where skipping is a failure.
+pub fn in_ci() -> bool {
+    std::env::var("CI")
+        .map(|v| v.eq_ignore_ascii_case("true") || v == "1")
+        .unwrap_or(false)
+}
+
+/// Path of `rel` under `<CARGO_MANIFEST_DIR>/../shared/eval-data/`.
+///
+/// Returns `None` (after printing a SKIP line) when the file is missing, except under
+/// CI, where missing data is a failure and this panics.
+pub fn eval_data(rel: &str) -> Option<PathBuf> {
+    let path = manifest_dir()
+        .join("..")
+        .join("shared")
+        .join("eval-data")
+        .join(rel);
+    if path.exists() {
+        return Some(path);
+    }
+    if in_ci() {
+        panic!(
+            "eval-data file {rel} not found at {} (CI=true: the shared eval data must be \
+             checked out beside the project as ../shared/eval-data)",
+            path.display()
+        );
+    }
+    eprintln!("SKIP: eval-data file {rel} not found");
+    None
+}
+
+/// Path of a project fixture under `fixtures/` (these ship with the repo, so a missing
+/// one is always a failure).
+pub fn fixture(rel: &str) -> PathBuf {
+    let path = manifest_dir().join("fixtures").join(rel);
+    assert!(
+        path.exists(),
+        "fixture {rel} not found at {} (regenerate with `python3 fixtures/make_fixtures.py`)",
+        path.display()
+    );
+    path
+}
+
+/// The built `crackle` binary.
+pub fn crackle_bin() -> PathBuf {
+    PathBuf::from(env!("CARGO_BIN_EXE_crackle"))
+}
+
+/// Runs the `crackle` CLI with `args` (stdin closed) and returns its output.
+pub fn run<I, S>(args: I) -> Output
+where
+    I: IntoIterator<Item = S>,
+    S: AsRef<OsStr>,
+{
+    Command::new(crackle_bin())
+        .args(args)
+        .stdin(Stdio::null())
+        .output()
+        .expect("failed to start the crackle binary")
+}
+
+/// Like [`run`] but panics (showing stdout/stderr) unless the command succeeded.
+pub fn run_ok<I, S>(args: I) -> Output
+where
+    I: IntoIterator<Item = S>,
+    S: AsRef<OsStr>,
+{
+    let args: Vec<std::ffi::OsString> = args.into_iter().map(|a| a.as_ref().to_owned()).collect();
+    let out = run(&args);
+    assert!(
+        out.status.success(),
+        "crackle {:?} failed with {}\n--- stdout ---\n{}\n--- stderr ---\n{}",
+        args,
+        out.status,
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    out
+}
+
+/// One validator message: (code, message, severity, JSON pointer).
+/// Severity: 0 = error, 1 = warning, 2 = info, 3 = hint.
+pub type Message = (String, String, u8, String);
+
+/// The summary of one glTF-Validator run on one file.
+#[derive(Debug, Clone, Default)]
+pub struct ValidationReport {
+    pub errors: u64,
+    pub warnings: u64,
+    pub infos: u64,
+    pub hints: u64,
+    pub messages: Vec<Message>,
+}
+
+impl ValidationReport {
+    /// Whether any message has this code.
+    pub fn has_code(&self, code: &str) -> bool {
+        self.messages.iter().any(|m| m.0 == code)
+    }
+
+    /// The messages as readable lines, for panic messages.
+    pub fn describe(&self) -> String {
+        let mut s = format!(
+            "{} errors, {} warnings, {} infos, {} hints",
+            self.errors, self.warnings, self.infos, self.hints
+        );
+        for (code, message, severity, pointer) in &self.messages {
+            let sev = match severity {
+                0 => "ERROR",
+                1 => "WARNING",
+                2 => "INFO",
+                _ => "HINT",
+            };
+            s.push_str(&format!("\n  [{sev}] {code} at {pointer}: {message}"));
+        }
+        s
+    }
+}
+
+/// A runnable Khronos glTF-Validator (node + tools/node_modules/gltf-validator).
+#[derive(Debug, Clone)]
+pub struct Validator {
+    node: PathBuf,
+    script: PathBuf,
+}
+
+/// Finds the glTF-Validator. Returns `None` (after printing a SKIP line) when node or
+/// the package is missing, except under CI, where this panics.
+pub fn validator() -> Option<Validator> {
+    let root = manifest_dir();
+    let package = root.join("tools/node_modules/gltf-validator/package.json");
+    let script = root.join("scripts/validate.mjs");
+    let node = PathBuf::from("node");
+    let node_ok = Command::new(&node)
+        .arg("--version")
+        .stdin(Stdio::null())
+        .output()
+        .map(|o| o.status.success())
+        .unwrap_or(false);
+    let problem = if !node_ok {
+        Some("node is not on PATH".to_string())
+    } else if !package.exists() {
+        Some(format!("{} is missing", package.display()))
+    } else if !script.exists() {
+        Some(format!("{} is missing", script.display()))
+    } else {
+        None
+    };
+    match problem {
+        None => Some(Validator { node, script }),
+        Some(p) if in_ci() => {
+            panic!("glTF-Validator unavailable under CI: {p}; run scripts/install-validator.sh")
+        }
+        Some(p) => {
+            eprintln!("SKIP: glTF-Validator unavailable ({p}); run scripts/install-validator.sh");
+            None
+        }
+    }
+}
+
+impl Validator {
+    /// Validates one .gltf/.glb file (external resources resolved beside it).
+    pub fn validate(&self, path: impl AsRef<Path>) -> ValidationReport {
+        let path = path.as_ref();
+        let out = Command::new(&self.node)
+            .arg(&self.script)
+            .arg(path)
+            .stdin(Stdio::null())
+            .output()
+            .expect("failed to start node for scripts/validate.mjs");
+        let stdout = String::from_utf8_lossy(&out.stdout);
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        let line = stdout
+            .lines()
+            .find(|l| !l.trim().is_empty())
+            .unwrap_or_else(|| {
+                panic!(
+                    "validate.mjs printed nothing for {} (exit {}); stderr:\n{stderr}",
+                    path.display(),
+                    out.status
+                )
+            });
+        let v: serde_json::Value = serde_json::from_str(line).unwrap_or_else(|e| {
+            panic!("validate.mjs printed invalid JSON ({e}): {line}\nstderr:\n{stderr}")
+        });
+        let count = |k: &str| v.get(k).and_then(|x| x.as_u64()).unwrap_or(0);
+        let text = |m: &serde_json::Value, k: &str| {
+            m.get(k)
+                .and_then(|x| x.as_str())
+                .unwrap_or_default()
+                .to_string()
+        };
+        let messages = v
+            .get("messages")
+            .and_then(|m| m.as_array())
+            .map(|arr| {
+                arr.iter()
+                    .map(|m| {
+                        let severity = m.get("severity").and_then(|s| s.as_u64()).unwrap_or(0);
+                        (
+                            text(m, "code"),
+                            text(m, "message"),
+                            severity.min(255) as u8,
+                            text(m, "pointer"),
+                        )
+                    })
+                    .collect()
+            })
+            .unwrap_or_default();
+        ValidationReport {
+            errors: count("errors"),
+            warnings: count("warnings"),
+            infos: count("infos"),
+            hints: count("hints"),
+            messages,
+        }
+    }
+
+    /// Panics (listing every message) unless the file has no errors, no warnings and
+    /// no `UNUSED_OBJECT` info/hint (crackle must not write unused objects).
+    pub fn assert_clean(&self, path: impl AsRef<Path>) {
+        let path = path.as_ref();
+        let report = self.validate(path);
+        let unused = report.has_code("UNUSED_OBJECT");
+        if report.errors > 0 || report.warnings > 0 || unused {
+            panic!(
+                "glTF-Validator is not clean for {}{}: {}",
+                path.display(),
+                if unused { " (has UNUSED_OBJECT)" } else { "" },
+                report.describe()
+            );
+        }
+    }
+}

@@ -1,0 +1,200 @@
+//! Round trips: every fixture and the listed eval-data assets go through
+//! `crackle convert` to `.glb` and `.gltf`; the outputs pass the Khronos
+//! validator with no error, warning or unused object, and keep triangle
+//! counts, materials, UVs and the node hierarchy.
+
+mod common;
+
+use crackle::scene::{Geometry, Scene};
+use std::collections::BTreeMap;
+use std::path::Path;
+
+/// Canonical corner tuples of every crackable triangle of a mesh: position and
+/// first UV, rounded; each triangle rotated to start at its smallest corner.
+fn corner_signature(scene: &Scene, mesh: usize) -> Vec<[i64; 15]> {
+    let mut tris = Vec::new();
+    for p in &scene.meshes[mesh].primitives {
+        let Geometry::Triangles(t) = &p.geometry else { continue };
+        let uv = t.attribute("TEXCOORD_0");
+        let q = |x: f32, s: f32| (x as f64 * s as f64).round() as i64;
+        for tri in &t.triangles {
+            let scale = 1e4;
+            let c: Vec<[i64; 5]> = tri
+                .iter()
+                .map(|&v| {
+                    let p = t.positions[v as usize];
+                    let (u, w) = uv.map(|a| (a.get(v as usize)[0], a.get(v as usize)[1])).unwrap_or((0.0, 0.0));
+                    [q(p[0], scale), q(p[1], scale), q(p[2], scale), q(u, 1e4), q(w, 1e4)]
+                })
+                .collect();
+            let k = (0..3).min_by_key(|&i| c[i]).unwrap();
+            let mut out = [0i64; 15];
+            for j in 0..3 {
+                out[j * 5..j * 5 + 5].copy_from_slice(&c[(k + j) % 3]);
+            }
+            tris.push(out);
+        }
+    }
+    tris.sort();
+    tris
+}
+
+fn used_material_names(scene: &Scene) -> Vec<String> {
+    let mut used: Vec<usize> = scene
+        .meshes
+        .iter()
+        .flat_map(|m| &m.primitives)
+        .filter(|p| !matches!(&p.geometry, Geometry::Triangles(t) if t.triangles.is_empty()))
+        .filter_map(|p| p.material)
+        .collect();
+    used.sort();
+    used.dedup();
+    used.iter().map(|&m| scene.materials[m].name().unwrap_or("").to_string()).collect()
+}
+
+fn textured_primitives(scene: &Scene) -> usize {
+    scene
+        .meshes
+        .iter()
+        .flat_map(|m| &m.primitives)
+        .filter(|p| matches!(&p.geometry, Geometry::Triangles(t) if t.attribute("TEXCOORD_0").is_some()))
+        .count()
+}
+
+fn node_names(scene: &Scene) -> Vec<Option<String>> {
+    scene.nodes.iter().map(|n| n.name.clone()).collect()
+}
+
+/// Convert `input` to .glb and .gltf and check everything the issue asks for.
+fn round_trip(input: &Path) {
+    let v = common::validator();
+    let src = crackle::io::read(input).unwrap_or_else(|e| panic!("read {}: {e}", input.display()));
+    let dir = tempfile::tempdir().unwrap();
+    for ext in ["glb", "gltf"] {
+        let out = dir.path().join(format!("out.{ext}"));
+        let o = common::run_ok(["convert".as_ref(), input.as_os_str(), out.as_os_str(), "--json".as_ref()]);
+        let report: serde_json::Value = serde_json::from_slice(&o.stdout).expect("convert --json prints JSON");
+        let dropped: u64 = report["meshes"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|m| m["defects"]["degenerate_triangles_dropped"].as_u64().unwrap())
+            .sum();
+        if let Some(v) = &v {
+            v.assert_clean(&out);
+        }
+        let back = crackle::io::read(&out).unwrap_or_else(|e| panic!("re-read {}: {e}", out.display()));
+        assert_eq!(
+            back.triangle_count() as u64 + dropped,
+            src.triangle_count() as u64,
+            "{}: triangle count changed ({} dropped as degenerate)",
+            input.display(),
+            dropped
+        );
+        assert_eq!(used_material_names(&back), used_material_names(&src), "{}: materials", input.display());
+        assert_eq!(textured_primitives(&back), textured_primitives(&src), "{}: UV sets", input.display());
+        assert_eq!(node_names(&back), node_names(&src), "{}: node hierarchy", input.display());
+        assert_eq!(back.animations.len(), src.animations.len(), "{}: animations", input.display());
+        if dropped == 0 {
+            // Positions and UVs corner by corner (meshes keep their order when all are used).
+            let src_meshes: Vec<usize> = (0..src.meshes.len()).filter(|&m| src.meshes[m].has_triangles()).collect();
+            let back_meshes: Vec<usize> = (0..back.meshes.len()).filter(|&m| back.meshes[m].has_triangles()).collect();
+            assert_eq!(src_meshes.len(), back_meshes.len());
+            for (&a, &b) in src_meshes.iter().zip(&back_meshes) {
+                assert!(
+                    corner_signature(&src, a) == corner_signature(&back, b),
+                    "{}: mesh {a} corners (position + UV) differ after the round trip",
+                    input.display()
+                );
+            }
+        }
+        // Textures keep their images.
+        let tex_count = |s: &Scene| s.textures.len();
+        assert!(tex_count(&back) <= tex_count(&src) || src.textures.is_empty());
+    }
+}
+
+macro_rules! eval_round_trip {
+    ($name:ident, $rel:expr) => {
+        #[test]
+        fn $name() {
+            if let Some(p) = common::eval_data($rel) {
+                round_trip(&p);
+            }
+        }
+    };
+}
+
+eval_round_trip!(duck_glb, "gltf/Duck/Duck.glb");
+eval_round_trip!(box_textured, "gltf/BoxTextured/BoxTextured.gltf");
+eval_round_trip!(box_textured_embedded, "gltf/BoxTextured-Embedded/BoxTextured.gltf");
+eval_round_trip!(cesium_milk_truck, "gltf/CesiumMilkTruck/CesiumMilkTruck.glb");
+eval_round_trip!(animated_morph_cube, "gltf/AnimatedMorphCube/AnimatedMorphCube.gltf");
+eval_round_trip!(texture_transform_test, "gltf/TextureTransformTest/TextureTransformTest.gltf");
+eval_round_trip!(box_interleaved, "gltf/BoxInterleaved/BoxInterleaved.glb");
+eval_round_trip!(cubevc, "gltf/edge_cases/cubevc.glb");
+eval_round_trip!(nested, "gltf/edge_cases/nested.glb");
+eval_round_trip!(alpha_blend, "gltf/AlphaBlendModeTest/AlphaBlendModeTest.glb");
+eval_round_trip!(damaged_helmet, "gltf/DamagedHelmet/DamagedHelmet.gltf");
+eval_round_trip!(duck_quantized, "derived/Duck_quantized.glb");
+eval_round_trip!(spot_obj, "obj/spot/spot_triangulated.obj");
+eval_round_trip!(spot_quads_obj, "obj/spot/spot_quadrangulated.obj");
+eval_round_trip!(spider_obj, "obj/spider/spider.obj");
+eval_round_trip!(bunny10k_obj, "obj/bunny10k_textured/bunny10k_textured.obj");
+eval_round_trip!(fuze_obj, "obj/fuze/fuze.obj");
+eval_round_trip!(wallhole_obj, "obj/edge_cases/wallhole.obj");
+eval_round_trip!(nefertiti_blender5, "derived/nefertiti_blender5.glb");
+eval_round_trip!(spider_blender5, "derived/spider_blender5.glb");
+
+macro_rules! fixture_round_trip {
+    ($name:ident, $rel:expr) => {
+        #[test]
+        fn $name() {
+            round_trip(&common::fixture($rel));
+        }
+    };
+}
+
+fixture_round_trip!(fixture_plate, "plate_jittered.obj");
+fixture_round_trip!(fixture_icosphere, "icosphere.obj");
+fixture_round_trip!(fixture_torus, "torus.obj");
+fixture_round_trip!(fixture_cube, "cube.obj");
+fixture_round_trip!(fixture_textured_quad, "textured_quad.gltf");
+fixture_round_trip!(fixture_hierarchy, "hierarchy.glb");
+
+/// Welding joins UV seams: the torus is one closed component after welding.
+#[test]
+fn torus_uv_seam_is_welded() {
+    let scene = crackle::io::read(&common::fixture("torus.obj")).unwrap();
+    let (entries, skipped) = crackle::bridge::build_sim_meshes(&scene, &Default::default());
+    assert!(skipped.is_empty());
+    let r = &entries[0].report;
+    assert_eq!(r.boundary_edges, 0, "{r:?}");
+    assert_eq!(r.components, 1);
+    assert_eq!(r.vertices, 48 * 24);
+}
+
+/// The hierarchy survives: transforms, instancing, names.
+#[test]
+fn hierarchy_transforms_and_instances_survive() {
+    let src = crackle::io::read(&common::fixture("hierarchy.glb")).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("h.gltf");
+    common::run_ok(["convert".as_ref(), common::fixture("hierarchy.glb").as_os_str(), out.as_os_str()]);
+    let back = crackle::io::read(&out).unwrap();
+    let transforms = |s: &Scene| s.nodes.iter().map(|n| n.transform.matrix()).collect::<Vec<_>>();
+    let children = |s: &Scene| s.nodes.iter().map(|n| n.children.clone()).collect::<Vec<_>>();
+    assert_eq!(transforms(&src), transforms(&back));
+    assert_eq!(children(&src), children(&back));
+    let instances = |s: &Scene| {
+        let mut m: BTreeMap<usize, usize> = BTreeMap::new();
+        for n in &s.nodes {
+            if let Some(x) = n.mesh {
+                *m.entry(x).or_default() += 1;
+            }
+        }
+        m.into_values().collect::<Vec<_>>()
+    };
+    assert_eq!(instances(&src), instances(&back));
+    assert!(instances(&back).contains(&2), "the box mesh stays instanced, not duplicated");
+}
