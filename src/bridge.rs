@@ -4,7 +4,9 @@
 //! written back into the scene's primitives with every corner's own UV,
 //! normal and colour.
 
-use crate::mesh::{Channel, ChannelKind, DefectReport, MeshInput, SimMesh, VertexId, WedgeId, WeldOptions};
+use crate::mesh::{
+    Channel, ChannelKind, DefectReport, MeshInput, SimMesh, VertexId, WedgeId, WeldOptions,
+};
 use crate::scene::{Geometry, Scene, TriGeometry, VertexAttribute};
 use std::collections::HashMap;
 
@@ -84,7 +86,8 @@ pub fn build_sim_meshes(scene: &Scene, options: &WeldOptions) -> (Vec<SimEntry>,
                     .iter()
                     .map(|a| (a.semantic.clone(), a.components))
                     .chain(t.targets.iter().enumerate().flat_map(|(ti, tg)| {
-                        tg.iter().map(move |a| (target_channel(ti, &a.semantic), a.components))
+                        tg.iter()
+                            .map(move |a| (target_channel(ti, &a.semantic), a.components))
                     }))
                     .collect();
                 for (s, c) in &lay {
@@ -101,14 +104,25 @@ pub fn build_sim_meshes(scene: &Scene, options: &WeldOptions) -> (Vec<SimEntry>,
         let mut input = MeshInput::default();
         let mut data: Vec<Vec<f64>> = vec![Vec::new(); channels.len()];
         for (pi, p) in mesh.primitives.iter().enumerate() {
-            let Geometry::Triangles(t) = &p.geometry else { continue };
+            let Geometry::Triangles(t) = &p.geometry else {
+                continue;
+            };
             let offset = input.positions.len() as u32;
-            input.positions.extend(t.positions.iter().map(|p| p.map(f64::from)));
-            input.triangles.extend(t.triangles.iter().map(|tri| tri.map(|i| i + offset)));
-            input.face_groups.extend(std::iter::repeat_n(pi as u32, t.triangles.len()));
+            input
+                .positions
+                .extend(t.positions.iter().map(|p| p.map(f64::from)));
+            input
+                .triangles
+                .extend(t.triangles.iter().map(|tri| tri.map(|i| i + offset)));
+            input
+                .face_groups
+                .extend(std::iter::repeat_n(pi as u32, t.triangles.len()));
             for (ci, (sem, comps)) in channels.iter().enumerate() {
                 let src = match parse_target_channel(sem) {
-                    Some((ti, tsem)) => t.targets.get(ti).and_then(|tg| tg.iter().find(|a| a.semantic == tsem)),
+                    Some((ti, tsem)) => t
+                        .targets
+                        .get(ti)
+                        .and_then(|tg| tg.iter().find(|a| a.semantic == tsem)),
                     None => t.attribute(sem),
                 };
                 for v in 0..t.positions.len() {
@@ -126,8 +140,18 @@ pub fn build_sim_meshes(scene: &Scene, options: &WeldOptions) -> (Vec<SimEntry>,
             .map(|((s, c), d)| Channel::new(s.clone(), *c, channel_kind(s), d))
             .collect();
         match SimMesh::build(&input, options) {
-            Ok((sim, report)) => entries.push(SimEntry { mesh_index: mi, label, sim, report, layouts }),
-            Err(e) => skipped.push(SkippedMesh { mesh_index: mi, label, reason: e.to_string() }),
+            Ok((sim, report)) => entries.push(SimEntry {
+                mesh_index: mi,
+                label,
+                sim,
+                report,
+                layouts,
+            }),
+            Err(e) => skipped.push(SkippedMesh {
+                mesh_index: mi,
+                label,
+                reason: e.to_string(),
+            }),
         }
     }
     (entries, skipped)
@@ -149,14 +173,26 @@ pub fn write_back(scene: &mut Scene, entry: &SimEntry) {
     let wedges = sim.wedges();
     let mesh = &mut scene.meshes[entry.mesh_index];
     for (pi, prim) in mesh.primitives.iter_mut().enumerate() {
-        let (Geometry::Triangles(t), Some(layout)) = (&mut prim.geometry, &entry.layouts[pi]) else { continue };
+        let (Geometry::Triangles(t), Some(layout)) = (&mut prim.geometry, &entry.layouts[pi])
+        else {
+            continue;
+        };
         let mut key_to_vertex: HashMap<(VertexId, WedgeId), u32> = HashMap::new();
-        let mut out = TriGeometry { group: t.group.take(), ..Default::default() };
-        let chans: Vec<(&Channel, usize)> =
-            layout.iter().filter_map(|(s, c)| wedges.channel(s).map(|ch| (ch, *c))).collect();
+        let mut out = TriGeometry {
+            group: t.group.take(),
+            ..Default::default()
+        };
+        let chans: Vec<(&Channel, usize)> = layout
+            .iter()
+            .filter_map(|(s, c)| wedges.channel(s).map(|ch| (ch, *c)))
+            .collect();
         let mut attrs: Vec<VertexAttribute> = chans
             .iter()
-            .map(|(ch, c)| VertexAttribute { semantic: ch.name.clone(), components: *c, data: Vec::new() })
+            .map(|(ch, c)| VertexAttribute {
+                semantic: ch.name.clone(),
+                components: *c,
+                data: Vec::new(),
+            })
             .collect();
         let n_targets = t.targets.len();
         for &f in &per_group[pi] {

@@ -84,7 +84,11 @@ pub enum Transform {
 
 impl Default for Transform {
     fn default() -> Self {
-        Transform::Trs { translation: None, rotation: None, scale: None }
+        Transform::Trs {
+            translation: None,
+            rotation: None,
+            scale: None,
+        }
     }
 }
 
@@ -93,20 +97,48 @@ impl Transform {
     pub fn matrix(&self) -> [f64; 16] {
         match self {
             Transform::Matrix(m) => *m,
-            Transform::Trs { translation, rotation, scale } => {
+            Transform::Trs {
+                translation,
+                rotation,
+                scale,
+            } => {
                 let t = translation.unwrap_or([0.0; 3]);
                 let [x, y, z, w] = rotation.unwrap_or([0.0, 0.0, 0.0, 1.0]);
                 let s = scale.unwrap_or([1.0; 3]);
                 let r = [
-                    [1.0 - 2.0 * (y * y + z * z), 2.0 * (x * y + z * w), 2.0 * (x * z - y * w)],
-                    [2.0 * (x * y - z * w), 1.0 - 2.0 * (x * x + z * z), 2.0 * (y * z + x * w)],
-                    [2.0 * (x * z + y * w), 2.0 * (y * z - x * w), 1.0 - 2.0 * (x * x + y * y)],
+                    [
+                        1.0 - 2.0 * (y * y + z * z),
+                        2.0 * (x * y + z * w),
+                        2.0 * (x * z - y * w),
+                    ],
+                    [
+                        2.0 * (x * y - z * w),
+                        1.0 - 2.0 * (x * x + z * z),
+                        2.0 * (y * z + x * w),
+                    ],
+                    [
+                        2.0 * (x * z + y * w),
+                        2.0 * (y * z - x * w),
+                        1.0 - 2.0 * (x * x + y * y),
+                    ],
                 ];
                 [
-                    r[0][0] * s[0], r[0][1] * s[0], r[0][2] * s[0], 0.0,
-                    r[1][0] * s[1], r[1][1] * s[1], r[1][2] * s[1], 0.0,
-                    r[2][0] * s[2], r[2][1] * s[2], r[2][2] * s[2], 0.0,
-                    t[0], t[1], t[2], 1.0,
+                    r[0][0] * s[0],
+                    r[0][1] * s[0],
+                    r[0][2] * s[0],
+                    0.0,
+                    r[1][0] * s[1],
+                    r[1][1] * s[1],
+                    r[1][2] * s[1],
+                    0.0,
+                    r[2][0] * s[2],
+                    r[2][1] * s[2],
+                    r[2][2] * s[2],
+                    0.0,
+                    t[0],
+                    t[1],
+                    t[2],
+                    1.0,
                 ]
             }
         }
@@ -150,7 +182,9 @@ pub struct Mesh {
 impl Mesh {
     /// Whether any primitive of this mesh is crackable triangle geometry.
     pub fn has_triangles(&self) -> bool {
-        self.primitives.iter().any(|p| matches!(p.geometry, Geometry::Triangles(_)))
+        self.primitives
+            .iter()
+            .any(|p| matches!(p.geometry, Geometry::Triangles(_)))
     }
 }
 

@@ -8,7 +8,10 @@ use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::path::{Path, PathBuf};
 
 fn walk(dir: &Path, out: &mut Vec<PathBuf>) {
-    let mut entries: Vec<_> = std::fs::read_dir(dir).unwrap().map(|e| e.unwrap().path()).collect();
+    let mut entries: Vec<_> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect();
     entries.sort();
     for p in entries {
         if p.is_dir() {
@@ -21,10 +24,16 @@ fn walk(dir: &Path, out: &mut Vec<PathBuf>) {
 
 #[test]
 fn validator_corpus_loads_or_errors_without_panic() {
-    let Some(root) = common::eval_data("validator_testsuite/test") else { return };
+    let Some(root) = common::eval_data("validator_testsuite/test") else {
+        return;
+    };
     let mut files = Vec::new();
     walk(&root, &mut files);
-    assert!(files.len() > 300, "expected the whole corpus, found {} files", files.len());
+    assert!(
+        files.len() > 300,
+        "expected the whole corpus, found {} files",
+        files.len()
+    );
     let out_dir = tempfile::tempdir().unwrap();
     let (mut loaded, mut refused, mut panics) = (0, 0, Vec::new());
     let hook = std::panic::take_hook();
@@ -34,7 +43,9 @@ fn validator_corpus_loads_or_errors_without_panic() {
             let mut scene = crackle::io::read(f).map_err(|e| e.to_string())?;
             let (entries, _) = crackle::bridge::build_sim_meshes(&scene, &Default::default());
             for e in &entries {
-                e.sim.validate().map_err(|e| format!("invalid simulation mesh: {e}"))?;
+                e.sim
+                    .validate()
+                    .map_err(|e| format!("invalid simulation mesh: {e}"))?;
                 crackle::bridge::write_back(&mut scene, e);
             }
             let out = out_dir.path().join(format!("{i}.glb"));
@@ -47,7 +58,8 @@ fn validator_corpus_loads_or_errors_without_panic() {
             Ok(Err(msg)) => {
                 assert!(!msg.is_empty());
                 assert!(
-                    !msg.starts_with("cannot re-read our own output") && !msg.starts_with("invalid simulation mesh"),
+                    !msg.starts_with("cannot re-read our own output")
+                        && !msg.starts_with("invalid simulation mesh"),
                     "{}: {msg}",
                     f.display()
                 );
@@ -57,7 +69,16 @@ fn validator_corpus_loads_or_errors_without_panic() {
         }
     }
     std::panic::set_hook(hook);
-    eprintln!("corpus: {} files, {loaded} loaded, {refused} refused with an error, {} panics", files.len(), panics.len());
-    assert!(panics.is_empty(), "{} files panicked: {:#?}", panics.len(), panics);
+    eprintln!(
+        "corpus: {} files, {loaded} loaded, {refused} refused with an error, {} panics",
+        files.len(),
+        panics.len()
+    );
+    assert!(
+        panics.is_empty(),
+        "{} files panicked: {:#?}",
+        panics.len(),
+        panics
+    );
     assert!(loaded > 0 && refused > 0);
 }

@@ -14,7 +14,9 @@ use std::path::Path;
 fn corner_signature(scene: &Scene, mesh: usize) -> Vec<[i64; 15]> {
     let mut tris = Vec::new();
     for p in &scene.meshes[mesh].primitives {
-        let Geometry::Triangles(t) = &p.geometry else { continue };
+        let Geometry::Triangles(t) = &p.geometry else {
+            continue;
+        };
         let uv = t.attribute("TEXCOORD_0");
         let q = |x: f32, s: f32| (x as f64 * s as f64).round() as i64;
         for tri in &t.triangles {
@@ -23,8 +25,16 @@ fn corner_signature(scene: &Scene, mesh: usize) -> Vec<[i64; 15]> {
                 .iter()
                 .map(|&v| {
                     let p = t.positions[v as usize];
-                    let (u, w) = uv.map(|a| (a.get(v as usize)[0], a.get(v as usize)[1])).unwrap_or((0.0, 0.0));
-                    [q(p[0], scale), q(p[1], scale), q(p[2], scale), q(u, 1e4), q(w, 1e4)]
+                    let (u, w) = uv
+                        .map(|a| (a.get(v as usize)[0], a.get(v as usize)[1]))
+                        .unwrap_or((0.0, 0.0));
+                    [
+                        q(p[0], scale),
+                        q(p[1], scale),
+                        q(p[2], scale),
+                        q(u, 1e4),
+                        q(w, 1e4),
+                    ]
                 })
                 .collect();
             let k = (0..3).min_by_key(|&i| c[i]).unwrap();
@@ -49,7 +59,9 @@ fn used_material_names(scene: &Scene) -> Vec<String> {
         .collect();
     used.sort();
     used.dedup();
-    used.iter().map(|&m| scene.materials[m].name().unwrap_or("").to_string()).collect()
+    used.iter()
+        .map(|&m| scene.materials[m].name().unwrap_or("").to_string())
+        .collect()
 }
 
 fn textured_primitives(scene: &Scene) -> usize {
@@ -72,18 +84,29 @@ fn round_trip(input: &Path) {
     let dir = tempfile::tempdir().unwrap();
     for ext in ["glb", "gltf"] {
         let out = dir.path().join(format!("out.{ext}"));
-        let o = common::run_ok(["convert".as_ref(), input.as_os_str(), out.as_os_str(), "--json".as_ref()]);
-        let report: serde_json::Value = serde_json::from_slice(&o.stdout).expect("convert --json prints JSON");
+        let o = common::run_ok([
+            "convert".as_ref(),
+            input.as_os_str(),
+            out.as_os_str(),
+            "--json".as_ref(),
+        ]);
+        let report: serde_json::Value =
+            serde_json::from_slice(&o.stdout).expect("convert --json prints JSON");
         let dropped: u64 = report["meshes"]
             .as_array()
             .unwrap()
             .iter()
-            .map(|m| m["defects"]["degenerate_triangles_dropped"].as_u64().unwrap())
+            .map(|m| {
+                m["defects"]["degenerate_triangles_dropped"]
+                    .as_u64()
+                    .unwrap()
+            })
             .sum();
         if let Some(v) = &v {
             v.assert_clean(&out);
         }
-        let back = crackle::io::read(&out).unwrap_or_else(|e| panic!("re-read {}: {e}", out.display()));
+        let back =
+            crackle::io::read(&out).unwrap_or_else(|e| panic!("re-read {}: {e}", out.display()));
         assert_eq!(
             back.triangle_count() as u64 + dropped,
             src.triangle_count() as u64,
@@ -91,14 +114,38 @@ fn round_trip(input: &Path) {
             input.display(),
             dropped
         );
-        assert_eq!(used_material_names(&back), used_material_names(&src), "{}: materials", input.display());
-        assert_eq!(textured_primitives(&back), textured_primitives(&src), "{}: UV sets", input.display());
-        assert_eq!(node_names(&back), node_names(&src), "{}: node hierarchy", input.display());
-        assert_eq!(back.animations.len(), src.animations.len(), "{}: animations", input.display());
+        assert_eq!(
+            used_material_names(&back),
+            used_material_names(&src),
+            "{}: materials",
+            input.display()
+        );
+        assert_eq!(
+            textured_primitives(&back),
+            textured_primitives(&src),
+            "{}: UV sets",
+            input.display()
+        );
+        assert_eq!(
+            node_names(&back),
+            node_names(&src),
+            "{}: node hierarchy",
+            input.display()
+        );
+        assert_eq!(
+            back.animations.len(),
+            src.animations.len(),
+            "{}: animations",
+            input.display()
+        );
         if dropped == 0 {
             // Positions and UVs corner by corner (meshes keep their order when all are used).
-            let src_meshes: Vec<usize> = (0..src.meshes.len()).filter(|&m| src.meshes[m].has_triangles()).collect();
-            let back_meshes: Vec<usize> = (0..back.meshes.len()).filter(|&m| back.meshes[m].has_triangles()).collect();
+            let src_meshes: Vec<usize> = (0..src.meshes.len())
+                .filter(|&m| src.meshes[m].has_triangles())
+                .collect();
+            let back_meshes: Vec<usize> = (0..back.meshes.len())
+                .filter(|&m| back.meshes[m].has_triangles())
+                .collect();
             assert_eq!(src_meshes.len(), back_meshes.len());
             for (&a, &b) in src_meshes.iter().zip(&back_meshes) {
                 assert!(
@@ -127,14 +174,29 @@ macro_rules! eval_round_trip {
 
 eval_round_trip!(duck_glb, "gltf/Duck/Duck.glb");
 eval_round_trip!(box_textured, "gltf/BoxTextured/BoxTextured.gltf");
-eval_round_trip!(box_textured_embedded, "gltf/BoxTextured-Embedded/BoxTextured.gltf");
-eval_round_trip!(cesium_milk_truck, "gltf/CesiumMilkTruck/CesiumMilkTruck.glb");
-eval_round_trip!(animated_morph_cube, "gltf/AnimatedMorphCube/AnimatedMorphCube.gltf");
-eval_round_trip!(texture_transform_test, "gltf/TextureTransformTest/TextureTransformTest.gltf");
+eval_round_trip!(
+    box_textured_embedded,
+    "gltf/BoxTextured-Embedded/BoxTextured.gltf"
+);
+eval_round_trip!(
+    cesium_milk_truck,
+    "gltf/CesiumMilkTruck/CesiumMilkTruck.glb"
+);
+eval_round_trip!(
+    animated_morph_cube,
+    "gltf/AnimatedMorphCube/AnimatedMorphCube.gltf"
+);
+eval_round_trip!(
+    texture_transform_test,
+    "gltf/TextureTransformTest/TextureTransformTest.gltf"
+);
 eval_round_trip!(box_interleaved, "gltf/BoxInterleaved/BoxInterleaved.glb");
 eval_round_trip!(cubevc, "gltf/edge_cases/cubevc.glb");
 eval_round_trip!(nested, "gltf/edge_cases/nested.glb");
-eval_round_trip!(alpha_blend, "gltf/AlphaBlendModeTest/AlphaBlendModeTest.glb");
+eval_round_trip!(
+    alpha_blend,
+    "gltf/AlphaBlendModeTest/AlphaBlendModeTest.glb"
+);
 eval_round_trip!(damaged_helmet, "gltf/DamagedHelmet/DamagedHelmet.gltf");
 eval_round_trip!(duck_quantized, "derived/Duck_quantized.glb");
 eval_round_trip!(spot_obj, "obj/spot/spot_triangulated.obj");
@@ -180,10 +242,24 @@ fn hierarchy_transforms_and_instances_survive() {
     let src = crackle::io::read(&common::fixture("hierarchy.glb")).unwrap();
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("h.gltf");
-    common::run_ok(["convert".as_ref(), common::fixture("hierarchy.glb").as_os_str(), out.as_os_str()]);
+    common::run_ok([
+        "convert".as_ref(),
+        common::fixture("hierarchy.glb").as_os_str(),
+        out.as_os_str(),
+    ]);
     let back = crackle::io::read(&out).unwrap();
-    let transforms = |s: &Scene| s.nodes.iter().map(|n| n.transform.matrix()).collect::<Vec<_>>();
-    let children = |s: &Scene| s.nodes.iter().map(|n| n.children.clone()).collect::<Vec<_>>();
+    let transforms = |s: &Scene| {
+        s.nodes
+            .iter()
+            .map(|n| n.transform.matrix())
+            .collect::<Vec<_>>()
+    };
+    let children = |s: &Scene| {
+        s.nodes
+            .iter()
+            .map(|n| n.children.clone())
+            .collect::<Vec<_>>()
+    };
     assert_eq!(transforms(&src), transforms(&back));
     assert_eq!(children(&src), children(&back));
     let instances = |s: &Scene| {
@@ -196,5 +272,8 @@ fn hierarchy_transforms_and_instances_survive() {
         m.into_values().collect::<Vec<_>>()
     };
     assert_eq!(instances(&src), instances(&back));
-    assert!(instances(&back).contains(&2), "the box mesh stays instanced, not duplicated");
+    assert!(
+        instances(&back).contains(&2),
+        "the box mesh stays instanced, not duplicated"
+    );
 }

@@ -8,11 +8,22 @@ use serde_json::json;
 use std::path::Path;
 use std::time::Instant;
 
-pub fn run(input: &Path, output: &Path, weld: &WeldOptions, as_json: bool, quiet: bool) -> Result<()> {
+pub fn run(
+    input: &Path,
+    output: &Path,
+    weld: &WeldOptions,
+    as_json: bool,
+    quiet: bool,
+) -> Result<()> {
     crackle::io::Format::from_path(output)
         .ok()
         .filter(|f| *f != crackle::io::Format::Obj)
-        .ok_or_else(|| super::UsageError(format!("{}: output must be .gltf or .glb", output.display())))?;
+        .ok_or_else(|| {
+            super::UsageError(format!(
+                "{}: output must be .gltf or .glb",
+                output.display()
+            ))
+        })?;
     let t0 = Instant::now();
     let mut scene = crackle::io::read(input)?;
     let t_read = t0.elapsed();
@@ -20,17 +31,31 @@ pub fn run(input: &Path, output: &Path, weld: &WeldOptions, as_json: bool, quiet
         log::warn!("{}: {w}", input.display());
     }
     if scene.triangle_count() == 0 {
-        let why = if scene.warnings.is_empty() { "it has no triangle mesh".to_string() } else { scene.warnings.join("; ") };
+        let why = if scene.warnings.is_empty() {
+            "it has no triangle mesh".to_string()
+        } else {
+            scene.warnings.join("; ")
+        };
         bail!("{}: nothing to crack: {why}", input.display());
     }
     let t1 = Instant::now();
     let (entries, skipped) = build_sim_meshes(&scene, weld);
     for s in &skipped {
-        log::warn!("{}: {} is written unchanged: {}", input.display(), s.label, s.reason);
+        log::warn!(
+            "{}: {} is written unchanged: {}",
+            input.display(),
+            s.label,
+            s.reason
+        );
     }
     for e in &entries {
         if e.report.degenerate_triangles_dropped > 0 {
-            log::warn!("{}: {}: dropped {} degenerate triangles", input.display(), e.label, e.report.degenerate_triangles_dropped);
+            log::warn!(
+                "{}: {}: dropped {} degenerate triangles",
+                input.display(),
+                e.label,
+                e.report.degenerate_triangles_dropped
+            );
         }
         let r = &e.report;
         if r.non_manifold_edges + r.non_manifold_vertices + r.inconsistent_orientation_edges > 0 {

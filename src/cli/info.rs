@@ -63,7 +63,11 @@ pub fn run(input: &Path, as_json: bool, weld: &WeldOptions) -> Result<()> {
     println!("{}", input.display());
     println!(
         "  {} nodes, {} meshes ({} crackable primitives, {} passed through), {} triangles",
-        s["nodes"], s["meshes"], s["primitives"]["crackable"], s["primitives"]["passed_through"], s["triangles"]
+        s["nodes"],
+        s["meshes"],
+        s["primitives"]["crackable"],
+        s["primitives"]["passed_through"],
+        s["triangles"]
     );
     println!(
         "  {} materials, {} textures, {} images, {} cameras, {} skins, {} animations",
@@ -94,7 +98,11 @@ pub fn run(input: &Path, as_json: bool, weld: &WeldOptions) -> Result<()> {
         }
     }
     for s in &skipped {
-        println!("  {}: cannot be simulated: {}", mesh_label(&scene, s.mesh_index), s.reason);
+        println!(
+            "  {}: cannot be simulated: {}",
+            mesh_label(&scene, s.mesh_index),
+            s.reason
+        );
     }
     Ok(())
 }

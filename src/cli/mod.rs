@@ -59,7 +59,10 @@ pub struct UsageError(pub String);
 /// Exit code for an error: 2 for usage/configuration, 1 otherwise.
 pub fn exit_code(e: &anyhow::Error) -> u8 {
     if e.downcast_ref::<UsageError>().is_some()
-        || matches!(e.downcast_ref::<crackle::Error>(), Some(crackle::Error::Config(_)))
+        || matches!(
+            e.downcast_ref::<crackle::Error>(),
+            Some(crackle::Error::Config(_))
+        )
     {
         2
     } else {
@@ -71,15 +74,30 @@ fn weld_options(rel: f64) -> anyhow::Result<crackle::mesh::WeldOptions> {
     if !(rel.is_finite() && (0.0..0.1).contains(&rel)) {
         return Err(UsageError(format!("--weld-tolerance {rel} must be in [0, 0.1)")).into());
     }
-    Ok(crackle::mesh::WeldOptions { relative_tolerance: rel, ..Default::default() })
+    Ok(crackle::mesh::WeldOptions {
+        relative_tolerance: rel,
+    })
 }
 
 /// Run the parsed command.
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
-        Command::Info { input, json, weld_tolerance } => info::run(&input, json, &weld_options(weld_tolerance)?),
-        Command::Convert { input, output, weld_tolerance, json } => {
-            convert::run(&input, &output, &weld_options(weld_tolerance)?, json, cli.quiet)
-        }
+        Command::Info {
+            input,
+            json,
+            weld_tolerance,
+        } => info::run(&input, json, &weld_options(weld_tolerance)?),
+        Command::Convert {
+            input,
+            output,
+            weld_tolerance,
+            json,
+        } => convert::run(
+            &input,
+            &output,
+            &weld_options(weld_tolerance)?,
+            json,
+            cli.quiet,
+        ),
     }
 }

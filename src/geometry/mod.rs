@@ -1,5 +1,6 @@
-//! Geometric helpers shared by the readers and the mesh code.
+//! Geometric helpers shared by the readers, the writer and the mesh code.
 
+pub mod tangents;
 pub mod triangulate;
 
 pub use triangulate::{newell_normal, triangulate_polygon};

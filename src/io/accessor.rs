@@ -107,21 +107,35 @@ impl<'a> AccessorReader<'a> {
     /// Describe accessor `index`, checking its fields.
     pub fn info(&self, index: usize) -> Result<AccessorInfo, String> {
         let a = self.accessor_json(index)?;
-        let ct = get_usize(a, "componentType")?.ok_or_else(|| format!("accessor {index}: missing componentType"))? as u32;
+        let ct = get_usize(a, "componentType")?
+            .ok_or_else(|| format!("accessor {index}: missing componentType"))?
+            as u32;
         let kind = a
             .get("type")
             .and_then(Value::as_str)
             .ok_or_else(|| format!("accessor {index}: missing type"))?
             .to_string();
-        let components = type_components(&kind).ok_or_else(|| format!("accessor {index}: invalid type '{kind}'"))?;
-        let element_size =
-            element_size(ct, &kind).ok_or_else(|| format!("accessor {index}: invalid componentType {ct}"))?;
-        let count = get_usize(a, "count")?.ok_or_else(|| format!("accessor {index}: missing count"))?;
+        let components = type_components(&kind)
+            .ok_or_else(|| format!("accessor {index}: invalid type '{kind}'"))?;
+        let element_size = element_size(ct, &kind)
+            .ok_or_else(|| format!("accessor {index}: invalid componentType {ct}"))?;
+        let count =
+            get_usize(a, "count")?.ok_or_else(|| format!("accessor {index}: missing count"))?;
         if count == 0 {
             return Err(format!("accessor {index}: count must be at least 1"));
         }
-        let normalized = a.get("normalized").and_then(Value::as_bool).unwrap_or(false);
-        Ok(AccessorInfo { component_type: ct, kind, components, element_size, count, normalized })
+        let normalized = a
+            .get("normalized")
+            .and_then(Value::as_bool)
+            .unwrap_or(false);
+        Ok(AccessorInfo {
+            component_type: ct,
+            kind,
+            components,
+            element_size,
+            count,
+            normalized,
+        })
     }
 
     /// The bytes of buffer view `view`, and its stride (None when tightly packed).
@@ -131,9 +145,11 @@ impl<'a> AccessorReader<'a> {
             .get("bufferViews")
             .and_then(|a| a.get(view))
             .ok_or_else(|| format!("bufferView {view} does not exist"))?;
-        let buffer = get_usize(v, "buffer")?.ok_or_else(|| format!("bufferView {view}: missing buffer"))?;
+        let buffer =
+            get_usize(v, "buffer")?.ok_or_else(|| format!("bufferView {view}: missing buffer"))?;
         let offset = get_usize(v, "byteOffset")?.unwrap_or(0);
-        let length = get_usize(v, "byteLength")?.ok_or_else(|| format!("bufferView {view}: missing byteLength"))?;
+        let length = get_usize(v, "byteLength")?
+            .ok_or_else(|| format!("bufferView {view}: missing byteLength"))?;
         let stride = get_usize(v, "byteStride")?;
         if let Some(s) = stride {
             if !(4..=252).contains(&s) || s % 4 != 0 {
@@ -220,34 +236,58 @@ impl<'a> AccessorReader<'a> {
         Ok((info, out))
     }
 
-    fn apply_sparse(&self, index: usize, info: &AccessorInfo, sparse: &Value, out: &mut [u8]) -> Result<(), String> {
-        let n = get_usize(sparse, "count")?.ok_or_else(|| format!("accessor {index}: sparse.count missing"))?;
+    fn apply_sparse(
+        &self,
+        index: usize,
+        info: &AccessorInfo,
+        sparse: &Value,
+        out: &mut [u8],
+    ) -> Result<(), String> {
+        let n = get_usize(sparse, "count")?
+            .ok_or_else(|| format!("accessor {index}: sparse.count missing"))?;
         if n == 0 || n > info.count {
-            return Err(format!("accessor {index}: sparse.count {n} must be in 1..={}", info.count));
+            return Err(format!(
+                "accessor {index}: sparse.count {n} must be in 1..={}",
+                info.count
+            ));
         }
-        let idx = sparse.get("indices").ok_or_else(|| format!("accessor {index}: sparse.indices missing"))?;
-        let vals = sparse.get("values").ok_or_else(|| format!("accessor {index}: sparse.values missing"))?;
+        let idx = sparse
+            .get("indices")
+            .ok_or_else(|| format!("accessor {index}: sparse.indices missing"))?;
+        let vals = sparse
+            .get("values")
+            .ok_or_else(|| format!("accessor {index}: sparse.values missing"))?;
         let ict = get_usize(idx, "componentType")?.unwrap_or(0) as u32;
         let ics = match ict {
             5121 => 1,
             5123 => 2,
             5125 => 4,
-            _ => return Err(format!("accessor {index}: sparse.indices componentType {ict} is invalid")),
+            _ => {
+                return Err(format!(
+                    "accessor {index}: sparse.indices componentType {ict} is invalid"
+                ))
+            }
         };
-        let iview = get_usize(idx, "bufferView")?.ok_or_else(|| format!("accessor {index}: sparse.indices.bufferView missing"))?;
+        let iview = get_usize(idx, "bufferView")?
+            .ok_or_else(|| format!("accessor {index}: sparse.indices.bufferView missing"))?;
         let ioff = get_usize(idx, "byteOffset")?.unwrap_or(0);
         let (ibytes, _) = self.view(iview)?;
         let ineed = n.checked_mul(ics).and_then(|x| x.checked_add(ioff));
         if ineed.is_none_or(|x| x > ibytes.len()) {
-            return Err(format!("accessor {index}: sparse indices do not fit in bufferView {iview}"));
+            return Err(format!(
+                "accessor {index}: sparse indices do not fit in bufferView {iview}"
+            ));
         }
-        let vview = get_usize(vals, "bufferView")?.ok_or_else(|| format!("accessor {index}: sparse.values.bufferView missing"))?;
+        let vview = get_usize(vals, "bufferView")?
+            .ok_or_else(|| format!("accessor {index}: sparse.values.bufferView missing"))?;
         let voff = get_usize(vals, "byteOffset")?.unwrap_or(0);
         let (vbytes, _) = self.view(vview)?;
         let es = info.element_size;
         let vneed = n.checked_mul(es).and_then(|x| x.checked_add(voff));
         if vneed.is_none_or(|x| x > vbytes.len()) {
-            return Err(format!("accessor {index}: sparse values do not fit in bufferView {vview}"));
+            return Err(format!(
+                "accessor {index}: sparse values do not fit in bufferView {vview}"
+            ));
         }
         let mut prev: Option<usize> = None;
         for k in 0..n {
@@ -255,13 +295,19 @@ impl<'a> AccessorReader<'a> {
             let target = match ics {
                 1 => ibytes[p] as usize,
                 2 => u16::from_le_bytes([ibytes[p], ibytes[p + 1]]) as usize,
-                _ => u32::from_le_bytes([ibytes[p], ibytes[p + 1], ibytes[p + 2], ibytes[p + 3]]) as usize,
+                _ => u32::from_le_bytes([ibytes[p], ibytes[p + 1], ibytes[p + 2], ibytes[p + 3]])
+                    as usize,
             };
             if target >= info.count {
-                return Err(format!("accessor {index}: sparse index {target} out of range ({} elements)", info.count));
+                return Err(format!(
+                    "accessor {index}: sparse index {target} out of range ({} elements)",
+                    info.count
+                ));
             }
             if prev.is_some_and(|q| target <= q) {
-                return Err(format!("accessor {index}: sparse indices are not strictly increasing"));
+                return Err(format!(
+                    "accessor {index}: sparse indices are not strictly increasing"
+                ));
             }
             prev = Some(target);
             let src = voff + k * es;
@@ -275,29 +321,55 @@ impl<'a> AccessorReader<'a> {
     pub fn read_f32(&self, index: usize) -> Result<(AccessorInfo, Vec<f32>), String> {
         let (info, bytes) = self.read_packed(index)?;
         if info.kind.starts_with("MAT") {
-            return Err(format!("accessor {index}: matrix accessor where a vector was expected"));
+            return Err(format!(
+                "accessor {index}: matrix accessor where a vector was expected"
+            ));
         }
         let n = info.count * info.components;
         let mut out = Vec::with_capacity(n);
         let norm = info.normalized;
         match info.component_type {
-            5126 => out.extend(bytes.chunks_exact(4).map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))),
+            5126 => out.extend(
+                bytes
+                    .chunks_exact(4)
+                    .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]])),
+            ),
             5120 => out.extend(bytes.iter().map(|&b| {
                 let v = b as i8 as f32;
-                if norm { (v / 127.0).max(-1.0) } else { v }
+                if norm {
+                    (v / 127.0).max(-1.0)
+                } else {
+                    v
+                }
             })),
-            5121 => out.extend(bytes.iter().map(|&b| if norm { b as f32 / 255.0 } else { b as f32 })),
+            5121 => out.extend(
+                bytes
+                    .iter()
+                    .map(|&b| if norm { b as f32 / 255.0 } else { b as f32 }),
+            ),
             5122 => out.extend(bytes.chunks_exact(2).map(|c| {
                 let v = i16::from_le_bytes([c[0], c[1]]) as f32;
-                if norm { (v / 32767.0).max(-1.0) } else { v }
+                if norm {
+                    (v / 32767.0).max(-1.0)
+                } else {
+                    v
+                }
             })),
             5123 => out.extend(bytes.chunks_exact(2).map(|c| {
                 let v = u16::from_le_bytes([c[0], c[1]]) as f32;
-                if norm { v / 65535.0 } else { v }
+                if norm {
+                    v / 65535.0
+                } else {
+                    v
+                }
             })),
             5125 => out.extend(bytes.chunks_exact(4).map(|c| {
                 let v = u32::from_le_bytes([c[0], c[1], c[2], c[3]]) as f32;
-                if norm { v / 4294967295.0 } else { v }
+                if norm {
+                    v / 4294967295.0
+                } else {
+                    v
+                }
             })),
             ct => return Err(format!("accessor {index}: invalid componentType {ct}")),
         }
@@ -308,13 +380,25 @@ impl<'a> AccessorReader<'a> {
     pub fn read_indices(&self, index: usize) -> Result<Vec<u32>, String> {
         let (info, bytes) = self.read_packed(index)?;
         if info.kind != "SCALAR" || info.normalized {
-            return Err(format!("accessor {index}: indices must be SCALAR and not normalized"));
+            return Err(format!(
+                "accessor {index}: indices must be SCALAR and not normalized"
+            ));
         }
         Ok(match info.component_type {
             5121 => bytes.iter().map(|&b| b as u32).collect(),
-            5123 => bytes.chunks_exact(2).map(|c| u16::from_le_bytes([c[0], c[1]]) as u32).collect(),
-            5125 => bytes.chunks_exact(4).map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect(),
-            ct => return Err(format!("accessor {index}: index componentType {ct} is not an unsigned integer type")),
+            5123 => bytes
+                .chunks_exact(2)
+                .map(|c| u16::from_le_bytes([c[0], c[1]]) as u32)
+                .collect(),
+            5125 => bytes
+                .chunks_exact(4)
+                .map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+                .collect(),
+            ct => {
+                return Err(format!(
+                    "accessor {index}: index componentType {ct} is not an unsigned integer type"
+                ))
+            }
         })
     }
 }
@@ -382,7 +466,11 @@ mod tests {
 
     #[test]
     fn normalized_integers() {
-        let buf: Vec<u8> = [0u16, 65535, 32768].iter().flat_map(|x| x.to_le_bytes()).chain([0, 0]).collect();
+        let buf: Vec<u8> = [0u16, 65535, 32768]
+            .iter()
+            .flat_map(|x| x.to_le_bytes())
+            .chain([0, 0])
+            .collect();
         let root = json!({
             "bufferViews": [{"buffer":0, "byteLength":8}],
             "accessors": [{"bufferView":0, "componentType":5123, "type":"SCALAR", "count":3, "normalized": true}]

@@ -12,8 +12,8 @@ use crate::error::{Error, Result};
 use crate::io::accessor::AccessorReader;
 use crate::io::paths::resolve_inside;
 use crate::scene::{
-    mode, Geometry, Image, ImageSource, Material, Mesh, Node, Primitive, RawAccessor, RawGeometry, Scene,
-    SceneRoot, Transform, TriGeometry, VertexAttribute,
+    mode, Geometry, Image, ImageSource, Material, Mesh, Node, Primitive, RawAccessor, RawGeometry,
+    Scene, SceneRoot, Transform, TriGeometry, VertexAttribute,
 };
 use base64::Engine;
 use serde_json::{Map, Value};
@@ -52,25 +52,34 @@ pub fn read_gltf(path: &Path) -> Result<Scene> {
 pub fn read_gltf_bytes(bytes: &[u8], base_dir: &Path, path: &Path) -> Result<Scene> {
     let err = |m: String| Error::input(path, m);
     let (json_bytes, bin): (Vec<u8>, Option<Vec<u8>>) = if bytes.starts_with(b"glTF") {
-        let glb = gltf::binary::Glb::from_slice(bytes).map_err(|e| err(format!("invalid GLB container: {e}")))?;
+        let glb = gltf::binary::Glb::from_slice(bytes)
+            .map_err(|e| err(format!("invalid GLB container: {e}")))?;
         (glb.json.into_owned(), glb.bin.map(|b| b.into_owned()))
     } else {
         (bytes.to_vec(), None)
     };
-    let root: Value = serde_json::from_slice(&json_bytes).map_err(|e| err(format!("invalid JSON: {e}")))?;
+    let root: Value =
+        serde_json::from_slice(&json_bytes).map_err(|e| err(format!("invalid JSON: {e}")))?;
     if !root.is_object() {
         return Err(err("the glTF JSON is not an object".into()));
     }
     let version = root.pointer("/asset/version").and_then(Value::as_str);
     match version {
         Some(v) if v.starts_with("2.") => {}
-        Some(v) => return Err(err(format!("unsupported glTF version '{v}' (only 2.x is read)"))),
+        Some(v) => {
+            return Err(err(format!(
+                "unsupported glTF version '{v}' (only 2.x is read)"
+            )))
+        }
         None => return Err(err("missing asset.version (not a glTF 2.0 file)".into())),
     }
     // Extensions the tool cannot decode: refuse by name.
     if let Some(req) = root.get("extensionsRequired").and_then(Value::as_array) {
-        let bad: Vec<&str> =
-            req.iter().filter_map(Value::as_str).filter(|n| !required_extension_supported(n)).collect();
+        let bad: Vec<&str> = req
+            .iter()
+            .filter_map(Value::as_str)
+            .filter(|n| !required_extension_supported(n))
+            .collect();
         if !bad.is_empty() {
             return Err(err(format!(
                 "requires extension{} {} which crackle cannot decode",
@@ -79,6 +88,7 @@ pub fn read_gltf_bytes(bytes: &[u8], base_dir: &Path, path: &Path) -> Result<Sce
             )));
         }
     }
+    precheck_positions(&root).map_err(err)?;
     validate_schema(&json_bytes).map_err(err)?;
     let buffers = load_buffers(&root, bin, base_dir).map_err(err)?;
     let mut reader = SceneReader {
@@ -91,6 +101,28 @@ pub fn read_gltf_bytes(bytes: &[u8], base_dir: &Path, path: &Path) -> Result<Sce
     };
     reader.read().map_err(err)?;
     Ok(reader.scene)
+}
+
+/// POSITION accessor indices must exist before the `gltf` crate's schema check
+/// looks them up (it indexes without checking).
+fn precheck_positions(root: &Value) -> std::result::Result<(), String> {
+    let n_acc = arr(root, "accessors").len();
+    for (mi, m) in arr(root, "meshes").iter().enumerate() {
+        for (pi, p) in arr(m, "primitives").iter().enumerate() {
+            let pos = p.get("attributes").and_then(|a| a.get("POSITION"));
+            if let Some(pos) = pos {
+                match pos.as_u64() {
+                    Some(i) if (i as usize) < n_acc => {}
+                    _ => {
+                        return Err(format!(
+                            "mesh {mi} primitive {pi}: POSITION accessor {pos} does not exist ({n_acc} accessors)"
+                        ))
+                    }
+                }
+            }
+        }
+    }
+    Ok(())
 }
 
 /// Structural validation by the `gltf` crate's schema (indices in range,
@@ -110,15 +142,26 @@ fn validate_schema(json: &[u8]) -> std::result::Result<(), String> {
     } else {
         let n = errors.len();
         errors.truncate(5);
-        Err(format!("invalid glTF ({n} error{}): {}", if n > 1 { "s" } else { "" }, errors.join("; ")))
+        Err(format!(
+            "invalid glTF ({n} error{}): {}",
+            if n > 1 { "s" } else { "" },
+            errors.join("; ")
+        ))
     }
 }
 
-fn decode_data_uri(uri: &str) -> Option<std::result::Result<(Option<String>, Vec<u8>), String>> {
+/// MIME type (if given) and bytes of a data URI.
+type DataUri = (Option<String>, Vec<u8>);
+
+fn decode_data_uri(uri: &str) -> Option<std::result::Result<DataUri, String>> {
     let rest = uri.strip_prefix("data:")?;
     Some((|| {
         let (meta, data) = rest.split_once(',').ok_or("malformed data URI")?;
-        let mime = meta.split(';').next().filter(|m| !m.is_empty()).map(str::to_string);
+        let mime = meta
+            .split(';')
+            .next()
+            .filter(|m| !m.is_empty())
+            .map(str::to_string);
         if !meta.ends_with(";base64") {
             return Err("data URI is not base64".to_string());
         }
@@ -130,8 +173,16 @@ fn decode_data_uri(uri: &str) -> Option<std::result::Result<(Option<String>, Vec
 }
 
 /// Load every buffer that some buffer view uses.
-fn load_buffers(root: &Value, mut bin: Option<Vec<u8>>, base_dir: &Path) -> std::result::Result<Vec<Option<Vec<u8>>>, String> {
-    let bufs = root.get("buffers").and_then(Value::as_array).cloned().unwrap_or_default();
+fn load_buffers(
+    root: &Value,
+    mut bin: Option<Vec<u8>>,
+    base_dir: &Path,
+) -> std::result::Result<Vec<Option<Vec<u8>>>, String> {
+    let bufs = root
+        .get("buffers")
+        .and_then(Value::as_array)
+        .cloned()
+        .unwrap_or_default();
     let mut used = vec![false; bufs.len()];
     if let Some(views) = root.get("bufferViews").and_then(Value::as_array) {
         for v in views {
@@ -148,13 +199,20 @@ fn load_buffers(root: &Value, mut bin: Option<Vec<u8>>, base_dir: &Path) -> std:
             out.push(None);
             continue;
         }
-        let declared = b.get("byteLength").and_then(Value::as_u64).ok_or(format!("buffer {i}: missing byteLength"))?;
+        let declared = b
+            .get("byteLength")
+            .and_then(Value::as_u64)
+            .ok_or(format!("buffer {i}: missing byteLength"))?;
         let data = match b.get("uri").and_then(Value::as_str) {
             None => {
                 if i != 0 {
-                    return Err(format!("buffer {i} has no uri (only buffer 0 may refer to the GLB binary chunk)"));
+                    return Err(format!(
+                        "buffer {i} has no uri (only buffer 0 may refer to the GLB binary chunk)"
+                    ));
                 }
-                let data = bin.take().ok_or(format!("buffer {i} has no uri and the file has no GLB binary chunk"))?;
+                let data = bin.take().ok_or(format!(
+                    "buffer {i} has no uri and the file has no GLB binary chunk"
+                ))?;
                 if (data.len() as u64) < declared {
                     return Err(format!(
                         "buffer {i}: GLB binary chunk holds {} bytes but byteLength declares {declared}",
@@ -171,13 +229,18 @@ fn load_buffers(root: &Value, mut bin: Option<Vec<u8>>, base_dir: &Path) -> std:
                     }
                     let (_, data) = r.map_err(|e| format!("buffer {i}: {e}"))?;
                     if (data.len() as u64) < declared {
-                        return Err(format!("buffer {i}: data URI holds {} bytes, byteLength declares {declared}", data.len()));
+                        return Err(format!(
+                            "buffer {i}: data URI holds {} bytes, byteLength declares {declared}",
+                            data.len()
+                        ));
                     }
                     data
                 } else {
-                    let file = resolve_inside(base_dir, uri).map_err(|e| format!("buffer {i}: {e}"))?;
-                    let meta = std::fs::metadata(&file)
-                        .map_err(|e| format!("buffer {i}: cannot open '{}': {e}", file.display()))?;
+                    let file =
+                        resolve_inside(base_dir, uri).map_err(|e| format!("buffer {i}: {e}"))?;
+                    let meta = std::fs::metadata(&file).map_err(|e| {
+                        format!("buffer {i}: cannot open '{}': {e}", file.display())
+                    })?;
                     if meta.len() < declared {
                         return Err(format!(
                             "buffer {i}: '{}' has {} bytes but byteLength declares {declared}",
@@ -188,7 +251,9 @@ fn load_buffers(root: &Value, mut bin: Option<Vec<u8>>, base_dir: &Path) -> std:
                     let mut data = Vec::with_capacity(declared as usize);
                     std::fs::File::open(&file)
                         .and_then(|f| f.take(declared).read_to_end(&mut data))
-                        .map_err(|e| format!("buffer {i}: cannot read '{}': {e}", file.display()))?;
+                        .map_err(|e| {
+                            format!("buffer {i}: cannot read '{}': {e}", file.display())
+                        })?;
                     data
                 }
             }
@@ -211,7 +276,10 @@ struct SceneReader<'a> {
 }
 
 fn arr<'v>(v: &'v Value, key: &str) -> &'v [Value] {
-    v.get(key).and_then(Value::as_array).map(Vec::as_slice).unwrap_or(&[])
+    v.get(key)
+        .and_then(Value::as_array)
+        .map(Vec::as_slice)
+        .unwrap_or(&[])
 }
 
 fn idx(v: &Value, key: &str) -> Option<usize> {
@@ -222,10 +290,16 @@ fn f64s<const N: usize>(v: &Value, key: &str) -> std::result::Result<Option<[f64
     match v.get(key) {
         None => Ok(None),
         Some(a) => {
-            let a = a.as_array().filter(|a| a.len() == N).ok_or(format!("'{key}' must have {N} numbers"))?;
+            let a = a
+                .as_array()
+                .filter(|a| a.len() == N)
+                .ok_or(format!("'{key}' must have {N} numbers"))?;
             let mut out = [0.0; N];
             for (o, x) in out.iter_mut().zip(a) {
-                *o = x.as_f64().filter(|x| x.is_finite()).ok_or(format!("'{key}' must hold finite numbers"))?;
+                *o = x
+                    .as_f64()
+                    .filter(|x| x.is_finite())
+                    .ok_or(format!("'{key}' must hold finite numbers"))?;
             }
             Ok(Some(out))
         }
@@ -235,18 +309,32 @@ fn f64s<const N: usize>(v: &Value, key: &str) -> std::result::Result<Option<[f64
 /// The object's fields other than `keep_out`, i.e. what the scene does not model.
 fn rest_of(v: &Value, modelled: &[&str]) -> Map<String, Value> {
     v.as_object()
-        .map(|o| o.iter().filter(|(k, _)| !modelled.contains(&k.as_str())).map(|(k, v)| (k.clone(), v.clone())).collect())
+        .map(|o| {
+            o.iter()
+                .filter(|(k, _)| !modelled.contains(&k.as_str()))
+                .map(|(k, v)| (k.clone(), v.clone()))
+                .collect()
+        })
         .unwrap_or_default()
 }
 
 impl SceneReader<'_> {
     fn read(&mut self) -> std::result::Result<(), String> {
         let root = self.root;
-        self.scene.copyright = root.pointer("/asset/copyright").and_then(Value::as_str).map(str::to_string);
-        self.scene.extensions_used =
-            arr(root, "extensionsUsed").iter().filter_map(Value::as_str).map(str::to_string).collect();
-        self.scene.extensions_required =
-            arr(root, "extensionsRequired").iter().filter_map(Value::as_str).map(str::to_string).collect();
+        self.scene.copyright = root
+            .pointer("/asset/copyright")
+            .and_then(Value::as_str)
+            .map(str::to_string);
+        self.scene.extensions_used = arr(root, "extensionsUsed")
+            .iter()
+            .filter_map(Value::as_str)
+            .map(str::to_string)
+            .collect();
+        self.scene.extensions_required = arr(root, "extensionsRequired")
+            .iter()
+            .filter_map(Value::as_str)
+            .map(str::to_string)
+            .collect();
         self.scene.extensions = root.get("extensions").and_then(Value::as_object).cloned();
         self.scene.extras = root.get("extras").cloned();
         self.scene.samplers = arr(root, "samplers").to_vec();
@@ -254,7 +342,9 @@ impl SceneReader<'_> {
         self.scene.cameras = arr(root, "cameras").to_vec();
         self.scene.materials = arr(root, "materials")
             .iter()
-            .map(|m| Material { json: m.as_object().cloned().unwrap_or_default() })
+            .map(|m| Material {
+                json: m.as_object().cloned().unwrap_or_default(),
+            })
             .collect();
         for (i, img) in arr(root, "images").iter().enumerate() {
             let image = self.read_image(i, img)?;
@@ -262,24 +352,47 @@ impl SceneReader<'_> {
         }
         // Nodes
         for (i, n) in arr(root, "nodes").iter().enumerate() {
-            let transform = if let Some(m) = f64s::<16>(n, "matrix").map_err(|e| format!("node {i}: {e}"))? {
-                Transform::Matrix(m)
-            } else {
-                Transform::Trs {
-                    translation: f64s::<3>(n, "translation").map_err(|e| format!("node {i}: {e}"))?,
-                    rotation: f64s::<4>(n, "rotation").map_err(|e| format!("node {i}: {e}"))?,
-                    scale: f64s::<3>(n, "scale").map_err(|e| format!("node {i}: {e}"))?,
-                }
-            };
+            let transform =
+                if let Some(m) = f64s::<16>(n, "matrix").map_err(|e| format!("node {i}: {e}"))? {
+                    Transform::Matrix(m)
+                } else {
+                    Transform::Trs {
+                        translation: f64s::<3>(n, "translation")
+                            .map_err(|e| format!("node {i}: {e}"))?,
+                        rotation: f64s::<4>(n, "rotation").map_err(|e| format!("node {i}: {e}"))?,
+                        scale: f64s::<3>(n, "scale").map_err(|e| format!("node {i}: {e}"))?,
+                    }
+                };
             self.scene.nodes.push(Node {
                 name: n.get("name").and_then(Value::as_str).map(str::to_string),
                 transform,
-                children: arr(n, "children").iter().filter_map(Value::as_u64).map(|c| c as usize).collect(),
+                children: arr(n, "children")
+                    .iter()
+                    .filter_map(Value::as_u64)
+                    .map(|c| c as usize)
+                    .collect(),
                 mesh: idx(n, "mesh"),
                 camera: idx(n, "camera"),
                 skin: idx(n, "skin"),
-                weights: n.get("weights").and_then(Value::as_array).map(|w| w.iter().filter_map(Value::as_f64).collect()),
-                rest: rest_of(n, &["name", "matrix", "translation", "rotation", "scale", "children", "mesh", "camera", "skin", "weights"]),
+                weights: n
+                    .get("weights")
+                    .and_then(Value::as_array)
+                    .map(|w| w.iter().filter_map(Value::as_f64).collect()),
+                rest: rest_of(
+                    n,
+                    &[
+                        "name",
+                        "matrix",
+                        "translation",
+                        "rotation",
+                        "scale",
+                        "children",
+                        "mesh",
+                        "camera",
+                        "skin",
+                        "weights",
+                    ],
+                ),
             });
         }
         check_hierarchy(&self.scene.nodes)?;
@@ -323,13 +436,21 @@ impl SceneReader<'_> {
         for s in arr(root, "scenes") {
             self.scene.scenes.push(SceneRoot {
                 name: s.get("name").and_then(Value::as_str).map(str::to_string),
-                nodes: arr(s, "nodes").iter().filter_map(Value::as_u64).map(|n| n as usize).collect(),
+                nodes: arr(s, "nodes")
+                    .iter()
+                    .filter_map(Value::as_u64)
+                    .map(|n| n as usize)
+                    .collect(),
                 rest: rest_of(s, &["name", "nodes"]),
             });
         }
         self.scene.default_scene = idx(root, "scene");
         if self.scene.scenes.is_empty() && !self.scene.nodes.is_empty() {
-            self.scene.scenes.push(SceneRoot { name: None, nodes: self.scene.root_nodes(), rest: Map::new() });
+            self.scene.scenes.push(SceneRoot {
+                name: None,
+                nodes: self.scene.root_nodes(),
+                rest: Map::new(),
+            });
             self.scene.default_scene = Some(0);
         }
         Ok(())
@@ -337,7 +458,10 @@ impl SceneReader<'_> {
 
     fn read_image(&mut self, i: usize, img: &Value) -> std::result::Result<Image, String> {
         let name = img.get("name").and_then(Value::as_str).map(str::to_string);
-        let mut mime_type = img.get("mimeType").and_then(Value::as_str).map(str::to_string);
+        let mut mime_type = img
+            .get("mimeType")
+            .and_then(Value::as_str)
+            .map(str::to_string);
         let rest = rest_of(img, &["name", "mimeType", "uri", "bufferView"]);
         let (source, file_name) = if let Some(uri) = img.get("uri").and_then(Value::as_str) {
             if let Some(r) = decode_data_uri(uri) {
@@ -347,15 +471,21 @@ impl SceneReader<'_> {
                 }
                 (ImageSource::Bytes(bytes), None)
             } else {
-                let file = resolve_inside(self.base_dir, uri).map_err(|e| format!("image {i}: {e}"))?;
+                let file =
+                    resolve_inside(self.base_dir, uri).map_err(|e| format!("image {i}: {e}"))?;
                 if !file.is_file() {
                     return Err(format!("image {i}: file '{}' not found", file.display()));
                 }
-                let fname = file.file_name().and_then(|f| f.to_str()).map(str::to_string);
+                let fname = file
+                    .file_name()
+                    .and_then(|f| f.to_str())
+                    .map(str::to_string);
                 (ImageSource::File(file), fname)
             }
         } else if let Some(view) = idx(img, "bufferView") {
-            let bytes = self.view_bytes(view).map_err(|e| format!("image {i}: {e}"))?;
+            let bytes = self
+                .view_bytes(view)
+                .map_err(|e| format!("image {i}: {e}"))?;
             (ImageSource::Bytes(bytes), None)
         } else {
             return Err(format!("image {i} has neither uri nor bufferView"));
@@ -374,15 +504,28 @@ impl SceneReader<'_> {
             _ => "bin",
         };
         let file_name = file_name.unwrap_or_else(|| format!("image{i}.{ext}"));
-        Ok(Image { name, mime_type, source, file_name, rest })
+        Ok(Image {
+            name,
+            mime_type,
+            source,
+            file_name,
+            rest,
+        })
     }
 
     fn view_bytes(&self, view: usize) -> std::result::Result<Vec<u8>, String> {
-        let v = self.root.pointer(&format!("/bufferViews/{view}")).ok_or(format!("bufferView {view} does not exist"))?;
+        let v = self
+            .root
+            .pointer(&format!("/bufferViews/{view}"))
+            .ok_or(format!("bufferView {view} does not exist"))?;
         let b = idx(v, "buffer").ok_or("bufferView without buffer")?;
         let off = idx(v, "byteOffset").unwrap_or(0);
         let len = idx(v, "byteLength").ok_or("bufferView without byteLength")?;
-        let data = self.buffers.get(b).and_then(|x| x.as_deref()).ok_or(format!("buffer {b} not loaded"))?;
+        let data = self
+            .buffers
+            .get(b)
+            .and_then(|x| x.as_deref())
+            .ok_or(format!("buffer {b} not loaded"))?;
         off.checked_add(len)
             .filter(|&e| e <= data.len())
             .map(|e| data[off..e].to_vec())
@@ -395,7 +538,11 @@ impl SceneReader<'_> {
             return Ok(r);
         }
         let (info, data) = self.acc.read_packed(a)?;
-        let j = self.root.pointer(&format!("/accessors/{a}")).cloned().unwrap_or(Value::Null);
+        let j = self
+            .root
+            .pointer(&format!("/accessors/{a}"))
+            .cloned()
+            .unwrap_or(Value::Null);
         let r = self.scene.accessors.len();
         self.scene.accessors.push(RawAccessor {
             component_type: info.component_type,
@@ -411,7 +558,12 @@ impl SceneReader<'_> {
         Ok(r)
     }
 
-    fn read_mesh(&mut self, mi: usize, m: &Value, skinned: bool) -> std::result::Result<Mesh, String> {
+    fn read_mesh(
+        &mut self,
+        mi: usize,
+        m: &Value,
+        skinned: bool,
+    ) -> std::result::Result<Mesh, String> {
         let mesh_name = m.get("name").and_then(Value::as_str).map(str::to_string);
         let label = match &mesh_name {
             Some(n) => format!("mesh {mi} '{n}'"),
@@ -419,7 +571,9 @@ impl SceneReader<'_> {
         };
         let mut primitives = Vec::new();
         for (pi, p) in arr(m, "primitives").iter().enumerate() {
-            let prim = self.read_primitive(p, skinned).map_err(|e| format!("{label} primitive {pi}: {e}"))?;
+            let prim = self
+                .read_primitive(p, skinned)
+                .map_err(|e| format!("{label} primitive {pi}: {e}"))?;
             if let Geometry::Raw(raw) = &prim.geometry {
                 let why = if skinned || raw.attributes.keys().any(|k| k.starts_with("JOINTS_")) {
                     "skinned"
@@ -430,26 +584,41 @@ impl SceneReader<'_> {
                         _ => "no crackable triangles",
                     }
                 };
-                self.scene.warnings.push(format!("{label} primitive {pi} ({why}) is passed through without cracking"));
+                self.scene.warnings.push(format!(
+                    "{label} primitive {pi} ({why}) is passed through without cracking"
+                ));
             }
             primitives.push(prim);
         }
         Ok(Mesh {
             name: mesh_name,
             primitives,
-            weights: m.get("weights").and_then(Value::as_array).map(|w| w.iter().filter_map(Value::as_f64).collect()),
+            weights: m
+                .get("weights")
+                .and_then(Value::as_array)
+                .map(|w| w.iter().filter_map(Value::as_f64).collect()),
             rest: rest_of(m, &["name", "primitives", "weights"]),
         })
     }
 
-    fn read_primitive(&mut self, p: &Value, skinned: bool) -> std::result::Result<Primitive, String> {
+    fn read_primitive(
+        &mut self,
+        p: &Value,
+        skinned: bool,
+    ) -> std::result::Result<Primitive, String> {
         let prim_mode = p.get("mode").and_then(Value::as_u64).unwrap_or(4) as u32;
         let attrs: BTreeMap<String, usize> = p
             .get("attributes")
             .and_then(Value::as_object)
-            .map(|o| o.iter().filter_map(|(k, v)| Some((k.clone(), v.as_u64()? as usize))).collect())
+            .map(|o| {
+                o.iter()
+                    .filter_map(|(k, v)| Some((k.clone(), v.as_u64()? as usize)))
+                    .collect()
+            })
             .unwrap_or_default();
-        let has_skin_attrs = attrs.keys().any(|k| k.starts_with("JOINTS_") || k.starts_with("WEIGHTS_"));
+        let has_skin_attrs = attrs
+            .keys()
+            .any(|k| k.starts_with("JOINTS_") || k.starts_with("WEIGHTS_"));
         let mut rest = rest_of(p, &["attributes", "indices", "material", "mode", "targets"]);
         // A Draco extension that is only *used* has a fallback: read the plain accessors.
         if let Some(ext) = rest.get_mut("extensions").and_then(Value::as_object_mut) {
@@ -459,9 +628,15 @@ impl SceneReader<'_> {
             }
         }
         let material = idx(p, "material");
-        let triangles = matches!(prim_mode, mode::TRIANGLES | mode::TRIANGLE_STRIP | mode::TRIANGLE_FAN);
+        let triangles = matches!(
+            prim_mode,
+            mode::TRIANGLES | mode::TRIANGLE_STRIP | mode::TRIANGLE_FAN
+        );
         if !triangles || has_skin_attrs || skinned || !attrs.contains_key("POSITION") {
-            let mut raw = RawGeometry { mode: prim_mode, ..Default::default() };
+            let mut raw = RawGeometry {
+                mode: prim_mode,
+                ..Default::default()
+            };
             for (k, a) in &attrs {
                 raw.attributes.insert(k.clone(), self.raw(*a)?);
             }
@@ -479,17 +654,30 @@ impl SceneReader<'_> {
                 }
                 raw.targets.push(tm);
             }
-            return Ok(Primitive { material, geometry: Geometry::Raw(raw), rest });
+            return Ok(Primitive {
+                material,
+                geometry: Geometry::Raw(raw),
+                rest,
+            });
         }
         // Crackable triangles: decode.
         let pos_acc = attrs["POSITION"];
-        let (info, pos) = self.acc.read_f32(pos_acc).map_err(|e| format!("POSITION: {e}"))?;
+        let (info, pos) = self
+            .acc
+            .read_f32(pos_acc)
+            .map_err(|e| format!("POSITION: {e}"))?;
         if info.components != 3 {
-            return Err(format!("POSITION accessor {pos_acc} is {}, not VEC3", info.kind));
+            return Err(format!(
+                "POSITION accessor {pos_acc} is {}, not VEC3",
+                info.kind
+            ));
         }
         let n = info.count;
         if let Some(k) = pos.iter().position(|x| !x.is_finite()) {
-            return Err(format!("POSITION accessor {pos_acc}: vertex {} is not finite", k / 3));
+            return Err(format!(
+                "POSITION accessor {pos_acc}: vertex {} is not finite",
+                k / 3
+            ));
         }
         let positions: Vec<[f32; 3]> = pos.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
         let mut attributes = Vec::new();
@@ -499,15 +687,27 @@ impl SceneReader<'_> {
             }
             let (ai, data) = self.acc.read_f32(a).map_err(|e| format!("{sem}: {e}"))?;
             if ai.count != n {
-                return Err(format!("{sem} accessor {a} has {} elements but POSITION has {n}", ai.count));
+                return Err(format!(
+                    "{sem} accessor {a} has {} elements but POSITION has {n}",
+                    ai.count
+                ));
             }
-            attributes.push(VertexAttribute { semantic: sem.clone(), components: ai.components, data });
+            attributes.push(VertexAttribute {
+                semantic: sem.clone(),
+                components: ai.components,
+                data,
+            });
         }
         let index_list: Vec<u32> = match idx(p, "indices") {
             Some(i) => {
-                let v = self.acc.read_indices(i).map_err(|e| format!("indices: {e}"))?;
+                let v = self
+                    .acc
+                    .read_indices(i)
+                    .map_err(|e| format!("indices: {e}"))?;
                 if let Some(bad) = v.iter().find(|&&x| x as usize >= n) {
-                    return Err(format!("indices accessor {i}: index {bad} out of range ({n} vertices)"));
+                    return Err(format!(
+                        "indices accessor {i}: index {bad} out of range ({n} vertices)"
+                    ));
                 }
                 v
             }
@@ -517,24 +717,47 @@ impl SceneReader<'_> {
         for (ti, t) in arr(p, "targets").iter().enumerate() {
             let mut tattrs = Vec::new();
             for (sem, a) in t.as_object().into_iter().flatten() {
-                let a = a.as_u64().ok_or(format!("morph target {ti}: {sem} is not an accessor index"))? as usize;
-                let (ai, data) = self.acc.read_f32(a).map_err(|e| format!("morph target {ti} {sem}: {e}"))?;
+                let a = a
+                    .as_u64()
+                    .ok_or(format!("morph target {ti}: {sem} is not an accessor index"))?
+                    as usize;
+                let (ai, data) = self
+                    .acc
+                    .read_f32(a)
+                    .map_err(|e| format!("morph target {ti} {sem}: {e}"))?;
                 if ai.count != n {
-                    return Err(format!("morph target {ti} {sem} has {} elements but POSITION has {n}", ai.count));
+                    return Err(format!(
+                        "morph target {ti} {sem} has {} elements but POSITION has {n}",
+                        ai.count
+                    ));
                 }
-                tattrs.push(VertexAttribute { semantic: sem.clone(), components: ai.components, data });
+                tattrs.push(VertexAttribute {
+                    semantic: sem.clone(),
+                    components: ai.components,
+                    data,
+                });
             }
             targets.push(tattrs);
         }
         let triangles = assemble_triangles(prim_mode, &index_list);
-        let mut geo = TriGeometry { positions, attributes, triangles, targets, group: None };
+        let mut geo = TriGeometry {
+            positions,
+            attributes,
+            triangles,
+            targets,
+            group: None,
+        };
         let fixed = normalize_vectors(&mut geo);
         if fixed > 0 {
             self.scene.warnings.push(format!(
                 "{fixed} zero or non-finite normals/tangents replaced by the face normal or (1,0,0)"
             ));
         }
-        Ok(Primitive { material, geometry: Geometry::Triangles(geo), rest })
+        Ok(Primitive {
+            material,
+            geometry: Geometry::Triangles(geo),
+            rest,
+        })
     }
 }
 
@@ -557,7 +780,9 @@ fn check_hierarchy(nodes: &[Node]) -> std::result::Result<(), String> {
         let mut steps = 0;
         while let Some(p) = cur {
             if p == start || steps > nodes.len() {
-                return Err(format!("node {start} is part of a cycle in the node hierarchy"));
+                return Err(format!(
+                    "node {start} is part of a cycle in the node hierarchy"
+                ));
             }
             cur = parent[p];
             steps += 1;
@@ -571,9 +796,17 @@ fn check_hierarchy(nodes: &[Node]) -> std::result::Result<(), String> {
 pub fn assemble_triangles(prim_mode: u32, ix: &[u32]) -> Vec<[u32; 3]> {
     match prim_mode {
         mode::TRIANGLE_STRIP => (0..ix.len().saturating_sub(2))
-            .map(|i| if i % 2 == 0 { [ix[i], ix[i + 1], ix[i + 2]] } else { [ix[i + 1], ix[i], ix[i + 2]] })
+            .map(|i| {
+                if i % 2 == 0 {
+                    [ix[i], ix[i + 1], ix[i + 2]]
+                } else {
+                    [ix[i + 1], ix[i], ix[i + 2]]
+                }
+            })
             .collect(),
-        mode::TRIANGLE_FAN => (1..ix.len().saturating_sub(1)).map(|i| [ix[i], ix[i + 1], ix[0]]).collect(),
+        mode::TRIANGLE_FAN => (1..ix.len().saturating_sub(1))
+            .map(|i| [ix[i], ix[i + 1], ix[0]])
+            .collect(),
         _ => ix.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect(),
     }
 }
@@ -596,7 +829,11 @@ pub fn normalize_vectors(geo: &mut TriGeometry) -> usize {
                 let [p0, p1, p2] = t.map(|i| geo.positions[i as usize]);
                 let u = [p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2]];
                 let v = [p2[0] - p0[0], p2[1] - p0[1], p2[2] - p0[2]];
-                let n = [u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]];
+                let n = [
+                    u[1] * v[2] - u[2] * v[1],
+                    u[2] * v[0] - u[0] * v[2],
+                    u[0] * v[1] - u[1] * v[0],
+                ];
                 let l = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
                 if l > 0.0 && l.is_finite() {
                     for &i in t {
@@ -616,7 +853,11 @@ pub fn normalize_vectors(geo: &mut TriGeometry) -> usize {
                 }
             } else {
                 fixed += 1;
-                let n = if is_normal { face_normal.get(vi).copied().flatten() } else { None };
+                let n = if is_normal {
+                    face_normal.get(vi).copied().flatten()
+                } else {
+                    None
+                };
                 let n = n.unwrap_or([1.0, 0.0, 0.0]);
                 v[..3].copy_from_slice(&n);
             }
@@ -661,22 +902,32 @@ mod tests {
     #[test]
     fn strip_and_fan_winding() {
         // A quad as a strip 0 1 2 3 and as a fan 0 1 2 3: both counter-clockwise pairs.
-        assert_eq!(assemble_triangles(mode::TRIANGLE_STRIP, &[0, 1, 2, 3]), vec![[0, 1, 2], [2, 1, 3]]);
-        assert_eq!(assemble_triangles(mode::TRIANGLE_FAN, &[0, 1, 2, 3]), vec![[1, 2, 0], [2, 3, 0]]);
+        assert_eq!(
+            assemble_triangles(mode::TRIANGLE_STRIP, &[0, 1, 2, 3]),
+            vec![[0, 1, 2], [2, 1, 3]]
+        );
+        assert_eq!(
+            assemble_triangles(mode::TRIANGLE_FAN, &[0, 1, 2, 3]),
+            vec![[1, 2, 0], [2, 3, 0]]
+        );
         assert!(assemble_triangles(mode::TRIANGLES, &[0, 1]).is_empty());
     }
 
     #[test]
     fn refuses_required_draco_by_name() {
         let doc = br#"{"asset":{"version":"2.0"},"extensionsUsed":["KHR_draco_mesh_compression"],"extensionsRequired":["KHR_draco_mesh_compression"]}"#;
-        let e = read_gltf_bytes(doc, Path::new("."), Path::new("x.gltf")).unwrap_err().to_string();
+        let e = read_gltf_bytes(doc, Path::new("."), Path::new("x.gltf"))
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("KHR_draco_mesh_compression"), "{e}");
     }
 
     #[test]
     fn refuses_escaping_buffer_uri() {
         let doc = br#"{"asset":{"version":"2.0"},"buffers":[{"uri":"../secret.bin","byteLength":4}],"bufferViews":[{"buffer":0,"byteLength":4}]}"#;
-        let e = read_gltf_bytes(doc, Path::new("/tmp"), Path::new("x.gltf")).unwrap_err().to_string();
+        let e = read_gltf_bytes(doc, Path::new("/tmp"), Path::new("x.gltf"))
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("..") && e.contains("buffer 0"), "{e}");
     }
 }

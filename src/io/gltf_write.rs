@@ -39,14 +39,27 @@ pub struct WriteSummary {
 pub fn write_scene(scene: &Scene, path: &Path) -> Result<WriteSummary> {
     let format = Format::from_path(path)?;
     if format == Format::Obj {
-        return Err(Error::Output { path: path.into(), message: "OBJ output is not supported; use .gltf or .glb".into() });
+        return Err(Error::Output {
+            path: path.into(),
+            message: "OBJ output is not supported; use .gltf or .glb".into(),
+        });
     }
     let glb = format == Format::Glb;
     let out_dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
-    let stem = path.file_stem().and_then(|s| s.to_str()).unwrap_or("scene").to_string();
-    let doc = build_document(scene, glb, &stem).map_err(|m| Error::Output { path: path.into(), message: m })?;
+    let stem = path
+        .file_stem()
+        .and_then(|s| s.to_str())
+        .unwrap_or("scene")
+        .to_string();
+    let doc = build_document(scene, glb, &stem).map_err(|m| Error::Output {
+        path: path.into(),
+        message: m,
+    })?;
     let mut files: Vec<(PathBuf, Vec<u8>)> = Vec::new();
-    let json_bytes = serde_json::to_vec(&doc.json).map_err(|e| Error::Output { path: path.into(), message: e.to_string() })?;
+    let json_bytes = serde_json::to_vec(&doc.json).map_err(|e| Error::Output {
+        path: path.into(),
+        message: e.to_string(),
+    })?;
     if glb {
         files.push((path.to_path_buf(), glb_bytes(&json_bytes, &doc.bin)));
     } else {
@@ -151,7 +164,13 @@ impl Bin {
         self.accessors.len() - 1
     }
 
-    fn floats(&mut self, data: &[f32], components: usize, with_bounds: bool, target: Option<u32>) -> usize {
+    fn floats(
+        &mut self,
+        data: &[f32],
+        components: usize,
+        with_bounds: bool,
+        target: Option<u32>,
+    ) -> usize {
         let bytes: Vec<u8> = data.iter().flat_map(|x| x.to_le_bytes()).collect();
         // Vertex attributes in an ARRAY_BUFFER view must be 4-byte aligned; they are.
         let view = self.view(&bytes, target, None);
@@ -214,7 +233,10 @@ impl Bin {
 
 /// Old index -> new index for the used subset, keeping the original order.
 fn remap(used: &BTreeSet<usize>) -> BTreeMap<usize, usize> {
-    used.iter().enumerate().map(|(new, &old)| (old, new)).collect()
+    used.iter()
+        .enumerate()
+        .map(|(new, &old)| (old, new))
+        .collect()
 }
 
 /// Texture references in a material: every `*Texture` object with an `index`,
@@ -283,7 +305,12 @@ fn build_document(scene: &Scene, glb: bool, stem: &str) -> std::result::Result<D
         .nodes
         .iter()
         .filter_map(|n| n.mesh)
-        .filter(|&m| scene.meshes.get(m).is_some_and(|m| m.primitives.iter().any(|p| !tri_is_empty(p))))
+        .filter(|&m| {
+            scene
+                .meshes
+                .get(m)
+                .is_some_and(|m| m.primitives.iter().any(|p| !tri_is_empty(p)))
+        })
         .collect();
     let mut mat_used = BTreeSet::new();
     for &m in &mesh_used {
@@ -328,10 +355,18 @@ fn build_document(scene: &Scene, glb: bool, stem: &str) -> std::result::Result<D
     }
     img_used.retain(|&i| i < scene.images.len());
     sampler_used.retain(|&s| s < scene.samplers.len());
-    let camera_used: BTreeSet<usize> =
-        scene.nodes.iter().filter_map(|n| n.camera).filter(|&c| c < scene.cameras.len()).collect();
-    let skin_used: BTreeSet<usize> =
-        scene.nodes.iter().filter_map(|n| n.skin).filter(|&s| s < scene.skins.len()).collect();
+    let camera_used: BTreeSet<usize> = scene
+        .nodes
+        .iter()
+        .filter_map(|n| n.camera)
+        .filter(|&c| c < scene.cameras.len())
+        .collect();
+    let skin_used: BTreeSet<usize> = scene
+        .nodes
+        .iter()
+        .filter_map(|n| n.skin)
+        .filter(|&s| s < scene.skins.len())
+        .collect();
     let (mesh_map, mat_map, tex_map, img_map, sampler_map, camera_map, skin_map) = (
         remap(&mesh_used),
         remap(&mat_used),
@@ -344,15 +379,19 @@ fn build_document(scene: &Scene, glb: bool, stem: &str) -> std::result::Result<D
 
     let mut bin = Bin::default();
     let mut raw_written: BTreeMap<(usize, Option<u32>), usize> = BTreeMap::new();
-    let mut raw = |bin: &mut Bin, i: usize, target: Option<u32>| -> std::result::Result<usize, String> {
-        if let Some(&a) = raw_written.get(&(i, target)) {
-            return Ok(a);
-        }
-        let r = scene.accessors.get(i).ok_or(format!("internal: accessor {i} missing"))?;
-        let a = bin.raw(r, target);
-        raw_written.insert((i, target), a);
-        Ok(a)
-    };
+    let mut raw =
+        |bin: &mut Bin, i: usize, target: Option<u32>| -> std::result::Result<usize, String> {
+            if let Some(&a) = raw_written.get(&(i, target)) {
+                return Ok(a);
+            }
+            let r = scene
+                .accessors
+                .get(i)
+                .ok_or(format!("internal: accessor {i} missing"))?;
+            let a = bin.raw(r, target);
+            raw_written.insert((i, target), a);
+            Ok(a)
+        };
     let mut needs_quantization = false;
     let mut triangles = 0;
 
@@ -369,6 +408,19 @@ fn build_document(scene: &Scene, glb: bool, stem: &str) -> std::result::Result<D
                         continue;
                     }
                     triangles += t.triangles.len();
+                    // Normal-mapped materials need tangents; generate MikkTSpace ones if missing.
+                    let generated = p
+                        .material
+                        .and_then(|m| scene.materials.get(m))
+                        .and_then(|m| m.json.get("normalTexture"))
+                        .and_then(|nt| {
+                            let set = nt.get("texCoord").and_then(Value::as_u64).unwrap_or(0);
+                            crate::geometry::tangents::with_generated_tangents(
+                                t,
+                                &format!("TEXCOORD_{set}"),
+                            )
+                        });
+                    let t = generated.as_ref().unwrap_or(t);
                     let (attrs, indices, targets) = write_triangles(&mut bin, t)?;
                     pj.insert("attributes".into(), Value::Object(attrs));
                     pj.insert("indices".into(), indices.into());
@@ -380,7 +432,10 @@ fn build_document(scene: &Scene, glb: bool, stem: &str) -> std::result::Result<D
                     let mut attrs = Map::new();
                     for (k, &a) in &r.attributes {
                         let acc = &scene.accessors[a];
-                        let core = k == "POSITION" || k == "NORMAL" || k == "TANGENT" || k.starts_with("TEXCOORD_");
+                        let core = k == "POSITION"
+                            || k == "NORMAL"
+                            || k == "TANGENT"
+                            || k.starts_with("TEXCOORD_");
                         if core && acc.component_type != 5126 {
                             needs_quantization = true;
                         }
@@ -388,7 +443,10 @@ fn build_document(scene: &Scene, glb: bool, stem: &str) -> std::result::Result<D
                     }
                     pj.insert("attributes".into(), Value::Object(attrs));
                     if let Some(i) = r.indices {
-                        pj.insert("indices".into(), raw(&mut bin, i, Some(ELEMENT_ARRAY_BUFFER))?.into());
+                        pj.insert(
+                            "indices".into(),
+                            raw(&mut bin, i, Some(ELEMENT_ARRAY_BUFFER))?.into(),
+                        );
                     }
                     if r.mode != crate::scene::mode::TRIANGLES {
                         pj.insert("mode".into(), r.mode.into());
@@ -445,7 +503,11 @@ fn build_document(scene: &Scene, glb: bool, stem: &str) -> std::result::Result<D
                     nj.insert("matrix".into(), json!(m));
                 }
             }
-            Transform::Trs { translation, rotation, scale } => {
+            Transform::Trs {
+                translation,
+                rotation,
+                scale,
+            } => {
                 if let Some(t) = translation {
                     nj.insert("translation".into(), json!(t));
                 }
@@ -523,7 +585,10 @@ fn build_document(scene: &Scene, glb: bool, stem: &str) -> std::result::Result<D
             j
         })
         .collect();
-    let samplers_json: Vec<Value> = sampler_used.iter().map(|&s| scene.samplers[s].clone()).collect();
+    let samplers_json: Vec<Value> = sampler_used
+        .iter()
+        .map(|&s| scene.samplers[s].clone())
+        .collect();
     let mut images_json = Vec::new();
     let mut image_files = Vec::new();
     let mut taken_names: BTreeSet<String> = [format!("{stem}.bin").to_lowercase()].into();
@@ -531,7 +596,8 @@ fn build_document(scene: &Scene, glb: bool, stem: &str) -> std::result::Result<D
         let img = &scene.images[i];
         let bytes = match &img.source {
             ImageSource::Bytes(b) => b.clone(),
-            ImageSource::File(p) => std::fs::read(p).map_err(|e| format!("image {i}: cannot read '{}': {e}", p.display()))?,
+            ImageSource::File(p) => std::fs::read(p)
+                .map_err(|e| format!("image {i}: cannot read '{}': {e}", p.display()))?,
         };
         let mime = img
             .mime_type
@@ -546,7 +612,9 @@ fn build_document(scene: &Scene, glb: bool, stem: &str) -> std::result::Result<D
             ij.insert("name".into(), n.clone().into());
         }
         if glb {
-            let mime = mime.ok_or(format!("image {i}: unknown image type, cannot embed it in a GLB"))?;
+            let mime = mime.ok_or(format!(
+                "image {i}: unknown image type, cannot embed it in a GLB"
+            ))?;
             let view = bin.view(&bytes, None, None);
             ij.insert("bufferView".into(), view.into());
             ij.insert("mimeType".into(), mime.into());
@@ -576,13 +644,21 @@ fn build_document(scene: &Scene, glb: bool, stem: &str) -> std::result::Result<D
 
     // ---- root
     let mut root = Map::new();
-    let mut asset = json!({"version": "2.0", "generator": concat!("crackle ", env!("CARGO_PKG_VERSION"))});
+    let mut asset =
+        json!({"version": "2.0", "generator": concat!("crackle ", env!("CARGO_PKG_VERSION"))});
     if let Some(c) = &scene.copyright {
         asset["copyright"] = c.clone().into();
     }
     root.insert("asset".into(), asset);
     if !scenes_json.is_empty() {
-        root.insert("scene".into(), scene.default_scene.unwrap_or(0).min(scenes_json.len() - 1).into());
+        root.insert(
+            "scene".into(),
+            scene
+                .default_scene
+                .unwrap_or(0)
+                .min(scenes_json.len() - 1)
+                .into(),
+        );
         root.insert("scenes".into(), scenes_json.into());
     }
     let arrays: [(&str, Vec<Value>); 10] = [
@@ -592,7 +668,13 @@ fn build_document(scene: &Scene, glb: bool, stem: &str) -> std::result::Result<D
         ("textures", textures_json),
         ("samplers", samplers_json),
         ("images", images_json),
-        ("cameras", camera_used.iter().map(|&c| scene.cameras[c].clone()).collect()),
+        (
+            "cameras",
+            camera_used
+                .iter()
+                .map(|&c| scene.cameras[c].clone())
+                .collect(),
+        ),
         ("skins", skins_json),
         ("animations", anims_json),
         ("accessors", std::mem::take(&mut bin.accessors)),
@@ -628,7 +710,12 @@ fn build_document(scene: &Scene, glb: bool, stem: &str) -> std::result::Result<D
         used.insert("KHR_mesh_quantization".to_string());
     }
     // Keep the input's order first, then any new ones.
-    let mut used_list: Vec<String> = scene.extensions_used.iter().filter(|e| used.contains(*e)).cloned().collect();
+    let mut used_list: Vec<String> = scene
+        .extensions_used
+        .iter()
+        .filter(|e| used.contains(*e))
+        .cloned()
+        .collect();
     for e in &used {
         if !used_list.contains(e) {
             used_list.push(e.clone());
@@ -637,7 +724,9 @@ fn build_document(scene: &Scene, glb: bool, stem: &str) -> std::result::Result<D
     let required: Vec<String> = scene
         .extensions_required
         .iter()
-        .filter(|e| used.contains(*e) && (e.as_str() != "KHR_mesh_quantization" || needs_quantization))
+        .filter(|e| {
+            used.contains(*e) && (e.as_str() != "KHR_mesh_quantization" || needs_quantization)
+        })
         .cloned()
         .collect();
     if !used_list.is_empty() {
@@ -646,10 +735,17 @@ fn build_document(scene: &Scene, glb: bool, stem: &str) -> std::result::Result<D
     if !required.is_empty() {
         root.insert("extensionsRequired".into(), json!(required));
     }
-    Ok(Document { json: Value::Object(root), bin: bin.data, image_files, triangles })
+    Ok(Document {
+        json: Value::Object(root),
+        bin: bin.data,
+        image_files,
+        triangles,
+    })
 }
 
-const IDENTITY: [f64; 16] = [1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0];
+const IDENTITY: [f64; 16] = [
+    1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0,
+];
 
 fn collect_extension_names(v: &Value, out: &mut BTreeSet<String>) {
     match v {
@@ -671,12 +767,15 @@ fn collect_extension_names(v: &Value, out: &mut BTreeSet<String>) {
     }
 }
 
+/// Attributes object, index accessor and morph targets of a written primitive.
+type WrittenTriangles = (Map<String, Value>, usize, Vec<Value>);
+
 /// Write one triangle geometry: only referenced vertices, float attributes,
 /// u16 or u32 indices. Returns the attributes object, the index accessor and the morph targets.
 fn write_triangles(
     bin: &mut Bin,
     t: &TriGeometry,
-) -> std::result::Result<(Map<String, Value>, usize, Vec<Value>), String> {
+) -> std::result::Result<WrittenTriangles, String> {
     let n = t.positions.len();
     let mut remap = vec![u32::MAX; n];
     let mut order = Vec::new();
@@ -685,7 +784,9 @@ fn write_triangles(
         for &v in tri {
             let v = v as usize;
             if v >= n {
-                return Err(format!("internal: triangle index {v} out of range ({n} vertices)"));
+                return Err(format!(
+                    "internal: triangle index {v} out of range ({n} vertices)"
+                ));
             }
             if remap[v] == u32::MAX {
                 remap[v] = order.len() as u32;
@@ -696,31 +797,57 @@ fn write_triangles(
     }
     let mut attrs = Map::new();
     let pos: Vec<f32> = order.iter().flat_map(|&v| t.positions[v]).collect();
-    attrs.insert("POSITION".into(), bin.floats(&pos, 3, true, Some(ARRAY_BUFFER)).into());
+    attrs.insert(
+        "POSITION".into(),
+        bin.floats(&pos, 3, true, Some(ARRAY_BUFFER)).into(),
+    );
     for a in &t.attributes {
         let c = a.components;
-        let data: Vec<f32> = order.iter().flat_map(|&v| a.get(v).iter().copied()).collect();
-        attrs.insert(a.semantic.clone(), bin.floats(&data, c, false, Some(ARRAY_BUFFER)).into());
+        let data: Vec<f32> = order
+            .iter()
+            .flat_map(|&v| a.get(v).iter().copied())
+            .collect();
+        attrs.insert(
+            a.semantic.clone(),
+            bin.floats(&data, c, false, Some(ARRAY_BUFFER)).into(),
+        );
     }
     let mut targets = Vec::new();
     for target in &t.targets {
         let mut tj = Map::new();
         for a in target {
             let c = a.components;
-            let data: Vec<f32> = order.iter().flat_map(|&v| a.get(v).iter().copied()).collect();
+            let data: Vec<f32> = order
+                .iter()
+                .flat_map(|&v| a.get(v).iter().copied())
+                .collect();
             let bounds = a.semantic == "POSITION";
-            tj.insert(a.semantic.clone(), bin.floats(&data, c, bounds, Some(ARRAY_BUFFER)).into());
+            tj.insert(
+                a.semantic.clone(),
+                bin.floats(&data, c, bounds, Some(ARRAY_BUFFER)).into(),
+            );
         }
         targets.push(Value::Object(tj));
     }
     let nv = order.len();
     let (bytes, ct): (Vec<u8>, u32) = if nv <= u16::MAX as usize {
-        (indices.iter().flat_map(|&i| (i as u16).to_le_bytes()).collect(), 5123)
+        (
+            indices
+                .iter()
+                .flat_map(|&i| (i as u16).to_le_bytes())
+                .collect(),
+            5123,
+        )
     } else {
-        (indices.iter().flat_map(|&i| i.to_le_bytes()).collect(), 5125)
+        (
+            indices.iter().flat_map(|&i| i.to_le_bytes()).collect(),
+            5125,
+        )
     };
     let view = bin.view(&bytes, Some(ELEMENT_ARRAY_BUFFER), None);
-    let acc = bin.accessor(json!({"bufferView": view, "componentType": ct, "count": indices.len(), "type": "SCALAR"}));
+    let acc = bin.accessor(
+        json!({"bufferView": view, "componentType": ct, "count": indices.len(), "type": "SCALAR"}),
+    );
     Ok((attrs, acc, targets))
 }
 
@@ -729,7 +856,13 @@ fn sanitize_file_name(name: &str) -> String {
     let base = name.rsplit(['/', '\\']).next().unwrap_or(name);
     let s: String = base
         .chars()
-        .map(|c| if c.is_control() || matches!(c, ':' | '*' | '?' | '"' | '<' | '>' | '|') { '_' } else { c })
+        .map(|c| {
+            if c.is_control() || matches!(c, ':' | '*' | '?' | '"' | '<' | '>' | '|') {
+                '_'
+            } else {
+                c
+            }
+        })
         .collect();
     let s = s.trim_start_matches('.').to_string();
     if s.is_empty() {
@@ -774,7 +907,10 @@ mod tests {
     #[test]
     fn names_are_safe_and_unique() {
         let mut taken = BTreeSet::new();
-        assert_eq!(unique_name(&sanitize_file_name("..\\a b.png"), &mut taken), "a b.png");
+        assert_eq!(
+            unique_name(&sanitize_file_name("..\\a b.png"), &mut taken),
+            "a b.png"
+        );
         assert_eq!(unique_name("a b.png", &mut taken), "a b_1.png");
         assert_eq!(uri_encode("a b.png"), "a%20b.png");
     }

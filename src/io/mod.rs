@@ -24,12 +24,18 @@ pub enum Format {
 impl Format {
     /// The format of `path` from its extension, or an error naming the file.
     pub fn from_path(path: &Path) -> Result<Format> {
-        let ext = path.extension().and_then(|e| e.to_str()).map(|e| e.to_ascii_lowercase());
+        let ext = path
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(|e| e.to_ascii_lowercase());
         match ext.as_deref() {
             Some("obj") => Ok(Format::Obj),
             Some("gltf") => Ok(Format::Gltf),
             Some("glb") => Ok(Format::Glb),
-            _ => Err(Error::input(path, "unknown file type (expected .obj, .gltf or .glb)")),
+            _ => Err(Error::input(
+                path,
+                "unknown file type (expected .obj, .gltf or .glb)",
+            )),
         }
     }
 }

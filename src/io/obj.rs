@@ -1749,16 +1749,53 @@ mod tests {
         assert_eq!(parse_map("-clamp on"), (String::new(), None));
     }
 
-    /// Parse speed on the 18 MB OBJ (run with `--ignored --release`).
+    /// Every other evaluation OBJ loads with the triangle count of SOURCES.md.
+    #[test]
+    fn other_eval_objs_load() {
+        let files = [
+            ("obj/npm-bunny/bunny.obj", 3_674),
+            ("obj/beast/beast.obj", 64_618),
+            ("obj/fandisk/fandisk.obj", 12_946),
+            ("obj/teapot/teapot.obj", 6_320),
+            ("obj/capsule/capsule.obj", 10_200),
+        ];
+        for (rel, tris) in files {
+            let Some(path) = eval(rel) else { return };
+            let s = read_obj(&path).unwrap_or_else(|e| panic!("{rel}: {e}"));
+            check_consistent(&s);
+            assert_eq!(s.triangle_count(), tris, "{rel}");
+            eprintln!(
+                "{rel}: {} meshes, {} primitives, warnings {:?}",
+                s.meshes.len(),
+                prims(&s).len(),
+                s.warnings
+            );
+        }
+    }
+
+    /// The large OBJ files load with their triangle counts; prints parse
+    /// times (run with `--ignored --release`).
     #[test]
     #[ignore]
     fn large_obj_parses() {
-        let Some(path) = eval("large/ogre_loop1_496k.obj") else {
-            return;
-        };
-        let t = std::time::Instant::now();
-        let s = read_obj(&path).unwrap();
-        eprintln!("{} triangles in {:?}", s.triangle_count(), t.elapsed());
-        assert_eq!(s.triangle_count(), 496_032);
+        let files = [
+            ("large/ogre_loop1_496k.obj", 496_032),
+            ("obj/stanford-bunny/stanford-bunny.obj", 69_451),
+            ("obj/armadillo/armadillo.obj", 86_482),
+            ("obj/nefertiti/nefertiti.obj", 99_938),
+            ("obj/ogre/ogre.obj", 124_008),
+        ];
+        for (rel, tris) in files {
+            let Some(path) = eval(rel) else { return };
+            let t = std::time::Instant::now();
+            let s = read_obj(&path).unwrap();
+            eprintln!(
+                "{rel}: {} triangles in {:?}",
+                s.triangle_count(),
+                t.elapsed()
+            );
+            check_consistent(&s);
+            assert_eq!(s.triangle_count(), tris, "{rel}");
+        }
     }
 }

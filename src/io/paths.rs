@@ -11,7 +11,8 @@ use std::path::{Component, Path, PathBuf};
 /// plain relative path, and any `..` component are refused with a message, so
 /// an asset never makes the tool read outside its own folder.
 pub fn resolve_inside(base_dir: &Path, reference: &str) -> Result<PathBuf, String> {
-    let decoded = percent_decode(reference).ok_or_else(|| format!("invalid percent-escape in reference '{reference}'"))?;
+    let decoded = percent_decode(reference)
+        .ok_or_else(|| format!("invalid percent-escape in reference '{reference}'"))?;
     let normalized = decoded.replace('\\', "/");
     if normalized.is_empty() {
         return Err("empty file reference".into());
@@ -32,7 +33,9 @@ pub fn resolve_inside(base_dir: &Path, reference: &str) -> Result<PathBuf, Strin
             Component::Normal(c) => out.push(c),
             Component::CurDir => {}
             Component::ParentDir => {
-                return Err(format!("reference '{reference}' leaves the asset's folder ('..' is not followed)"))
+                return Err(format!(
+                    "reference '{reference}' leaves the asset's folder ('..' is not followed)"
+                ))
             }
             Component::RootDir | Component::Prefix(_) => {
                 return Err(format!("absolute path '{reference}' is not followed"))
@@ -70,16 +73,38 @@ mod tests {
     #[test]
     fn inside_paths_resolve() {
         let b = Path::new("/assets/a");
-        assert_eq!(resolve_inside(b, "x.bin").unwrap(), PathBuf::from("/assets/a/x.bin"));
-        assert_eq!(resolve_inside(b, "./tex/y z.png").unwrap(), PathBuf::from("/assets/a/tex/y z.png"));
-        assert_eq!(resolve_inside(b, ".\\SpiderTex.jpg").unwrap(), PathBuf::from("/assets/a/SpiderTex.jpg"));
-        assert_eq!(resolve_inside(b, "fuze%20uv.jpg").unwrap(), PathBuf::from("/assets/a/fuze uv.jpg"));
+        assert_eq!(
+            resolve_inside(b, "x.bin").unwrap(),
+            PathBuf::from("/assets/a/x.bin")
+        );
+        assert_eq!(
+            resolve_inside(b, "./tex/y z.png").unwrap(),
+            PathBuf::from("/assets/a/tex/y z.png")
+        );
+        assert_eq!(
+            resolve_inside(b, ".\\SpiderTex.jpg").unwrap(),
+            PathBuf::from("/assets/a/SpiderTex.jpg")
+        );
+        assert_eq!(
+            resolve_inside(b, "fuze%20uv.jpg").unwrap(),
+            PathBuf::from("/assets/a/fuze uv.jpg")
+        );
     }
 
     #[test]
     fn escaping_paths_are_refused() {
         let b = Path::new("/assets/a");
-        for r in ["../secret.bin", "/etc/passwd", "C:\\x.bin", "file:///etc/passwd", "http://x/y.bin", "a/../../b", "..\\b", "%2e%2e/x", ""] {
+        for r in [
+            "../secret.bin",
+            "/etc/passwd",
+            "C:\\x.bin",
+            "file:///etc/passwd",
+            "http://x/y.bin",
+            "a/../../b",
+            "..\\b",
+            "%2e%2e/x",
+            "",
+        ] {
             assert!(resolve_inside(b, r).is_err(), "{r} should be refused");
         }
     }

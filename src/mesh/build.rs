@@ -740,7 +740,11 @@ mod tests {
     #[test]
     fn random_soups_build_valid_manifolds() {
         let mut rng = Lcg(12345);
-        for round in 0..std::env::var("SOUP_ROUNDS").ok().and_then(|s| s.parse().ok()).unwrap_or(300) {
+        for round in 0..std::env::var("SOUP_ROUNDS")
+            .ok()
+            .and_then(|s| s.parse().ok())
+            .unwrap_or(300)
+        {
             let nv = 4 + rng.below(6);
             let positions: Vec<[f64; 3]> = (0..nv)
                 .map(|_| [rng.next_f64(), rng.next_f64(), rng.next_f64()])
@@ -923,5 +927,50 @@ mod tests {
         assert_eq!(r.welded_vertices, 10);
         let (_, r) = SimMesh::build(&g, &WeldOptions::default()).unwrap();
         assert_eq!(r.welded_vertices, 9);
+    }
+
+    /// Release timing check, run by hand:
+    /// `cargo test --release --lib mesh::build::tests::timing -- --ignored --nocapture`.
+    #[test]
+    #[ignore]
+    fn timing_large_grid() {
+        let n = 745;
+        let mut input = grid_input(n, n);
+        input.wedge_channels.clear();
+        for p in &mut input.positions {
+            // Jitter far below the tolerance so welding is exercised.
+            p[2] = 1e-9 * ((p[0] * 7.0 + p[1] * 13.0) % 3.0);
+        }
+        let t0 = std::time::Instant::now();
+        let (m, r) = SimMesh::build(&input, &WeldOptions::default()).unwrap();
+        let indexed = t0.elapsed();
+        // The same grid as a triangle soup (3 input vertices per triangle).
+        let soup = MeshInput {
+            positions: input
+                .triangles
+                .iter()
+                .flat_map(|t| t.map(|i| input.positions[i as usize]))
+                .collect(),
+            triangles: (0..input.triangles.len() as u32)
+                .map(|t| [3 * t, 3 * t + 1, 3 * t + 2])
+                .collect(),
+            ..Default::default()
+        };
+        let t1 = std::time::Instant::now();
+        let (m2, r2) = SimMesh::build(&soup, &WeldOptions::default()).unwrap();
+        let unindexed = t1.elapsed();
+        let t2 = std::time::Instant::now();
+        m.validate().unwrap();
+        let validate = t2.elapsed();
+        eprintln!(
+            "grid {n}x{n}: {} triangles, {} vertices: indexed build {indexed:?}, \
+             soup build ({} input vertices) {unindexed:?}, validate {validate:?}",
+            m.n_faces(),
+            m.n_vertices(),
+            soup.positions.len()
+        );
+        assert_eq!(r.vertices, r2.vertices);
+        assert_eq!(m2.n_faces(), m.n_faces());
+        assert!(r.is_clean() && r2.is_clean());
     }
 }

@@ -307,3 +307,284 @@ impl SimMesh {
         })
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mesh::test_util::{build, grid_input, icosphere_input, Lcg};
+    use crate::mesh::{Channel, ChannelKind, MeshInput};
+
+    fn vertex_at(m: &SimMesh, p: [f64; 2]) -> VertexId {
+        m.vertices()
+            .find(|&v| m.position(v)[0] == p[0] && m.position(v)[1] == p[1])
+            .expect("vertex")
+    }
+
+    fn uv(m: &SimMesh, w: WedgeId) -> [f64; 2] {
+        let c = m.wedges().channel("uv").unwrap().get(w);
+        [c[0], c[1]]
+    }
+
+    /// Every corner's UV equals its vertex's xy (true for `grid_input`).
+    fn assert_uv_is_xy(m: &SimMesh) {
+        for h in m.halfedges() {
+            let p = m.position(m.origin(h));
+            let t = uv(m, m.wedge(h));
+            assert!((t[0] - p[0]).abs() < 1e-12 && (t[1] - p[1]).abs() < 1e-12);
+        }
+    }
+
+    #[test]
+    fn split_interior_edge_of_grid() {
+        let (mut m, _) = build(&grid_input(2, 2));
+        let (nv, nf, nw, g) = (m.n_vertices(), m.n_faces(), m.n_wedges(), m.generation());
+        let area = m.total_area();
+        let c = vertex_at(&m, [1.0, 1.0]);
+        let b = vertex_at(&m, [1.0, 0.0]);
+        let h = m.find_halfedge(c, b).unwrap();
+        assert!(m.is_interior_edge(h));
+        let r = m.split_edge(h, 0.25).unwrap();
+        m.validate().unwrap();
+        assert_eq!(m.n_vertices(), nv + 1);
+        assert_eq!(m.n_faces(), nf + 2);
+        assert_eq!(m.n_wedges(), nw + 1, "no seam: one shared wedge");
+        assert!(m.generation() > g);
+        assert_eq!(r.vertex, VertexId(nv as u32));
+        assert_eq!(m.position(r.vertex), [1.0, 0.75, 0.0]);
+        assert_eq!(r.new_faces.len(), 2);
+        for (parent, child) in &r.new_faces {
+            assert_eq!(m.face_source(*parent), m.face_source(*child));
+            assert_eq!(m.face_group(*parent), m.face_group(*child));
+        }
+        assert_eq!(m.origin(r.halves[0]), c);
+        assert_eq!(m.dest(r.halves[0]), r.vertex);
+        assert_eq!(m.origin(r.halves[1]), r.vertex);
+        assert_eq!(m.dest(r.halves[1]), b);
+        assert!((m.total_area() - area).abs() < 1e-12);
+        assert_uv_is_xy(&m);
+        assert_eq!(m.vertex_parent(r.vertex), r.vertex);
+        assert_eq!(m.vertex_source(r.vertex), None);
+    }
+
+    #[test]
+    fn split_boundary_edge_of_grid() {
+        let (mut m, r0) = build(&grid_input(2, 2));
+        let (nv, nf) = (m.n_vertices(), m.n_faces());
+        let a = vertex_at(&m, [0.0, 0.0]);
+        let b = vertex_at(&m, [1.0, 0.0]);
+        let h = m.find_halfedge(a, b).unwrap();
+        assert!(m.is_boundary_halfedge(h));
+        let r = m.split_edge(h, 0.5).unwrap();
+        m.validate().unwrap();
+        assert_eq!(m.n_vertices(), nv + 1);
+        assert_eq!(m.n_faces(), nf + 1);
+        assert_eq!(r.new_faces.len(), 1);
+        assert!(m.is_boundary_vertex(r.vertex));
+        assert_eq!(m.n_boundary_halfedges(), r0.boundary_edges + 1);
+        assert_eq!(m.boundary_loops(), 1);
+        assert_uv_is_xy(&m);
+    }
+
+    #[test]
+    fn split_face_interpolates_barycentrically() {
+        let (mut m, _) = build(&grid_input(2, 2));
+        let area = m.total_area();
+        let f = FaceId(3);
+        let [a, b, c] = m.face_vertices(f).map(|v| m.position(v));
+        let bary = [0.2, 0.3, 0.5];
+        let r = m.split_face(f, [2.0, 3.0, 5.0]).unwrap();
+        m.validate().unwrap();
+        let p = m.position(r.vertex);
+        for k in 0..3 {
+            let e = bary[0] * a[k] + bary[1] * b[k] + bary[2] * c[k];
+            assert!((p[k] - e).abs() < 1e-12);
+        }
+        assert_eq!(r.new_faces.len(), 2);
+        assert_eq!(m.n_faces(), 10);
+        assert!((m.total_area() - area).abs() < 1e-12);
+        assert_uv_is_xy(&m);
+        assert!(m.split_face(f, [1.0, 0.0, 1.0]).is_err());
+        assert!(m.split_face(FaceId(99), [1.0, 1.0, 1.0]).is_err());
+    }
+
+    #[test]
+    fn split_edge_on_uv_seam_makes_two_wedges() {
+        // Two quads side by side whose shared edge is a UV seam.
+        let positions = vec![
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [1.0, 1.0, 0.0],
+            [0.0, 1.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [2.0, 0.0, 0.0],
+            [2.0, 1.0, 0.0],
+            [1.0, 1.0, 0.0],
+        ];
+        let uvs_in = vec![
+            0.0, 0.0, 1.0, 0.0, 1.0, 1.0, 0.0, 1.0, //
+            5.0, 0.0, 6.0, 0.0, 6.0, 1.0, 5.0, 1.0,
+        ];
+        let input = MeshInput {
+            positions,
+            triangles: vec![[0, 1, 2], [0, 2, 3], [4, 5, 6], [4, 6, 7]],
+            face_groups: vec![],
+            wedge_channels: vec![Channel::new("uv", 2, ChannelKind::Linear, uvs_in)],
+        };
+        let (mut m, r) = build(&input);
+        assert_eq!(r.boundary_edges, 6);
+        let a = vertex_at(&m, [1.0, 0.0]);
+        let b = vertex_at(&m, [1.0, 1.0]);
+        let h = m.find_halfedge(a, b).unwrap();
+        let nw = m.n_wedges();
+        let s = m.split_edge(h, 0.25).unwrap();
+        m.validate().unwrap();
+        assert_eq!(m.n_wedges(), nw + 2);
+        let mut uvs: Vec<[f64; 2]> = m
+            .vertex_outgoing(s.vertex)
+            .map(|h| uv(&m, m.wedge(h)))
+            .collect();
+        uvs.sort_by(|x, y| x.partial_cmp(y).unwrap());
+        uvs.dedup();
+        assert_eq!(uvs, vec![[1.0, 0.25], [5.0, 0.25]]);
+    }
+
+    fn open_between(m: &mut SimMesh, p: [f64; 2], q: [f64; 2]) -> OpenEdgeResult {
+        let (a, b) = (vertex_at(m, p), vertex_at(m, q));
+        let h = m
+            .find_halfedge(a, b)
+            .or_else(|| m.find_halfedge(b, a))
+            .unwrap();
+        let r = m.open_edge(h).unwrap();
+        m.validate().unwrap();
+        r
+    }
+
+    #[test]
+    fn open_edges_along_a_line_cuts_grid_in_two() {
+        let (mut m, _) = build(&grid_input(4, 4));
+        assert_eq!(m.n_vertices(), 25);
+        let nb = m.n_boundary_halfedges();
+        let area = m.total_area();
+
+        // Interior edge between two interior vertices: a crack with two tips.
+        let r = open_between(&mut m, [1.0, 2.0], [2.0, 2.0]);
+        assert!(r.new_vertices.is_empty());
+        assert_eq!(m.n_vertices(), 25);
+        assert_eq!(m.n_boundary_halfedges(), nb + 2);
+        assert_eq!(m.boundary_loops(), 2);
+        assert!(m.is_boundary_vertex(vertex_at(&m, [1.0, 2.0])));
+
+        // Extend: (2,2) was on the crack -> duplicated; (3,2) is a new tip.
+        let r = open_between(&mut m, [2.0, 2.0], [3.0, 2.0]);
+        assert_eq!(r.new_vertices.len(), 1);
+        let (new, src) = r.new_vertices[0];
+        assert_eq!(m.position(new), [2.0, 2.0, 0.0]);
+        assert_eq!(m.vertex_parent(new), src);
+        assert_eq!(m.n_vertices(), 26);
+        assert_eq!(m.n_boundary_halfedges(), nb + 4);
+
+        // Reach the border: both endpoints duplicated, still one piece.
+        let r = open_between(&mut m, [3.0, 2.0], [4.0, 2.0]);
+        assert_eq!(r.new_vertices.len(), 2);
+        assert_eq!(m.n_vertices(), 28);
+        assert_eq!(m.connected_components().0, 1);
+        assert_eq!(m.boundary_loops(), 1);
+
+        // Close the line on the other side: the grid falls in two.
+        let r = open_between(&mut m, [0.0, 2.0], [1.0, 2.0]);
+        assert_eq!(r.new_vertices.len(), 2);
+        assert_eq!(m.n_vertices(), 30);
+        let (n, comp) = m.connected_components();
+        assert_eq!(n, 2);
+        for f in m.faces() {
+            let above = m.face_vertices(f).iter().any(|&v| m.position(v)[1] > 2.0);
+            assert_eq!(
+                comp[f.idx()],
+                if above {
+                    comp[m.n_faces() - 1]
+                } else {
+                    comp[0]
+                }
+            );
+        }
+        assert_eq!(m.boundary_loops(), 2);
+        assert_eq!(m.n_boundary_halfedges(), nb + 8);
+        assert!((m.total_area() - area).abs() < 1e-12);
+        assert_uv_is_xy(&m);
+
+        // Opening a boundary edge is refused.
+        let h = m.halfedges().find(|&h| m.is_boundary_halfedge(h)).unwrap();
+        assert!(m.open_edge(h).is_err());
+        assert!(m.split_edge(h, 1.0).is_err());
+        assert!(m.split_edge(HalfedgeId(10_000), 0.5).is_err());
+    }
+
+    #[test]
+    fn random_edits_on_icosphere_keep_invariants() {
+        let (mut m, _) = build(&icosphere_input(2));
+        let area = m.total_area();
+        let mut rng = Lcg(0xC0FFEE);
+        let mut generation = m.generation();
+        let (mut splits, mut faces, mut opens) = (0, 0, 0);
+        for step in 0..600 {
+            let (nv, nf, nh) = (m.n_vertices(), m.n_faces(), m.n_halfedges());
+            match rng.below(10) {
+                0..=4 => {
+                    let h = HalfedgeId(rng.below(nh) as u32);
+                    let t = 0.05 + 0.9 * rng.next_f64();
+                    let (pa, pb) = (m.position(m.origin(h)), m.position(m.dest(h)));
+                    let boundary = m.is_boundary_halfedge(h);
+                    let r = m.split_edge(h, t).unwrap();
+                    let p = m.position(r.vertex);
+                    for k in 0..3 {
+                        assert!((p[k] - ((1.0 - t) * pa[k] + t * pb[k])).abs() < 1e-12);
+                    }
+                    assert_eq!(m.n_faces(), nf + if boundary { 1 } else { 2 });
+                    splits += 1;
+                }
+                5..=7 => {
+                    let f = FaceId(rng.below(nf) as u32);
+                    let bary = [
+                        0.1 + rng.next_f64(),
+                        0.1 + rng.next_f64(),
+                        0.1 + rng.next_f64(),
+                    ];
+                    m.split_face(f, bary).unwrap();
+                    assert_eq!(m.n_faces(), nf + 2);
+                    faces += 1;
+                }
+                _ => {
+                    let h = HalfedgeId(rng.below(nh) as u32);
+                    if m.is_boundary_halfedge(h) {
+                        continue;
+                    }
+                    let r = m.open_edge(h).unwrap();
+                    assert_eq!(m.n_vertices(), nv + r.new_vertices.len());
+                    for (new, src) in r.new_vertices {
+                        assert_eq!(m.position(new), m.position(src));
+                        assert_eq!(m.vertex_source(new), m.vertex_source(src));
+                    }
+                    opens += 1;
+                }
+            }
+            m.validate().unwrap_or_else(|e| panic!("step {step}: {e}"));
+            assert!(m.generation() > generation);
+            generation = m.generation();
+            let a = m.total_area();
+            assert!(
+                (a - area).abs() <= 1e-9 * area,
+                "step {step}: area {a} vs {area}"
+            );
+        }
+        assert!(splits > 100 && faces > 100 && opens > 50);
+        // Interpolated normals stay unit length.
+        let n = m.wedges().channel("n").unwrap();
+        for w in 0..m.n_wedges() {
+            let v = n.get(WedgeId(w as u32));
+            assert!(((v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt() - 1.0).abs() < 1e-12);
+        }
+        // Each face's corners point at wedges in range, and the mesh still
+        // covers the same surface pieces.
+        assert!(m.connected_components().0 >= 1);
+    }
+}

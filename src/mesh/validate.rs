@@ -202,3 +202,59 @@ impl SimMesh {
         Ok(())
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use crate::mesh::test_util::{build, grid_input};
+    use crate::mesh::{MeshError, VertexId};
+
+    fn expect_invariant(m: &crate::mesh::SimMesh, what: &str) {
+        match m.validate() {
+            Err(MeshError::Invariant(msg)) => assert!(msg.contains(what), "{msg}"),
+            other => panic!("expected invariant error containing {what:?}, got {other:?}"),
+        }
+    }
+
+    #[test]
+    fn detects_corruption() {
+        let (m, _) = build(&grid_input(2, 2));
+        m.validate().unwrap();
+
+        let mut c = m.clone();
+        let h = c.he_twin.iter().position(|&t| t != super::INVALID).unwrap();
+        c.he_twin[h] = super::INVALID;
+        expect_invariant(&c, "twin");
+
+        let mut c = m.clone();
+        c.he_origin[0] = c.he_origin[1];
+        assert!(c.validate().is_err());
+
+        let mut c = m.clone();
+        let v = c.he_origin[0] as usize;
+        c.vertex_halfedge[v] = 1;
+        expect_invariant(&c, "outgoing halfedge");
+
+        let mut c = m.clone();
+        c.positions[0][2] = f64::NAN;
+        expect_invariant(&c, "non-finite");
+
+        let mut c = m.clone();
+        c.he_wedge[4] = 1000;
+        expect_invariant(&c, "wedge");
+
+        let mut c = m.clone();
+        c.face_source.pop();
+        expect_invariant(&c, "face_source");
+
+        // Interior vertex whose outgoing halfedge is interior but which sits
+        // on a boundary: point a boundary vertex at an interior halfedge.
+        let mut c = m.clone();
+        let v = VertexId(0);
+        let interior = c
+            .vertex_outgoing(v)
+            .find(|&h| !c.is_boundary_halfedge(h))
+            .unwrap();
+        c.vertex_halfedge[0] = interior.0;
+        expect_invariant(&c, "boundary");
+    }
+}

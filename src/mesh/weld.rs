@@ -52,7 +52,16 @@ impl Hasher for FxHasher {
     }
 }
 
-type Grid = HashMap<[i64; 3], u32, BuildHasherDefault<FxHasher>>;
+type Grid = HashMap<u64, u32, BuildHasherDefault<FxHasher>>;
+
+/// Packs a cell into 64 bits (21 bits per axis, wrapping). Distinct cells
+/// may share a key; that only adds candidates, which the exact distance
+/// test rejects.
+#[inline]
+fn pack(c: [i64; 3]) -> u64 {
+    const M: u64 = (1 << 21) - 1;
+    ((c[0] as u64 & M) << 42) | ((c[1] as u64 & M) << 21) | (c[2] as u64 & M)
+}
 
 /// Welds the vertices `i` with `use_vertex[i]` (which must have finite
 /// positions) within `tolerance` (absolute; 0 welds exactly equal
@@ -67,12 +76,12 @@ pub(super) fn weld(
     let mut map = vec![INVALID; n];
     let mut reps: Vec<u32> = Vec::new();
     let n_used = use_vertex.iter().filter(|&&u| u).count();
-    let mut grid: Grid = HashMap::with_capacity_and_hasher(n_used, Default::default());
     // Chain of representatives in the same cell.
     let mut next_in_cell: Vec<u32> = Vec::new();
 
     if tolerance > 0.0 && tolerance.is_finite() {
         let inv = 1.0 / (2.0 * tolerance);
+        let mut grid: Grid = HashMap::with_capacity_and_hasher(n_used, Default::default());
         let tol2 = tolerance * tolerance;
         for i in 0..n {
             if !use_vertex[i] {
@@ -91,7 +100,7 @@ pub(super) fn weld(
             for dx in [0, off[0]] {
                 for dy in [0, off[1]] {
                     for dz in [0, off[2]] {
-                        let key = [cell[0] + dx, cell[1] + dy, cell[2] + dz];
+                        let key = pack([cell[0] + dx, cell[1] + dy, cell[2] + dz]);
                         let mut r = grid.get(&key).copied().unwrap_or(INVALID);
                         while r != INVALID {
                             // Lower welded ids are earlier representatives.
@@ -110,7 +119,8 @@ pub(super) fn weld(
             if best == INVALID {
                 let id = reps.len() as u32;
                 reps.push(i as u32);
-                let head = grid.entry(cell).or_insert(INVALID);
+                let key = pack(cell);
+                let head = grid.entry(key).or_insert(INVALID);
                 next_in_cell.push(*head);
                 *head = id;
                 map[i] = id;
@@ -120,14 +130,16 @@ pub(super) fn weld(
         }
     } else {
         // Exact welding on the bit patterns (with -0.0 == 0.0).
-        let key_of = |p: [f64; 3]| p.map(|x| if x == 0.0 { 0i64 } else { x.to_bits() as i64 });
+        let key_of = |p: [f64; 3]| p.map(|x| if x == 0.0 { 0u64 } else { x.to_bits() });
+        let mut exact: HashMap<[u64; 3], u32, BuildHasherDefault<FxHasher>> =
+            HashMap::with_capacity_and_hasher(n_used, Default::default());
         for i in 0..n {
             if !use_vertex[i] {
                 continue;
             }
             let key = key_of(positions[i]);
             let next_id = reps.len() as u32;
-            let id = *grid.entry(key).or_insert(next_id);
+            let id = *exact.entry(key).or_insert(next_id);
             if id == next_id {
                 reps.push(i as u32);
             }
@@ -174,5 +186,28 @@ mod tests {
         let p = vec![[0.0019999, 0.0, 0.0], [0.0020001, 0.0, 0.0]];
         let w = weld(&p, &[true; 2], 1e-3, [0.0; 3]);
         assert_eq!(w.map, vec![0, 0]);
+    }
+}
+
+#[cfg(test)]
+mod bench {
+    use super::*;
+
+    #[test]
+    #[ignore]
+    fn bench_weld() {
+        let n = 746;
+        let mut p = Vec::new();
+        for j in 0..n {
+            for i in 0..n {
+                p.push([i as f64 / n as f64, j as f64 / n as f64, 0.0]);
+            }
+        }
+        let used = vec![true; p.len()];
+        for _ in 0..5 {
+            let t = std::time::Instant::now();
+            let w = weld(&p, &used, 1.4e-6, [0.0; 3]);
+            eprintln!("weld {} -> {}: {:?}", p.len(), w.reps.len(), t.elapsed());
+        }
     }
 }

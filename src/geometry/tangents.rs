@@ -1,0 +1,188 @@
+//! MikkTSpace tangents for triangle geometry that has normals and UVs but no
+//! `TANGENT`, so a normal-mapped material renders the same everywhere (glTF
+//! asks clients to generate MikkTSpace tangents, and the Khronos validator
+//! warns when a normal-mapped primitive lacks them).
+
+use crate::scene::{TriGeometry, VertexAttribute};
+use std::collections::HashMap;
+
+struct Corners<'a> {
+    geo: &'a TriGeometry,
+    normal: &'a VertexAttribute,
+    uv: &'a VertexAttribute,
+    out: Vec<[f32; 4]>,
+}
+
+impl mikktspace::Geometry for Corners<'_> {
+    fn num_faces(&self) -> usize {
+        self.geo.triangles.len()
+    }
+    fn num_vertices_of_face(&self, _: usize) -> usize {
+        3
+    }
+    fn position(&self, f: usize, v: usize) -> [f32; 3] {
+        self.geo.positions[self.geo.triangles[f][v] as usize]
+    }
+    fn normal(&self, f: usize, v: usize) -> [f32; 3] {
+        let n = self.normal.get(self.geo.triangles[f][v] as usize);
+        [n[0], n[1], n[2]]
+    }
+    fn tex_coord(&self, f: usize, v: usize) -> [f32; 2] {
+        let t = self.uv.get(self.geo.triangles[f][v] as usize);
+        [t[0], t[1]]
+    }
+    fn set_tangent_encoded(&mut self, t: [f32; 4], f: usize, v: usize) {
+        self.out[f * 3 + v] = t;
+    }
+}
+
+/// A copy of `geo` with a `TANGENT` attribute computed by MikkTSpace from
+/// `NORMAL` and the UV set `uv_semantic`. Vertices whose corners get different
+/// tangents are split. Returns `None` when the geometry lacks normals or that
+/// UV set, already has tangents, or the tangents cannot be computed.
+pub fn with_generated_tangents(geo: &TriGeometry, uv_semantic: &str) -> Option<TriGeometry> {
+    if geo.attribute("TANGENT").is_some() || geo.triangles.is_empty() {
+        return None;
+    }
+    let normal = geo.attribute("NORMAL").filter(|a| a.components == 3)?;
+    let uv = geo.attribute(uv_semantic).filter(|a| a.components == 2)?;
+    let mut c = Corners {
+        geo,
+        normal,
+        uv,
+        out: vec![[1.0, 0.0, 0.0, 1.0]; geo.triangles.len() * 3],
+    };
+    if !mikktspace::generate_tangents(&mut c) {
+        return None;
+    }
+    let tangents = c.out;
+    // One output vertex per (input vertex, tangent bits).
+    let mut out = TriGeometry {
+        group: geo.group.clone(),
+        ..Default::default()
+    };
+    let mut attrs: Vec<VertexAttribute> = geo
+        .attributes
+        .iter()
+        .map(|a| VertexAttribute {
+            semantic: a.semantic.clone(),
+            components: a.components,
+            data: Vec::new(),
+        })
+        .collect();
+    let mut targets: Vec<Vec<VertexAttribute>> = geo
+        .targets
+        .iter()
+        .map(|t| {
+            t.iter()
+                .map(|a| VertexAttribute {
+                    semantic: a.semantic.clone(),
+                    components: a.components,
+                    data: Vec::new(),
+                })
+                .collect()
+        })
+        .collect();
+    let mut tangent = VertexAttribute {
+        semantic: "TANGENT".into(),
+        components: 4,
+        data: Vec::new(),
+    };
+    let mut map: HashMap<(u32, [u32; 4]), u32> = HashMap::new();
+    for (f, tri) in geo.triangles.iter().enumerate() {
+        let mut new_tri = [0u32; 3];
+        for k in 0..3 {
+            let v = tri[k];
+            let mut t = tangents[f * 3 + k];
+            let l = (t[0] * t[0] + t[1] * t[1] + t[2] * t[2]).sqrt();
+            if l.is_finite() && l > 1e-12 {
+                t[0] /= l;
+                t[1] /= l;
+                t[2] /= l;
+            } else {
+                t = orthogonal(normal.get(v as usize));
+            }
+            t[3] = if t[3] < 0.0 { -1.0 } else { 1.0 };
+            let key = (v, t.map(f32::to_bits));
+            let next = out.positions.len() as u32;
+            new_tri[k] = *map.entry(key).or_insert_with(|| {
+                out.positions.push(geo.positions[v as usize]);
+                for (src, dst) in geo.attributes.iter().zip(attrs.iter_mut()) {
+                    dst.data.extend_from_slice(src.get(v as usize));
+                }
+                for (st, dt) in geo.targets.iter().zip(targets.iter_mut()) {
+                    for (src, dst) in st.iter().zip(dt.iter_mut()) {
+                        dst.data.extend_from_slice(src.get(v as usize));
+                    }
+                }
+                tangent.data.extend_from_slice(&t);
+                next
+            });
+        }
+        out.triangles.push(new_tri);
+    }
+    attrs.push(tangent);
+    out.attributes = attrs;
+    out.targets = targets;
+    Some(out)
+}
+
+/// A unit vector orthogonal to `n` (w = 1), for corners MikkTSpace could not handle.
+fn orthogonal(n: &[f32]) -> [f32; 4] {
+    let a = if n[0].abs() < 0.9 {
+        [1.0, 0.0, 0.0]
+    } else {
+        [0.0, 1.0, 0.0]
+    };
+    let d = a[0] * n[0] + a[1] * n[1] + a[2] * n[2];
+    let t = [a[0] - d * n[0], a[1] - d * n[1], a[2] - d * n[2]];
+    let l = (t[0] * t[0] + t[1] * t[1] + t[2] * t[2]).sqrt().max(1e-20);
+    [t[0] / l, t[1] / l, t[2] / l, 1.0]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn quad_gets_u_aligned_tangents() {
+        // A quad in the XY plane, normal +Z, u along +X.
+        let geo = TriGeometry {
+            positions: vec![
+                [0.0, 0.0, 0.0],
+                [1.0, 0.0, 0.0],
+                [1.0, 1.0, 0.0],
+                [0.0, 1.0, 0.0],
+            ],
+            attributes: vec![
+                VertexAttribute {
+                    semantic: "NORMAL".into(),
+                    components: 3,
+                    data: [0.0, 0.0, 1.0].repeat(4),
+                },
+                VertexAttribute {
+                    semantic: "TEXCOORD_0".into(),
+                    components: 2,
+                    data: vec![0.0, 1.0, 1.0, 1.0, 1.0, 0.0, 0.0, 0.0],
+                },
+            ],
+            triangles: vec![[0, 1, 2], [0, 2, 3]],
+            ..Default::default()
+        };
+        let out = with_generated_tangents(&geo, "TEXCOORD_0").unwrap();
+        assert_eq!(out.positions.len(), 4);
+        let t = out.attribute("TANGENT").unwrap();
+        for v in 0..4 {
+            let x = t.get(v);
+            assert!(
+                (x[0] - 1.0).abs() < 1e-5 && x[1].abs() < 1e-5 && x[2].abs() < 1e-5,
+                "{x:?}"
+            );
+            assert!(x[3] == 1.0 || x[3] == -1.0);
+        }
+        assert!(
+            with_generated_tangents(&out, "TEXCOORD_0").is_none(),
+            "already has tangents"
+        );
+    }
+}
