@@ -1,0 +1,200 @@
+//! The command line: exit codes, stdout/stderr discipline, JSON reports,
+//! passthrough of what cannot be cracked, and the security rules for URIs.
+
+mod common;
+
+use std::path::Path;
+
+fn write(path: &Path, text: &str) {
+    std::fs::write(path, text).unwrap();
+}
+
+#[test]
+fn usage_errors_exit_2() {
+    let o = common::run(["convert"]);
+    assert_eq!(o.status.code(), Some(2));
+    let o = common::run(["frobnicate", "x"]);
+    assert_eq!(o.status.code(), Some(2));
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("x.obj");
+    let o = common::run(["convert".as_ref(), common::fixture("cube.obj").as_os_str(), out.as_os_str()]);
+    assert_eq!(o.status.code(), Some(2), "OBJ output is a usage error");
+    let o = common::run(["info", "--weld-tolerance", "-1", "x.obj"]);
+    assert_eq!(o.status.code(), Some(2));
+}
+
+#[test]
+fn processing_errors_exit_1_and_name_the_file() {
+    let o = common::run(["info", "does/not/exist.glb"]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("does/not/exist.glb"));
+    assert!(o.stdout.is_empty(), "errors go to stderr only");
+}
+
+#[test]
+fn info_json_reports_defects() {
+    let o = common::run_ok(["info".as_ref(), common::fixture("torus.obj").as_os_str(), "--json".as_ref()]);
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(v["triangles"], 2304);
+    let d = &v["simulation_meshes"][0]["defects"];
+    assert_eq!(d["boundary_edges"], 0);
+    assert_eq!(d["components"], 1);
+    assert_eq!(d["vertices"], 1152);
+}
+
+#[test]
+fn info_matches_known_defects_of_eval_meshes() {
+    // Counts from ../shared/eval-data/SOURCES.md.
+    let cases: [(&str, &str, u64); 6] = [
+        ("obj/beast/beast.obj", "non_manifold_edges", 2),
+        ("obj/beast/beast.obj", "duplicate_triangles", 2),
+        ("obj/ogre/ogre.obj", "components", 44),
+        ("obj/ogre/ogre.obj", "degenerate_triangles_dropped", 4),
+        ("obj/teapot/teapot.obj", "boundary_edges", 160),
+        ("obj/stanford-bunny/stanford-bunny.obj", "boundary_edges", 223),
+    ];
+    for (rel, key, want) in cases {
+        let Some(p) = common::eval_data(rel) else { return };
+        let o = common::run_ok(["info".as_ref(), p.as_os_str(), "--json".as_ref()]);
+        let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        assert_eq!(v["simulation_meshes"][0]["defects"][key], want, "{rel}: {key}");
+    }
+}
+
+#[test]
+fn quiet_and_verbose() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("o.glb");
+    let fx = common::fixture("cube.obj");
+    let o = common::run_ok(["-q".as_ref(), "convert".as_ref(), fx.as_os_str(), out.as_os_str()]);
+    assert!(o.stdout.is_empty() && o.stderr.is_empty(), "-q prints nothing on success");
+    let o = common::run_ok(["-v".as_ref(), "convert".as_ref(), fx.as_os_str(), out.as_os_str()]);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(stderr.contains("read") && stderr.contains("write"), "-v logs stage times: {stderr}");
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(stdout.contains("->") && stdout.contains("12 triangles"), "{stdout}");
+    let o = common::run(["-q", "-v", "info", "x.obj"]);
+    assert_eq!(o.status.code(), Some(2), "-q and -v conflict");
+}
+
+/// A glTF with a triangle, a LINES and a POINTS primitive in data URIs.
+fn mixed_gltf() -> String {
+    use base64::Engine;
+    let mut bin: Vec<u8> = Vec::new();
+    for p in [[0f32, 0., 0.], [1., 0., 0.], [0., 1., 0.]] {
+        for x in p {
+            bin.extend(x.to_le_bytes());
+        }
+    }
+    let b64 = base64::engine::general_purpose::STANDARD.encode(&bin);
+    format!(
+        r#"{{"asset":{{"version":"2.0"}},"scene":0,"scenes":[{{"nodes":[0]}}],
+        "nodes":[{{"name":"mixed","mesh":0}}],
+        "meshes":[{{"name":"m","primitives":[
+            {{"attributes":{{"POSITION":0}}}},
+            {{"attributes":{{"POSITION":0}},"mode":1,"indices":1}},
+            {{"attributes":{{"POSITION":0}},"mode":0}}]}}],
+        "accessors":[
+            {{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3","min":[0,0,0],"max":[1,1,0]}},
+            {{"bufferView":1,"componentType":5121,"count":2,"type":"SCALAR"}}],
+        "bufferViews":[{{"buffer":0,"byteLength":36}},{{"buffer":1,"byteLength":2}}],
+        "buffers":[{{"byteLength":36,"uri":"data:application/octet-stream;base64,{b64}"}},
+                   {{"byteLength":2,"uri":"data:application/octet-stream;base64,AAE="}}]}}"#
+    )
+}
+
+#[test]
+fn lines_and_points_pass_through() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = dir.path().join("mixed.gltf");
+    write(&input, &mixed_gltf());
+    let out = dir.path().join("out.gltf");
+    let o = common::run_ok(["convert".as_ref(), input.as_os_str(), out.as_os_str()]);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(stderr.contains("passed through"), "the user is told: {stderr}");
+    if let Some(v) = common::validator() {
+        v.assert_clean(&out);
+    }
+    let back: serde_json::Value = serde_json::from_slice(&std::fs::read(&out).unwrap()).unwrap();
+    let modes: Vec<u64> = back["meshes"][0]["primitives"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|p| p.get("mode").and_then(|m| m.as_u64()).unwrap_or(4))
+        .collect();
+    assert_eq!(modes, vec![4, 1, 0]);
+}
+
+#[test]
+fn uris_outside_the_asset_folder_are_not_followed() {
+    let dir = tempfile::tempdir().unwrap();
+    let secret = dir.path().join("secret.bin");
+    std::fs::write(&secret, [0u8; 64]).unwrap();
+    let sub = dir.path().join("asset");
+    std::fs::create_dir(&sub).unwrap();
+    let base = r#""asset":{"version":"2.0"},"scenes":[{"nodes":[0]}],"nodes":[{"mesh":0}],
+        "meshes":[{"primitives":[{"attributes":{"POSITION":0}}]}],
+        "accessors":[{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3","min":[0,0,0],"max":[1,1,0]}],
+        "bufferViews":[{"buffer":0,"byteLength":36}]"#;
+    let abs = secret.display().to_string();
+    for (name, uri) in [("dotdot", "../secret.bin"), ("absolute", abs.as_str()), ("file", "file:///etc/passwd")] {
+        let input = sub.join(format!("{name}.gltf"));
+        write(&input, &format!(r#"{{{base},"buffers":[{{"byteLength":36,"uri":"{uri}"}}]}}"#));
+        let out = dir.path().join(format!("{name}.glb"));
+        let o = common::run(["convert".as_ref(), input.as_os_str(), out.as_os_str()]);
+        assert_eq!(o.status.code(), Some(1), "{name}");
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        assert!(stderr.contains("not followed") || stderr.contains("leaves"), "{name}: {stderr}");
+        assert!(!out.exists());
+    }
+    // An image URI escaping the folder is refused the same way.
+    let input = sub.join("img.gltf");
+    write(
+        &input,
+        r#"{"asset":{"version":"2.0"},"images":[{"uri":"../secret.png"}],"textures":[{"source":0}]}"#,
+    );
+    let o = common::run(["info".as_ref(), input.as_os_str()]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("image 0"));
+}
+
+#[test]
+fn declared_sizes_larger_than_data_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let bin = dir.path().join("small.bin");
+    std::fs::write(&bin, [0u8; 36]).unwrap();
+    let input = dir.path().join("big.gltf");
+    write(
+        &input,
+        r#"{"asset":{"version":"2.0"},"scenes":[{"nodes":[0]}],"nodes":[{"mesh":0}],
+        "meshes":[{"primitives":[{"attributes":{"POSITION":0}}]}],
+        "accessors":[{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3","min":[0,0,0],"max":[1,1,0]}],
+        "bufferViews":[{"buffer":0,"byteLength":36}],
+        "buffers":[{"byteLength":4000000000,"uri":"small.bin"}]}"#,
+    );
+    let o = common::run(["info".as_ref(), input.as_os_str()]);
+    assert_eq!(o.status.code(), Some(1));
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(stderr.contains("byteLength declares 4000000000"), "{stderr}");
+}
+
+#[test]
+fn texture_transform_and_material_extensions_are_kept() {
+    let Some(input) = common::eval_data("gltf/TextureTransformTest/TextureTransformTest.gltf") else { return };
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("t.gltf");
+    common::run_ok(["convert".as_ref(), input.as_os_str(), out.as_os_str()]);
+    let src: serde_json::Value = serde_json::from_slice(&std::fs::read(&input).unwrap()).unwrap();
+    let back: serde_json::Value = serde_json::from_slice(&std::fs::read(&out).unwrap()).unwrap();
+    assert!(back["extensionsUsed"].as_array().unwrap().iter().any(|e| e == "KHR_texture_transform"));
+    // Every material keeps its texture-transform blocks, in order.
+    let transforms = |v: &serde_json::Value| -> Vec<String> {
+        v["materials"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|m| m["pbrMetallicRoughness"]["baseColorTexture"]["extensions"].to_string())
+            .collect()
+    };
+    assert_eq!(transforms(&src), transforms(&back));
+}
