@@ -17,7 +17,11 @@ fn usage_errors_exit_2() {
     assert_eq!(o.status.code(), Some(2));
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("x.obj");
-    let o = common::run(["convert".as_ref(), common::fixture("cube.obj").as_os_str(), out.as_os_str()]);
+    let o = common::run([
+        "convert".as_ref(),
+        common::fixture("cube.obj").as_os_str(),
+        out.as_os_str(),
+    ]);
     assert_eq!(o.status.code(), Some(2), "OBJ output is a usage error");
     let o = common::run(["info", "--weld-tolerance", "-1", "x.obj"]);
     assert_eq!(o.status.code(), Some(2));
@@ -33,7 +37,11 @@ fn processing_errors_exit_1_and_name_the_file() {
 
 #[test]
 fn info_json_reports_defects() {
-    let o = common::run_ok(["info".as_ref(), common::fixture("torus.obj").as_os_str(), "--json".as_ref()]);
+    let o = common::run_ok([
+        "info".as_ref(),
+        common::fixture("torus.obj").as_os_str(),
+        "--json".as_ref(),
+    ]);
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     assert_eq!(v["triangles"], 2304);
     let d = &v["simulation_meshes"][0]["defects"];
@@ -51,14 +59,34 @@ fn info_matches_known_defects_of_eval_meshes() {
         ("obj/ogre/ogre.obj", "components", 44),
         ("obj/ogre/ogre.obj", "degenerate_triangles_dropped", 4),
         ("obj/teapot/teapot.obj", "boundary_edges", 160),
-        ("obj/stanford-bunny/stanford-bunny.obj", "boundary_edges", 223),
+        (
+            "obj/stanford-bunny/stanford-bunny.obj",
+            "boundary_edges",
+            223,
+        ),
     ];
     for (rel, key, want) in cases {
-        let Some(p) = common::eval_data(rel) else { return };
+        let Some(p) = common::eval_data(rel) else {
+            return;
+        };
         let o = common::run_ok(["info".as_ref(), p.as_os_str(), "--json".as_ref()]);
         let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
-        assert_eq!(v["simulation_meshes"][0]["defects"][key], want, "{rel}: {key}");
+        assert_eq!(
+            v["simulation_meshes"][0]["defects"][key], want,
+            "{rel}: {key}"
+        );
     }
+    // OBJ positions no face uses (1,113 in the Stanford bunny) are reported.
+    let Some(p) = common::eval_data("obj/stanford-bunny/stanford-bunny.obj") else {
+        return;
+    };
+    let o = common::run_ok(["info".as_ref(), p.as_os_str(), "--json".as_ref()]);
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let warnings = v["warnings"].to_string();
+    assert!(
+        warnings.contains("1113 vertices are not used"),
+        "{warnings}"
+    );
 }
 
 #[test]
@@ -66,13 +94,32 @@ fn quiet_and_verbose() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("o.glb");
     let fx = common::fixture("cube.obj");
-    let o = common::run_ok(["-q".as_ref(), "convert".as_ref(), fx.as_os_str(), out.as_os_str()]);
-    assert!(o.stdout.is_empty() && o.stderr.is_empty(), "-q prints nothing on success");
-    let o = common::run_ok(["-v".as_ref(), "convert".as_ref(), fx.as_os_str(), out.as_os_str()]);
+    let o = common::run_ok([
+        "-q".as_ref(),
+        "convert".as_ref(),
+        fx.as_os_str(),
+        out.as_os_str(),
+    ]);
+    assert!(
+        o.stdout.is_empty() && o.stderr.is_empty(),
+        "-q prints nothing on success"
+    );
+    let o = common::run_ok([
+        "-v".as_ref(),
+        "convert".as_ref(),
+        fx.as_os_str(),
+        out.as_os_str(),
+    ]);
     let stderr = String::from_utf8_lossy(&o.stderr);
-    assert!(stderr.contains("read") && stderr.contains("write"), "-v logs stage times: {stderr}");
+    assert!(
+        stderr.contains("read") && stderr.contains("write"),
+        "-v logs stage times: {stderr}"
+    );
     let stdout = String::from_utf8_lossy(&o.stdout);
-    assert!(stdout.contains("->") && stdout.contains("12 triangles"), "{stdout}");
+    assert!(
+        stdout.contains("->") && stdout.contains("12 triangles"),
+        "{stdout}"
+    );
     let o = common::run(["-q", "-v", "info", "x.obj"]);
     assert_eq!(o.status.code(), Some(2), "-q and -v conflict");
 }
@@ -111,7 +158,10 @@ fn lines_and_points_pass_through() {
     let out = dir.path().join("out.gltf");
     let o = common::run_ok(["convert".as_ref(), input.as_os_str(), out.as_os_str()]);
     let stderr = String::from_utf8_lossy(&o.stderr);
-    assert!(stderr.contains("passed through"), "the user is told: {stderr}");
+    assert!(
+        stderr.contains("passed through"),
+        "the user is told: {stderr}"
+    );
     if let Some(v) = common::validator() {
         v.assert_clean(&out);
     }
@@ -137,14 +187,24 @@ fn uris_outside_the_asset_folder_are_not_followed() {
         "accessors":[{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3","min":[0,0,0],"max":[1,1,0]}],
         "bufferViews":[{"buffer":0,"byteLength":36}]"#;
     let abs = secret.display().to_string();
-    for (name, uri) in [("dotdot", "../secret.bin"), ("absolute", abs.as_str()), ("file", "file:///etc/passwd")] {
+    for (name, uri) in [
+        ("dotdot", "../secret.bin"),
+        ("absolute", abs.as_str()),
+        ("file", "file:///etc/passwd"),
+    ] {
         let input = sub.join(format!("{name}.gltf"));
-        write(&input, &format!(r#"{{{base},"buffers":[{{"byteLength":36,"uri":"{uri}"}}]}}"#));
+        write(
+            &input,
+            &format!(r#"{{{base},"buffers":[{{"byteLength":36,"uri":"{uri}"}}]}}"#),
+        );
         let out = dir.path().join(format!("{name}.glb"));
         let o = common::run(["convert".as_ref(), input.as_os_str(), out.as_os_str()]);
         assert_eq!(o.status.code(), Some(1), "{name}");
         let stderr = String::from_utf8_lossy(&o.stderr);
-        assert!(stderr.contains("not followed") || stderr.contains("leaves"), "{name}: {stderr}");
+        assert!(
+            stderr.contains("not followed") || stderr.contains("leaves"),
+            "{name}: {stderr}"
+        );
         assert!(!out.exists());
     }
     // An image URI escaping the folder is refused the same way.
@@ -175,18 +235,28 @@ fn declared_sizes_larger_than_data_are_refused() {
     let o = common::run(["info".as_ref(), input.as_os_str()]);
     assert_eq!(o.status.code(), Some(1));
     let stderr = String::from_utf8_lossy(&o.stderr);
-    assert!(stderr.contains("byteLength declares 4000000000"), "{stderr}");
+    assert!(
+        stderr.contains("byteLength declares 4000000000"),
+        "{stderr}"
+    );
 }
 
 #[test]
 fn texture_transform_and_material_extensions_are_kept() {
-    let Some(input) = common::eval_data("gltf/TextureTransformTest/TextureTransformTest.gltf") else { return };
+    let Some(input) = common::eval_data("gltf/TextureTransformTest/TextureTransformTest.gltf")
+    else {
+        return;
+    };
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("t.gltf");
     common::run_ok(["convert".as_ref(), input.as_os_str(), out.as_os_str()]);
     let src: serde_json::Value = serde_json::from_slice(&std::fs::read(&input).unwrap()).unwrap();
     let back: serde_json::Value = serde_json::from_slice(&std::fs::read(&out).unwrap()).unwrap();
-    assert!(back["extensionsUsed"].as_array().unwrap().iter().any(|e| e == "KHR_texture_transform"));
+    assert!(back["extensionsUsed"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .any(|e| e == "KHR_texture_transform"));
     // Every material keeps its texture-transform blocks, in order.
     let transforms = |v: &serde_json::Value| -> Vec<String> {
         v["materials"]

@@ -5,30 +5,13 @@
 mod common;
 
 use std::panic::{catch_unwind, AssertUnwindSafe};
-use std::path::{Path, PathBuf};
-
-fn walk(dir: &Path, out: &mut Vec<PathBuf>) {
-    let mut entries: Vec<_> = std::fs::read_dir(dir)
-        .unwrap()
-        .map(|e| e.unwrap().path())
-        .collect();
-    entries.sort();
-    for p in entries {
-        if p.is_dir() {
-            walk(&p, out);
-        } else if matches!(p.extension().and_then(|e| e.to_str()), Some("gltf" | "glb")) {
-            out.push(p);
-        }
-    }
-}
 
 #[test]
 fn validator_corpus_loads_or_errors_without_panic() {
     let Some(root) = common::eval_data("validator_testsuite/test") else {
         return;
     };
-    let mut files = Vec::new();
-    walk(&root, &mut files);
+    let files = common::files_under(&root, &["gltf", "glb"]);
     assert!(
         files.len() > 300,
         "expected the whole corpus, found {} files",

@@ -91,34 +91,14 @@ fn every_reject_file_is_refused() {
         return;
     };
     let mut n = 0;
-    for entry in walk(&root) {
-        let ext = entry.extension().and_then(|e| e.to_str()).unwrap_or("");
-        if ["gltf", "glb", "obj"].contains(&ext) {
-            let rel = entry
-                .strip_prefix(root.parent().unwrap())
-                .unwrap()
-                .to_string_lossy()
-                .to_string();
-            refused(&rel, &[]);
-            n += 1;
-        }
+    for entry in common::files_under(&root, &["gltf", "glb", "obj"]) {
+        let rel = entry
+            .strip_prefix(root.parent().unwrap())
+            .unwrap()
+            .to_string_lossy()
+            .to_string();
+        refused(&rel, &[]);
+        n += 1;
     }
     assert!(n >= 7, "expected at least 7 reject files, found {n}");
-}
-
-fn walk(dir: &std::path::Path) -> Vec<std::path::PathBuf> {
-    let mut out = Vec::new();
-    let mut entries: Vec<_> = std::fs::read_dir(dir)
-        .unwrap()
-        .map(|e| e.unwrap().path())
-        .collect();
-    entries.sort();
-    for p in entries {
-        if p.is_dir() {
-            out.extend(walk(&p));
-        } else {
-            out.push(p);
-        }
-    }
-    out
 }

@@ -233,6 +233,19 @@ fn read_impl(text: &str, base_dir: &Path, name: &str, path: &Path) -> Result<Sce
             ..Default::default()
         });
     }
+    // Positions no face uses are not carried into the scene: say how many.
+    let mut referenced = vec![false; prep.n_v];
+    for c in &prep.corners {
+        if let Some(r) = referenced.get_mut(c.v as usize) {
+            *r = true;
+        }
+    }
+    let unreferenced = referenced.iter().filter(|r| !**r).count();
+    if unreferenced > 0 {
+        scene.warnings.push(format!(
+            "{unreferenced} vertices are not used by any face and are left out"
+        ));
+    }
     scene.scenes = vec![SceneRoot {
         name: None,
         nodes: (0..scene.nodes.len()).collect(),
