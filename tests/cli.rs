@@ -268,3 +268,56 @@ fn texture_transform_and_material_extensions_are_kept() {
     };
     assert_eq!(transforms(&src), transforms(&back));
 }
+
+#[test]
+fn assets_without_triangles_are_refused_with_the_reason() {
+    for (rel, why) in [
+        (
+            "gltf/Mesh_PrimitiveMode/Mesh_PrimitiveMode_00.gltf",
+            "POINTS",
+        ),
+        (
+            "gltf/Mesh_PrimitiveMode/Mesh_PrimitiveMode_01.gltf",
+            "lines",
+        ),
+    ] {
+        let Some(input) = common::eval_data(rel) else {
+            return;
+        };
+        let dir = tempfile::tempdir().unwrap();
+        let out = dir.path().join("o.glb");
+        let o = common::run(["convert".as_ref(), input.as_os_str(), out.as_os_str()]);
+        assert_eq!(o.status.code(), Some(1));
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        assert!(
+            stderr.contains("nothing to crack") && stderr.contains(why),
+            "{stderr}"
+        );
+        assert!(!out.exists());
+        // `info` still describes it.
+        common::run_ok(["info".as_ref(), input.as_os_str()]);
+    }
+}
+
+#[test]
+fn output_is_byte_identical_across_runs_and_thread_counts() {
+    let Some(input) = common::eval_data("gltf/CesiumMilkTruck/CesiumMilkTruck.glb") else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let mut outputs = Vec::new();
+    for threads in ["1", "2", "1"] {
+        let out = dir.path().join(format!("t{}.glb", outputs.len()));
+        let o = std::process::Command::new(common::crackle_bin())
+            .args(["convert".as_ref(), input.as_os_str(), out.as_os_str()])
+            .env("RAYON_NUM_THREADS", threads)
+            .output()
+            .unwrap();
+        assert!(o.status.success());
+        outputs.push(std::fs::read(&out).unwrap());
+    }
+    assert!(
+        outputs.windows(2).all(|w| w[0] == w[1]),
+        "outputs differ between runs"
+    );
+}

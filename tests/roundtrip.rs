@@ -190,6 +190,14 @@ eval_round_trip!(
     texture_transform_test,
     "gltf/TextureTransformTest/TextureTransformTest.gltf"
 );
+eval_round_trip!(
+    triangle_fan,
+    "gltf/Mesh_PrimitiveMode/Mesh_PrimitiveMode_05.gltf"
+);
+eval_round_trip!(
+    triangles_without_indices,
+    "gltf/Mesh_PrimitiveMode/Mesh_PrimitiveMode_06.gltf"
+);
 eval_round_trip!(box_interleaved, "gltf/BoxInterleaved/BoxInterleaved.glb");
 eval_round_trip!(cubevc, "gltf/edge_cases/cubevc.glb");
 eval_round_trip!(nested, "gltf/edge_cases/nested.glb");

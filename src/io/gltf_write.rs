@@ -71,7 +71,7 @@ pub fn write_scene(scene: &Scene, path: &Path) -> Result<WriteSummary> {
             files.push((out_dir.join(name), bytes));
         }
     }
-    commit_files(&files, path)?;
+    commit_files(&files)?;
     Ok(WriteSummary {
         bytes: files.iter().map(|(_, b)| b.len() as u64).sum(),
         files: files.into_iter().map(|(p, _)| p).collect(),
@@ -80,7 +80,7 @@ pub fn write_scene(scene: &Scene, path: &Path) -> Result<WriteSummary> {
 }
 
 /// Write every file under a temporary name, then rename all into place.
-fn commit_files(files: &[(PathBuf, Vec<u8>)], main: &Path) -> Result<()> {
+fn commit_files(files: &[(PathBuf, Vec<u8>)]) -> Result<()> {
     let mut temps = Vec::new();
     let cleanup = |temps: &[PathBuf]| {
         for t in temps {
@@ -100,7 +100,6 @@ fn commit_files(files: &[(PathBuf, Vec<u8>)], main: &Path) -> Result<()> {
     for ((p, _), tmp) in files.iter().zip(&temps) {
         if let Err(e) = std::fs::rename(tmp, p) {
             cleanup(&temps);
-            let _ = main;
             return Err(Error::io(p, e));
         }
     }
