@@ -321,3 +321,19 @@ fn output_is_byte_identical_across_runs_and_thread_counts() {
         "outputs differ between runs"
     );
 }
+
+#[test]
+fn output_folder_is_created() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("a/b/cube.gltf");
+    common::run_ok([
+        "convert".as_ref(),
+        common::fixture("cube.obj").as_os_str(),
+        out.as_os_str(),
+    ]);
+    assert!(out.exists() && dir.path().join("a/b/cube.bin").exists());
+    assert!(
+        dir.path().join("a/b/cube texture.png").exists(),
+        "the texture is copied beside the .gltf"
+    );
+}

@@ -72,6 +72,11 @@ pub fn run(
     }
     let t_weld = t1.elapsed();
     let t2 = Instant::now();
+    if let Some(dir) = output.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).map_err(|e| {
+            anyhow::anyhow!("{}: cannot create the output folder: {e}", dir.display())
+        })?;
+    }
     let summary = crackle::io::gltf_write::write_scene(&scene, output)?;
     let t_write = t2.elapsed();
     log::info!(

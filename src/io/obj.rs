@@ -1786,10 +1786,9 @@ mod tests {
         }
     }
 
-    /// The large OBJ files load with their triangle counts; prints parse
-    /// times (run with `--ignored --release`).
+    /// The large OBJ files load with their triangle counts (their parse time
+    /// is measured by `cargo bench --bench io`).
     #[test]
-    #[ignore]
     fn large_obj_parses() {
         let files = [
             ("large/ogre_loop1_496k.obj", 496_032),
@@ -1800,13 +1799,7 @@ mod tests {
         ];
         for (rel, tris) in files {
             let Some(path) = eval(rel) else { return };
-            let t = std::time::Instant::now();
             let s = read_obj(&path).unwrap();
-            eprintln!(
-                "{rel}: {} triangles in {:?}",
-                s.triangle_count(),
-                t.elapsed()
-            );
             check_consistent(&s);
             assert_eq!(s.triangle_count(), tris, "{rel}");
         }

@@ -188,26 +188,3 @@ mod tests {
         assert_eq!(w.map, vec![0, 0]);
     }
 }
-
-#[cfg(test)]
-mod bench {
-    use super::*;
-
-    #[test]
-    #[ignore]
-    fn bench_weld() {
-        let n = 746;
-        let mut p = Vec::new();
-        for j in 0..n {
-            for i in 0..n {
-                p.push([i as f64 / n as f64, j as f64 / n as f64, 0.0]);
-            }
-        }
-        let used = vec![true; p.len()];
-        for _ in 0..5 {
-            let t = std::time::Instant::now();
-            let w = weld(&p, &used, 1.4e-6, [0.0; 3]);
-            eprintln!("weld {} -> {}: {:?}", p.len(), w.reps.len(), t.elapsed());
-        }
-    }
-}
