@@ -12,5 +12,6 @@ pub mod geometry;
 pub mod io;
 pub mod mesh;
 pub mod scene;
+pub mod stress;
 
 pub use error::{Error, Result};
