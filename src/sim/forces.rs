@@ -1,0 +1,235 @@
+//! Node forces (eq. 1) and the separation tensor (eq. 3).
+//!
+//! Every per-node quantity is a gather over the node's fan in the mesh's fan
+//! order, so results do not depend on thread count or scheduling.
+
+use crate::geometry::element::{basis_norm, Element};
+use crate::mesh::{FaceId, SimMesh, VertexId};
+use crate::stress::tensor::{v3, Sym3};
+use rayon::prelude::*;
+
+/// Element geometry for every face of a mesh (`None` for a degenerate face).
+#[derive(Clone, Debug, Default)]
+pub struct Elements {
+    /// Per face.
+    pub elements: Vec<Option<Element>>,
+    /// The clamp applied to the barycentric bases' singular values.
+    pub clamp: f64,
+}
+
+impl Elements {
+    /// The clamp threshold: `factor` times the mean over faces of the largest
+    /// singular value of the barycentric basis (about `1 / height`).
+    pub fn clamp_threshold(mesh: &SimMesh, factor: f64) -> f64 {
+        let (mut sum, mut n) = (0.0, 0usize);
+        for f in mesh.faces() {
+            if let Some(s) = basis_norm(face_points(mesh, f)) {
+                sum += s;
+                n += 1;
+            }
+        }
+        if n == 0 {
+            f64::INFINITY
+        } else {
+            factor * sum / n as f64
+        }
+    }
+
+    /// Compute every face's element with singular values clamped at `clamp`.
+    pub fn new(mesh: &SimMesh, clamp: f64) -> Elements {
+        let elements = (0..mesh.n_faces())
+            .into_par_iter()
+            .map(|f| Element::new(face_points(mesh, FaceId(f as u32)), clamp))
+            .collect();
+        Elements { elements, clamp }
+    }
+
+    /// The element of face `f`.
+    pub fn get(&self, f: FaceId) -> Option<&Element> {
+        self.elements.get(f.idx()).and_then(Option::as_ref)
+    }
+}
+
+/// Corner positions of a face.
+pub fn face_points(mesh: &SimMesh, f: FaceId) -> [[f64; 3]; 3] {
+    mesh.face_vertices(f).map(|v| mesh.position(v))
+}
+
+/// Forces of an element with stress `s` on its three corners:
+/// `f_i = -A S g_i`. They sum to zero.
+pub fn element_forces(el: &Element, s: &Sym3) -> [[f64; 3]; 3] {
+    el.grads.map(|g| v3::scale(s.mul_vec(g), -el.area))
+}
+
+/// Tensile and compressive parts of an element's in-plane stress:
+/// `S+ = sum max(0, v) n n^T`, `S- = sum min(0, v) n n^T` over the in-plane
+/// eigenpairs.
+pub fn split_tensile(el: &Element, s: &Sym3) -> (Sym3, Sym3) {
+    let (vals, vecs) = s.to_frame(el.e1, el.e2).eigen();
+    let mut plus = Sym3::ZERO;
+    let mut minus = Sym3::ZERO;
+    for k in 0..2 {
+        let n = v3::add(v3::scale(el.e1, vecs[k][0]), v3::scale(el.e2, vecs[k][1]));
+        let t = Sym3::outer(n) * vals[k];
+        if vals[k] > 0.0 {
+            plus += t;
+        } else {
+            minus += t;
+        }
+    }
+    (plus, minus)
+}
+
+/// Which corner of face `f` is vertex `v`.
+fn corner_of(mesh: &SimMesh, f: FaceId, v: VertexId) -> usize {
+    mesh.face_vertices(f)
+        .iter()
+        .position(|&x| x == v)
+        .unwrap_or(0)
+}
+
+/// Net force on every node, `g[n] = sum_e f_e[n]`, gathered per node in fan order.
+pub fn node_forces(mesh: &SimMesh, els: &Elements, stress: &[Sym3]) -> Vec<[f64; 3]> {
+    (0..mesh.n_vertices())
+        .into_par_iter()
+        .map(|v| {
+            let v = VertexId(v as u32);
+            let mut g = [0.0; 3];
+            for f in mesh.vertex_faces(v) {
+                if let Some(el) = els.get(f) {
+                    let k = corner_of(mesh, f, v);
+                    g = v3::add(g, v3::scale(stress[f.idx()].mul_vec(el.grads[k]), -el.area));
+                }
+            }
+            g
+        })
+        .collect()
+}
+
+/// The separation tensor of node `v` (eq. 3):
+/// `S = 1/2 (-m(f+) + sum_e m(f+_e) + m(f-) - sum_e m(f-_e))`.
+pub fn separation_tensor(mesh: &SimMesh, els: &Elements, stress: &[Sym3], v: VertexId) -> Sym3 {
+    let mut fp = [0.0; 3];
+    let mut fm = [0.0; 3];
+    let mut acc = Sym3::ZERO;
+    for f in mesh.vertex_faces(v) {
+        let Some(el) = els.get(f) else { continue };
+        let k = corner_of(mesh, f, v);
+        let (sp, sm) = split_tensile(el, &stress[f.idx()]);
+        let fpe = v3::scale(sp.mul_vec(el.grads[k]), -el.area);
+        let fme = v3::scale(sm.mul_vec(el.grads[k]), -el.area);
+        fp = v3::add(fp, fpe);
+        fm = v3::add(fm, fme);
+        acc += Sym3::m(fpe) - Sym3::m(fme);
+    }
+    (acc - Sym3::m(fp) + Sym3::m(fm)) * 0.5
+}
+
+#[cfg(test)]
+pub(crate) mod tests {
+    use super::*;
+    use crate::mesh::test_util::{grid_input, Lcg};
+    use crate::mesh::{MeshInput, WeldOptions};
+
+    /// An n x n plate of unit cells, interior nodes jittered by up to `jitter` cells.
+    pub(crate) fn jittered_plate(n: usize, jitter: f64, seed: u64) -> SimMesh {
+        let mut input: MeshInput = grid_input(n, n);
+        let mut rng = Lcg(seed);
+        for p in input.positions.iter_mut() {
+            let interior = p[0] > 0.0 && p[0] < n as f64 && p[1] > 0.0 && p[1] < n as f64;
+            if interior {
+                p[0] += jitter * (2.0 * rng.next_f64() - 1.0);
+                p[1] += jitter * (2.0 * rng.next_f64() - 1.0);
+            }
+        }
+        let (m, _) = SimMesh::build(&input, &WeldOptions::default()).unwrap();
+        m
+    }
+
+    fn uniform(mesh: &SimMesh, els: &Elements, c: f64) -> Vec<Sym3> {
+        mesh.faces()
+            .map(|f| Sym3::tangent_identity(els.get(f).unwrap().normal, c))
+            .collect()
+    }
+
+    #[test]
+    fn element_forces_sum_to_zero() {
+        let mut rng = Lcg(3);
+        for _ in 0..200 {
+            let mut p = [[0.0; 3]; 3];
+            for q in p.iter_mut() {
+                *q = [rng.next_f64(), rng.next_f64(), rng.next_f64()];
+            }
+            let Some(el) = Element::new(p, f64::INFINITY) else {
+                continue;
+            };
+            let s2 = crate::stress::Sym2 {
+                xx: rng.next_f64(),
+                yy: rng.next_f64(),
+                xy: rng.next_f64(),
+            };
+            let s = Sym3::from_frame(&s2, el.e1, el.e2);
+            let f = element_forces(&el, &s);
+            let sum = v3::add(v3::add(f[0], f[1]), f[2]);
+            assert!(v3::norm(sum) < 1e-12 * (1.0 + v3::norm(f[0])), "{sum:?}");
+        }
+    }
+
+    #[test]
+    fn uniform_tension_balances_inside_and_pulls_boundary_inward() {
+        let n = 8;
+        let mesh = jittered_plate(n, 0.3, 1);
+        let els = Elements::new(&mesh, f64::INFINITY);
+        let stress = uniform(&mesh, &els, 1.0);
+        let g = node_forces(&mesh, &els, &stress);
+        let centre = [n as f64 / 2.0, n as f64 / 2.0, 0.0];
+        for v in mesh.vertices() {
+            let f = g[v.idx()];
+            if mesh.is_boundary_vertex(v) {
+                // Inward: towards the plate's centre, with a clear magnitude.
+                let to_centre = v3::sub(centre, mesh.position(v));
+                assert!(
+                    v3::dot(f, to_centre) > 0.0,
+                    "boundary node {v:?} force {f:?} is not inward"
+                );
+                assert!(v3::norm(f) > 0.1);
+            } else {
+                assert!(
+                    v3::norm(f) < 1e-12,
+                    "interior node {v:?} has net force {f:?}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn separation_tensor_at_free_boundary_under_uniaxial_tension() {
+        let n = 8;
+        let mesh = jittered_plate(n, 0.0, 1);
+        let els = Elements::new(&mesh, f64::INFINITY);
+        // Tension along x only.
+        let stress = vec![Sym3::outer([1.0, 0.0, 0.0]); mesh.n_faces()];
+        let node_at = |x: f64, y: f64| {
+            mesh.vertices().find(|&v| {
+                let p = mesh.position(v);
+                (p[0] - x).abs() < 1e-9 && (p[1] - y).abs() < 1e-9
+            })
+        };
+        // A node on the bottom edge (y = 0): the crack plane's normal is the tension axis.
+        let bottom = node_at(4.0, 0.0).unwrap();
+        let (val, vec) = separation_tensor(&mesh, &els, &stress, bottom).max_eigen();
+        assert!(val > 0.1, "eigenvalue {val}");
+        assert!(vec[0].abs() > 0.999, "eigenvector {vec:?} should be +-x");
+        // A node on the left edge (x = 0) is pulled along the tension: nothing separates.
+        let left = node_at(0.0, 4.0).unwrap();
+        let (val_left, _) = separation_tensor(&mesh, &els, &stress, left).max_eigen();
+        assert!(
+            val_left < 1e-9 * val.max(1.0),
+            "left edge eigenvalue {val_left}"
+        );
+        // Pure compression never separates.
+        let comp = vec![Sym3::outer([1.0, 0.0, 0.0]) * -1.0; mesh.n_faces()];
+        let (vc, _) = separation_tensor(&mesh, &els, &comp, bottom).max_eigen();
+        assert!(vc < 1e-9, "compression gave {vc}");
+    }
+}

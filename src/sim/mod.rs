@@ -1,0 +1,9 @@
+//! The simulation core (Iben & O'Brien 2009): element geometry on the
+//! simulation mesh, node forces, separation tensors and stress relaxation.
+//! No I/O and no printing here.
+
+pub mod forces;
+pub mod relax;
+
+pub use forces::{element_forces, node_forces, separation_tensor, split_tensile, Elements};
+pub use relax::{energy, relax_step, stable_dt, RelaxStep};
