@@ -3,7 +3,9 @@
 //! No I/O and no printing here.
 
 pub mod forces;
+pub mod queue;
 pub mod relax;
 
 pub use forces::{element_forces, node_forces, separation_tensor, split_tensile, Elements};
+pub use queue::FailureQueue;
 pub use relax::{energy, relax_step, stable_dt, RelaxStep};
