@@ -2,10 +2,12 @@
 //! simulation mesh, node forces, separation tensors and stress relaxation.
 //! No I/O and no printing here.
 
+pub mod crack;
 pub mod forces;
 pub mod queue;
 pub mod relax;
 
+pub use crack::{crack_node, CrackEvent, CrackRules};
 pub use forces::{element_forces, node_forces, separation_tensor, split_tensile, Elements};
 pub use queue::FailureQueue;
 pub use relax::{energy, relax_step, stable_dt, RelaxStep};

@@ -1,0 +1,284 @@
+//! One crack event at a failing node (Iben & O'Brien 2009, sec. 4.3): the
+//! crack plane through the node, with the separation tensor's eigenvector as
+//! its normal, is intersected with the node's fan; each crossing becomes a
+//! crack segment, either along an existing edge (snapped below `theta1`) or
+//! along a new edge to a vertex inserted on the crossed far edge (which also
+//! splits the neighbour across that edge, keeping the mesh conforming). The
+//! segments are then opened, duplicating vertices where a fan separates.
+//!
+//! Directions within `theta2` of an existing crack edge at the node are not
+//! cracked again (no back-cracking), and a crack tip cracks forward only.
+
+use crate::mesh::{FaceId, HalfedgeId, MeshError, SimMesh, VertexId};
+use crate::stress::tensor::v3;
+
+/// Geometric rules of cracking.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CrackRules {
+    /// Snap to an existing edge when the crack direction is within this angle (radians).
+    pub theta1: f64,
+    /// Do not crack within this angle of an existing crack edge (radians).
+    pub theta2: f64,
+    /// A new vertex is placed only between this fraction and `1 - min_split`
+    /// of the crossed edge; closer to an end, the crack snaps to that end's edge
+    /// so no sliver is created.
+    pub min_split: f64,
+}
+
+impl Default for CrackRules {
+    fn default() -> Self {
+        CrackRules {
+            theta1: 15f64.to_radians(),
+            theta2: 25f64.to_radians(),
+            min_split: 0.15,
+        }
+    }
+}
+
+/// What a crack event changed.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct CrackEvent {
+    /// Crack edges created, as (node, far end) before opening.
+    pub segments: Vec<(VertexId, VertexId)>,
+    /// Faces split: (parent, child); the child inherits the parent's stress.
+    pub split_faces: Vec<(FaceId, FaceId)>,
+    /// Vertices inserted on crossed edges.
+    pub inserted: Vec<VertexId>,
+    /// Vertices duplicated by opening: (new, original).
+    pub duplicated: Vec<(VertexId, VertexId)>,
+    /// Total length of the crack edges created (mesh units).
+    pub length: f64,
+}
+
+fn unit(a: [f64; 3]) -> Option<[f64; 3]> {
+    let n = v3::norm(a);
+    (n > 0.0 && n.is_finite()).then(|| v3::scale(a, 1.0 / n))
+}
+
+fn angle(a: [f64; 3], b: [f64; 3]) -> f64 {
+    match (unit(a), unit(b)) {
+        (Some(a), Some(b)) => v3::dot(a, b).clamp(-1.0, 1.0).acos(),
+        _ => 0.0,
+    }
+}
+
+/// Directions (unit vectors from the node) of the boundary edges at `v`:
+/// crack edges and the mesh's own border alike, so a crack never runs
+/// within `theta2` along either.
+pub fn crack_directions(mesh: &SimMesh, v: VertexId) -> Vec<[f64; 3]> {
+    let pv = mesh.position(v);
+    let mut out: Vec<[f64; 3]> = Vec::new();
+    for h in mesh.vertex_outgoing(v) {
+        // Edge v -> dest(h), and edge prev(h): b -> v. The two sides of an
+        // opened crack edge end at the same place (the same vertex, or its
+        // duplicate): count the direction once.
+        for (e, other) in [(h, mesh.dest(h)), (mesh.prev(h), mesh.origin(mesh.prev(h)))] {
+            if mesh.is_boundary_halfedge(e) {
+                if let Some(d) = unit(v3::sub(mesh.position(other), pv)) {
+                    if out.iter().all(|&x| v3::dot(x, d) < 1.0 - 1e-12) {
+                        out.push(d);
+                    }
+                }
+            }
+        }
+    }
+    out
+}
+
+/// A crossing of the crack plane with the far edge of a fan face.
+#[derive(Clone, Copy, Debug)]
+struct Crossing {
+    /// Halfedge a -> b (the far edge of the face, seen from the node).
+    far: HalfedgeId,
+    /// Parameter along a -> b.
+    s: f64,
+    /// Direction from the node to the crossing point.
+    dir: [f64; 3],
+}
+
+fn crossings(mesh: &SimMesh, v: VertexId, n: [f64; 3]) -> Vec<Crossing> {
+    let pv = mesh.position(v);
+    let mut out = Vec::new();
+    for h in mesh.vertex_outgoing(v) {
+        let far = mesh.next(h);
+        let (a, b) = (mesh.origin(far), mesh.dest(far));
+        let (pa, pb) = (mesh.position(a), mesh.position(b));
+        let sa = v3::dot(n, v3::sub(pa, pv));
+        let sb = v3::dot(n, v3::sub(pb, pv));
+        // Strict sign change, or the plane through b (a crossing at a is
+        // found as the b of the previous face, so each is found once).
+        if (sa < 0.0 && sb > 0.0) || (sa > 0.0 && sb < 0.0) || (sb == 0.0 && sa != 0.0) {
+            let s = sa / (sa - sb);
+            let q = v3::add(pa, v3::scale(v3::sub(pb, pa), s));
+            if let Some(dir) = unit(v3::sub(q, pv)) {
+                out.push(Crossing { far, s, dir });
+            }
+        }
+    }
+    out
+}
+
+/// Crack node `v` with crack-plane normal `normal`. Returns what changed
+/// (no segment when every direction is already cracked or blocked).
+///
+/// # Errors
+/// Only on a broken mesh invariant (a bug), never for geometry.
+pub fn crack_node(
+    mesh: &mut SimMesh,
+    v: VertexId,
+    normal: [f64; 3],
+    rules: &CrackRules,
+) -> Result<CrackEvent, MeshError> {
+    let mut ev = CrackEvent::default();
+    let Some(n) = unit(normal) else { return Ok(ev) };
+    let existing = crack_directions(mesh, v);
+    let mut dirs: Vec<Crossing> = crossings(mesh, v, n)
+        .into_iter()
+        .filter(|c| existing.iter().all(|&d| angle(c.dir, d) > rules.theta2))
+        .collect();
+    // A crack tip (one crack edge, interior otherwise) cracks forward only:
+    // keep the direction most opposite to its crack.
+    if existing.len() == 1 {
+        let back = existing[0];
+        dirs.sort_by(|a, b| v3::dot(a.dir, back).total_cmp(&v3::dot(b.dir, back)));
+        dirs.truncate(1);
+    }
+    dirs.truncate(2);
+    // Targets first (splits keep earlier ids valid), then open the edges.
+    let mut targets = Vec::new();
+    for want in dirs {
+        // Re-find the crossing: earlier splits may have changed the fan.
+        let Some(c) = crossings(mesh, v, n)
+            .into_iter()
+            .min_by(|a, b| angle(a.dir, want.dir).total_cmp(&angle(b.dir, want.dir)))
+        else {
+            continue;
+        };
+        let (a, b) = (mesh.origin(c.far), mesh.dest(c.far));
+        let pv = mesh.position(v);
+        let ang_a = angle(c.dir, v3::sub(mesh.position(a), pv));
+        let ang_b = angle(c.dir, v3::sub(mesh.position(b), pv));
+        let target = if ang_a.min(ang_b) < rules.theta1
+            || c.s < rules.min_split
+            || c.s > 1.0 - rules.min_split
+        {
+            // Snap to the closer edge.
+            if ang_a <= ang_b {
+                a
+            } else {
+                b
+            }
+        } else {
+            let r = mesh.split_edge(c.far, c.s)?;
+            ev.split_faces.extend(r.new_faces.iter().copied());
+            ev.inserted.push(r.vertex);
+            r.vertex
+        };
+        if !targets.contains(&target) {
+            targets.push(target);
+        }
+    }
+    for t in targets {
+        let Some(h) = mesh
+            .find_halfedge(v, t)
+            .or_else(|| mesh.find_halfedge(t, v))
+        else {
+            continue;
+        };
+        if mesh.twin(h).is_none() {
+            continue; // already a boundary or crack edge
+        }
+        ev.length += v3::norm(v3::sub(mesh.position(t), mesh.position(v)));
+        ev.segments.push((v, t));
+        let r = mesh.open_edge(h)?;
+        ev.duplicated.extend(r.new_vertices);
+    }
+    Ok(ev)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sim::forces::tests::jittered_plate;
+
+    fn node_at(mesh: &SimMesh, x: f64, y: f64) -> VertexId {
+        mesh.vertices()
+            .find(|&v| {
+                let p = mesh.position(v);
+                (p[0] - x).abs() < 1e-9 && (p[1] - y).abs() < 1e-9
+            })
+            .unwrap()
+    }
+
+    #[test]
+    fn interior_node_cracks_both_ways_and_mesh_stays_valid() {
+        let mut mesh = jittered_plate(8, 0.0, 1);
+        let area = mesh.total_area();
+        let v = node_at(&mesh, 4.0, 4.0);
+        // Crack plane normal along x: the crack runs along y through the node.
+        let ev = crack_node(&mut mesh, v, [1.0, 0.0, 0.0], &CrackRules::default()).unwrap();
+        mesh.validate().unwrap();
+        assert_eq!(ev.segments.len(), 2, "{ev:?}");
+        for (a, b) in &ev.segments {
+            let d = v3::sub(mesh.position(*b), mesh.position(*a));
+            assert!(d[0].abs() < 1e-9, "segment should run along y: {d:?}");
+        }
+        assert!(((mesh.total_area() - area) / area).abs() < 1e-12);
+        assert!((ev.length - 2.0).abs() < 1e-9);
+        // Cracking the same node the same way again is back-cracking: nothing happens.
+        let again = crack_node(&mut mesh, v, [1.0, 0.0, 0.0], &CrackRules::default()).unwrap();
+        assert!(again.segments.is_empty(), "{again:?}");
+    }
+
+    #[test]
+    fn oblique_crack_splits_far_edges_and_preserves_area() {
+        let mut mesh = jittered_plate(8, 0.25, 3);
+        let area = mesh.total_area();
+        let v = mesh
+            .vertices()
+            .find(|&v| !mesh.is_boundary_vertex(v))
+            .unwrap();
+        let n = [0.3f64.cos(), 0.3f64.sin(), 0.0];
+        let ev = crack_node(&mut mesh, v, n, &CrackRules::default()).unwrap();
+        mesh.validate().unwrap();
+        assert!(!ev.segments.is_empty());
+        assert!(((mesh.total_area() - area) / area).abs() < 1e-12);
+        // Every crack segment lies (nearly) in the crack plane or was snapped within theta1.
+        for (a, b) in &ev.segments {
+            let d = v3::sub(mesh.position(*b), mesh.position(*a));
+            let off = v3::dot(d, n).abs() / v3::norm(d);
+            assert!(
+                off < (15f64.to_radians()).sin() + 0.35,
+                "segment far off the plane: {off}"
+            );
+        }
+    }
+
+    #[test]
+    fn crack_tip_cracks_forward_and_cracks_join_into_a_cut() {
+        let mut mesh = jittered_plate(6, 0.0, 1);
+        let rules = CrackRules::default();
+        // Start a crack at (3,3) along y, then keep cracking its tips until the plate is cut.
+        let v = node_at(&mesh, 3.0, 3.0);
+        crack_node(&mut mesh, v, [1.0, 0.0, 0.0], &rules).unwrap();
+        for _ in 0..6 {
+            let tips: Vec<VertexId> = mesh
+                .vertices()
+                .filter(|&t| {
+                    let p = mesh.position(t);
+                    (p[0] - 3.0).abs() < 1e-9
+                        && p[1] > 0.0
+                        && p[1] < 6.0
+                        && crack_directions(&mesh, t).len() == 1
+                })
+                .collect();
+            for t in tips {
+                let ev = crack_node(&mut mesh, t, [1.0, 0.0, 0.0], &rules).unwrap();
+                assert!(ev.segments.len() <= 1, "a tip cracks forward only: {ev:?}");
+                mesh.validate().unwrap();
+            }
+        }
+        let (components, _) = mesh.connected_components();
+        assert_eq!(components, 2, "the crack cuts the plate in two");
+    }
+}
