@@ -38,6 +38,11 @@ pub struct SimParams {
     pub clamp_factor: f64,
     /// Fix the mesh's open boundary (otherwise it is free). Default false.
     pub fixed_boundary: bool,
+    /// The surface is bonded to the body under it (a glaze on a pot, mud on
+    /// the ground): the body carries the normal part of each node force, so
+    /// only tangential motion relaxes stress. Without it a free closed shell
+    /// under uniform shrinkage just shrinks and never cracks. Default true.
+    pub bonded: bool,
     /// Geometric cracking rules.
     pub rules: CrackRules,
 }
@@ -54,6 +59,7 @@ impl Default for SimParams {
             max_cracks: 100_000,
             clamp_factor: 4.0,
             fixed_boundary: false,
+            bonded: true,
             rules: CrackRules::default(),
         }
     }
@@ -115,6 +121,9 @@ pub struct SimReport {
     pub length_unit: f64,
     /// Why the run stopped.
     pub stopped: String,
+    /// Every crack segment as its two end points (mesh units), in the order formed.
+    #[serde(skip)]
+    pub segments: Vec<[[f64; 3]; 2]>,
 }
 
 /// Progress reports from the loop (the CLI turns them into a progress bar).
@@ -239,6 +248,11 @@ pub fn run(
             report.cracks += 1;
             cracked_this_round += 1;
             report.crack_length += ev.length;
+            report.segments.extend(
+                ev.segments
+                    .iter()
+                    .map(|&(a, b)| [mesh.position(a), mesh.position(b)]),
+            );
             // Children inherit their parent's stress; touched faces get new elements.
             let mut touched: Vec<FaceId> = Vec::new();
             for &(parent, child) in &ev.split_faces {
@@ -308,6 +322,22 @@ fn relax_and_evolve(mesh: &SimMesh, st: &mut State, params: &SimParams, dt: f64)
         if f {
             *gn = [0.0; 3];
         }
+    }
+    if params.bonded {
+        // Remove the part of each node force along the node's area-weighted normal.
+        g.par_iter_mut().enumerate().for_each(|(v, gn)| {
+            let mut n = [0.0; 3];
+            for f in mesh.vertex_faces(VertexId(v as u32)) {
+                if let Some(el) = st.els.get(f) {
+                    n = v3::add(n, v3::scale(el.normal, el.area));
+                }
+            }
+            let l = v3::norm(n);
+            if l > 0.0 {
+                let n = v3::scale(n, 1.0 / l);
+                *gn = v3::sub(*gn, v3::scale(n, v3::dot(*gn, n)));
+            }
+        });
     }
     for (d, gn) in st.displacement.iter_mut().zip(&g) {
         *d = v3::add(*d, v3::scale(*gn, dt * st.unit));
