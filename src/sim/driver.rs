@@ -342,21 +342,14 @@ fn relax_and_evolve(mesh: &SimMesh, st: &mut State, params: &SimParams, dt: f64)
     for (d, gn) in st.displacement.iter_mut().zip(&g) {
         *d = v3::add(*d, v3::scale(*gn, dt * st.unit));
     }
-    let shrink = params.shrink_rate * dt;
-    let els = &st.els;
-    st.stress.par_iter_mut().enumerate().for_each(|(f, s)| {
-        let Some(Some(el)) = els.elements.get(f) else {
-            return;
-        };
-        let vs = mesh.face_vertices(FaceId(f as u32));
-        let mut ds = Sym3::tangent_identity(el.normal, shrink);
-        for k in 0..3 {
-            let dp = v3::scale(g[vs[k].idx()], dt);
-            let d = v3::sub(dp, v3::scale(el.normal, v3::dot(dp, el.normal)));
-            ds += Sym3::sym_outer(el.grads[k], d);
-        }
-        *s += ds;
-    });
+    crate::sim::relax::apply_virtual_displacement(
+        mesh,
+        &st.els,
+        &mut st.stress,
+        &g,
+        dt,
+        params.shrink_rate * dt,
+    );
 }
 
 /// Errors of a simulation run.

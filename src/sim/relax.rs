@@ -90,12 +90,30 @@ pub fn relax_step(
         }
     }
     let residual = g.iter().map(|x| v3::dot(*x, *x)).sum::<f64>().sqrt();
+    apply_virtual_displacement(mesh, els, stress, &g, dt, 0.0);
+    RelaxStep {
+        energy_before,
+        energy_after: energy(els, stress),
+        residual,
+    }
+}
+
+/// Add to each element the linearised strain of the virtual displacement
+/// `dt * g` (its tangential part), plus uniform shrinkage `shrink * (I - n n^T)`.
+pub fn apply_virtual_displacement(
+    mesh: &SimMesh,
+    els: &Elements,
+    stress: &mut [Sym3],
+    g: &[[f64; 3]],
+    dt: f64,
+    shrink: f64,
+) {
     stress.par_iter_mut().enumerate().for_each(|(f, s)| {
         let Some(Some(el)) = els.elements.get(f) else {
             return;
         };
         let vs = mesh.face_vertices(crate::mesh::FaceId(f as u32));
-        let mut ds = Sym3::ZERO;
+        let mut ds = Sym3::tangent_identity(el.normal, shrink);
         for k in 0..3 {
             let dp = v3::scale(g[vs[k].idx()], dt);
             // Tangential part of the virtual displacement.
@@ -104,11 +122,6 @@ pub fn relax_step(
         }
         *s += ds;
     });
-    RelaxStep {
-        energy_before,
-        energy_after: energy(els, stress),
-        residual,
-    }
 }
 
 #[cfg(test)]
