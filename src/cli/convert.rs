@@ -1,7 +1,7 @@
 //! `crackle convert`: read, weld, write — the round trip every cracking
 //! command builds on.
 
-use anyhow::{bail, Result};
+use anyhow::Result;
 use crackle::bridge::{build_sim_meshes, write_back};
 use crackle::mesh::WeldOptions;
 use serde_json::json;
@@ -25,19 +25,8 @@ pub fn run(
             ))
         })?;
     let t0 = Instant::now();
-    let mut scene = crackle::io::read(input)?;
+    let mut scene = super::read_crackable(input)?;
     let t_read = t0.elapsed();
-    for w in &scene.warnings {
-        log::warn!("{}: {w}", input.display());
-    }
-    if scene.triangle_count() == 0 {
-        let why = if scene.warnings.is_empty() {
-            "it has no triangle mesh".to_string()
-        } else {
-            scene.warnings.join("; ")
-        };
-        bail!("{}: nothing to crack: {why}", input.display());
-    }
     let t1 = Instant::now();
     let (entries, skipped) = build_sim_meshes(&scene, weld);
     for s in &skipped {
@@ -72,12 +61,7 @@ pub fn run(
     }
     let t_weld = t1.elapsed();
     let t2 = Instant::now();
-    if let Some(dir) = output.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir).map_err(|e| {
-            anyhow::anyhow!("{}: cannot create the output folder: {e}", dir.display())
-        })?;
-    }
-    let summary = crackle::io::gltf_write::write_scene(&scene, output)?;
+    let summary = super::write_output(&scene, output)?;
     let t_write = t2.elapsed();
     log::info!(
         "read {:.3} s, weld {:.3} s, write {:.3} s",

@@ -1,7 +1,7 @@
 //! `crackle crack`: read, weld, grow cracks, write the cracked scene with the
 //! crack network as a LINES primitive, and report.
 
-use anyhow::{bail, Result};
+use anyhow::Result;
 use crackle::bridge::{build_sim_meshes, write_back};
 use crackle::mesh::WeldOptions;
 use crackle::scene::{Geometry, Material, Primitive, RawAccessor, RawGeometry, Scene};
@@ -95,18 +95,8 @@ pub fn run(a: CrackArgs) -> Result<()> {
         .map_err(|e| super::UsageError(format!("invalid parameter: {e}")))?;
     let mut stages = Vec::new();
     let t = Instant::now();
-    let mut scene = crackle::io::read(a.input)?;
+    let mut scene = super::read_crackable(a.input)?;
     stages.push(json!({"name": "read", "seconds": t.elapsed().as_secs_f64()}));
-    for w in &scene.warnings {
-        log::warn!("{}: {w}", a.input.display());
-    }
-    if scene.triangle_count() == 0 {
-        bail!(
-            "{}: nothing to crack: {}",
-            a.input.display(),
-            scene.warnings.join("; ")
-        );
-    }
     let t = Instant::now();
     let (mut entries, skipped) = build_sim_meshes(&scene, &a.weld);
     for s in &skipped {
@@ -159,12 +149,7 @@ pub fn run(a: CrackArgs) -> Result<()> {
     for (mi, r) in &per_mesh {
         add_crack_lines(&mut scene, *mi, &r.segments);
     }
-    if let Some(dir) = a.output.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir).map_err(|e| {
-            anyhow::anyhow!("{}: cannot create the output folder: {e}", dir.display())
-        })?;
-    }
-    let summary = crackle::io::gltf_write::write_scene(&scene, a.output)?;
+    let summary = super::write_output(&scene, a.output)?;
     stages.push(json!({"name": "write", "seconds": t.elapsed().as_secs_f64()}));
     let report = json!({
         "input": a.input.display().to_string(),

@@ -105,6 +105,36 @@ pub fn exit_code(e: &anyhow::Error) -> u8 {
     }
 }
 
+/// Read an asset, log its warnings, and refuse it when nothing in it can be cracked.
+fn read_crackable(input: &std::path::Path) -> anyhow::Result<crackle::scene::Scene> {
+    let scene = crackle::io::read(input)?;
+    for w in &scene.warnings {
+        log::warn!("{}: {w}", input.display());
+    }
+    if scene.triangle_count() == 0 {
+        let why = if scene.warnings.is_empty() {
+            "it has no triangle mesh".to_string()
+        } else {
+            scene.warnings.join("; ")
+        };
+        anyhow::bail!("{}: nothing to crack: {why}", input.display());
+    }
+    Ok(scene)
+}
+
+/// Write `scene` to `output`, creating the output folder first.
+fn write_output(
+    scene: &crackle::scene::Scene,
+    output: &std::path::Path,
+) -> anyhow::Result<crackle::io::gltf_write::WriteSummary> {
+    if let Some(dir) = output.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).map_err(|e| {
+            anyhow::anyhow!("{}: cannot create the output folder: {e}", dir.display())
+        })?;
+    }
+    Ok(crackle::io::gltf_write::write_scene(scene, output)?)
+}
+
 fn weld_options(rel: f64) -> anyhow::Result<crackle::mesh::WeldOptions> {
     if !(rel.is_finite() && (0.0..0.1).contains(&rel)) {
         return Err(UsageError(format!("--weld-tolerance {rel} must be in [0, 0.1)")).into());

@@ -178,11 +178,7 @@ fn load_buffers(
     mut bin: Option<Vec<u8>>,
     base_dir: &Path,
 ) -> std::result::Result<Vec<Option<Vec<u8>>>, String> {
-    let bufs = root
-        .get("buffers")
-        .and_then(Value::as_array)
-        .cloned()
-        .unwrap_or_default();
+    let bufs = arr(root, "buffers");
     let mut used = vec![false; bufs.len()];
     if let Some(views) = root.get("bufferViews").and_then(Value::as_array) {
         for v in views {

@@ -81,7 +81,7 @@ pub fn split_tensile(el: &Element, s: &Sym3) -> (Sym3, Sym3) {
 }
 
 /// Which corner of face `f` is vertex `v`.
-fn corner_of(mesh: &SimMesh, f: FaceId, v: VertexId) -> usize {
+pub(crate) fn corner_of(mesh: &SimMesh, f: FaceId, v: VertexId) -> usize {
     mesh.face_vertices(f)
         .iter()
         .position(|&x| x == v)

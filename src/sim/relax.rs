@@ -55,11 +55,7 @@ pub fn stable_dt(mesh: &SimMesh, els: &Elements) -> f64 {
             let mut s = 0.0;
             for f in mesh.vertex_faces(v) {
                 if let Some(el) = els.get(f) {
-                    let k = mesh
-                        .face_vertices(f)
-                        .iter()
-                        .position(|&x| x == v)
-                        .unwrap_or(0);
+                    let k = crate::sim::forces::corner_of(mesh, f, v);
                     s += per_face[f.idx()] * v3::norm(el.grads[k]);
                 }
             }
