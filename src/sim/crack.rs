@@ -23,6 +23,10 @@ pub struct CrackRules {
     /// of the crossed edge; closer to an end, the crack snaps to that end's edge
     /// so no sliver is created.
     pub min_split: f64,
+    /// A split is made only when every triangle it creates has at least this
+    /// quality (`4 sqrt(3) area / sum of squared edge lengths`, 1 for an
+    /// equilateral triangle); otherwise the crack snaps to an existing edge.
+    pub min_quality: f64,
 }
 
 impl Default for CrackRules {
@@ -31,6 +35,7 @@ impl Default for CrackRules {
             theta1: 15f64.to_radians(),
             theta2: 25f64.to_radians(),
             min_split: 0.15,
+            min_quality: 0.1,
         }
     }
 }
@@ -83,6 +88,42 @@ pub fn crack_directions(mesh: &SimMesh, v: VertexId) -> Vec<[f64; 3]> {
         }
     }
     out
+}
+
+/// Triangle quality `4 sqrt(3) A / (l0^2 + l1^2 + l2^2)`: 1 for an
+/// equilateral triangle, 0 for a degenerate one.
+pub fn triangle_quality(p: [[f64; 3]; 3]) -> f64 {
+    let e = [
+        v3::sub(p[1], p[0]),
+        v3::sub(p[2], p[1]),
+        v3::sub(p[0], p[2]),
+    ];
+    let l2: f64 = e.iter().map(|x| v3::dot(*x, *x)).sum();
+    let area = 0.5 * v3::norm(v3::cross(e[0], v3::scale(e[2], -1.0)));
+    if l2 > 0.0 {
+        4.0 * 3f64.sqrt() * area / l2
+    } else {
+        0.0
+    }
+}
+
+/// Worst quality among the triangles that splitting halfedge `far` at `s`
+/// would create (in its face and in the neighbour across it).
+fn split_quality(mesh: &SimMesh, far: HalfedgeId, s: f64) -> f64 {
+    let (a, b) = (mesh.origin(far), mesh.dest(far));
+    let (pa, pb) = (mesh.position(a), mesh.position(b));
+    let q = v3::add(pa, v3::scale(v3::sub(pb, pa), s));
+    let mut worst = f64::INFINITY;
+    let mut apexes = vec![mesh.position(mesh.origin(mesh.prev(far)))];
+    if let Some(t) = mesh.twin(far) {
+        apexes.push(mesh.position(mesh.origin(mesh.prev(t))));
+    }
+    for c in apexes {
+        worst = worst
+            .min(triangle_quality([pa, q, c]))
+            .min(triangle_quality([q, pb, c]));
+    }
+    worst
 }
 
 /// A crossing of the crack plane with the far edge of a fan face.
@@ -161,6 +202,7 @@ pub fn crack_node(
         let target = if ang_a.min(ang_b) < rules.theta1
             || c.s < rules.min_split
             || c.s > 1.0 - rules.min_split
+            || split_quality(mesh, c.far, c.s) < rules.min_quality
         {
             // Snap to the closer edge.
             if ang_a <= ang_b {
@@ -199,6 +241,7 @@ pub fn crack_node(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::sim::forces::face_points;
     use crate::sim::forces::tests::jittered_plate;
 
     fn node_at(mesh: &SimMesh, x: f64, y: f64) -> VertexId {
@@ -252,6 +295,45 @@ mod tests {
                 "segment far off the plane: {off}"
             );
         }
+    }
+
+    #[test]
+    fn splits_never_create_triangles_below_min_quality() {
+        let rules = CrackRules::default();
+        let mut rng = crate::mesh::test_util::Lcg(11);
+        let mut mesh = jittered_plate(12, 0.35, 5);
+        let mut splits = 0;
+        for _ in 0..300 {
+            let v = VertexId((rng.next_f64() * mesh.n_vertices() as f64) as u32);
+            let a = rng.next_f64() * std::f64::consts::PI;
+            let ev = crack_node(&mut mesh, v, [a.cos(), a.sin(), 0.0], &rules).unwrap();
+            for &(parent, child) in &ev.split_faces {
+                splits += 1;
+                for f in [parent, child] {
+                    let q = triangle_quality(face_points(&mesh, f));
+                    assert!(
+                        q >= rules.min_quality,
+                        "split made face {f:?} of quality {q}"
+                    );
+                }
+            }
+        }
+        mesh.validate().unwrap();
+        assert!(splits > 50, "the test exercised splits: {splits}");
+    }
+
+    #[test]
+    fn quality_of_known_triangles() {
+        let eq = [
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [0.5, 3f64.sqrt() / 2.0, 0.0],
+        ];
+        assert!((triangle_quality(eq) - 1.0).abs() < 1e-12);
+        assert_eq!(
+            triangle_quality([[0.0; 3], [1.0, 0.0, 0.0], [2.0, 0.0, 0.0]]),
+            0.0
+        );
     }
 
     #[test]
