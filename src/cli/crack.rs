@@ -11,6 +11,90 @@ use std::io::IsTerminal;
 use std::path::Path;
 use std::time::Instant;
 
+/// Simulation options of the crack command. Lengths and times are in the
+/// mesh's own units normalised by its mean edge length, so the same values
+/// crack a model in centimetres and in metres alike; stress is dimensionless.
+#[derive(clap::Args, Debug)]
+pub struct SimArgs {
+    /// Toughness: a node fails when its separation eigenvalue (dimensionless stress) exceeds it
+    #[arg(long, default_value_t = SimParams::default().toughness)]
+    toughness: f64,
+    /// Fraction of the residual stress handed to crack tips, in [0, 1]
+    #[arg(long, default_value_t = SimParams::default().alpha)]
+    alpha: f64,
+    /// Constant added to the residual at crack tips (dimensionless stress), for long wrapping cracks
+    #[arg(long, default_value_t = SimParams::default().residual_constant)]
+    residual_constant: f64,
+    /// Shrinkage (dimensionless strain) added per unit of relaxation time
+    #[arg(long, default_value_t = SimParams::default().shrink_rate)]
+    shrink_rate: f64,
+    /// Total shrinkage applied before loading stops; the run then goes on until nothing fails
+    #[arg(long, default_value_t = SimParams::default().shrinkage)]
+    shrinkage: f64,
+    /// Seeded variation of the shrink rate between triangles, as a fraction in [0, 1]
+    #[arg(long, default_value_t = SimParams::default().noise)]
+    noise: f64,
+    /// Seed of every random choice (same seed, same input: byte-identical output)
+    #[arg(long, default_value_t = SimParams::default().seed)]
+    seed: u64,
+    /// Relaxation time between crack checks (time unit: one unit-stiffness step over one mean edge)
+    #[arg(long, default_value_t = SimParams::default().relax_time)]
+    relax_time: f64,
+    /// Largest relaxation step; 0: the stable step (a larger value is reduced to it)
+    #[arg(long, default_value_t = SimParams::default().relax_dt)]
+    relax_dt: f64,
+    /// Relaxation steps per round; 0: as many as --relax-time needs
+    #[arg(long, default_value_t = SimParams::default().relax_steps)]
+    relax_steps: usize,
+    /// Most relaxation rounds
+    #[arg(long, default_value_t = SimParams::default().max_rounds)]
+    max_rounds: usize,
+    /// Most crack events per mesh
+    #[arg(long, default_value_t = SimParams::default().max_cracks)]
+    max_cracks: usize,
+    /// Most crack events per round before the load is held for a round; 0: 1% of the nodes, at least 16
+    #[arg(long, default_value_t = SimParams::default().max_cracks_per_round)]
+    max_cracks_per_round: usize,
+    /// Conditioning cap on element gradients, as a multiple of the input mean
+    #[arg(long, default_value_t = SimParams::default().clamp_factor)]
+    clamp_factor: f64,
+    /// Fix the mesh's open boundary instead of leaving it free
+    #[arg(long)]
+    fixed_boundary: bool,
+    /// Fix every node of the primitives with this material or OBJ group name (repeatable)
+    #[arg(long, value_name = "NAME")]
+    pub fix: Vec<String>,
+    /// Do not bond the surface to the body under it (closed shells then shrink instead of cracking)
+    #[arg(long)]
+    unbonded: bool,
+}
+
+impl SimArgs {
+    /// The simulation parameters these options give (fixed groups are
+    /// resolved per mesh from `fix`).
+    pub fn params(&self) -> SimParams {
+        SimParams {
+            toughness: self.toughness,
+            alpha: self.alpha,
+            residual_constant: self.residual_constant,
+            shrink_rate: self.shrink_rate,
+            shrinkage: self.shrinkage,
+            noise: self.noise,
+            seed: self.seed,
+            relax_time: self.relax_time,
+            relax_dt: self.relax_dt,
+            relax_steps: self.relax_steps,
+            max_rounds: self.max_rounds,
+            max_cracks: self.max_cracks,
+            max_cracks_per_round: self.max_cracks_per_round,
+            clamp_factor: self.clamp_factor,
+            fixed_boundary: self.fixed_boundary,
+            bonded: !self.unbonded,
+            ..Default::default()
+        }
+    }
+}
+
 /// Options of the crack command.
 pub struct CrackArgs<'a> {
     pub input: &'a Path,
@@ -18,7 +102,52 @@ pub struct CrackArgs<'a> {
     pub report: Option<&'a Path>,
     pub weld: WeldOptions,
     pub params: SimParams,
+    /// Material or group names whose nodes are fixed.
+    pub fix: Vec<String>,
     pub quiet: bool,
+}
+
+/// Groups (primitive indices) of mesh `mesh_index` whose material or OBJ
+/// group name is in `names`, and the names that matched.
+fn fixed_groups(scene: &Scene, mesh_index: usize, names: &[String]) -> (Vec<u32>, Vec<String>) {
+    let mut groups = Vec::new();
+    let mut matched = Vec::new();
+    for (pi, p) in scene.meshes[mesh_index].primitives.iter().enumerate() {
+        let material = p
+            .material
+            .and_then(|m| scene.materials.get(m))
+            .and_then(|m| m.name());
+        let group = match &p.geometry {
+            Geometry::Triangles(t) => t.group.as_deref(),
+            Geometry::Raw(_) => None,
+        };
+        for n in names {
+            if Some(n.as_str()) == material || Some(n.as_str()) == group {
+                groups.push(pi as u32);
+                matched.push(n.clone());
+            }
+        }
+    }
+    (groups, matched)
+}
+
+/// Every material and group name in the scene, for error messages.
+fn all_names(scene: &Scene) -> Vec<String> {
+    let mut out: Vec<String> = scene
+        .materials
+        .iter()
+        .filter_map(|m| m.name().map(str::to_owned))
+        .collect();
+    for m in &scene.meshes {
+        for p in &m.primitives {
+            if let Geometry::Triangles(t) = &p.geometry {
+                out.extend(t.group.clone());
+            }
+        }
+    }
+    out.sort();
+    out.dedup();
+    out
 }
 
 struct Bar(Option<indicatif::ProgressBar>);
@@ -34,8 +163,14 @@ impl crackle::sim::Observer for Bar {
 }
 
 /// Add the crack segments of mesh `mesh_index` as a LINES primitive with the
-/// `crack_lines` material.
-fn add_crack_lines(scene: &mut Scene, mesh_index: usize, segments: &[[[f64; 3]; 2]]) {
+/// `crack_lines` material; `_CRACK_TIME` gives each line vertex the
+/// simulation time its segment formed at (for shaders: grow cracks over time).
+fn add_crack_lines(
+    scene: &mut Scene,
+    mesh_index: usize,
+    segments: &[[[f64; 3]; 2]],
+    times: &[f64],
+) {
     if segments.is_empty() {
         return;
     }
@@ -63,6 +198,29 @@ fn add_crack_lines(scene: &mut Scene, mesh_index: usize, segments: &[[[f64; 3]; 
         name: Some("crack_lines".into()),
         data,
     });
+    let mut tdata = Vec::with_capacity(segments.len() * 8);
+    let (mut tmin, mut tmax) = (f32::INFINITY, f32::NEG_INFINITY);
+    for &t in times.iter().take(segments.len()) {
+        let t = t as f32;
+        tmin = tmin.min(t);
+        tmax = tmax.max(t);
+        for _ in 0..2 {
+            tdata.extend_from_slice(&t.to_le_bytes());
+        }
+    }
+    let time_acc = (times.len() == segments.len()).then(|| {
+        scene.accessors.push(RawAccessor {
+            component_type: 5126,
+            kind: "SCALAR".into(),
+            normalized: false,
+            count: segments.len() * 2,
+            min: Some(json!([tmin])),
+            max: Some(json!([tmax])),
+            name: Some("crack_time".into()),
+            data: tdata,
+        });
+        scene.accessors.len() - 1
+    });
     let material = match scene
         .materials
         .iter()
@@ -82,6 +240,9 @@ fn add_crack_lines(scene: &mut Scene, mesh_index: usize, segments: &[[[f64; 3]; 
         ..Default::default()
     };
     geo.attributes.insert("POSITION".into(), acc);
+    if let Some(t) = time_acc {
+        geo.attributes.insert("_CRACK_TIME".into(), t);
+    }
     scene.meshes[mesh_index].primitives.push(Primitive {
         material: Some(material),
         geometry: Geometry::Raw(geo),
@@ -108,11 +269,29 @@ pub fn run(a: CrackArgs) -> Result<()> {
         );
     }
     stages.push(json!({"name": "weld", "seconds": t.elapsed().as_secs_f64()}));
+    let mut matched: Vec<String> = Vec::new();
+    let mut params_of = Vec::new();
+    for e in &entries {
+        let (groups, m) = fixed_groups(&scene, e.mesh_index, &a.fix);
+        matched.extend(m);
+        params_of.push(SimParams {
+            fixed_groups: groups,
+            ..a.params.clone()
+        });
+    }
+    if let Some(missing) = a.fix.iter().find(|n| !matched.contains(n)) {
+        return Err(super::UsageError(format!(
+            "--fix {missing}: no crackable primitive of {} has that material or group name (names: {})",
+            a.input.display(),
+            all_names(&scene).join(", ")
+        ))
+        .into());
+    }
     let t = Instant::now();
     let show = !a.quiet && std::io::stderr().is_terminal();
     let mut total = SimReport::default();
     let mut per_mesh = Vec::new();
-    for e in entries.iter_mut() {
+    for (e, params) in entries.iter_mut().zip(&params_of) {
         let bar = show.then(|| {
             let b = indicatif::ProgressBar::new(a.params.max_rounds as u64);
             b.set_style(
@@ -125,7 +304,7 @@ pub fn run(a: CrackArgs) -> Result<()> {
             b
         });
         let mut obs = Bar(bar);
-        let r = crackle::sim::run(&mut e.sim, &a.params, &mut obs)
+        let r = crackle::sim::run(&mut e.sim, params, &mut obs)
             .map_err(|err| anyhow::anyhow!("{}: {}: {err}", a.input.display(), e.label))?;
         if let Some(b) = obs.0 {
             b.finish_and_clear();
@@ -147,7 +326,7 @@ pub fn run(a: CrackArgs) -> Result<()> {
         write_back(&mut scene, e);
     }
     for (mi, r) in &per_mesh {
-        add_crack_lines(&mut scene, *mi, &r.segments);
+        add_crack_lines(&mut scene, *mi, &r.segments, &r.segment_times);
     }
     let summary = super::write_output(&scene, a.output)?;
     stages.push(json!({"name": "write", "seconds": t.elapsed().as_secs_f64()}));

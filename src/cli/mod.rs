@@ -46,27 +46,8 @@ enum Command {
         /// Write a JSON run report to this file
         #[arg(long, value_name = "PATH")]
         report: Option<PathBuf>,
-        /// Toughness: a node fails when its separation eigenvalue exceeds it
-        #[arg(long, default_value_t = crackle::sim::SimParams::default().toughness)]
-        toughness: f64,
-        /// Uniform shrinkage added per unit relaxation time
-        #[arg(long, default_value_t = crackle::sim::SimParams::default().shrink_rate)]
-        shrink_rate: f64,
-        /// Relaxation time between crack checks
-        #[arg(long, default_value_t = crackle::sim::SimParams::default().relax_time)]
-        relax_time: f64,
-        /// Fraction of the residual handed to crack tips, in [0, 1]
-        #[arg(long, default_value_t = crackle::sim::SimParams::default().alpha)]
-        alpha: f64,
-        /// Most relaxation rounds
-        #[arg(long, default_value_t = crackle::sim::SimParams::default().max_rounds)]
-        max_rounds: usize,
-        /// Most crack events
-        #[arg(long, default_value_t = crackle::sim::SimParams::default().max_cracks)]
-        max_cracks: usize,
-        /// Fix the mesh's open boundary instead of leaving it free
-        #[arg(long)]
-        fixed_boundary: bool,
+        #[command(flatten)]
+        sim: crack::SimArgs,
         /// Weld tolerance, relative to each mesh's bounding-box diagonal
         #[arg(long, value_name = "REL", default_value_t = crackle::mesh::WeldOptions::default().relative_tolerance)]
         weld_tolerance: f64,
@@ -156,29 +137,15 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
             input,
             output,
             report,
-            toughness,
-            shrink_rate,
-            relax_time,
-            alpha,
-            max_rounds,
-            max_cracks,
-            fixed_boundary,
+            sim,
             weld_tolerance,
         } => crack::run(crack::CrackArgs {
             input: &input,
             output: &output,
             report: report.as_deref(),
             weld: weld_options(weld_tolerance)?,
-            params: crackle::sim::SimParams {
-                toughness,
-                shrink_rate,
-                relax_time,
-                alpha,
-                max_rounds,
-                max_cracks,
-                fixed_boundary,
-                ..Default::default()
-            },
+            params: sim.params(),
+            fix: sim.fix,
             quiet: cli.quiet,
         }),
         Command::Convert {

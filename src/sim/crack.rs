@@ -49,6 +49,9 @@ pub struct CrackEvent {
     pub split_faces: Vec<(FaceId, FaceId)>,
     /// Vertices inserted on crossed edges.
     pub inserted: Vec<VertexId>,
+    /// For each inserted vertex, the ends of the edge it split and whether
+    /// that edge was a boundary edge (the mesh's border or an earlier crack).
+    pub inserted_on: Vec<(VertexId, VertexId, bool)>,
     /// Vertices duplicated by opening: (new, original).
     pub duplicated: Vec<(VertexId, VertexId)>,
     /// Total length of the crack edges created (mesh units).
@@ -211,9 +214,11 @@ pub fn crack_node(
                 b
             }
         } else {
+            let border = mesh.twin(c.far).is_none();
             let r = mesh.split_edge(c.far, c.s)?;
             ev.split_faces.extend(r.new_faces.iter().copied());
             ev.inserted.push(r.vertex);
+            ev.inserted_on.push((a, b, border));
             r.vertex
         };
         if !targets.contains(&target) {

@@ -21,23 +21,49 @@ use rayon::prelude::*;
 pub struct SimParams {
     /// Toughness `tau`: a node fails when its separation eigenvalue exceeds it. Default 2.
     pub toughness: f64,
-    /// Fraction `alpha` of the residual `v+ - tau` handed to the crack tips, in [0, 1]. Default 0.5.
+    /// Fraction `alpha` of the residual `v+ - tau` handed to the crack tips, in [0, 1]. Default 0.8.
     pub alpha: f64,
-    /// Constant added to the residual for long, wrapping cracks (the paper's 0.25). Default 0.
+    /// Constant added to the residual at the crack tips (dimensionless
+    /// stress) so cracks run on until they meet another crack or the border,
+    /// closing cells. Default 1 (half the default toughness).
     pub residual_constant: f64,
     /// Uniform shrinkage added to every element per unit relaxation time. Default 0.05.
     pub shrink_rate: f64,
+    /// Total shrinkage (dimensionless strain) applied before loading stops;
+    /// the run then goes on until nothing fails. Default 6.
+    pub shrinkage: f64,
+    /// Seeded variation of the shrink rate between input triangles, as a
+    /// fraction: each triangle shrinks at `rate * (1 + noise * u)` with `u`
+    /// uniform in [-1, 1] (split triangles keep their input triangle's `u`).
+    /// Breaks the symmetry of perfectly regular meshes. In [0, 1]; default 0.2.
+    pub noise: f64,
+    /// Seed of every random choice. Default 1.
+    pub seed: u64,
     /// Relaxation time between crack checks. Default 5.
     pub relax_time: f64,
+    /// Largest relaxation step; 0 means the stable step of the current mesh
+    /// (a larger value is reduced to it, so relaxation never diverges). Default 0.
+    pub relax_dt: f64,
+    /// Relaxation steps per round; 0 means as many as `relax_time` needs.
+    /// When set, a round lasts `relax_steps * dt` instead of `relax_time`. Default 0.
+    pub relax_steps: usize,
     /// Most relaxation rounds. Default 200.
     pub max_rounds: usize,
     /// Most crack events in the whole run. Default 100,000.
     pub max_cracks: usize,
+    /// Most crack events per round; when a round reaches it the load is held
+    /// (no shrinkage) for the next round, so stress can redistribute around
+    /// the new cracks before more fail, as in a quasistatic loading. 0 means
+    /// 1% of the nodes, at least 16. Default 0.
+    pub max_cracks_per_round: usize,
     /// Conditioning cap: singular values of the barycentric bases are clamped
     /// at this factor times the input mean. Default 4.
     pub clamp_factor: f64,
     /// Fix the mesh's open boundary (otherwise it is free). Default false.
     pub fixed_boundary: bool,
+    /// Fix every node of the faces in these groups (the bridge makes one
+    /// group per primitive, so a material or an OBJ group). Default none.
+    pub fixed_groups: Vec<u32>,
     /// The surface is bonded to the body under it (a glaze on a pot, mud on
     /// the ground): the body carries the normal part of each node force, so
     /// only tangential motion relaxes stress. Without it a free closed shell
@@ -51,14 +77,21 @@ impl Default for SimParams {
     fn default() -> Self {
         SimParams {
             toughness: 2.0,
-            alpha: 0.5,
-            residual_constant: 0.0,
+            alpha: 0.8,
+            residual_constant: 1.0,
             shrink_rate: 0.05,
+            shrinkage: 6.0,
+            noise: 0.2,
+            seed: 1,
             relax_time: 5.0,
+            relax_dt: 0.0,
+            relax_steps: 0,
             max_rounds: 200,
             max_cracks: 100_000,
+            max_cracks_per_round: 0,
             clamp_factor: 4.0,
             fixed_boundary: false,
+            fixed_groups: Vec::new(),
             bonded: true,
             rules: CrackRules::default(),
         }
@@ -89,6 +122,18 @@ impl SimParams {
                 "shrink_rate must be >= 0, got {}",
                 self.shrink_rate
             ));
+        }
+        if !(self.relax_dt.is_finite() && self.relax_dt >= 0.0) {
+            return Err(format!(
+                "relax_dt must be >= 0 (0: the stable step), got {}",
+                self.relax_dt
+            ));
+        }
+        if !(self.shrinkage.is_finite() && self.shrinkage >= 0.0) {
+            return Err(format!("shrinkage must be >= 0, got {}", self.shrinkage));
+        }
+        if !(0.0..=1.0).contains(&self.noise) {
+            return Err(format!("noise must be in [0, 1], got {}", self.noise));
         }
         if !(self.residual_constant.is_finite() && self.residual_constant >= 0.0) {
             return Err(format!(
@@ -121,9 +166,16 @@ pub struct SimReport {
     pub length_unit: f64,
     /// Why the run stopped.
     pub stopped: String,
+    /// Simulation time (relaxation-time units) at the end of the run.
+    pub time: f64,
+    /// Simulation time at which the first crack formed (none: no crack).
+    pub first_crack_time: Option<f64>,
     /// Every crack segment as its two end points (mesh units), in the order formed.
     #[serde(skip)]
     pub segments: Vec<[[f64; 3]; 2]>,
+    /// When each segment of `segments` formed (simulation time).
+    #[serde(skip)]
+    pub segment_times: Vec<f64>,
 }
 
 /// Progress reports from the loop (the CLI turns them into a progress bar).
@@ -134,12 +186,27 @@ pub trait Observer {
 
 impl Observer for () {}
 
+/// A uniform value in [-1, 1] from `seed` and `key` (SplitMix64), the same
+/// on every platform and thread count.
+pub fn hash_unit(seed: u64, key: u64) -> f64 {
+    let mut z = seed ^ key.wrapping_mul(0x9E37_79B9_7F4A_7C15);
+    for _ in 0..2 {
+        z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^= z >> 31;
+    }
+    2.0 * ((z >> 11) as f64 / (1u64 << 53) as f64) - 1.0
+}
+
 /// Simulation state that grows with the mesh.
 struct State {
     els: Elements,
     stress: Vec<Sym3>,
     residual: Vec<Sym3>,
     fixed: Vec<bool>,
+    /// Shrink-rate multiplier per face (seeded noise).
+    shrink_scale: Vec<f64>,
     /// Accumulated virtual displacement per node (for crack width later).
     displacement: Vec<[f64; 3]>,
     unit: f64,
@@ -151,18 +218,33 @@ impl State {
         Element::new(p, self.els.clamp)
     }
 
+    fn in_fixed_group(mesh: &SimMesh, params: &SimParams, v: VertexId) -> bool {
+        !params.fixed_groups.is_empty()
+            && mesh
+                .vertex_faces(v)
+                .any(|f| params.fixed_groups.contains(&mesh.face_group(f)))
+    }
+
+    /// Extend per-node and per-face state to new nodes and faces.
     fn grow(&mut self, mesh: &SimMesh, params: &SimParams) {
         self.residual.resize(mesh.n_vertices(), Sym3::ZERO);
         self.displacement.resize(mesh.n_vertices(), [0.0; 3]);
         while self.fixed.len() < mesh.n_vertices() {
             let v = VertexId(self.fixed.len() as u32);
-            // New nodes on the mesh border inherit fixedness from their parent.
+            // Duplicates inherit fixedness from their parent; inserted
+            // vertices are settled by the caller (it knows the split edge).
             let parent = mesh.vertex_parent(v);
-            let f = params.fixed_boundary && self.fixed.get(parent.idx()).copied().unwrap_or(false);
+            let f = (parent != v && self.fixed.get(parent.idx()).copied().unwrap_or(false))
+                || Self::in_fixed_group(mesh, params, v);
             self.fixed.push(f);
         }
         self.els.elements.resize(mesh.n_faces(), None);
         self.stress.resize(mesh.n_faces(), Sym3::ZERO);
+        while self.shrink_scale.len() < mesh.n_faces() {
+            let f = FaceId(self.shrink_scale.len() as u32);
+            self.shrink_scale
+                .push(1.0 + params.noise * hash_unit(params.seed, u64::from(mesh.face_source(f))));
+        }
     }
 }
 
@@ -188,6 +270,11 @@ pub fn run(
         length_unit: unit,
         ..Default::default()
     };
+    let per_round_cap = if params.max_cracks_per_round > 0 {
+        params.max_cracks_per_round
+    } else {
+        (mesh.n_vertices() / 100).max(16)
+    };
     // Elements in normalised units.
     let clamp = Elements::clamp_threshold(mesh, params.clamp_factor) * unit;
     let mut st = State {
@@ -199,8 +286,12 @@ pub fn run(
         residual: Vec::new(),
         fixed: mesh
             .vertices()
-            .map(|v| params.fixed_boundary && mesh.is_boundary_vertex(v))
+            .map(|v| {
+                (params.fixed_boundary && mesh.is_boundary_vertex(v))
+                    || State::in_fixed_group(mesh, params, v)
+            })
             .collect(),
+        shrink_scale: Vec::new(),
         displacement: Vec::new(),
         unit,
     };
@@ -211,15 +302,38 @@ pub fn run(
     st.grow(mesh, params);
     report.energy[0] = energy(&st.els, &st.stress);
     let mut queue = FailureQueue::new();
+    let mut applied = 0.0; // shrinkage applied so far
+    let mut hold = false; // hold the load this round (the last one hit the cap)
+    let mut shrink_buf: Vec<f64> = Vec::new();
     report.stopped = format!("reached max_rounds ({})", params.max_rounds);
     for round in 0..params.max_rounds {
-        // ---- relax with evolution
-        let dt_max = stable_dt(mesh, &st.els);
-        let steps = ((params.relax_time / dt_max).ceil() as usize).max(1);
-        let dt = params.relax_time / steps as f64;
-        for _ in 0..steps {
-            relax_and_evolve(mesh, &mut st, params, dt);
+        // ---- relax, with the load increasing unless held or complete
+        let mut dt_max = stable_dt(mesh, &st.els);
+        if params.relax_dt > 0.0 {
+            dt_max = dt_max.min(params.relax_dt);
         }
+        if !dt_max.is_finite() {
+            dt_max = params.relax_time; // no element: nothing to relax
+        }
+        let (steps, dt) = if params.relax_steps > 0 {
+            (params.relax_steps, dt_max)
+        } else {
+            let n = ((params.relax_time / dt_max).ceil() as usize).max(1);
+            (n, params.relax_time / n as f64)
+        };
+        let loading = !hold && applied < params.shrinkage && params.shrink_rate > 0.0;
+        for _ in 0..steps {
+            let inc = if loading {
+                (params.shrink_rate * dt).min(params.shrinkage - applied)
+            } else {
+                0.0
+            };
+            applied += inc;
+            shrink_buf.clear();
+            shrink_buf.extend(st.shrink_scale.iter().map(|k| k * inc));
+            relax_and_evolve(mesh, &mut st, params, dt, &shrink_buf);
+        }
+        report.time += steps as f64 * dt;
         report.relax_steps += steps;
         report.rounds = round + 1;
         // ---- queue every failing node
@@ -229,10 +343,8 @@ pub fn run(
         }
         // ---- crack while the top fails
         let mut cracked_this_round = 0;
-        while let Some((v, _)) = queue.pop() {
-            if report.cracks >= params.max_cracks {
-                break;
-            }
+        while cracked_this_round < per_round_cap && report.cracks < params.max_cracks {
+            let Some((v, _)) = queue.pop() else { break };
             let v = VertexId(v);
             let s = separation_tensor(mesh, &st.els, &st.stress, v) + st.residual[v.idx()];
             let (val, dir) = s.max_eigen();
@@ -241,6 +353,12 @@ pub fn run(
             }
             let ev = crack_node(mesh, v, dir, &params.rules).map_err(SimError::Mesh)?;
             st.grow(mesh, params);
+            for (&q, &(a, b, border)) in ev.inserted.iter().zip(&ev.inserted_on) {
+                // A vertex on a fixed border edge is fixed.
+                if border && st.fixed[a.idx()] && st.fixed[b.idx()] && params.fixed_boundary {
+                    st.fixed[q.idx()] = true;
+                }
+            }
             st.residual[v.idx()] = Sym3::ZERO;
             if ev.segments.is_empty() {
                 continue;
@@ -248,11 +366,15 @@ pub fn run(
             report.cracks += 1;
             cracked_this_round += 1;
             report.crack_length += ev.length;
+            report.first_crack_time.get_or_insert(report.time);
             report.segments.extend(
                 ev.segments
                     .iter()
                     .map(|&(a, b)| [mesh.position(a), mesh.position(b)]),
             );
+            report
+                .segment_times
+                .extend(ev.segments.iter().map(|_| report.time));
             // Children inherit their parent's stress; touched faces get new elements.
             let mut touched: Vec<FaceId> = Vec::new();
             for &(parent, child) in &ev.split_faces {
@@ -288,12 +410,14 @@ pub fn run(
                 queue.set(n.0, s.max_eigen().0, params.toughness);
             }
         }
+        hold = cracked_this_round >= per_round_cap;
         observer.round(round + 1, params.max_rounds, report.cracks);
         if report.cracks >= params.max_cracks {
             report.stopped = format!("reached max_cracks ({})", params.max_cracks);
             break;
         }
-        if cracked_this_round == 0 && params.shrink_rate == 0.0 {
+        let load_done = applied >= params.shrinkage || params.shrink_rate == 0.0;
+        if cracked_this_round == 0 && load_done {
             report.stopped = "nothing fails any more".into();
             break;
         }
@@ -315,8 +439,8 @@ fn separations(mesh: &SimMesh, st: &State) -> Vec<(f64, [f64; 3])> {
         .collect()
 }
 
-/// One forward-Euler relaxation step plus uniform shrinkage.
-fn relax_and_evolve(mesh: &SimMesh, st: &mut State, params: &SimParams, dt: f64) {
+/// One forward-Euler relaxation step plus shrinkage `shrink[f]` per face.
+fn relax_and_evolve(mesh: &SimMesh, st: &mut State, params: &SimParams, dt: f64, shrink: &[f64]) {
     let mut g = node_forces(mesh, &st.els, &st.stress);
     for (gn, &f) in g.iter_mut().zip(&st.fixed) {
         if f {
@@ -342,14 +466,7 @@ fn relax_and_evolve(mesh: &SimMesh, st: &mut State, params: &SimParams, dt: f64)
     for (d, gn) in st.displacement.iter_mut().zip(&g) {
         *d = v3::add(*d, v3::scale(*gn, dt * st.unit));
     }
-    crate::sim::relax::apply_virtual_displacement(
-        mesh,
-        &st.els,
-        &mut st.stress,
-        &g,
-        dt,
-        params.shrink_rate * dt,
-    );
+    crate::sim::relax::apply_virtual_displacement(mesh, &st.els, &mut st.stress, &g, dt, shrink);
 }
 
 /// Errors of a simulation run.
