@@ -106,6 +106,72 @@ pub fn node_forces(mesh: &SimMesh, els: &Elements, stress: &[Sym3]) -> Vec<[f64;
         .collect()
 }
 
+/// Every node's fan as flat arrays (face, corner), in the mesh's fan order,
+/// plus every face's corners: the relaxation loop's view of a mesh that does
+/// not change between crack events. Rebuild after any edit.
+#[derive(Clone, Debug, Default)]
+pub struct Fans {
+    offsets: Vec<u32>,
+    entries: Vec<(u32, u8)>,
+    corners: Vec<[u32; 3]>,
+}
+
+impl Fans {
+    /// Fans of every node of `mesh`.
+    pub fn new(mesh: &SimMesh) -> Fans {
+        let mut offsets = Vec::with_capacity(mesh.n_vertices() + 1);
+        let mut entries = Vec::with_capacity(mesh.n_faces() * 3);
+        offsets.push(0);
+        for v in mesh.vertices() {
+            for f in mesh.vertex_faces(v) {
+                entries.push((f.0, corner_of(mesh, f, v) as u8));
+            }
+            offsets.push(entries.len() as u32);
+        }
+        let corners = mesh
+            .faces()
+            .map(|f| mesh.face_vertices(f).map(|v| v.0))
+            .collect();
+        Fans {
+            offsets,
+            entries,
+            corners,
+        }
+    }
+
+    /// Number of nodes.
+    pub fn n_vertices(&self) -> usize {
+        self.offsets.len() - 1
+    }
+
+    /// The (face, corner) pairs around node `v`.
+    pub fn fan(&self, v: usize) -> &[(u32, u8)] {
+        &self.entries[self.offsets[v] as usize..self.offsets[v + 1] as usize]
+    }
+
+    /// The corner nodes of face `f`.
+    pub fn corners(&self, f: usize) -> [u32; 3] {
+        self.corners[f]
+    }
+}
+
+/// [`node_forces`] on precomputed fans (same values, same order).
+pub fn node_forces_fans(fans: &Fans, els: &Elements, stress: &[Sym3]) -> Vec<[f64; 3]> {
+    (0..fans.n_vertices())
+        .into_par_iter()
+        .map(|v| {
+            let mut g = [0.0; 3];
+            for &(f, k) in fans.fan(v) {
+                if let Some(Some(el)) = els.elements.get(f as usize) {
+                    let sg = stress[f as usize].mul_vec(el.grads[k as usize]);
+                    g = v3::add(g, v3::scale(sg, -el.area));
+                }
+            }
+            g
+        })
+        .collect()
+}
+
 /// The separation tensor of node `v` (eq. 3):
 /// `S = 1/2 (-m(f+) + sum_e m(f+_e) + m(f-) - sum_e m(f-_e))`.
 pub fn separation_tensor(mesh: &SimMesh, els: &Elements, stress: &[Sym3], v: VertexId) -> Sym3 {
@@ -150,6 +216,20 @@ pub(crate) mod tests {
         mesh.faces()
             .map(|f| Sym3::tangent_identity(els.get(f).unwrap().normal, c))
             .collect()
+    }
+
+    #[test]
+    fn fans_give_the_same_forces() {
+        let mesh = jittered_plate(7, 0.3, 3);
+        let els = Elements::new(&mesh, Elements::clamp_threshold(&mesh, 4.0));
+        let mut rng = Lcg(4);
+        let stress: Vec<Sym3> = mesh
+            .faces()
+            .map(|f| Sym3::tangent_identity(els.get(f).unwrap().normal, rng.next_f64()))
+            .collect();
+        let a = node_forces(&mesh, &els, &stress);
+        let b = node_forces_fans(&Fans::new(&mesh), &els, &stress);
+        assert_eq!(a, b);
     }
 
     #[test]

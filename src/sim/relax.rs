@@ -9,7 +9,7 @@
 //! `dt <= 2 / lambda_max(K)`; [`stable_dt`] bounds `lambda_max` from above.
 
 use crate::mesh::SimMesh;
-use crate::sim::forces::{node_forces, Elements};
+use crate::sim::forces::{node_forces_fans, Elements, Fans};
 use crate::stress::tensor::{v3, Sym3};
 use rayon::prelude::*;
 
@@ -80,14 +80,15 @@ pub fn relax_step(
     dt: f64,
 ) -> RelaxStep {
     let energy_before = energy(els, stress);
-    let mut g = node_forces(mesh, els, stress);
+    let fans = Fans::new(mesh);
+    let mut g = node_forces_fans(&fans, els, stress);
     for (gn, &f) in g.iter_mut().zip(fixed) {
         if f {
             *gn = [0.0; 3];
         }
     }
     let residual = g.iter().map(|x| v3::dot(*x, *x)).sum::<f64>().sqrt();
-    apply_virtual_displacement(mesh, els, stress, &g, dt, &[]);
+    apply_virtual_displacement(&fans, els, stress, &g, dt, &[]);
     RelaxStep {
         energy_before,
         energy_after: energy(els, stress),
@@ -99,7 +100,7 @@ pub fn relax_step(
 /// `dt * g` (its tangential part), plus shrinkage `shrink[f] * (I - n n^T)`
 /// in each face `f` (an empty `shrink` adds none).
 pub fn apply_virtual_displacement(
-    mesh: &SimMesh,
+    fans: &Fans,
     els: &Elements,
     stress: &mut [Sym3],
     g: &[[f64; 3]],
@@ -110,10 +111,10 @@ pub fn apply_virtual_displacement(
         let Some(Some(el)) = els.elements.get(f) else {
             return;
         };
-        let vs = mesh.face_vertices(crate::mesh::FaceId(f as u32));
+        let vs = fans.corners(f);
         let mut ds = Sym3::tangent_identity(el.normal, shrink.get(f).copied().unwrap_or(0.0));
         for k in 0..3 {
-            let dp = v3::scale(g[vs[k].idx()], dt);
+            let dp = v3::scale(g[vs[k] as usize], dt);
             // Tangential part of the virtual displacement.
             let d = v3::sub(dp, v3::scale(el.normal, v3::dot(dp, el.normal)));
             ds += Sym3::sym_outer(el.grads[k], d);
