@@ -134,3 +134,153 @@ fn icosphere_and_bad_parameters() {
     assert_eq!(o.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&o.stderr).contains("toughness"));
 }
+
+/// Edges used by exactly one triangle, by vertex index within each
+/// triangle primitive (how a renderer sees the mesh: crack edges are open).
+fn open_edges(scene: &crackle::scene::Scene) -> usize {
+    let mut n = 0;
+    for m in &scene.meshes {
+        for p in &m.primitives {
+            if let crackle::scene::Geometry::Triangles(t) = &p.geometry {
+                let mut count: std::collections::HashMap<(u32, u32), u32> = Default::default();
+                for tri in &t.triangles {
+                    for k in 0..3 {
+                        let (a, b) = (tri[k], tri[(k + 1) % 3]);
+                        *count.entry((a.min(b), a.max(b))).or_default() += 1;
+                    }
+                }
+                n += count.values().filter(|&&c| c == 1).count();
+            }
+        }
+    }
+    n
+}
+
+/// Crack an eval-data mesh with the defaults: it must finish with cracks, a
+/// valid file, open crack edges, and the input's materials and UVs kept.
+fn eval_mesh_cracks(rel: &str) {
+    let Some(input) = common::eval_data(rel) else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out.glb");
+    let rep = dir.path().join("out.json");
+    crack(&input, &out, &rep, "2", &[]);
+    let r: serde_json::Value = serde_json::from_slice(&std::fs::read(&rep).unwrap()).unwrap();
+    assert!(r["cracks"].as_u64().unwrap() > 20, "{rel}: {r}");
+    for m in r["meshes"].as_array().unwrap() {
+        assert_eq!(
+            m["report"]["stopped"], "nothing fails any more",
+            "{rel}: the run ends by itself with the default budget: {m}"
+        );
+    }
+    if let Some(v) = common::validator() {
+        v.assert_clean(&out);
+    }
+    let before = crackle::io::read(&input).unwrap();
+    let after = crackle::io::read(&out).unwrap();
+    assert!(
+        open_edges(&after) > open_edges(&before) + 20,
+        "{rel}: the output is split along the cracks ({} -> {} open edges)",
+        open_edges(&before),
+        open_edges(&after)
+    );
+    let names = |s: &crackle::scene::Scene| {
+        s.materials
+            .iter()
+            .filter_map(|m| m.name().map(str::to_owned))
+            .collect::<Vec<_>>()
+    };
+    for name in names(&before) {
+        assert!(names(&after).contains(&name), "{rel}: material {name} kept");
+    }
+    let semantics = |s: &crackle::scene::Scene| {
+        let mut v: Vec<String> = Vec::new();
+        for m in &s.meshes {
+            for p in &m.primitives {
+                if let crackle::scene::Geometry::Triangles(t) = &p.geometry {
+                    v.extend(t.attributes.iter().map(|a| a.semantic.clone()));
+                }
+            }
+        }
+        v.sort();
+        v.dedup();
+        v
+    };
+    for s in semantics(&before) {
+        assert!(semantics(&after).contains(&s), "{rel}: attribute {s} kept");
+    }
+}
+
+#[test]
+fn spot_cracks() {
+    eval_mesh_cracks("obj/spot/spot_triangulated.obj");
+}
+
+#[test]
+fn stanford_bunny_with_holes_cracks() {
+    eval_mesh_cracks("obj/stanford-bunny/stanford-bunny.obj");
+}
+
+#[test]
+fn fandisk_cracks() {
+    eval_mesh_cracks("obj/fandisk/fandisk.obj");
+}
+
+#[test]
+fn fix_by_material_or_group_name() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = common::fixture("cube.obj");
+    let out = dir.path().join("cube.glb");
+    let rep = dir.path().join("cube.json");
+    crack(
+        &input,
+        &out,
+        &rep,
+        "2",
+        &["--fix", "red", "--fix", "textured_faces"],
+    );
+    let o = common::run([
+        "crack".as_ref(),
+        input.as_os_str(),
+        out.as_os_str(),
+        "--fix".as_ref(),
+        "no_such_part".as_ref(),
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("no_such_part") && err.contains("red") && err.contains("textured_faces"),
+        "the error names the unknown name and the names there are: {err}"
+    );
+}
+
+#[test]
+fn crack_lines_carry_formation_time() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("torus.glb");
+    let rep = dir.path().join("torus.json");
+    crack(&common::fixture("torus.obj"), &out, &rep, "2", &[]);
+    let back = crackle::io::read(&out).unwrap();
+    let lines = back.meshes[0]
+        .primitives
+        .iter()
+        .find_map(|p| match &p.geometry {
+            crackle::scene::Geometry::Raw(r) if r.mode == 1 => Some(r.clone()),
+            _ => None,
+        })
+        .expect("a LINES primitive");
+    let t = lines.attributes.get("_CRACK_TIME").expect("_CRACK_TIME");
+    let acc = &back.accessors[*t];
+    let times: Vec<f32> = acc
+        .data
+        .chunks_exact(4)
+        .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+        .collect();
+    assert_eq!(times.len(), acc.count);
+    assert!(
+        times.windows(2).all(|w| w[0] <= w[1]),
+        "segments in formation order"
+    );
+    assert!(times[0] > 0.0 && times[times.len() - 1] > times[0]);
+}
