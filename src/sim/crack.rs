@@ -307,11 +307,15 @@ mod tests {
         let rules = CrackRules::default();
         let mut rng = crate::mesh::test_util::Lcg(11);
         let mut mesh = jittered_plate(12, 0.35, 5);
+        let area = mesh.total_area();
         let mut splits = 0;
         for _ in 0..300 {
             let v = VertexId((rng.next_f64() * mesh.n_vertices() as f64) as u32);
             let a = rng.next_f64() * std::f64::consts::PI;
             let ev = crack_node(&mut mesh, v, [a.cos(), a.sin(), 0.0], &rules).unwrap();
+            // After every edit: a valid mesh with the same area.
+            mesh.validate().unwrap();
+            assert!(((mesh.total_area() - area) / area).abs() < 1e-12);
             for &(parent, child) in &ev.split_faces {
                 splits += 1;
                 for f in [parent, child] {
