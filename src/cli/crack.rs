@@ -28,9 +28,10 @@ pub struct SimArgs {
     /// Shrinkage (dimensionless strain) added per unit of relaxation time
     #[arg(long, default_value_t = SimParams::default().shrink_rate)]
     shrink_rate: f64,
-    /// Total shrinkage applied before loading stops; the run then goes on until nothing fails
-    #[arg(long, default_value_t = SimParams::default().shrinkage)]
-    shrinkage: f64,
+    /// How long the load acts (relaxation time); then the run goes on until nothing fails.
+    /// Total shrinkage is shrink-rate x load-time
+    #[arg(long, default_value_t = SimParams::default().load_time)]
+    load_time: f64,
     /// Seeded variation of the shrink rate between triangles, as a fraction in [0, 1]
     #[arg(long, default_value_t = SimParams::default().noise)]
     noise: f64,
@@ -78,7 +79,7 @@ impl SimArgs {
             alpha: self.alpha,
             residual_constant: self.residual_constant,
             shrink_rate: self.shrink_rate,
-            shrinkage: self.shrinkage,
+            load_time: self.load_time,
             noise: self.noise,
             seed: self.seed,
             relax_time: self.relax_time,

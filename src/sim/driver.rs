@@ -13,6 +13,7 @@ use crate::sim::crack::{crack_node, CrackRules};
 use crate::sim::forces::{face_points, separation_tensor, Elements, Fans};
 use crate::sim::queue::FailureQueue;
 use crate::sim::relax::{energy, node_bounds};
+use crate::stress::field::StressField;
 use crate::stress::tensor::{v3, Sym3};
 use rayon::prelude::*;
 
@@ -29,11 +30,12 @@ pub struct SimParams {
     pub residual_constant: f64,
     /// Uniform shrinkage added to every element per unit relaxation time. Default 0.05.
     pub shrink_rate: f64,
-    /// Total shrinkage (dimensionless strain) applied before loading stops;
-    /// the run then goes on until nothing fails. Default 6.
-    pub shrinkage: f64,
-    /// Seeded variation of the shrink rate between input triangles, as a
-    /// fraction: each triangle shrinks at `rate * (1 + noise * u)` with `u`
+    /// How long the load (shrinkage and the stress field's evolution terms)
+    /// acts, in relaxation time; the run then goes on until nothing fails.
+    /// Total uniform shrinkage is `shrink_rate * load_time`. Default 120.
+    pub load_time: f64,
+    /// Seeded variation of the load between input triangles, as a
+    /// fraction: each triangle is loaded at `rate * (1 + noise * u)` with `u`
     /// uniform in [-1, 1] (split triangles keep their input triangle's `u`).
     /// Breaks the symmetry of perfectly regular meshes. In [0, 1]; default 0.2.
     pub noise: f64,
@@ -80,7 +82,7 @@ impl Default for SimParams {
             alpha: 0.8,
             residual_constant: 1.0,
             shrink_rate: 0.05,
-            shrinkage: 6.0,
+            load_time: 120.0,
             noise: 0.2,
             seed: 1,
             relax_time: 5.0,
@@ -129,8 +131,8 @@ impl SimParams {
                 self.relax_dt
             ));
         }
-        if !(self.shrinkage.is_finite() && self.shrinkage >= 0.0) {
-            return Err(format!("shrinkage must be >= 0, got {}", self.shrinkage));
+        if !(self.load_time.is_finite() && self.load_time >= 0.0) {
+            return Err(format!("load_time must be >= 0, got {}", self.load_time));
         }
         if !(0.0..=1.0).contains(&self.noise) {
             return Err(format!("noise must be in [0, 1], got {}", self.noise));
@@ -205,8 +207,11 @@ struct State {
     stress: Vec<Sym3>,
     residual: Vec<Sym3>,
     fixed: Vec<bool>,
-    /// Shrink-rate multiplier per face (seeded noise).
+    /// Load multiplier per face (seeded noise).
     shrink_scale: Vec<f64>,
+    /// Evolution of the stress field per unit time, per face (children copy
+    /// their parent's).
+    evolve: Vec<Sym3>,
     /// Accumulated virtual displacement per node (for crack width later).
     displacement: Vec<[f64; 3]>,
     unit: f64,
@@ -240,6 +245,9 @@ impl State {
         }
         self.els.elements.resize(mesh.n_faces(), None);
         self.stress.resize(mesh.n_faces(), Sym3::ZERO);
+        if !self.evolve.is_empty() {
+            self.evolve.resize(mesh.n_faces(), Sym3::ZERO);
+        }
         while self.shrink_scale.len() < mesh.n_faces() {
             let f = FaceId(self.shrink_scale.len() as u32);
             self.shrink_scale
@@ -248,7 +256,8 @@ impl State {
     }
 }
 
-/// Run the crack simulation on `mesh` (edited in place).
+/// Run the crack simulation on `mesh` (edited in place) under uniform
+/// shrinkage only.
 ///
 /// # Errors
 /// An invalid parameter (message names it), or a broken mesh invariant.
@@ -257,7 +266,32 @@ pub fn run(
     params: &SimParams,
     observer: &mut dyn Observer,
 ) -> Result<SimReport, SimError> {
+    run_with(mesh, params, None, observer)
+}
+
+/// Run the crack simulation on `mesh` (edited in place), with a stress
+/// field's initial stress and evolution (per face of `mesh` as given) on top
+/// of the parameters' uniform shrinkage.
+///
+/// # Errors
+/// An invalid parameter (message names it), a field that does not fit the
+/// mesh, or a broken mesh invariant.
+pub fn run_with(
+    mesh: &mut SimMesh,
+    params: &SimParams,
+    field: Option<&StressField>,
+    observer: &mut dyn Observer,
+) -> Result<SimReport, SimError> {
     params.validate().map_err(SimError::Param)?;
+    if let Some(f) = field {
+        if f.init.len() != mesh.n_faces() || f.evolve.len() != mesh.n_faces() {
+            return Err(SimError::Param(format!(
+                "the stress field has {} faces, the mesh {}",
+                f.init.len(),
+                mesh.n_faces()
+            )));
+        }
+    }
     let unit = mesh.mean_edge_length();
     if !(unit.is_finite() && unit > 0.0) {
         return Err(SimError::Param(
@@ -282,7 +316,7 @@ pub fn run(
             elements: Vec::new(),
             clamp,
         },
-        stress: Vec::new(),
+        stress: field.map(|f| f.init.clone()).unwrap_or_default(),
         residual: Vec::new(),
         fixed: mesh
             .vertices()
@@ -292,6 +326,7 @@ pub fn run(
             })
             .collect(),
         shrink_scale: Vec::new(),
+        evolve: field.map(|f| f.evolve.clone()).unwrap_or_default(),
         displacement: Vec::new(),
         unit,
     };
@@ -302,7 +337,7 @@ pub fn run(
     st.grow(mesh, params);
     report.energy[0] = energy(&st.els, &st.stress);
     let mut queue = FailureQueue::new();
-    let mut applied = 0.0; // shrinkage applied so far
+    let mut loaded = 0.0; // time the load has acted so far
     let mut hold = false; // hold the load this round (the last one hit the cap)
     let mut g: Vec<[f64; 3]> = Vec::new();
     report.stopped = format!("reached max_rounds ({})", params.max_rounds);
@@ -340,20 +375,24 @@ pub fn run(
             let n = ((params.relax_time / dt_max).ceil() as usize).max(1);
             (n, params.relax_time / n as f64)
         };
-        let loading = !hold && applied < params.shrinkage && params.shrink_rate > 0.0;
+        let loading = !hold && loaded < params.load_time;
         let normals = if params.bonded {
             node_normals(&fans, &st.els)
         } else {
             Vec::new()
         };
         for _ in 0..steps {
-            let inc = if loading {
-                (params.shrink_rate * dt).min(params.shrinkage - applied)
+            let load_dt = if loading {
+                dt.min(params.load_time - loaded)
             } else {
                 0.0
             };
-            applied += inc;
-            relax_and_evolve(&fans, &normals, &mobility, &mut st, dt, inc, &mut g);
+            loaded += load_dt;
+            let load = Load {
+                dt: load_dt,
+                shrink_rate: params.shrink_rate,
+            };
+            relax_and_evolve(&fans, &normals, &mobility, &mut st, dt, load, &mut g);
         }
         report.time += steps as f64 * dt;
         report.relax_steps += steps;
@@ -401,6 +440,9 @@ pub fn run(
             let mut touched: Vec<FaceId> = Vec::new();
             for &(parent, child) in &ev.split_faces {
                 st.stress[child.idx()] = st.stress[parent.idx()];
+                if !st.evolve.is_empty() {
+                    st.evolve[child.idx()] = st.evolve[parent.idx()];
+                }
                 touched.push(parent);
                 touched.push(child);
             }
@@ -438,7 +480,7 @@ pub fn run(
             report.stopped = format!("reached max_cracks ({})", params.max_cracks);
             break;
         }
-        let load_done = applied >= params.shrinkage || params.shrink_rate == 0.0;
+        let load_done = loaded >= params.load_time;
         if cracked_this_round == 0 && load_done {
             report.stopped = "nothing fails any more".into();
             break;
@@ -482,8 +524,18 @@ fn node_normals(fans: &Fans, els: &Elements) -> Vec<[f64; 3]> {
         .collect()
 }
 
-/// One forward-Euler relaxation step plus shrinkage `shrink * shrink_scale[f]`
-/// in each face, in two parallel passes (nodes, then faces). Node `n` moves
+/// The load acting during one step.
+#[derive(Clone, Copy)]
+struct Load {
+    /// Time the load acts in this step (0 when held or complete).
+    dt: f64,
+    /// Uniform shrinkage per unit time.
+    shrink_rate: f64,
+}
+
+/// One forward-Euler relaxation step plus the load: in each face,
+/// `load.dt * shrink_scale[f] * (shrink_rate (I - n n^T) + evolve[f])`,
+/// in two parallel passes (nodes, then faces). Node `n` moves
 /// by `dt * mobility[n] * g_n`. With `normals`
 /// (a bonded surface), the normal part of each node force is carried by the
 /// body under the surface and removed. `g` is scratch space.
@@ -493,7 +545,7 @@ fn relax_and_evolve(
     mobility: &[f64],
     st: &mut State,
     dt: f64,
-    shrink: f64,
+    load: Load,
     g: &mut Vec<[f64; 3]>,
 ) {
     const CHUNK: usize = 512;
@@ -520,7 +572,7 @@ fn relax_and_evolve(
             *gn = f_net;
             *d = v3::add(*d, v3::scale(f_net, dt * unit));
         });
-    let (els, scale) = (&st.els, &st.shrink_scale);
+    let (els, scale, evolve) = (&st.els, &st.shrink_scale, &st.evolve);
     let g = &*g;
     st.stress
         .par_iter_mut()
@@ -531,7 +583,14 @@ fn relax_and_evolve(
                 return;
             };
             let vs = fans.corners(f);
-            let mut ds = Sym3::tangent_identity(el.normal, shrink * scale[f]);
+            let mut ds = Sym3::ZERO;
+            if load.dt > 0.0 {
+                let k = load.dt * scale[f];
+                ds = Sym3::tangent_identity(el.normal, k * load.shrink_rate);
+                if let Some(e) = evolve.get(f) {
+                    ds += *e * k;
+                }
+            }
             for k in 0..3 {
                 let dp = v3::scale(g[vs[k] as usize], dt);
                 let d = v3::sub(dp, v3::scale(el.normal, v3::dot(dp, el.normal)));
@@ -647,7 +706,7 @@ mod tests {
             let p = SimParams {
                 toughness: 1e9,
                 noise: 0.0,
-                shrinkage: 1.0,
+                load_time: 10.0,
                 shrink_rate: 0.1,
                 max_rounds: 6,
                 fixed_boundary,

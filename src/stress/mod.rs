@@ -1,5 +1,7 @@
 //! Stress tensors and (in later stages) stress initialisers and evolution terms.
 
+pub mod field;
 pub mod tensor;
 
+pub use field::{StressField, Term, TermKind};
 pub use tensor::{Sym2, Sym3};
