@@ -11,6 +11,7 @@ pub mod error;
 pub mod geometry;
 pub mod io;
 pub mod mesh;
+pub mod pipeline;
 pub mod scene;
 pub mod sim;
 pub mod stress;

@@ -4,95 +4,131 @@
 use anyhow::Result;
 use crackle::bridge::{build_sim_meshes, write_back};
 use crackle::mesh::WeldOptions;
+use crackle::pipeline::{Bounds, Pipeline};
 use crackle::scene::{Geometry, Material, Primitive, RawAccessor, RawGeometry, Scene};
-use crackle::sim::{SimParams, SimReport};
+use crackle::sim::SimReport;
+use crackle::stress::StressField;
 use serde_json::json;
 use std::io::IsTerminal;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-/// Simulation options of the crack command. Lengths and times are in the
-/// mesh's own units normalised by its mean edge length, so the same values
-/// crack a model in centimetres and in metres alike; stress is dimensionless.
+/// Simulation options of the crack command: a pipeline (file or preset)
+/// plus overrides. Each flag below is short for `--set simulation.KEY=VALUE`
+/// (defaults and units: README). Lengths and times are in the mesh's own
+/// units normalised by its mean edge length; stress is dimensionless.
 #[derive(clap::Args, Debug)]
 pub struct SimArgs {
-    /// Toughness: a node fails when its separation eigenvalue (dimensionless stress) exceeds it
-    #[arg(long, default_value_t = SimParams::default().toughness)]
-    toughness: f64,
-    /// Fraction of the residual stress handed to crack tips, in [0, 1]
-    #[arg(long, default_value_t = SimParams::default().alpha)]
-    alpha: f64,
-    /// Constant added to the residual at crack tips (dimensionless stress), for long wrapping cracks
-    #[arg(long, default_value_t = SimParams::default().residual_constant)]
-    residual_constant: f64,
-    /// Shrinkage (dimensionless strain) added per unit of relaxation time
-    #[arg(long, default_value_t = SimParams::default().shrink_rate)]
-    shrink_rate: f64,
-    /// How long the load acts (relaxation time); then the run goes on until nothing fails.
-    /// Total shrinkage is shrink-rate x load-time
-    #[arg(long, default_value_t = SimParams::default().load_time)]
-    load_time: f64,
-    /// Seeded variation of the shrink rate between triangles, as a fraction in [0, 1]
-    #[arg(long, default_value_t = SimParams::default().noise)]
-    noise: f64,
-    /// Seed of every random choice (same seed, same input: byte-identical output)
-    #[arg(long, default_value_t = SimParams::default().seed)]
-    seed: u64,
-    /// Relaxation time between crack checks (time unit: one unit-stiffness step over one mean edge)
-    #[arg(long, default_value_t = SimParams::default().relax_time)]
-    relax_time: f64,
-    /// Largest relaxation step; 0: the stable step (a larger value is reduced to it)
-    #[arg(long, default_value_t = SimParams::default().relax_dt)]
-    relax_dt: f64,
-    /// Relaxation steps per round; 0: as many as --relax-time needs
-    #[arg(long, default_value_t = SimParams::default().relax_steps)]
-    relax_steps: usize,
-    /// Most relaxation rounds
-    #[arg(long, default_value_t = SimParams::default().max_rounds)]
-    max_rounds: usize,
-    /// Most crack events per mesh
-    #[arg(long, default_value_t = SimParams::default().max_cracks)]
-    max_cracks: usize,
-    /// Most crack events per round before the load is held for a round; 0: 1% of the nodes, at least 16
-    #[arg(long, default_value_t = SimParams::default().max_cracks_per_round)]
-    max_cracks_per_round: usize,
-    /// Conditioning cap on element gradients, as a multiple of the input mean
-    #[arg(long, default_value_t = SimParams::default().clamp_factor)]
-    clamp_factor: f64,
+    /// Pipeline file (TOML): mesh selection, stress terms, simulation
+    #[arg(long, value_name = "FILE", conflicts_with = "preset")]
+    pipeline: Option<PathBuf>,
+    /// Built-in pipeline (`crackle presets` lists them)
+    #[arg(long, value_name = "NAME")]
+    preset: Option<String>,
+    /// Override a pipeline key, e.g. --set simulation.toughness=3 --set stress.0.radius=0.5 (repeatable)
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    sets: Vec<String>,
+    /// Toughness: a node fails when its separation eigenvalue exceeds it [default: 2]
+    #[arg(long)]
+    toughness: Option<f64>,
+    /// Fraction of the residual stress handed to crack tips, in [0, 1] [default: 0.8]
+    #[arg(long)]
+    alpha: Option<f64>,
+    /// Constant added to the residual at crack tips, for long joined cracks [default: 1]
+    #[arg(long)]
+    residual_constant: Option<f64>,
+    /// Uniform shrinkage added per unit of relaxation time [default: 0.05]
+    #[arg(long)]
+    shrink_rate: Option<f64>,
+    /// How long the load acts; then the run goes on until nothing fails [default: 120]
+    #[arg(long)]
+    load_time: Option<f64>,
+    /// Seeded variation of the load between triangles, in [0, 1] [default: 0.2]
+    #[arg(long)]
+    noise: Option<f64>,
+    /// Seed of every random choice [default: 1]
+    #[arg(long)]
+    seed: Option<u64>,
+    /// Relaxation time between crack checks [default: 5]
+    #[arg(long)]
+    relax_time: Option<f64>,
+    /// Largest relaxation step; 0: the stable step [default: 0]
+    #[arg(long)]
+    relax_dt: Option<f64>,
+    /// Relaxation steps per round; 0: as many as --relax-time needs [default: 0]
+    #[arg(long)]
+    relax_steps: Option<usize>,
+    /// Most relaxation rounds [default: 200]
+    #[arg(long)]
+    max_rounds: Option<usize>,
+    /// Most crack events per mesh [default: 100000]
+    #[arg(long)]
+    max_cracks: Option<usize>,
+    /// Most crack events per round before the load is held; 0: 1% of the nodes [default: 0]
+    #[arg(long)]
+    max_cracks_per_round: Option<usize>,
+    /// Conditioning cap on element gradients, times the input mean [default: 4]
+    #[arg(long)]
+    clamp_factor: Option<f64>,
     /// Fix the mesh's open boundary instead of leaving it free
     #[arg(long)]
     fixed_boundary: bool,
     /// Fix every node of the primitives with this material or OBJ group name (repeatable)
     #[arg(long, value_name = "NAME")]
-    pub fix: Vec<String>,
+    fix: Vec<String>,
     /// Do not bond the surface to the body under it (closed shells then shrink instead of cracking)
     #[arg(long)]
     unbonded: bool,
 }
 
 impl SimArgs {
-    /// The simulation parameters these options give (fixed groups are
-    /// resolved per mesh from `fix`).
-    pub fn params(&self) -> SimParams {
-        SimParams {
-            toughness: self.toughness,
-            alpha: self.alpha,
-            residual_constant: self.residual_constant,
-            shrink_rate: self.shrink_rate,
-            load_time: self.load_time,
-            noise: self.noise,
-            seed: self.seed,
-            relax_time: self.relax_time,
-            relax_dt: self.relax_dt,
-            relax_steps: self.relax_steps,
-            max_rounds: self.max_rounds,
-            max_cracks: self.max_cracks,
-            max_cracks_per_round: self.max_cracks_per_round,
-            clamp_factor: self.clamp_factor,
-            fixed_boundary: self.fixed_boundary,
-            bonded: !self.unbonded,
-            ..Default::default()
+    /// The pipeline these options give: the file or preset (or the
+    /// defaults), then the flags, then `--set`, all checked.
+    pub fn pipeline(&self) -> Result<Pipeline> {
+        let mut sets: Vec<String> = Vec::new();
+        let mut set = |k: &str, v: Option<String>| {
+            if let Some(v) = v {
+                sets.push(format!("simulation.{k}={v}"));
+            }
+        };
+        set("toughness", self.toughness.map(|x| x.to_string()));
+        set("alpha", self.alpha.map(|x| x.to_string()));
+        set(
+            "residual_constant",
+            self.residual_constant.map(|x| x.to_string()),
+        );
+        set("shrink_rate", self.shrink_rate.map(|x| x.to_string()));
+        set("load_time", self.load_time.map(|x| x.to_string()));
+        set("noise", self.noise.map(|x| x.to_string()));
+        set("seed", self.seed.map(|x| x.to_string()));
+        set("relax_time", self.relax_time.map(|x| x.to_string()));
+        set("relax_dt", self.relax_dt.map(|x| x.to_string()));
+        set("relax_steps", self.relax_steps.map(|x| x.to_string()));
+        set("max_rounds", self.max_rounds.map(|x| x.to_string()));
+        set("max_cracks", self.max_cracks.map(|x| x.to_string()));
+        set(
+            "max_cracks_per_round",
+            self.max_cracks_per_round.map(|x| x.to_string()),
+        );
+        set("clamp_factor", self.clamp_factor.map(|x| x.to_string()));
+        set("bonded", self.unbonded.then(|| "false".to_string()));
+        if self.fixed_boundary {
+            sets.push("select.fixed_boundary=true".into());
         }
+        sets.extend(self.sets.iter().cloned());
+        let usage = |e: crackle::pipeline::PipelineError| super::UsageError(e.to_string());
+        let mut p = match (&self.pipeline, &self.preset) {
+            (Some(path), _) => {
+                let text = std::fs::read_to_string(path).map_err(|e| {
+                    super::UsageError(format!("{}: cannot read the pipeline: {e}", path.display()))
+                })?;
+                Pipeline::parse(&text, &path.display().to_string(), &sets).map_err(usage)?
+            }
+            (None, Some(name)) => Pipeline::preset(name, &sets).map_err(usage)?,
+            (None, None) => Pipeline::parse("", "defaults", &sets).map_err(usage)?,
+        };
+        p.select.fix.extend(self.fix.iter().cloned());
+        Ok(p)
     }
 }
 
@@ -102,9 +138,7 @@ pub struct CrackArgs<'a> {
     pub output: &'a Path,
     pub report: Option<&'a Path>,
     pub weld: WeldOptions,
-    pub params: SimParams,
-    /// Material or group names whose nodes are fixed.
-    pub fix: Vec<String>,
+    pub pipeline: Pipeline,
     pub quiet: bool,
 }
 
@@ -252,9 +286,7 @@ fn add_crack_lines(
 }
 
 pub fn run(a: CrackArgs) -> Result<()> {
-    a.params
-        .validate()
-        .map_err(|e| super::UsageError(format!("invalid parameter: {e}")))?;
+    let pipe = &a.pipeline;
     let mut stages = Vec::new();
     let t = Instant::now();
     let mut scene = super::read_crackable(a.input)?;
@@ -269,18 +301,34 @@ pub fn run(a: CrackArgs) -> Result<()> {
             s.reason
         );
     }
+    // Mesh selection by name.
+    if !pipe.select.meshes.is_empty() {
+        let name_of = |i: usize| scene.meshes[i].name.clone().unwrap_or_default();
+        if let Some(missing) = pipe
+            .select
+            .meshes
+            .iter()
+            .find(|n| !entries.iter().any(|e| &name_of(e.mesh_index) == *n))
+        {
+            let names: Vec<String> = entries.iter().map(|e| name_of(e.mesh_index)).collect();
+            return Err(super::UsageError(format!(
+                "select.meshes: {} has no crackable mesh named '{missing}' (meshes: {})",
+                a.input.display(),
+                names.join(", ")
+            ))
+            .into());
+        }
+        entries.retain(|e| pipe.select.meshes.contains(&name_of(e.mesh_index)));
+    }
     stages.push(json!({"name": "weld", "seconds": t.elapsed().as_secs_f64()}));
     let mut matched: Vec<String> = Vec::new();
     let mut params_of = Vec::new();
     for e in &entries {
-        let (groups, m) = fixed_groups(&scene, e.mesh_index, &a.fix);
+        let (groups, m) = fixed_groups(&scene, e.mesh_index, &pipe.select.fix);
         matched.extend(m);
-        params_of.push(SimParams {
-            fixed_groups: groups,
-            ..a.params.clone()
-        });
+        params_of.push(pipe.params(&groups));
     }
-    if let Some(missing) = a.fix.iter().find(|n| !matched.contains(n)) {
+    if let Some(missing) = pipe.select.fix.iter().find(|n| !matched.contains(n)) {
         return Err(super::UsageError(format!(
             "--fix {missing}: no crackable primitive of {} has that material or group name (names: {})",
             a.input.display(),
@@ -288,13 +336,30 @@ pub fn run(a: CrackArgs) -> Result<()> {
         ))
         .into());
     }
+    // Stress fields: a stage only when the pipeline has stress terms.
+    let mut fields: Vec<Option<StressField>> = Vec::new();
+    if pipe.stress.is_empty() {
+        fields.resize(entries.len(), None);
+    } else {
+        let t = Instant::now();
+        for (e, params) in entries.iter().zip(&params_of) {
+            let bounds = Bounds::of(e.sim.vertices().map(|v| e.sim.position(v)));
+            let terms = pipe
+                .terms(&bounds)
+                .map_err(|m| super::UsageError(format!("stress: {m}")))?;
+            let field = StressField::build(&e.sim, &terms, params.seed)
+                .map_err(|err| anyhow::anyhow!("{}: {}: {err}", a.input.display(), e.label))?;
+            fields.push(Some(field));
+        }
+        stages.push(json!({"name": "stress", "seconds": t.elapsed().as_secs_f64()}));
+    }
     let t = Instant::now();
     let show = !a.quiet && std::io::stderr().is_terminal();
     let mut total = SimReport::default();
     let mut per_mesh = Vec::new();
-    for (e, params) in entries.iter_mut().zip(&params_of) {
+    for ((e, params), field) in entries.iter_mut().zip(&params_of).zip(&fields) {
         let bar = show.then(|| {
-            let b = indicatif::ProgressBar::new(a.params.max_rounds as u64);
+            let b = indicatif::ProgressBar::new(params.max_rounds as u64);
             b.set_style(
                 indicatif::ProgressStyle::with_template(
                     "{prefix} [{bar:30}] round {pos}/{len} {msg}",
@@ -305,7 +370,7 @@ pub fn run(a: CrackArgs) -> Result<()> {
             b
         });
         let mut obs = Bar(bar);
-        let r = crackle::sim::run(&mut e.sim, params, &mut obs)
+        let r = crackle::sim::run_with(&mut e.sim, params, field.as_ref(), &mut obs)
             .map_err(|err| anyhow::anyhow!("{}: {}: {err}", a.input.display(), e.label))?;
         if let Some(b) = obs.0 {
             b.finish_and_clear();

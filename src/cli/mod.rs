@@ -26,6 +26,12 @@ pub struct Cli {
 
 #[derive(Subcommand, Debug)]
 enum Command {
+    /// List the built-in pipelines (use one with `crack --preset NAME`)
+    Presets {
+        /// Print the named preset's TOML instead
+        #[arg(value_name = "NAME")]
+        show: Option<String>,
+    },
     /// Print a scene summary and a mesh defect report
     Info {
         /// Input mesh (.obj, .gltf, .glb)
@@ -86,6 +92,27 @@ pub fn exit_code(e: &anyhow::Error) -> u8 {
     }
 }
 
+/// `crackle presets [NAME]`: one line per preset, or one preset's TOML.
+fn presets(show: Option<&str>) -> anyhow::Result<()> {
+    use crackle::pipeline::{Pipeline, PRESETS};
+    match show {
+        Some(name) => {
+            let Some((_, text)) = PRESETS.iter().find(|(n, _)| *n == name) else {
+                Pipeline::preset(name, &[]).map_err(|e| UsageError(e.to_string()))?;
+                return Ok(());
+            };
+            print!("{text}");
+        }
+        None => {
+            for (name, _) in PRESETS {
+                let p = Pipeline::preset(name, &[]).map_err(|e| UsageError(e.to_string()))?;
+                println!("{name:<14} {}", p.description);
+            }
+        }
+    }
+    Ok(())
+}
+
 /// Read an asset, log its warnings, and refuse it when nothing in it can be cracked.
 fn read_crackable(input: &std::path::Path) -> anyhow::Result<crackle::scene::Scene> {
     let scene = crackle::io::read(input)?;
@@ -144,10 +171,10 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
             output: &output,
             report: report.as_deref(),
             weld: weld_options(weld_tolerance)?,
-            params: sim.params(),
-            fix: sim.fix,
+            pipeline: sim.pipeline()?,
             quiet: cli.quiet,
         }),
+        Command::Presets { show } => presets(show.as_deref()),
         Command::Convert {
             input,
             output,
