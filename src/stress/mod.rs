@@ -2,6 +2,7 @@
 
 pub mod field;
 pub mod tensor;
+pub mod texture;
 
 pub use field::{StressField, Term, TermKind};
 pub use tensor::{Sym2, Sym3};
