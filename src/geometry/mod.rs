@@ -1,5 +1,6 @@
 //! Geometric helpers shared by the readers, the writer and the mesh code.
 
+pub mod curvature;
 pub mod element;
 pub mod tangents;
 pub mod triangulate;
