@@ -36,51 +36,6 @@ pub struct Select {
     pub fixed_boundary: bool,
 }
 
-/// Simulation keys (units as in [`SimParams`]; lengths in mean edge lengths).
-#[derive(Clone, Debug, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields, default)]
-#[allow(missing_docs)]
-pub struct Simulation {
-    pub toughness: f64,
-    pub alpha: f64,
-    pub residual_constant: f64,
-    pub shrink_rate: f64,
-    pub load_time: f64,
-    pub noise: f64,
-    pub seed: u64,
-    pub relax_time: f64,
-    pub relax_dt: f64,
-    pub relax_steps: usize,
-    pub max_rounds: usize,
-    pub max_cracks: usize,
-    pub max_cracks_per_round: usize,
-    pub clamp_factor: f64,
-    pub bonded: bool,
-}
-
-impl Default for Simulation {
-    fn default() -> Self {
-        let p = SimParams::default();
-        Simulation {
-            toughness: p.toughness,
-            alpha: p.alpha,
-            residual_constant: p.residual_constant,
-            shrink_rate: p.shrink_rate,
-            load_time: p.load_time,
-            noise: p.noise,
-            seed: p.seed,
-            relax_time: p.relax_time,
-            relax_dt: p.relax_dt,
-            relax_steps: p.relax_steps,
-            max_rounds: p.max_rounds,
-            max_cracks: p.max_cracks,
-            max_cracks_per_round: p.max_cracks_per_round,
-            clamp_factor: p.clamp_factor,
-            bonded: p.bonded,
-        }
-    }
-}
-
 /// One `[[stress]]` entry as written. Which keys apply depends on `kind`;
 /// a key that does not apply is an error.
 #[derive(Clone, Debug, Default, Deserialize, PartialEq)]
@@ -124,9 +79,10 @@ pub struct Pipeline {
     /// Mesh selection.
     #[serde(default)]
     pub select: Select,
-    /// Simulation keys.
+    /// Simulation keys (units as in [`SimParams`]; lengths in mean edge
+    /// lengths). Its fixed boundary and groups are not keys here.
     #[serde(default)]
-    pub simulation: Simulation,
+    pub simulation: SimParams,
     /// Stress terms, summed. None: uniform shrinkage only (`simulation.shrink_rate`).
     #[serde(default)]
     pub stress: Vec<StressEntry>,
@@ -257,26 +213,10 @@ impl Pipeline {
 
     /// Simulation parameters (fixed groups are resolved per mesh by the caller).
     pub fn params(&self, fixed_groups: &[u32]) -> SimParams {
-        let s = &self.simulation;
         SimParams {
-            toughness: s.toughness,
-            alpha: s.alpha,
-            residual_constant: s.residual_constant,
-            shrink_rate: s.shrink_rate,
-            load_time: s.load_time,
-            noise: s.noise,
-            seed: s.seed,
-            relax_time: s.relax_time,
-            relax_dt: s.relax_dt,
-            relax_steps: s.relax_steps,
-            max_rounds: s.max_rounds,
-            max_cracks: s.max_cracks,
-            max_cracks_per_round: s.max_cracks_per_round,
-            clamp_factor: s.clamp_factor,
             fixed_boundary: self.select.fixed_boundary,
             fixed_groups: fixed_groups.to_vec(),
-            bonded: s.bonded,
-            ..Default::default()
+            ..self.simulation.clone()
         }
     }
 

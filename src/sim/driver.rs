@@ -17,8 +17,11 @@ use crate::stress::field::StressField;
 use crate::stress::tensor::{v3, Sym3};
 use rayon::prelude::*;
 
-/// Parameters of a run (all lengths in mean-edge-length units).
-#[derive(Clone, Debug, PartialEq)]
+/// Parameters of a run (all lengths in mean-edge-length units). A
+/// pipeline's `[simulation]` table deserialises into it; the fixed
+/// boundary and groups come from its `[select]` table instead.
+#[derive(Clone, Debug, PartialEq, serde::Deserialize)]
+#[serde(deny_unknown_fields, default)]
 pub struct SimParams {
     /// Toughness `tau`: a node fails when its separation eigenvalue exceeds it. Default 2.
     pub toughness: f64,
@@ -62,9 +65,11 @@ pub struct SimParams {
     /// at this factor times the input mean. Default 4.
     pub clamp_factor: f64,
     /// Fix the mesh's open boundary (otherwise it is free). Default false.
+    #[serde(skip)]
     pub fixed_boundary: bool,
     /// Fix every node of the faces in these groups (the bridge makes one
     /// group per primitive, so a material or an OBJ group). Default none.
+    #[serde(skip)]
     pub fixed_groups: Vec<u32>,
     /// The surface is bonded to the body under it (a glaze on a pot, mud on
     /// the ground): the body carries the normal part of each node force, so
@@ -72,6 +77,7 @@ pub struct SimParams {
     /// under uniform shrinkage just shrinks and never cracks. Default true.
     pub bonded: bool,
     /// Geometric cracking rules.
+    #[serde(skip)]
     pub rules: CrackRules,
 }
 
