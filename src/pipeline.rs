@@ -283,9 +283,9 @@ fn apply_set(root: &mut toml::Table, set: &str) -> Result<(), String> {
 }
 
 impl StressEntry {
+    /// The kind-specific keys this entry gives.
     fn present(&self) -> Vec<&'static str> {
-        let mut v = Vec::new();
-        let keys: [(&str, bool); 10] = [
+        [
             ("direction", self.direction.is_some()),
             ("center", self.center.is_some()),
             ("center_relative", self.center_relative.is_some()),
@@ -295,14 +295,10 @@ impl StressEntry {
             ("radius", self.radius.is_some()),
             ("radius_relative", self.radius_relative.is_some()),
             ("concentric_factor", self.concentric_factor.is_some()),
-            ("", false),
-        ];
-        for (k, p) in keys {
-            if p {
-                v.push(k);
-            }
-        }
-        v
+        ]
+        .into_iter()
+        .filter_map(|(k, given)| given.then_some(k))
+        .collect()
     }
 
     /// The term this entry describes on a mesh with bounds `b`.
