@@ -10,9 +10,9 @@
 use crate::geometry::element::Element;
 use crate::mesh::{FaceId, MeshError, SimMesh, VertexId};
 use crate::sim::crack::{crack_node, CrackRules};
-use crate::sim::forces::{face_points, separation_tensor, Elements, Fans};
+use crate::sim::forces::{face_points, node_force, separation_tensor, Elements, Fans};
 use crate::sim::queue::FailureQueue;
-use crate::sim::relax::{energy, node_bounds};
+use crate::sim::relax::{apply_virtual_displacement, energy, node_bounds};
 use crate::stress::field::StressField;
 use crate::stress::tensor::{v3, Sym3};
 use rayon::prelude::*;
@@ -554,22 +554,16 @@ fn relax_and_evolve(
     load: Load,
     g: &mut Vec<[f64; 3]>,
 ) {
-    const CHUNK: usize = 512;
     g.resize(fans.n_vertices(), [0.0; 3]);
     let (els, stress, fixed, unit) = (&st.els, &st.stress, &st.fixed, st.unit);
     g.par_iter_mut()
         .zip(st.displacement.par_iter_mut())
         .enumerate()
-        .with_min_len(CHUNK)
+        .with_min_len(512)
         .for_each(|(v, (gn, d))| {
             let mut f_net = [0.0; 3];
             if !fixed[v] {
-                for &(f, k) in fans.fan(v) {
-                    if let Some(Some(el)) = els.elements.get(f as usize) {
-                        let sg = stress[f as usize].mul_vec(el.grads[k as usize]);
-                        f_net = v3::add(f_net, v3::scale(sg, -el.area));
-                    }
-                }
+                f_net = node_force(fans, els, stress, v);
                 if let Some(n) = normals.get(v) {
                     f_net = v3::sub(f_net, v3::scale(*n, v3::dot(f_net, *n)));
                 }
@@ -578,32 +572,18 @@ fn relax_and_evolve(
             *gn = f_net;
             *d = v3::add(*d, v3::scale(f_net, dt * unit));
         });
-    let (els, scale, evolve) = (&st.els, &st.shrink_scale, &st.evolve);
-    let g = &*g;
-    st.stress
-        .par_iter_mut()
-        .enumerate()
-        .with_min_len(CHUNK)
-        .for_each(|(f, s)| {
-            let Some(Some(el)) = els.elements.get(f) else {
-                return;
-            };
-            let vs = fans.corners(f);
-            let mut ds = Sym3::ZERO;
-            if load.dt > 0.0 {
-                let k = load.dt * scale[f];
-                ds = Sym3::tangent_identity(el.normal, k * load.shrink_rate);
-                if let Some(e) = evolve.get(f) {
-                    ds += *e * k;
-                }
-            }
-            for k in 0..3 {
-                let dp = v3::scale(g[vs[k] as usize], dt);
-                let d = v3::sub(dp, v3::scale(el.normal, v3::dot(dp, el.normal)));
-                ds += Sym3::sym_outer(el.grads[k], d);
-            }
-            *s += ds;
-        });
+    let (scale, evolve) = (&st.shrink_scale, &st.evolve);
+    apply_virtual_displacement(fans, &st.els, &mut st.stress, g, dt, |f, el| {
+        if load.dt <= 0.0 {
+            return Sym3::ZERO;
+        }
+        let k = load.dt * scale[f];
+        let mut ds = Sym3::tangent_identity(el.normal, k * load.shrink_rate);
+        if let Some(e) = evolve.get(f) {
+            ds += *e * k;
+        }
+        ds
+    });
 }
 
 /// Errors of a simulation run.

@@ -90,20 +90,7 @@ pub(crate) fn corner_of(mesh: &SimMesh, f: FaceId, v: VertexId) -> usize {
 
 /// Net force on every node, `g[n] = sum_e f_e[n]`, gathered per node in fan order.
 pub fn node_forces(mesh: &SimMesh, els: &Elements, stress: &[Sym3]) -> Vec<[f64; 3]> {
-    (0..mesh.n_vertices())
-        .into_par_iter()
-        .map(|v| {
-            let v = VertexId(v as u32);
-            let mut g = [0.0; 3];
-            for f in mesh.vertex_faces(v) {
-                if let Some(el) = els.get(f) {
-                    let k = corner_of(mesh, f, v);
-                    g = v3::add(g, v3::scale(stress[f.idx()].mul_vec(el.grads[k]), -el.area));
-                }
-            }
-            g
-        })
-        .collect()
+    node_forces_fans(&Fans::new(mesh), els, stress)
 }
 
 /// Every node's fan as flat arrays (face, corner), in the mesh's fan order,
@@ -155,20 +142,23 @@ impl Fans {
     }
 }
 
-/// [`node_forces`] on precomputed fans (same values, same order).
+/// Net force on node `v`, `sum_e -A_e S_e g_v^e`, summed in fan order.
+pub fn node_force(fans: &Fans, els: &Elements, stress: &[Sym3], v: usize) -> [f64; 3] {
+    let mut g = [0.0; 3];
+    for &(f, k) in fans.fan(v) {
+        if let Some(Some(el)) = els.elements.get(f as usize) {
+            let sg = stress[f as usize].mul_vec(el.grads[k as usize]);
+            g = v3::add(g, v3::scale(sg, -el.area));
+        }
+    }
+    g
+}
+
+/// [`node_forces`] on precomputed fans.
 pub fn node_forces_fans(fans: &Fans, els: &Elements, stress: &[Sym3]) -> Vec<[f64; 3]> {
     (0..fans.n_vertices())
         .into_par_iter()
-        .map(|v| {
-            let mut g = [0.0; 3];
-            for &(f, k) in fans.fan(v) {
-                if let Some(Some(el)) = els.elements.get(f as usize) {
-                    let sg = stress[f as usize].mul_vec(el.grads[k as usize]);
-                    g = v3::add(g, v3::scale(sg, -el.area));
-                }
-            }
-            g
-        })
+        .map(|v| node_force(fans, els, stress, v))
         .collect()
 }
 

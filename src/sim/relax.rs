@@ -8,6 +8,7 @@
 //! decreases by `dt |g|^2` to first order, and monotonically for
 //! `dt <= 2 / lambda_max(K)`; [`stable_dt`] bounds `lambda_max` from above.
 
+use crate::geometry::element::Element;
 use crate::mesh::SimMesh;
 use crate::sim::forces::{node_forces_fans, Elements, Fans};
 use crate::stress::tensor::{v3, Sym3};
@@ -96,7 +97,7 @@ pub fn relax_step(
         }
     }
     let residual = g.iter().map(|x| v3::dot(*x, *x)).sum::<f64>().sqrt();
-    apply_virtual_displacement(&fans, els, stress, &g, dt, &[]);
+    apply_virtual_displacement(&fans, els, stress, &g, dt, |_, _| Sym3::ZERO);
     RelaxStep {
         energy_before,
         energy_after: energy(els, stress),
@@ -105,30 +106,34 @@ pub fn relax_step(
 }
 
 /// Add to each element the linearised strain of the virtual displacement
-/// `dt * g` (its tangential part), plus shrinkage `shrink[f] * (I - n n^T)`
-/// in each face `f` (an empty `shrink` adds none).
+/// `dt * g` (its tangential part), plus `load(f, element)` (the stress the
+/// load adds to face `f` in this step).
 pub fn apply_virtual_displacement(
     fans: &Fans,
     els: &Elements,
     stress: &mut [Sym3],
     g: &[[f64; 3]],
     dt: f64,
-    shrink: &[f64],
+    load: impl Fn(usize, &Element) -> Sym3 + Sync,
 ) {
-    stress.par_iter_mut().enumerate().for_each(|(f, s)| {
-        let Some(Some(el)) = els.elements.get(f) else {
-            return;
-        };
-        let vs = fans.corners(f);
-        let mut ds = Sym3::tangent_identity(el.normal, shrink.get(f).copied().unwrap_or(0.0));
-        for k in 0..3 {
-            let dp = v3::scale(g[vs[k] as usize], dt);
-            // Tangential part of the virtual displacement.
-            let d = v3::sub(dp, v3::scale(el.normal, v3::dot(dp, el.normal)));
-            ds += Sym3::sym_outer(el.grads[k], d);
-        }
-        *s += ds;
-    });
+    stress
+        .par_iter_mut()
+        .enumerate()
+        .with_min_len(512)
+        .for_each(|(f, s)| {
+            let Some(Some(el)) = els.elements.get(f) else {
+                return;
+            };
+            let vs = fans.corners(f);
+            let mut ds = load(f, el);
+            for k in 0..3 {
+                let dp = v3::scale(g[vs[k] as usize], dt);
+                // Tangential part of the virtual displacement.
+                let d = v3::sub(dp, v3::scale(el.normal, v3::dot(dp, el.normal)));
+                ds += Sym3::sym_outer(el.grads[k], d);
+            }
+            *s += ds;
+        });
 }
 
 #[cfg(test)]
@@ -226,7 +231,7 @@ mod tests {
                 .zip(&mobility)
                 .map(|(g, m)| v3::scale(*g, *m))
                 .collect();
-            apply_virtual_displacement(&fans, &els, &mut stress, &g, dt, &[]);
+            apply_virtual_displacement(&fans, &els, &mut stress, &g, dt, |_, _| Sym3::ZERO);
             let e = energy(&els, &stress);
             assert!(e <= last * (1.0 + 1e-12), "energy rose: {last} -> {e}");
             last = e;
