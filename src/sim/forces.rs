@@ -143,6 +143,7 @@ impl Fans {
 }
 
 /// Net force on node `v`, `sum_e -A_e S_e g_v^e`, summed in fan order.
+#[inline]
 pub fn node_force(fans: &Fans, els: &Elements, stress: &[Sym3], v: usize) -> [f64; 3] {
     let mut g = [0.0; 3];
     for &(f, k) in fans.fan(v) {
