@@ -519,62 +519,13 @@ mod tests {
         v3::scale(a, 1.0 / v3::norm(a))
     }
 
-    /// Icosahedron subdivided `level` times, on a sphere of radius `r`
-    /// (duplicate midpoints are welded by the build).
+    /// Icosahedron subdivided `level` times, on a sphere of radius `r`.
     fn icosphere(level: usize, r: f64) -> SimMesh {
-        let t = (1.0 + 5f64.sqrt()) / 2.0;
-        let mut p: Vec<[f64; 3]> = [
-            [-1.0, t, 0.0],
-            [1.0, t, 0.0],
-            [-1.0, -t, 0.0],
-            [1.0, -t, 0.0],
-            [0.0, -1.0, t],
-            [0.0, 1.0, t],
-            [0.0, -1.0, -t],
-            [0.0, 1.0, -t],
-            [t, 0.0, -1.0],
-            [t, 0.0, 1.0],
-            [-t, 0.0, -1.0],
-            [-t, 0.0, 1.0],
-        ]
-        .map(normalize)
-        .to_vec();
-        let mut tris: Vec<[u32; 3]> = vec![
-            [0, 11, 5],
-            [0, 5, 1],
-            [0, 1, 7],
-            [0, 7, 10],
-            [0, 10, 11],
-            [1, 5, 9],
-            [5, 11, 4],
-            [11, 10, 2],
-            [10, 7, 6],
-            [7, 1, 8],
-            [3, 9, 4],
-            [3, 4, 2],
-            [3, 2, 6],
-            [3, 6, 8],
-            [3, 8, 9],
-            [4, 9, 5],
-            [2, 4, 11],
-            [6, 2, 10],
-            [8, 6, 7],
-            [9, 8, 1],
-        ];
-        for _ in 0..level {
-            let mut next = Vec::with_capacity(tris.len() * 4);
-            for [a, b, c] in tris {
-                let mut mid = |i: u32, j: u32| {
-                    let m = v3::scale(v3::add(p[i as usize], p[j as usize]), 0.5);
-                    p.push(normalize(m));
-                    (p.len() - 1) as u32
-                };
-                let (ab, bc, ca) = (mid(a, b), mid(b, c), mid(c, a));
-                next.extend([[a, ab, ca], [b, bc, ab], [c, ca, bc], [ab, bc, ca]]);
-            }
-            tris = next;
-        }
-        build(p.iter().map(|&x| v3::scale(x, r)).collect(), tris)
+        let input = crate::mesh::test_util::icosphere_input(level);
+        build(
+            input.positions.iter().map(|&x| v3::scale(x, r)).collect(),
+            input.triangles,
+        )
     }
 
     /// A triangulated `nu` x `nv` parameter grid over `[0, 1]^2` mapped by
