@@ -11,18 +11,88 @@
 //! toughness = 2.0        # see SimParams for every key, its unit and default
 //! shrink_rate = 0.05
 //! [[stress]]
-//! kind = "impact"        # uniform | directional | concentric | impact | noise
+//! kind = "impact"        # uniform | directional | concentric | impact | noise | curvature
 //! init = 6.0
 //! points_relative = [[0.5, 0.5, 1.0]]
 //! radius_relative = 0.3
+//! mask = { image = "stains.png" }   # optional, on any entry: black = full stress
 //! ```
 //!
 //! Unknown keys are errors naming the key and the file. Every value is
-//! checked before any work starts.
+//! checked before any work starts; mask images are decoded by
+//! [`Pipeline::load_images`] before the input is read.
 
+use crate::scene::Scene;
 use crate::sim::SimParams;
-use crate::stress::{Term, TermKind};
+use crate::stress::texture::{mask_from_material, GreyImage, Mask, SLOTS};
+use crate::stress::{CurvatureMeasure, CurvatureScale, Term, TermKind};
 use serde::Deserialize;
+use std::path::Path;
+use std::sync::Arc;
+
+/// Images built into the tool, for `mask = { image = "builtin:NAME" }`.
+pub const BUILTIN_IMAGES: &[(&str, &[u8])] =
+    &[("blotches", include_bytes!("../fixtures/crack_mask.png"))];
+
+/// Per stress entry, its mask once loaded (`None`: no mask).
+pub type Masks = Vec<Option<Arc<Mask>>>;
+
+/// A texture mask on a stress entry: the entry's stress on each face is
+/// multiplied by the mask's weight at the face centroid's UV (bilinear,
+/// black = 1, white = 0; `invert` swaps them).
+#[derive(Clone, Debug, Default, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct MaskSpec {
+    /// A grey or colour PNG/JPEG (luminance is used), relative to the
+    /// pipeline file's folder, or `builtin:NAME` (see [`BUILTIN_IMAGES`]).
+    /// Sampled with repeat wrapping.
+    pub image: Option<String>,
+    /// Or: the input's material of this name; its texture in `slot` is the
+    /// mask, with the texture's sampler wrap modes, `texCoord` and
+    /// `KHR_texture_transform`.
+    pub material: Option<String>,
+    /// The material's texture slot. Default `baseColorTexture`.
+    pub slot: Option<String>,
+    /// White = full stress instead of black. Default false.
+    #[serde(default)]
+    pub invert: bool,
+    /// For `image`: the UV set (`TEXCOORD_n`) sampled. Default 0.
+    pub tex_coord: Option<u32>,
+    /// Also scale each node's separation by the weight, as if white regions
+    /// were infinitely tough (the mask marks where the cracking layer is):
+    /// cracks then stay where the mask is dark instead of running on into
+    /// the unstressed surface around it. Default false.
+    #[serde(default)]
+    pub confine: bool,
+}
+
+impl MaskSpec {
+    fn check(&self) -> Result<(), String> {
+        match (&self.image, &self.material) {
+            (Some(_), Some(_)) => return Err("give 'image' or 'material', not both".into()),
+            (None, None) => return Err("missing key 'image' (or 'material')".into()),
+            (Some(_), None) if self.slot.is_some() => {
+                return Err("key 'slot' applies to a material mask, not an image".into())
+            }
+            (None, Some(_)) if self.tex_coord.is_some() => {
+                return Err(
+                    "key 'tex_coord' applies to an image mask (a material's texture names its own)"
+                        .into(),
+                )
+            }
+            _ => {}
+        }
+        if let Some(slot) = &self.slot {
+            if !SLOTS.contains(&slot.as_str()) {
+                return Err(format!(
+                    "slot: unknown texture slot '{slot}' (valid slots: {})",
+                    SLOTS.join(", ")
+                ));
+            }
+        }
+        Ok(())
+    }
+}
 
 /// Which meshes a pipeline cracks and what holds them.
 #[derive(Clone, Debug, Default, Deserialize, PartialEq)]
@@ -41,7 +111,7 @@ pub struct Select {
 #[derive(Clone, Debug, Default, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct StressEntry {
-    /// uniform | directional | concentric | impact | noise.
+    /// uniform | directional | concentric | impact | noise | curvature.
     pub kind: String,
     /// Weight on the initial stress (dimensionless stress). Default 0.
     #[serde(default)]
@@ -67,6 +137,17 @@ pub struct StressEntry {
     pub radius_relative: Option<f64>,
     /// impact: concentric over radial factor. Default 1.25.
     pub concentric_factor: Option<f64>,
+    /// curvature: also scale each node's separation by this curvature
+    /// measure: gaussian (|k1 k2|), mean (|k1 + k2|/2), frobenius
+    /// (sqrt(k1^2 + k2^2)) or sum_squares (k1^2 + k2^2).
+    pub separation: Option<CurvatureMeasure>,
+    /// curvature with `separation`: how strongly, >= 0 (1: proportional to
+    /// the measure over its mean; 0: no effect). Default 1.
+    pub strength: Option<f64>,
+    /// curvature with `separation`: the largest factor, > 0. Default 4.
+    pub max_factor: Option<f64>,
+    /// Any kind: a texture mask multiplying the entry's stress.
+    pub mask: Option<MaskSpec>,
 }
 
 /// A whole pipeline file.
@@ -86,6 +167,12 @@ pub struct Pipeline {
     /// Stress terms, summed. None: uniform shrinkage only (`simulation.shrink_rate`).
     #[serde(default)]
     pub stress: Vec<StressEntry>,
+    /// The file or preset the pipeline came from (for messages).
+    #[serde(skip)]
+    pub source_name: String,
+    /// Image masks decoded by [`Pipeline::load_images`], per stress entry.
+    #[serde(skip)]
+    pub image_masks: Masks,
 }
 
 /// The built-in presets: (name, TOML).
@@ -99,6 +186,11 @@ pub const PRESETS: &[(&str, &str)] = &[
     ),
     ("wood-grain", include_str!("../pipeline/wood-grain.toml")),
     ("tree-rings", include_str!("../pipeline/tree-rings.toml")),
+    ("curvature", include_str!("../pipeline/curvature.toml")),
+    (
+        "texture-mask",
+        include_str!("../pipeline/texture-mask.toml"),
+    ),
 ];
 
 /// A pipeline error; the message names the file (or preset) and the key.
@@ -168,10 +260,11 @@ impl Pipeline {
         for s in sets {
             apply_set(&mut value, s).map_err(|m| err(format!("--set {s}: {m}")))?;
         }
-        let p: Pipeline = toml::Value::Table(value)
+        let mut p: Pipeline = toml::Value::Table(value)
             .try_into()
             .map_err(|e: toml::de::Error| err(e.to_string().trim().to_string()))?;
         p.check().map_err(err)?;
+        p.source_name = source_name.to_string();
         Ok(p)
     }
 
@@ -204,11 +297,130 @@ impl Pipeline {
             max: [1.0; 3],
         };
         for (i, e) in self.stress.iter().enumerate() {
-            e.term(&unit_box)
+            e.term(&unit_box, None)
                 .and_then(|t| t.validate().map_err(|x| x.to_string()))
                 .map_err(|m| format!("stress[{i}] ({}): {m}", e.kind))?;
+            if let Some(m) = &e.mask {
+                m.check()
+                    .map_err(|m| format!("stress[{i}] ({}): mask: {m}", e.kind))?;
+            }
         }
         Ok(())
+    }
+
+    /// Whether a stress entry needs the curvature estimate.
+    pub fn needs_curvature(&self) -> bool {
+        self.stress.iter().any(|e| e.kind == "curvature")
+    }
+
+    /// Whether a stress entry has a mask (images or material textures).
+    pub fn has_masks(&self) -> bool {
+        self.stress.iter().any(|e| e.mask.is_some())
+    }
+
+    /// Decode the image masks (`mask = { image = ... }`), paths relative to
+    /// `base_dir` (the pipeline file's folder; `None` for a preset, which may
+    /// only use built-in images). Call before reading any input.
+    ///
+    /// # Errors
+    /// An image that cannot be read or decoded, or an unknown built-in name;
+    /// the message names the pipeline and the key.
+    pub fn load_images(&mut self, base_dir: Option<&Path>) -> Result<(), PipelineError> {
+        let mut masks = Vec::with_capacity(self.stress.len());
+        for (i, e) in self.stress.iter().enumerate() {
+            let Some(spec) = &e.mask else {
+                masks.push(None);
+                continue;
+            };
+            let Some(image) = &spec.image else {
+                masks.push(None);
+                continue;
+            };
+            let err = |m: String| PipelineError {
+                source_name: self.source_name.clone(),
+                message: format!("stress[{i}] ({}): mask.image: {m}", e.kind),
+            };
+            let grey = if let Some(name) = image.strip_prefix("builtin:") {
+                let (_, bytes) =
+                    BUILTIN_IMAGES
+                        .iter()
+                        .find(|(n, _)| *n == name)
+                        .ok_or_else(|| {
+                            err(format!(
+                                "no built-in image '{name}'; there are: {}",
+                                BUILTIN_IMAGES
+                                    .iter()
+                                    .map(|(n, _)| format!("builtin:{n}"))
+                                    .collect::<Vec<_>>()
+                                    .join(", ")
+                            ))
+                        })?;
+                GreyImage::decode(bytes, image).map_err(|e| err(e.to_string()))?
+            } else {
+                let path = Path::new(image);
+                let path = match base_dir {
+                    Some(d) if path.is_relative() => d.join(path),
+                    Some(_) => path.to_path_buf(),
+                    None if path.is_absolute() => path.to_path_buf(),
+                    None => {
+                        return Err(err(format!(
+                            "'{image}' is relative, and a preset has no folder; give an absolute path or a builtin: image"
+                        )))
+                    }
+                };
+                GreyImage::open(&path).map_err(|e| err(e.to_string()))?
+            };
+            let mut mask = Mask::from_image(grey);
+            mask.invert = spec.invert;
+            mask.tex_coord = spec.tex_coord.unwrap_or(0);
+            mask.confine = spec.confine;
+            masks.push(Some(Arc::new(mask)));
+        }
+        self.image_masks = masks;
+        Ok(())
+    }
+
+    /// Every entry's mask for `scene`: the decoded image masks (from
+    /// [`Pipeline::load_images`]) and the material masks, whose textures are
+    /// decoded here; texture files must lie inside `asset_dir`.
+    ///
+    /// # Errors
+    /// An image mask not loaded yet, a material name the scene does not have
+    /// (the message lists the names), or a texture that cannot be used.
+    pub fn masks_for(&self, scene: &Scene, asset_dir: &Path) -> Result<Masks, String> {
+        let mut out = Vec::with_capacity(self.stress.len());
+        for (i, e) in self.stress.iter().enumerate() {
+            let label = format!("stress[{i}] ({}): mask", e.kind);
+            let Some(spec) = &e.mask else {
+                out.push(None);
+                continue;
+            };
+            if spec.image.is_some() {
+                let m = self.image_masks.get(i).cloned().flatten().ok_or_else(|| {
+                    format!("{label}.image: the image was not loaded (call load_images first)")
+                })?;
+                out.push(Some(m));
+                continue;
+            }
+            let name = spec.material.as_deref().unwrap_or_default();
+            let Some(mi) = scene.materials.iter().position(|m| m.name() == Some(name)) else {
+                let names: Vec<&str> = scene.materials.iter().filter_map(|m| m.name()).collect();
+                return Err(format!(
+                    "{label}.material: the input has no material named '{name}' (materials: {})",
+                    if names.is_empty() {
+                        "none with a name".to_string()
+                    } else {
+                        names.join(", ")
+                    }
+                ));
+            };
+            let slot = spec.slot.as_deref().unwrap_or("baseColorTexture");
+            let mut m = mask_from_material(scene, mi, slot, spec.invert, Some(asset_dir))
+                .map_err(|e| format!("{label}.material: {e}"))?;
+            m.confine = spec.confine;
+            out.push(Some(Arc::new(m)));
+        }
+        Ok(out)
     }
 
     /// Simulation parameters (fixed groups are resolved per mesh by the caller).
@@ -220,12 +432,24 @@ impl Pipeline {
         }
     }
 
-    /// The stress terms for a mesh with bounds `b`.
+    /// The stress terms for a mesh with bounds `b`, with the entries' masks
+    /// (from [`Pipeline::masks_for`]; empty: no masks).
     ///
     /// # Errors
-    /// A term with missing or conflicting keys (checked by [`Pipeline::parse`] already).
-    pub fn terms(&self, b: &Bounds) -> Result<Vec<Term>, String> {
-        self.stress.iter().map(|e| e.term(b)).collect()
+    /// A term with missing or conflicting keys (checked by [`Pipeline::parse`]
+    /// already), or an entry with a mask spec but no loaded mask.
+    pub fn terms(&self, b: &Bounds, masks: &[Option<Arc<Mask>>]) -> Result<Vec<Term>, String> {
+        self.stress
+            .iter()
+            .enumerate()
+            .map(|(i, e)| {
+                let mask = masks.get(i).cloned().flatten();
+                if e.mask.is_some() && mask.is_none() {
+                    return Err(format!("stress[{i}] ({}): mask not loaded", e.kind));
+                }
+                e.term(b, mask)
+            })
+            .collect()
     }
 }
 
@@ -295,6 +519,9 @@ impl StressEntry {
             ("radius", self.radius.is_some()),
             ("radius_relative", self.radius_relative.is_some()),
             ("concentric_factor", self.concentric_factor.is_some()),
+            ("separation", self.separation.is_some()),
+            ("strength", self.strength.is_some()),
+            ("max_factor", self.max_factor.is_some()),
         ]
         .into_iter()
         .filter_map(|(k, given)| given.then_some(k))
@@ -302,9 +529,10 @@ impl StressEntry {
     }
 
     /// The term this entry describes on a mesh with bounds `b`.
-    fn term(&self, b: &Bounds) -> Result<Term, String> {
+    fn term(&self, b: &Bounds, mask: Option<Arc<Mask>>) -> Result<Term, String> {
         let allowed: &[&str] = match self.kind.as_str() {
             "uniform" | "noise" => &[],
+            "curvature" => &["separation", "strength", "max_factor"],
             "directional" => &["direction"],
             "concentric" => &["center", "center_relative", "axis"],
             "impact" => &[
@@ -316,7 +544,7 @@ impl StressEntry {
             ],
             other => {
                 return Err(format!(
-                    "unknown kind '{other}'; the kinds are uniform, directional, concentric, impact, noise"
+                    "unknown kind '{other}'; the kinds are uniform, directional, concentric, impact, noise, curvature"
                 ))
             }
         };
@@ -331,6 +559,28 @@ impl StressEntry {
         let kind = match self.kind.as_str() {
             "uniform" => TermKind::Uniform,
             "noise" => TermKind::Noise,
+            "curvature" => {
+                if self.separation.is_none() {
+                    if let Some(k) = ["strength", "max_factor"]
+                        .into_iter()
+                        .find(|k| self.present().contains(k))
+                    {
+                        return Err(format!("key '{k}' needs 'separation'"));
+                    }
+                    if self.init == 0.0 && self.evolve == 0.0 {
+                        return Err(
+                            "a curvature entry needs 'init', 'evolve' or 'separation'".into()
+                        );
+                    }
+                }
+                TermKind::Curvature {
+                    scale: self.separation.map(|measure| CurvatureScale {
+                        measure,
+                        strength: self.strength.unwrap_or(1.0),
+                        max_factor: self.max_factor.unwrap_or(4.0),
+                    }),
+                }
+            }
             "directional" => TermKind::Directional {
                 direction: self.direction.ok_or("missing key 'direction'")?,
             },
@@ -393,6 +643,7 @@ impl StressEntry {
             kind,
             init: self.init,
             evolve: self.evolve,
+            mask,
         })
     }
 }
@@ -466,7 +717,7 @@ mod tests {
             min: [0.0, 0.0, 0.0],
             max: [4.0, 4.0, 2.0],
         };
-        let terms = p.terms(&b).unwrap();
+        let terms = p.terms(&b, &[]).unwrap();
         match &terms[0].kind {
             TermKind::Impact { points, radius, .. } => {
                 assert_eq!(points, &vec![[2.0, 2.0, 2.0]]);

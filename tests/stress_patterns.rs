@@ -1,8 +1,12 @@
 //! Stress initialisers shape the crack pattern as the paper describes:
 //! impacts crack radially near the point, wood grain cracks across the grain,
-//! tree rings crack radially.
+//! tree rings crack radially; the texture-mask preset cracks where its image
+//! is dark and the curvature preset where the surface bends.
+
+mod common;
 
 use crackle::mesh::{MeshInput, SimMesh};
+use crackle::pipeline::{Bounds, Pipeline};
 use crackle::sim::{run_with, SimParams, SimReport};
 use crackle::stress::{StressField, Term, TermKind};
 
@@ -86,6 +90,7 @@ fn impact_cracks_radially_near_the_point() {
         },
         init: 6.0,
         evolve: 0.0,
+        mask: None,
     }];
     let params = SimParams {
         shrink_rate: 0.0,
@@ -153,6 +158,7 @@ fn wood_grain_cracks_across_the_stress() {
         },
         init: 0.0,
         evolve: 0.05,
+        mask: None,
     }];
     let params = SimParams {
         shrink_rate: 0.0,
@@ -179,6 +185,7 @@ fn tree_rings_crack_radially() {
         },
         init: 0.0,
         evolve: 0.05,
+        mask: None,
     }];
     let params = SimParams {
         shrink_rate: 0.0,
@@ -202,5 +209,161 @@ fn tree_rings_crack_radially() {
         radial / total > 0.8,
         "cracks run across the rings: {:.2} radial",
         radial / total
+    );
+}
+
+/// A preset run through the library on a fixture: the simulation mesh
+/// before and after, and the report.
+fn run_preset(fixture: &str, preset: &str) -> (SimMesh, SimMesh, SimReport, Pipeline) {
+    let path = common::fixture(fixture);
+    let scene = crackle::io::read(&path).unwrap();
+    let (entries, _) = crackle::bridge::build_sim_meshes(&scene, &Default::default());
+    let mut p = Pipeline::preset(preset, &[]).unwrap();
+    p.load_images(None).unwrap();
+    let masks = p.masks_for(&scene, path.parent().unwrap()).unwrap();
+    let before = entries[0].sim.clone();
+    let mut mesh = before.clone();
+    let b = Bounds::of(mesh.vertices().map(|v| mesh.position(v)));
+    let terms = p.terms(&b, &masks).unwrap();
+    let params = p.params(&[]);
+    let field = StressField::build(&mesh, &terms, params.seed).unwrap();
+    let r = run_with(&mut mesh, &params, Some(&field), &mut ()).unwrap();
+    mesh.validate().unwrap();
+    (before, mesh, r, p)
+}
+
+/// The affine map from (x, z) to TEXCOORD_0 of a flat plate in y = 0,
+/// fitted on one of its faces.
+fn plate_uv_map(mesh: &SimMesh) -> impl Fn([f64; 3]) -> [f64; 2] {
+    let ch = mesh.wedges().channel("TEXCOORD_0").unwrap().clone();
+    let f = mesh.faces().next().unwrap();
+    let p = mesh.face_vertices(f).map(|v| mesh.position(v));
+    let t = mesh.face_wedges(f).map(|w| [ch.get(w)[0], ch.get(w)[1]]);
+    // Solve [dx1 dz1; dx2 dz2] A = [du1 dv1; du2 dv2].
+    let (a, b) = (
+        [p[1][0] - p[0][0], p[1][2] - p[0][2]],
+        [p[2][0] - p[0][0], p[2][2] - p[0][2]],
+    );
+    let det = a[0] * b[1] - a[1] * b[0];
+    let inv = [[b[1] / det, -a[1] / det], [-b[0] / det, a[0] / det]];
+    let du = [t[1][0] - t[0][0], t[2][0] - t[0][0]];
+    let dv = [t[1][1] - t[0][1], t[2][1] - t[0][1]];
+    let gu = [
+        inv[0][0] * du[0] + inv[0][1] * du[1],
+        inv[1][0] * du[0] + inv[1][1] * du[1],
+    ];
+    let gv = [
+        inv[0][0] * dv[0] + inv[0][1] * dv[1],
+        inv[1][0] * dv[0] + inv[1][1] * dv[1],
+    ];
+    let (o, t0) = (p[0], t[0]);
+    move |q: [f64; 3]| {
+        let (dx, dz) = (q[0] - o[0], q[2] - o[2]);
+        [
+            t0[0] + gu[0] * dx + gu[1] * dz,
+            t0[1] + gv[0] * dx + gv[1] * dz,
+        ]
+    }
+}
+
+#[test]
+fn texture_mask_preset_cracks_only_where_the_mask_is_dark() {
+    let (before, _, r, p) = run_preset("plate_jittered.obj", "texture-mask");
+    let mask = p.image_masks[0].clone().unwrap();
+    let uv = plate_uv_map(&before);
+    // The map is right: it reproduces every vertex's UV.
+    let ch = before.wedges().channel("TEXCOORD_0").unwrap();
+    for f in before.faces() {
+        for (v, w) in before
+            .face_vertices(f)
+            .into_iter()
+            .zip(before.face_wedges(f))
+        {
+            let m = uv(before.position(v));
+            assert!((m[0] - ch.get(w)[0]).abs() < 1e-5 && (m[1] - ch.get(w)[1]).abs() < 1e-5);
+        }
+    }
+    let (mut total, mut dark, mut white) = (0.0, 0.0, 0.0);
+    let mut quadrants = [0.0; 4];
+    for (m, _, l) in segments(&r) {
+        let w = mask.weight(uv(m));
+        total += l;
+        if w >= 0.5 {
+            dark += l;
+            let q = uv(m);
+            quadrants[usize::from(q[0] > 0.5) + 2 * usize::from(q[1] > 0.5)] += l;
+        }
+        if w < 0.05 {
+            white += l;
+        }
+    }
+    eprintln!(
+        "texture-mask: {} cracks, {:.3} of the length dark, {:.3} white, per quadrant {quadrants:.3?}",
+        r.cracks,
+        dark / total,
+        white / total
+    );
+    assert!(r.cracks > 20, "{r:?}");
+    assert!(
+        dark / total > 0.9 && white / total < 0.02,
+        "cracks where the mask is dark: {:.3} of the length, where it is white: {:.3}",
+        dark / total,
+        white / total
+    );
+    // Every blotch cracks (they lie in three different UV quadrants).
+    assert!(
+        quadrants.iter().filter(|&&x| x > 0.1).count() >= 3,
+        "{quadrants:?}"
+    );
+}
+
+#[test]
+fn curvature_preset_gathers_cracks_where_curvature_is_high() {
+    let (before, _, r, _) = run_preset("bumps.obj", "curvature");
+    let k = crackle::geometry::curvature::estimate(&before);
+    // Split the faces by the median curvature; crack length per area in each half.
+    let faces: Vec<_> = before.faces().collect();
+    let mut order: Vec<f64> = faces
+        .iter()
+        .map(|f| k.per_face[f.idx()].frobenius())
+        .collect();
+    order.sort_by(f64::total_cmp);
+    let median = order[order.len() / 2];
+    let centroid = |f| {
+        let [a, b, c] = before.face_vertices(f).map(|v| before.position(v));
+        [
+            (a[0] + b[0] + c[0]) / 3.0,
+            (a[1] + b[1] + c[1]) / 3.0,
+            (a[2] + b[2] + c[2]) / 3.0,
+        ]
+    };
+    let cents: Vec<[f64; 3]> = faces.iter().map(|&f| centroid(f)).collect();
+    let high: Vec<bool> = faces
+        .iter()
+        .map(|f| k.per_face[f.idx()].frobenius() > median)
+        .collect();
+    let mut area = [0.0; 2];
+    for (i, f) in faces.iter().enumerate() {
+        area[usize::from(high[i])] += before.face_area(*f);
+    }
+    let mut length = [0.0; 2];
+    for (m, _, l) in segments(&r) {
+        let d2 = |c: &[f64; 3]| (0..3).map(|k| (c[k] - m[k]).powi(2)).sum::<f64>();
+        let i = (0..cents.len())
+            .min_by(|&a, &b| d2(&cents[a]).total_cmp(&d2(&cents[b])))
+            .unwrap();
+        length[usize::from(high[i])] += l;
+    }
+    let density = [length[0] / area[0], length[1] / area[1]];
+    eprintln!(
+        "curvature: {} cracks, crack length per area high {:.2} low {:.2}",
+        r.cracks, density[1], density[0]
+    );
+    assert!(r.cracks > 20, "{r:?}");
+    assert!(
+        density[1] > 3.0 * density[0],
+        "crack length per area: high-curvature half {:.2}, low half {:.2}",
+        density[1],
+        density[0]
     );
 }

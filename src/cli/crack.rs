@@ -3,6 +3,7 @@
 
 use anyhow::Result;
 use crackle::bridge::{build_sim_meshes, write_back};
+use crackle::geometry::curvature::{self, CurvatureField};
 use crackle::mesh::WeldOptions;
 use crackle::pipeline::{Bounds, Pipeline};
 use crackle::scene::{Geometry, Material, Primitive, RawAccessor, RawGeometry, Scene};
@@ -82,6 +83,17 @@ pub struct SimArgs {
 }
 
 impl SimArgs {
+    /// The folder of the pipeline file (relative mask images are found
+    /// there); `None` for a preset or the defaults.
+    pub fn pipeline_dir(&self) -> Option<PathBuf> {
+        self.pipeline.as_ref().map(|p| {
+            p.parent()
+                .filter(|d| !d.as_os_str().is_empty())
+                .unwrap_or(Path::new("."))
+                .to_path_buf()
+        })
+    }
+
     /// The pipeline these options give: the file or preset (or the
     /// defaults), then the flags, then `--set`, all checked.
     pub fn pipeline(&self) -> Result<Pipeline> {
@@ -139,6 +151,8 @@ pub struct CrackArgs<'a> {
     pub report: Option<&'a Path>,
     pub weld: WeldOptions,
     pub pipeline: Pipeline,
+    /// Folder of the pipeline file, for relative mask images.
+    pub pipeline_dir: Option<PathBuf>,
     pub quiet: bool,
 }
 
@@ -285,12 +299,38 @@ fn add_crack_lines(
     });
 }
 
-pub fn run(a: CrackArgs) -> Result<()> {
+pub fn run(mut a: CrackArgs) -> Result<()> {
+    // Mask images are decoded before anything else, so a bad image is
+    // refused before any work.
+    let t = Instant::now();
+    let mut texture_seconds = 0.0;
+    if a.pipeline.has_masks() {
+        a.pipeline
+            .load_images(a.pipeline_dir.as_deref())
+            .map_err(|e| super::UsageError(e.to_string()))?;
+        texture_seconds += t.elapsed().as_secs_f64();
+    }
     let pipe = &a.pipeline;
     let mut stages = Vec::new();
     let t = Instant::now();
     let mut scene = super::read_crackable(a.input)?;
     stages.push(json!({"name": "read", "seconds": t.elapsed().as_secs_f64()}));
+    let masks = if pipe.has_masks() {
+        let t = Instant::now();
+        let asset_dir = a
+            .input
+            .parent()
+            .filter(|d| !d.as_os_str().is_empty())
+            .unwrap_or(Path::new("."));
+        let masks = pipe
+            .masks_for(&scene, asset_dir)
+            .map_err(|m| super::UsageError(format!("{}: {m}", a.input.display())))?;
+        texture_seconds += t.elapsed().as_secs_f64();
+        stages.push(json!({"name": "texture", "seconds": texture_seconds}));
+        masks
+    } else {
+        Vec::new()
+    };
     let t = Instant::now();
     let (mut entries, skipped) = build_sim_meshes(&scene, &a.weld);
     for s in &skipped {
@@ -336,21 +376,31 @@ pub fn run(a: CrackArgs) -> Result<()> {
         ))
         .into());
     }
+    // Curvature: a stage only when a stress term uses it.
+    let mut curvatures: Vec<Option<CurvatureField>> = Vec::new();
+    if pipe.needs_curvature() {
+        let t = Instant::now();
+        curvatures.extend(entries.iter().map(|e| Some(curvature::estimate(&e.sim))));
+        stages.push(json!({"name": "curvature", "seconds": t.elapsed().as_secs_f64()}));
+    } else {
+        curvatures.resize(entries.len(), None);
+    }
     // Stress fields: a stage only when the pipeline has stress terms.
     let mut fields: Vec<Option<StressField>> = Vec::new();
     if pipe.stress.is_empty() {
         fields.resize(entries.len(), None);
     } else {
         let t = Instant::now();
-        for (e, params) in entries.iter().zip(&params_of) {
+        for ((e, params), k) in entries.iter().zip(&params_of).zip(&curvatures) {
             let bounds = Bounds::of(e.sim.vertices().map(|v| e.sim.position(v)));
             let terms = pipe
-                .terms(&bounds)
+                .terms(&bounds, &masks)
                 .map_err(|m| super::UsageError(format!("stress: {m}")))?;
-            let field = StressField::build(&e.sim, &terms, params.seed)
+            let field = StressField::build_with(&e.sim, &terms, params.seed, k.as_ref())
                 .map_err(|err| anyhow::anyhow!("{}: {}: {err}", a.input.display(), e.label))?;
             fields.push(Some(field));
         }
+        drop(curvatures);
         stages.push(json!({"name": "stress", "seconds": t.elapsed().as_secs_f64()}));
     }
     let t = Instant::now();

@@ -173,6 +173,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
             report: report.as_deref(),
             weld: weld_options(weld_tolerance)?,
             pipeline: sim.pipeline()?,
+            pipeline_dir: sim.pipeline_dir(),
             quiet: cli.quiet,
         }),
         Command::Presets { show } => presets(show.as_deref()),

@@ -218,6 +218,9 @@ struct State {
     /// Evolution of the stress field per unit time, per face (children copy
     /// their parent's).
     evolve: Vec<Sym3>,
+    /// Factor on each face's contribution to node separation (empty: 1;
+    /// children copy their parent's).
+    sep_scale: Vec<f64>,
     /// Accumulated virtual displacement per node (for crack width later).
     displacement: Vec<[f64; 3]>,
     unit: f64,
@@ -253,6 +256,9 @@ impl State {
         self.stress.resize(mesh.n_faces(), Sym3::ZERO);
         if !self.evolve.is_empty() {
             self.evolve.resize(mesh.n_faces(), Sym3::ZERO);
+        }
+        if !self.sep_scale.is_empty() {
+            self.sep_scale.resize(mesh.n_faces(), 1.0);
         }
         while self.shrink_scale.len() < mesh.n_faces() {
             let f = FaceId(self.shrink_scale.len() as u32);
@@ -290,7 +296,10 @@ pub fn run_with(
 ) -> Result<SimReport, SimError> {
     params.validate().map_err(SimError::Param)?;
     if let Some(f) = field {
-        if f.init.len() != mesh.n_faces() || f.evolve.len() != mesh.n_faces() {
+        if f.init.len() != mesh.n_faces()
+            || f.evolve.len() != mesh.n_faces()
+            || !(f.separation_scale.is_empty() || f.separation_scale.len() == mesh.n_faces())
+        {
             return Err(SimError::Param(format!(
                 "the stress field has {} faces, the mesh {}",
                 f.init.len(),
@@ -333,6 +342,9 @@ pub fn run_with(
             .collect(),
         shrink_scale: Vec::new(),
         evolve: field.map(|f| f.evolve.clone()).unwrap_or_default(),
+        sep_scale: field
+            .map(|f| f.separation_scale.clone())
+            .unwrap_or_default(),
         displacement: Vec::new(),
         unit,
     };
@@ -413,8 +425,7 @@ pub fn run_with(
         while cracked_this_round < per_round_cap && report.cracks < params.max_cracks {
             let Some((v, _)) = queue.pop() else { break };
             let v = VertexId(v);
-            let s = separation_tensor(mesh, &st.els, &st.stress, v) + st.residual[v.idx()];
-            let (val, dir) = s.max_eigen();
+            let (val, dir) = node_separation(mesh, &st, v).max_eigen();
             if val.is_nan() || val <= params.toughness {
                 continue;
             }
@@ -449,6 +460,9 @@ pub fn run_with(
                 if !st.evolve.is_empty() {
                     st.evolve[child.idx()] = st.evolve[parent.idx()];
                 }
+                if !st.sep_scale.is_empty() {
+                    st.sep_scale[child.idx()] = st.sep_scale[parent.idx()];
+                }
                 touched.push(parent);
                 touched.push(child);
             }
@@ -476,7 +490,7 @@ pub fn run_with(
             nodes.sort();
             nodes.dedup();
             for n in nodes {
-                let s = separation_tensor(mesh, &st.els, &st.stress, n) + st.residual[n.idx()];
+                let s = node_separation(mesh, &st, n);
                 queue.set(n.0, s.max_eigen().0, params.toughness);
             }
         }
@@ -498,14 +512,31 @@ pub fn run_with(
     Ok(report)
 }
 
+/// Separation tensor of node `v`: the force-based tensor (eq. 3) plus the
+/// node's residual, times the mean separation factor of the node's faces
+/// when the field scales it (a factor `f` acts as toughness `tau / f`).
+fn node_separation(mesh: &SimMesh, st: &State, v: VertexId) -> Sym3 {
+    let s = separation_tensor(mesh, &st.els, &st.stress, v) + st.residual[v.idx()];
+    if st.sep_scale.is_empty() {
+        return s;
+    }
+    let (mut sum, mut n) = (0.0, 0usize);
+    for f in mesh.vertex_faces(v) {
+        sum += st.sep_scale[f.idx()];
+        n += 1;
+    }
+    if n > 0 {
+        s * (sum / n as f64)
+    } else {
+        s
+    }
+}
+
 /// Largest separation eigenvalue and its direction at every node.
 fn separations(mesh: &SimMesh, st: &State) -> Vec<(f64, [f64; 3])> {
     (0..mesh.n_vertices())
         .into_par_iter()
-        .map(|v| {
-            (separation_tensor(mesh, &st.els, &st.stress, VertexId(v as u32)) + st.residual[v])
-                .max_eigen()
-        })
+        .map(|v| node_separation(mesh, st, VertexId(v as u32)).max_eigen())
         .collect()
 }
 

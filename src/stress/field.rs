@@ -7,8 +7,11 @@
 //! Positions, directions and radii are in the mesh's own coordinates (scene
 //! units of the mesh before its node transforms).
 
+use crate::geometry::curvature::{self, Curvature, CurvatureField};
 use crate::mesh::{FaceId, SimMesh};
 use crate::stress::tensor::{v3, Sym3};
+use crate::stress::texture::Mask;
+use std::sync::Arc;
 
 /// What a term adds to a face (before its weights).
 #[derive(Clone, Debug, PartialEq)]
@@ -44,6 +47,59 @@ pub enum TermKind {
     /// Seeded noise for material inhomogeneity: a random magnitude in [0, 1]
     /// along a random in-plane direction per input triangle.
     Noise,
+    /// Curvature: the per-face curvature tensor `k1 d1 d1^T + k2 d2 d2^T`
+    /// (convex positive), scaled so its area-weighted RMS Frobenius norm over
+    /// the mesh is that of the tangent identity (`sqrt 2`): a weight of 1 adds
+    /// as much stress as uniform shrinkage where the curvature is typical (on
+    /// a sphere, exactly the tangent identity).
+    /// Optionally also scales every node's separation tensor by a curvature
+    /// measure (see [`CurvatureScale`]).
+    Curvature {
+        /// Scale the separation tensor as well (`None`: only the tensor term).
+        scale: Option<CurvatureScale>,
+    },
+}
+
+/// A scalar measure of curvature per face.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Deserialize, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum CurvatureMeasure {
+    /// `|k1 k2|`.
+    Gaussian,
+    /// `|k1 + k2| / 2`.
+    Mean,
+    /// `sqrt(k1^2 + k2^2)`.
+    Frobenius,
+    /// `k1^2 + k2^2`.
+    SumSquares,
+}
+
+impl CurvatureMeasure {
+    /// The measure's value for `c` (never negative).
+    pub fn of(self, c: &Curvature) -> f64 {
+        match self {
+            CurvatureMeasure::Gaussian => c.gaussian().abs(),
+            CurvatureMeasure::Mean => c.mean().abs(),
+            CurvatureMeasure::Frobenius => c.frobenius(),
+            CurvatureMeasure::SumSquares => c.k1 * c.k1 + c.k2 * c.k2,
+        }
+    }
+}
+
+/// Scaling of the separation tensor by curvature: each face gets the factor
+/// `clamp(1 + strength (m / m_mean - 1), 0, max_factor)`, with `m` the
+/// face's measure and `m_mean` its area-weighted mean over the mesh (factor 1
+/// everywhere on a flat mesh); a node's separation is multiplied by the mean
+/// factor of its faces. `strength = 1` makes the separation proportional to
+/// the measure (flat regions never crack); `strength = 0` changes nothing.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CurvatureScale {
+    /// Which measure.
+    pub measure: CurvatureMeasure,
+    /// How strongly it scales, >= 0.
+    pub strength: f64,
+    /// Largest factor, > 0.
+    pub max_factor: f64,
 }
 
 /// One stress term with its weights.
@@ -55,6 +111,9 @@ pub struct Term {
     pub init: f64,
     /// Weight added per unit of relaxation time while the load acts.
     pub evolve: f64,
+    /// A texture mask multiplying the term on each face by the mask's weight
+    /// at the face centroid's UV (black = 1, white = 0 unless inverted).
+    pub mask: Option<Arc<Mask>>,
 }
 
 /// Per-face initial stress and evolution rate, indexed by face id.
@@ -64,6 +123,9 @@ pub struct StressField {
     pub init: Vec<Sym3>,
     /// Added per unit of relaxation time while the load acts.
     pub evolve: Vec<Sym3>,
+    /// Factor on each face's contribution to the separation tensor (empty:
+    /// 1 everywhere); from [`CurvatureScale`] terms, which multiply.
+    pub separation_scale: Vec<f64>,
 }
 
 /// Errors in a term's values.
@@ -140,14 +202,40 @@ impl Term {
                     return bad("impact points must be finite".into());
                 }
             }
+            TermKind::Curvature { scale } => {
+                if let Some(sc) = scale {
+                    if !(sc.strength.is_finite() && sc.strength >= 0.0) {
+                        return bad(format!("strength must be >= 0, got {}", sc.strength));
+                    }
+                    if !(sc.max_factor.is_finite() && sc.max_factor > 0.0) {
+                        return bad(format!("max_factor must be > 0, got {}", sc.max_factor));
+                    }
+                }
+            }
             TermKind::Uniform | TermKind::Noise => {}
         }
         Ok(())
     }
 
+    /// Whether the term needs the curvature estimate.
+    pub fn needs_curvature(&self) -> bool {
+        matches!(self.kind, TermKind::Curvature { .. })
+    }
+
+    /// The term's unit tensor on face `f` times its mask weight.
+    fn masked_tensor(&self, mesh: &SimMesh, f: FaceId, ctx: &Context) -> Sym3 {
+        let w = match (&self.mask, ctx.uv_channel) {
+            (Some(m), Some(ch)) => m.weight(face_uv(mesh, f, ch)),
+            _ => 1.0,
+        };
+        if w == 0.0 {
+            return Sym3::ZERO;
+        }
+        self.tensor(mesh, f, ctx) * w
+    }
+
     /// The term's unit tensor on face `f` (zero on a degenerate face).
-    /// `impacts` are the impact points already projected onto the surface.
-    fn tensor(&self, mesh: &SimMesh, f: FaceId, impacts: &[[f64; 3]], seed: u64) -> Sym3 {
+    fn tensor(&self, mesh: &SimMesh, f: FaceId, ctx: &Context) -> Sym3 {
         let Some((c, n)) = face_frame(mesh, f) else {
             return Sym3::ZERO;
         };
@@ -172,7 +260,7 @@ impl Term {
                 ..
             } => {
                 let mut s = Sym3::ZERO;
-                for p in impacts {
+                for p in &ctx.impacts {
                     let to = v3::sub(c, *p);
                     let d = v3::norm(to);
                     if d > *radius {
@@ -198,8 +286,8 @@ impl Term {
             }
             TermKind::Noise => {
                 let key = u64::from(mesh.face_source(f));
-                let magnitude = hash01(seed ^ 0x6E6F_6973_6531, key);
-                let angle = std::f64::consts::PI * hash01(seed ^ 0x6E6F_6973_6532, key);
+                let magnitude = hash01(ctx.seed ^ 0x6E6F_6973_6531, key);
+                let angle = std::f64::consts::PI * hash01(ctx.seed ^ 0x6E6F_6973_6532, key);
                 // An in-plane frame from the face's first edge.
                 let [a, b, _] = mesh.face_vertices(f).map(|v| mesh.position(v));
                 let e1 = unit(in_plane(v3::sub(b, a), n)).unwrap_or([0.0; 3]);
@@ -207,7 +295,54 @@ impl Term {
                 let d = v3::add(v3::scale(e1, angle.cos()), v3::scale(e2, angle.sin()));
                 Sym3::outer(d) * magnitude
             }
+            TermKind::Curvature { .. } => match (ctx.curvature, ctx.curvature_rms) {
+                (Some(k), rms) if rms > 0.0 => {
+                    k.per_face_tensor[f.idx()] * (std::f64::consts::SQRT_2 / rms)
+                }
+                _ => Sym3::ZERO,
+            },
         }
+    }
+}
+
+/// What a term needs beyond the face: per term, built once per mesh.
+struct Context<'a> {
+    seed: u64,
+    /// Impact points projected onto the surface (impact terms).
+    impacts: Vec<[f64; 3]>,
+    /// The UV channel a mask samples (masked terms).
+    uv_channel: Option<&'a crate::mesh::Channel>,
+    curvature: Option<&'a CurvatureField>,
+    /// Area-weighted RMS of the curvature tensors' Frobenius norms.
+    curvature_rms: f64,
+}
+
+/// The UV of face `f`'s centroid in channel `ch` (2 components).
+fn face_uv(mesh: &SimMesh, f: FaceId, ch: &crate::mesh::Channel) -> [f64; 2] {
+    let mut uv = [0.0; 2];
+    for w in mesh.face_wedges(f) {
+        let x = ch.get(w);
+        uv[0] += x[0] / 3.0;
+        uv[1] += x[1] / 3.0;
+    }
+    uv
+}
+
+/// Area-weighted mean of `value` over the faces of `mesh`.
+fn area_mean(mesh: &SimMesh, value: impl Fn(FaceId) -> f64) -> f64 {
+    let (mut sum, mut area) = (0.0, 0.0);
+    for f in mesh.faces() {
+        let a = mesh.face_area(f);
+        let x = value(f);
+        if a > 0.0 && x.is_finite() {
+            sum += a * x;
+            area += a;
+        }
+    }
+    if area > 0.0 {
+        sum / area
+    } else {
+        0.0
     }
 }
 
@@ -241,35 +376,127 @@ pub fn project_onto_surface(mesh: &SimMesh, points: &[[f64; 3]]) -> Vec<[f64; 3]
 }
 
 impl StressField {
-    /// Evaluate `terms` on every face of `mesh`.
+    /// Evaluate `terms` on every face of `mesh` (estimating the curvature
+    /// when a term needs it).
     ///
     /// # Errors
-    /// A term with an invalid value (the message names it and the term).
+    /// A term with an invalid value, or a mask on a mesh without the UV set
+    /// it samples (the message names the term).
     pub fn build(mesh: &SimMesh, terms: &[Term], seed: u64) -> Result<StressField, FieldError> {
-        for (i, t) in terms.iter().enumerate() {
-            t.validate().map_err(|FieldError::Invalid(m)| {
-                FieldError::Invalid(format!("stress term {i}: {m}"))
-            })?;
-        }
-        let impacts: Vec<Vec<[f64; 3]>> = terms
+        let k = terms
             .iter()
-            .map(|t| match &t.kind {
+            .any(Term::needs_curvature)
+            .then(|| curvature::estimate(mesh));
+        StressField::build_with(mesh, terms, seed, k.as_ref())
+    }
+
+    /// As [`StressField::build`], with the curvature estimate given (it is
+    /// estimated here when a term needs it and it is `None`).
+    ///
+    /// # Errors
+    /// As [`StressField::build`].
+    pub fn build_with(
+        mesh: &SimMesh,
+        terms: &[Term],
+        seed: u64,
+        curvature: Option<&CurvatureField>,
+    ) -> Result<StressField, FieldError> {
+        let named = |i: usize| {
+            move |FieldError::Invalid(m)| FieldError::Invalid(format!("stress term {i}: {m}"))
+        };
+        for (i, t) in terms.iter().enumerate() {
+            t.validate().map_err(named(i))?;
+        }
+        let estimated;
+        let curvature = match curvature {
+            Some(k) => Some(k),
+            None if terms.iter().any(Term::needs_curvature) => {
+                estimated = curvature::estimate(mesh);
+                Some(&estimated)
+            }
+            None => None,
+        };
+        if let Some(k) = curvature {
+            if k.per_face.len() != mesh.n_faces() || k.per_face_tensor.len() != mesh.n_faces() {
+                return Err(FieldError::Invalid(format!(
+                    "the curvature estimate has {} faces, the mesh {}",
+                    k.per_face.len(),
+                    mesh.n_faces()
+                )));
+            }
+        }
+        let curvature_rms = match curvature {
+            Some(k) => area_mean(mesh, |f| k.per_face_tensor[f.idx()].frobenius_sq()).sqrt(),
+            None => 0.0,
+        };
+        let mut contexts = Vec::with_capacity(terms.len());
+        for (i, t) in terms.iter().enumerate() {
+            let impacts = match &t.kind {
                 TermKind::Impact { points, .. } => project_onto_surface(mesh, points),
                 _ => Vec::new(),
-            })
-            .collect();
+            };
+            let uv_channel = match &t.mask {
+                Some(m) => {
+                    let name = format!("TEXCOORD_{}", m.tex_coord);
+                    match mesh.wedges().channel(&name) {
+                        Some(ch) if ch.components >= 2 => Some(ch),
+                        _ => {
+                            return Err(named(i)(FieldError::Invalid(format!(
+                                "the mask samples {name}, which the mesh does not have (a mask needs UVs)"
+                            ))))
+                        }
+                    }
+                }
+                None => None,
+            };
+            contexts.push(Context {
+                seed,
+                impacts,
+                uv_channel,
+                curvature,
+                curvature_rms,
+            });
+        }
         let mut field = StressField {
             init: vec![Sym3::ZERO; mesh.n_faces()],
             evolve: vec![Sym3::ZERO; mesh.n_faces()],
+            separation_scale: Vec::new(),
         };
         for f in mesh.faces() {
-            for (t, imp) in terms.iter().zip(&impacts) {
+            for (t, ctx) in terms.iter().zip(&contexts) {
                 if t.init == 0.0 && t.evolve == 0.0 {
                     continue;
                 }
-                let s = t.tensor(mesh, f, imp, seed);
+                let s = t.masked_tensor(mesh, f, ctx);
                 field.init[f.idx()] += s * t.init;
                 field.evolve[f.idx()] += s * t.evolve;
+            }
+        }
+        let mut scale = |factor: &dyn Fn(FaceId) -> f64| {
+            if field.separation_scale.is_empty() {
+                field.separation_scale = vec![1.0; mesh.n_faces()];
+            }
+            for f in mesh.faces() {
+                field.separation_scale[f.idx()] *= factor(f);
+            }
+        };
+        for (t, ctx) in terms.iter().zip(&contexts) {
+            if let (Some(m), Some(ch)) = (&t.mask, ctx.uv_channel) {
+                if m.confine {
+                    scale(&|f| m.weight(face_uv(mesh, f, ch)));
+                }
+            }
+            if let (TermKind::Curvature { scale: Some(sc) }, Some(k)) = (&t.kind, curvature) {
+                let m = |f: FaceId| sc.measure.of(&k.per_face[f.idx()]);
+                let mean = area_mean(mesh, m);
+                scale(&|f| {
+                    let x = m(f);
+                    if mean > 0.0 && x.is_finite() {
+                        (1.0 + sc.strength * (x / mean - 1.0)).clamp(0.0, sc.max_factor)
+                    } else {
+                        1.0
+                    }
+                });
             }
         }
         Ok(field)
@@ -294,6 +521,7 @@ mod tests {
             },
             init: 1.0,
             evolve: 0.0,
+            mask: None,
         };
         let field = StressField::build(&mesh, &[t], 1).unwrap();
         // The plate is in z = 0: the x part remains, length 1/sqrt(2).
@@ -313,6 +541,7 @@ mod tests {
             },
             init: 1.0,
             evolve: 0.0,
+            mask: None,
         };
         let impact = Term {
             kind: TermKind::Impact {
@@ -322,6 +551,7 @@ mod tests {
             },
             init: 1.0,
             evolve: 0.0,
+            mask: None,
         };
         let fr = StressField::build(&mesh, &[rings], 1).unwrap();
         let fi = StressField::build(&mesh, &[impact], 1).unwrap();
@@ -360,6 +590,7 @@ mod tests {
             kind: TermKind::Noise,
             init: 0.0,
             evolve: 2.0,
+            mask: None,
         };
         let a = StressField::build(&mesh, std::slice::from_ref(&t), 7).unwrap();
         let b = StressField::build(&mesh, std::slice::from_ref(&t), 7).unwrap();
@@ -383,8 +614,178 @@ mod tests {
             },
             init: 1.0,
             evolve: 0.0,
+            mask: None,
         };
         let e = StressField::build(&mesh, &[t], 1).unwrap_err().to_string();
         assert!(e.contains("radius") && e.contains("term 0"), "{e}");
+    }
+
+    /// An `n` x `n` unit grid whose `TEXCOORD_0` spans [0, 1]^2.
+    fn uv_plate(n: usize) -> SimMesh {
+        let mut input = crate::mesh::test_util::grid_input(n, n);
+        let ch = &mut input.wedge_channels[0];
+        ch.name = "TEXCOORD_0".into();
+        for x in &mut ch.data {
+            *x /= n as f64;
+        }
+        crate::mesh::test_util::build(&input).0
+    }
+
+    /// Left half of the image black, right half white (2 x 1 pixels,
+    /// clamped so the halves do not blend across the wrap).
+    fn half_mask(confine: bool) -> Arc<Mask> {
+        let mut m = Mask::from_image(crate::stress::texture::GreyImage {
+            width: 2,
+            height: 1,
+            data: vec![0.0, 1.0],
+        });
+        m.wrap_s = crate::stress::texture::Wrap::ClampToEdge;
+        m.wrap_t = crate::stress::texture::Wrap::ClampToEdge;
+        m.confine = confine;
+        Arc::new(m)
+    }
+
+    #[test]
+    fn masks_weight_each_face_by_the_image_at_its_centroid() {
+        let mesh = uv_plate(8);
+        let t = Term {
+            kind: TermKind::Uniform,
+            init: 0.0,
+            evolve: 2.0,
+            mask: Some(half_mask(false)),
+        };
+        let field = StressField::build(&mesh, &[t], 1).unwrap();
+        assert!(
+            field.separation_scale.is_empty(),
+            "no confinement asked for"
+        );
+        for f in mesh.faces() {
+            let (c, _) = face_frame(&mesh, f).unwrap();
+            // Bilinear between the two pixel centres at u = 0.25 and 0.75.
+            let u = c[0] / 8.0;
+            let expect = 2.0 * (1.0 - ((u - 0.25) / 0.5).clamp(0.0, 1.0));
+            let got = field.evolve[f.idx()].trace() / 2.0; // tangent identity: trace 2
+            assert!((got - expect).abs() < 1e-6, "u {u}: {got} vs {expect}");
+        }
+        // Confinement scales the separation by the same weight.
+        let t = Term {
+            kind: TermKind::Uniform,
+            init: 0.0,
+            evolve: 1.0,
+            mask: Some(half_mask(true)),
+        };
+        let field = StressField::build(&mesh, &[t], 1).unwrap();
+        for f in mesh.faces() {
+            let u = face_frame(&mesh, f).unwrap().0[0] / 8.0;
+            let w = 1.0 - ((u - 0.25) / 0.5).clamp(0.0, 1.0);
+            assert!((field.separation_scale[f.idx()] - w).abs() < 1e-6);
+        }
+    }
+
+    #[test]
+    fn a_mask_on_a_mesh_without_its_uvs_is_named() {
+        let mesh = jittered_plate(3, 0.0, 1); // its channel is "uv", not TEXCOORD_0
+        let t = Term {
+            kind: TermKind::Uniform,
+            init: 1.0,
+            evolve: 0.0,
+            mask: Some(half_mask(false)),
+        };
+        let e = StressField::build(&mesh, &[t], 1).unwrap_err().to_string();
+        assert!(e.contains("TEXCOORD_0") && e.contains("term 0"), "{e}");
+    }
+
+    #[test]
+    fn curvature_term_on_a_sphere_is_the_tangent_identity() {
+        // Radius 3: k1 = k2 = 1/3 everywhere; normalised by its RMS the
+        // tensor is the tangent identity (trace 2, zero along the normal).
+        let mut input = crate::mesh::test_util::icosphere_input(3);
+        for p in &mut input.positions {
+            *p = v3::scale(*p, 3.0);
+        }
+        let mesh = crate::mesh::test_util::build(&input).0;
+        let t = Term {
+            kind: TermKind::Curvature { scale: None },
+            init: 1.0,
+            evolve: 0.0,
+            mask: None,
+        };
+        let field = StressField::build(&mesh, &[t], 1).unwrap();
+        for f in mesh.faces() {
+            let (_, n) = face_frame(&mesh, f).unwrap();
+            let s = &field.init[f.idx()];
+            assert!((s.trace() - 2.0).abs() < 0.05, "trace {}", s.trace());
+            assert!(s.quad(n, n).abs() < 1e-9);
+        }
+        // On a flat plate the curvature is zero: no stress, factor 1, no NaN.
+        let plate = jittered_plate(6, 0.2, 2);
+        let t = Term {
+            kind: TermKind::Curvature {
+                scale: Some(CurvatureScale {
+                    measure: CurvatureMeasure::Frobenius,
+                    strength: 1.0,
+                    max_factor: 4.0,
+                }),
+            },
+            init: 1.0,
+            evolve: 1.0,
+            mask: None,
+        };
+        let field = StressField::build(&plate, &[t], 1).unwrap();
+        assert!(field.init.iter().all(|s| s.frobenius_sq() < 1e-20));
+        assert!(field.separation_scale.iter().all(|&x| x == 1.0));
+    }
+
+    #[test]
+    fn curvature_scaling_follows_the_measure() {
+        // A cylinder-like strip: half flat, half bent. Faces on the bent half
+        // get factor m / mean (strength 1), the flat half 0; strength 0.5
+        // halves the deviation from 1; max_factor clamps.
+        let n = 16;
+        let mut input = crate::mesh::test_util::grid_input(n, 4);
+        for p in &mut input.positions {
+            if p[0] > 8.0 {
+                // bend x in (8, 16] onto a circle of radius 4 (curvature 1/4)
+                let a = (p[0] - 8.0) / 4.0;
+                *p = [8.0 + 4.0 * a.sin(), p[1], 4.0 - 4.0 * a.cos()];
+            }
+        }
+        let mesh = crate::mesh::test_util::build(&input).0;
+        let k = crate::geometry::curvature::estimate(&mesh);
+        let term = |strength: f64, max_factor: f64| Term {
+            kind: TermKind::Curvature {
+                scale: Some(CurvatureScale {
+                    measure: CurvatureMeasure::SumSquares,
+                    strength,
+                    max_factor,
+                }),
+            },
+            init: 0.0,
+            evolve: 0.0,
+            mask: None,
+        };
+        let m = |f: FaceId| CurvatureMeasure::SumSquares.of(&k.per_face[f.idx()]);
+        let mean = area_mean(&mesh, m);
+        assert!(mean > 0.0);
+        let full = StressField::build_with(&mesh, &[term(1.0, 100.0)], 1, Some(&k)).unwrap();
+        let half = StressField::build_with(&mesh, &[term(0.5, 100.0)], 1, Some(&k)).unwrap();
+        let capped = StressField::build_with(&mesh, &[term(1.0, 1.2)], 1, Some(&k)).unwrap();
+        let (mut flat, mut bent) = (0, 0);
+        for f in mesh.faces() {
+            let x = m(f) / mean;
+            let a = full.separation_scale[f.idx()];
+            assert!((a - x).abs() < 1e-12);
+            assert!((half.separation_scale[f.idx()] - (1.0 + 0.5 * (x - 1.0))).abs() < 1e-12);
+            assert!(capped.separation_scale[f.idx()] <= 1.2);
+            let cx = face_frame(&mesh, f).unwrap().0[0];
+            if cx < 6.0 {
+                flat += 1;
+                assert!(a < 1e-6, "flat face factor {a}");
+            } else if cx > 9.5 && cx < 11.0 {
+                bent += 1;
+                assert!(a > 1.5, "bent face factor {a}");
+            }
+        }
+        assert!(flat > 0 && bent > 0);
     }
 }

@@ -4,5 +4,5 @@ pub mod field;
 pub mod tensor;
 pub mod texture;
 
-pub use field::{StressField, Term, TermKind};
+pub use field::{CurvatureMeasure, CurvatureScale, StressField, Term, TermKind};
 pub use tensor::{Sym2, Sym3};

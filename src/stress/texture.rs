@@ -605,6 +605,9 @@ pub struct Mask {
     /// The `TEXCOORD_n` set the UVs come from (the textureInfo's `texCoord`,
     /// or the `KHR_texture_transform` override).
     pub tex_coord: u32,
+    /// Also scale the separation by the weight (the mask marks where the
+    /// cracking layer is): cracks stay where the mask is dark.
+    pub confine: bool,
 }
 
 impl Mask {
@@ -618,6 +621,7 @@ impl Mask {
             transform: UvTransform::default(),
             invert: false,
             tex_coord: 0,
+            confine: false,
         }
     }
 
@@ -821,6 +825,7 @@ pub fn mask_from_material(
         transform,
         invert,
         tex_coord,
+        confine: false,
     })
 }
 
