@@ -119,19 +119,23 @@ pub struct StressEntry {
     /// Weight added per unit of relaxation time while the load acts. Default 0.
     #[serde(default)]
     pub evolve: f64,
-    /// directional: the direction (unitless, normalised).
+    /// directional: the direction in world space (unitless, normalised).
     pub direction: Option<[f64; 3]>,
-    /// concentric: a point on the axis, in scene units.
+    /// directional (instead of `direction`) and concentric (instead of
+    /// `axis`): an axis of each mesh's own frame, `x`, `y`, `z`, or
+    /// `longest` (the longest side of its bounding box: along a plank).
+    pub mesh_axis: Option<String>,
+    /// concentric: a point on the axis, in world space (scene units).
     pub center: Option<[f64; 3]>,
     /// concentric: a point on the axis as fractions of the mesh's bounding box.
     pub center_relative: Option<[f64; 3]>,
-    /// concentric: the axis direction.
+    /// concentric: the axis direction in world space.
     pub axis: Option<[f64; 3]>,
-    /// impact: points in scene units (projected onto the surface).
+    /// impact: points in world space (scene units), projected onto the surface.
     pub points: Option<Vec<[f64; 3]>>,
     /// impact: points as fractions of the mesh's bounding box.
     pub points_relative: Option<Vec<[f64; 3]>>,
-    /// impact: radius in scene units.
+    /// impact: radius in world space (scene units).
     pub radius: Option<f64>,
     /// impact: radius as a fraction of the bounding-box diagonal.
     pub radius_relative: Option<f64>,
@@ -238,6 +242,69 @@ impl Bounds {
     }
 }
 
+/// Where a mesh sits: its bounding box in its own coordinates (for relative
+/// keys) and the map from world (scene) coordinates into them (for
+/// world-space keys).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Placement {
+    /// The mesh's bounding box in its own coordinates.
+    pub bounds: Bounds,
+    /// World to mesh coordinates, column-major 4x4 affine.
+    pub world_to_mesh: [f64; 16],
+}
+
+impl Placement {
+    /// A mesh whose coordinates are world coordinates.
+    pub fn local(bounds: Bounds) -> Placement {
+        Placement {
+            bounds,
+            world_to_mesh: crate::scene::IDENTITY,
+        }
+    }
+
+    /// A mesh drawn with the world matrix `mesh_to_world` (column-major).
+    ///
+    /// # Errors
+    /// A matrix that is not invertible (zero scale) or not finite.
+    pub fn new(bounds: Bounds, mesh_to_world: &[f64; 16]) -> Result<Placement, String> {
+        let m = nalgebra::Matrix4::from_column_slice(mesh_to_world);
+        let inv = m
+            .try_inverse()
+            .filter(|i| i.iter().all(|x| x.is_finite()))
+            .ok_or("the mesh's world transform is not invertible (a zero scale?)")?;
+        let mut world_to_mesh = [0.0; 16];
+        world_to_mesh.copy_from_slice(inv.as_slice());
+        Ok(Placement {
+            bounds,
+            world_to_mesh,
+        })
+    }
+
+    fn apply(&self, p: [f64; 3], w: f64) -> [f64; 3] {
+        let m = &self.world_to_mesh;
+        std::array::from_fn(|r| m[r] * p[0] + m[4 + r] * p[1] + m[8 + r] * p[2] + m[12 + r] * w)
+    }
+
+    /// A world point in mesh coordinates.
+    fn point(&self, p: [f64; 3]) -> [f64; 3] {
+        self.apply(p, 1.0)
+    }
+
+    /// A world direction in mesh coordinates.
+    fn vector(&self, v: [f64; 3]) -> [f64; 3] {
+        self.apply(v, 0.0)
+    }
+
+    /// A world length in mesh units (the mean scale: cube root of the
+    /// linear part's determinant).
+    fn length(&self, l: f64) -> f64 {
+        let m = &self.world_to_mesh;
+        let det = m[0] * (m[5] * m[10] - m[9] * m[6]) - m[4] * (m[1] * m[10] - m[9] * m[2])
+            + m[8] * (m[1] * m[6] - m[5] * m[2]);
+        l * det.abs().cbrt()
+    }
+}
+
 impl Pipeline {
     /// Parse a pipeline from TOML text, apply `key=value` overrides (dotted
     /// keys, e.g. `simulation.toughness=3` or `stress.0.radius=0.2`; values
@@ -292,10 +359,10 @@ impl Pipeline {
     /// Every value checked, naming the key.
     fn check(&self) -> Result<(), String> {
         self.params(&[]).validate()?;
-        let unit_box = Bounds {
+        let unit_box = Placement::local(Bounds {
             min: [0.0; 3],
             max: [1.0; 3],
-        };
+        });
         for (i, e) in self.stress.iter().enumerate() {
             e.term(&unit_box, None)
                 .and_then(|t| t.validate().map_err(|x| x.to_string()))
@@ -432,13 +499,29 @@ impl Pipeline {
         }
     }
 
-    /// The stress terms for a mesh with bounds `b`, with the entries' masks
-    /// (from [`Pipeline::masks_for`]; empty: no masks).
+    /// Whether an entry gives a world-space key (a point, direction, axis or
+    /// radius in scene units), which depends on where the mesh is placed.
+    pub fn uses_world_space(&self) -> bool {
+        self.stress.iter().any(|e| {
+            e.direction.is_some()
+                || e.center.is_some()
+                || e.axis.is_some()
+                || e.points.is_some()
+                || e.radius.is_some()
+        })
+    }
+
+    /// The stress terms for a mesh placed at `place`, with the entries'
+    /// masks (from [`Pipeline::masks_for`]; empty: no masks).
     ///
     /// # Errors
     /// A term with missing or conflicting keys (checked by [`Pipeline::parse`]
     /// already), or an entry with a mask spec but no loaded mask.
-    pub fn terms(&self, b: &Bounds, masks: &[Option<Arc<Mask>>]) -> Result<Vec<Term>, String> {
+    pub fn terms(
+        &self,
+        place: &Placement,
+        masks: &[Option<Arc<Mask>>],
+    ) -> Result<Vec<Term>, String> {
         self.stress
             .iter()
             .enumerate()
@@ -447,7 +530,7 @@ impl Pipeline {
                 if e.mask.is_some() && mask.is_none() {
                     return Err(format!("stress[{i}] ({}): mask not loaded", e.kind));
                 }
-                e.term(b, mask)
+                e.term(place, mask)
             })
             .collect()
     }
@@ -511,6 +594,7 @@ impl StressEntry {
     fn present(&self) -> Vec<&'static str> {
         [
             ("direction", self.direction.is_some()),
+            ("mesh_axis", self.mesh_axis.is_some()),
             ("center", self.center.is_some()),
             ("center_relative", self.center_relative.is_some()),
             ("axis", self.axis.is_some()),
@@ -528,13 +612,38 @@ impl StressEntry {
         .collect()
     }
 
-    /// The term this entry describes on a mesh with bounds `b`.
-    fn term(&self, b: &Bounds, mask: Option<Arc<Mask>>) -> Result<Term, String> {
+    /// The unit vector of `mesh_axis` in the mesh's frame.
+    fn mesh_axis(&self, b: &Bounds) -> Result<[f64; 3], String> {
+        let name = self.mesh_axis.as_deref().unwrap_or_default();
+        let k = match name {
+            "x" => 0,
+            "y" => 1,
+            "z" => 2,
+            "longest" => (0..3)
+                .max_by(|&i, &j| {
+                    (b.max[i] - b.min[i])
+                        .total_cmp(&(b.max[j] - b.min[j]))
+                        .then(j.cmp(&i))
+                })
+                .unwrap_or(0),
+            other => {
+                return Err(format!(
+                    "mesh_axis must be x, y, z or longest, got '{other}'"
+                ))
+            }
+        };
+        let mut a = [0.0; 3];
+        a[k] = 1.0;
+        Ok(a)
+    }
+
+    /// The term this entry describes on a mesh placed at `place`.
+    fn term(&self, place: &Placement, mask: Option<Arc<Mask>>) -> Result<Term, String> {
         let allowed: &[&str] = match self.kind.as_str() {
             "uniform" | "noise" => &[],
             "curvature" => &["separation", "strength", "max_factor"],
-            "directional" => &["direction"],
-            "concentric" => &["center", "center_relative", "axis"],
+            "directional" => &["direction", "mesh_axis"],
+            "concentric" => &["center", "center_relative", "axis", "mesh_axis"],
             "impact" => &[
                 "points",
                 "points_relative",
@@ -581,9 +690,20 @@ impl StressEntry {
                     }),
                 }
             }
-            "directional" => TermKind::Directional {
-                direction: self.direction.ok_or("missing key 'direction'")?,
-            },
+            "directional" => {
+                one_of(
+                    self.direction.is_some(),
+                    self.mesh_axis.is_some(),
+                    "direction",
+                    "mesh_axis",
+                )?;
+                TermKind::Directional {
+                    direction: match self.direction {
+                        Some(d) => place.vector(d),
+                        None => self.mesh_axis(&place.bounds)?,
+                    },
+                }
+            }
             "concentric" => {
                 one_of(
                     self.center.is_some(),
@@ -591,12 +711,22 @@ impl StressEntry {
                     "center",
                     "center_relative",
                 )?;
+                one_of(
+                    self.axis.is_some(),
+                    self.mesh_axis.is_some(),
+                    "axis",
+                    "mesh_axis",
+                )?;
                 TermKind::Concentric {
-                    center: self
-                        .center
-                        .or(self.center_relative.map(|c| b.at(c)))
-                        .unwrap_or_default(),
-                    axis: self.axis.ok_or("missing key 'axis'")?,
+                    center: match (self.center, self.center_relative) {
+                        (Some(c), _) => place.point(c),
+                        (None, Some(c)) => place.bounds.at(c),
+                        _ => [0.0; 3],
+                    },
+                    axis: match self.axis {
+                        Some(a) => place.vector(a),
+                        None => self.mesh_axis(&place.bounds)?,
+                    },
                 }
             }
             _ => {
@@ -613,13 +743,13 @@ impl StressEntry {
                     "radius_relative",
                 )?;
                 let points = match (&self.points, &self.points_relative) {
-                    (Some(p), _) => p.clone(),
-                    (None, Some(p)) => p.iter().map(|&q| b.at(q)).collect(),
+                    (Some(p), _) => p.iter().map(|&q| place.point(q)).collect(),
+                    (None, Some(p)) => p.iter().map(|&q| place.bounds.at(q)).collect(),
                     _ => Vec::new(),
                 };
                 let radius = match (self.radius, self.radius_relative) {
-                    (Some(r), _) => r,
-                    (None, Some(r)) => r * b.diagonal(),
+                    (Some(r), _) => place.length(r),
+                    (None, Some(r)) => r * place.bounds.diagonal(),
                     _ => 0.0,
                 };
                 if let Some(r) = self.radius.or(self.radius_relative) {
@@ -717,7 +847,7 @@ mod tests {
             min: [0.0, 0.0, 0.0],
             max: [4.0, 4.0, 2.0],
         };
-        let terms = p.terms(&b, &[]).unwrap();
+        let terms = p.terms(&Placement::local(b), &[]).unwrap();
         match &terms[0].kind {
             TermKind::Impact { points, radius, .. } => {
                 assert_eq!(points, &vec![[2.0, 2.0, 2.0]]);
@@ -725,5 +855,80 @@ mod tests {
             }
             k => panic!("{k:?}"),
         }
+    }
+
+    #[test]
+    fn world_space_keys_map_into_the_mesh_frame() {
+        // Mesh drawn rotated 90 deg about z, scaled 2, translated (10, 0, 0):
+        // mesh (x, y, z) -> world (10 - 2y, 2x, 2z).
+        let m = [
+            0.0, 2.0, 0.0, 0.0, -2.0, 0.0, 0.0, 0.0, 0.0, 0.0, 2.0, 0.0, 10.0, 0.0, 0.0, 1.0,
+        ];
+        let b = Bounds {
+            min: [0.0; 3],
+            max: [4.0, 1.0, 1.0],
+        };
+        let place = Placement::new(b, &m).unwrap();
+        let t = "[[stress]]\nkind = \"impact\"\ninit = 1\npoints = [[8, 2, 0]]\nradius = 2\n\
+                 [[stress]]\nkind = \"directional\"\ninit = 1\ndirection = [0, 1, 0]\n\
+                 [[stress]]\nkind = \"directional\"\ninit = 1\nmesh_axis = \"longest\"\n\
+                 [[stress]]\nkind = \"concentric\"\ninit = 1\ncenter = [10, 0, 0]\nmesh_axis = \"z\"\n";
+        let terms = Pipeline::parse(t, "x.toml", &[])
+            .unwrap()
+            .terms(&place, &[])
+            .unwrap();
+        let close = |a: [f64; 3], b: [f64; 3]| (0..3).all(|k| (a[k] - b[k]).abs() < 1e-12);
+        match &terms[0].kind {
+            TermKind::Impact { points, radius, .. } => {
+                assert!(close(points[0], [1.0, 1.0, 0.0]), "{points:?}");
+                assert!((radius - 1.0).abs() < 1e-12);
+            }
+            k => panic!("{k:?}"),
+        }
+        match (&terms[1].kind, &terms[2].kind, &terms[3].kind) {
+            (
+                TermKind::Directional { direction: world },
+                TermKind::Directional { direction: longest },
+                TermKind::Concentric { center, axis },
+            ) => {
+                assert!(close(*world, [0.5, 0.0, 0.0]), "{world:?}");
+                assert_eq!(*longest, [1.0, 0.0, 0.0]);
+                assert!(close(*center, [0.0; 3]));
+                assert_eq!(*axis, [0.0, 0.0, 1.0]);
+            }
+            k => panic!("{k:?}"),
+        }
+        assert!(Placement::new(b, &[0.0; 16]).is_err());
+        let e = Pipeline::parse(
+            "[[stress]]\nkind = \"directional\"\ninit = 1\nmesh_axis = \"w\"\n",
+            "y.toml",
+            &[],
+        )
+        .unwrap_err();
+        assert!(e.to_string().contains("mesh_axis"), "{e}");
+        let e = Pipeline::parse(
+            "[[stress]]\nkind = \"directional\"\ninit = 1\nmesh_axis = \"x\"\ndirection = [1, 0, 0]\n",
+            "y.toml",
+            &[],
+        )
+        .unwrap_err();
+        assert!(e.to_string().contains("not both"), "{e}");
+    }
+
+    #[test]
+    fn instances_have_their_world_matrices() {
+        let scene = crate::io::read(
+            &std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures/hierarchy.glb"),
+        )
+        .unwrap();
+        let boxes = scene.mesh_world_matrices(0);
+        assert_eq!(boxes.len(), 2, "box: under arm and as box_instance");
+        // arm: root translation (0, 1, 0) then a rotation (no translation).
+        assert_eq!(&boxes[0][12..15], &[0.0, 1.0, 0.0]);
+        // box_instance: root (0, 1, 0) + (1.5, 0, 0), scale 0.5.
+        assert!((boxes[1][12] - 1.5).abs() < 1e-12 && (boxes[1][13] - 1.0).abs() < 1e-12);
+        assert!((boxes[1][0] - 0.5).abs() < 1e-12);
+        assert_eq!(scene.mesh_world_matrices(1).len(), 1);
+        assert!(scene.mesh_world_matrices(7).is_empty());
     }
 }

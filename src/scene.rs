@@ -373,4 +373,52 @@ impl Scene {
         }
         (0..self.nodes.len()).filter(|&i| !has_parent[i]).collect()
     }
+
+    /// World matrices (column-major) of the nodes that instance mesh `mesh`,
+    /// in depth-first order from the roots of the default scene (the first
+    /// scene when none is default; every root node when there are no
+    /// scenes). Empty when no node uses the mesh. A hierarchy deeper than the
+    /// node count (a cycle) is not followed further.
+    pub fn mesh_world_matrices(&self, mesh: usize) -> Vec<[f64; 16]> {
+        let roots = match self
+            .default_scene
+            .and_then(|s| self.scenes.get(s))
+            .or(self.scenes.first())
+        {
+            Some(s) => s.nodes.clone(),
+            None => self.root_nodes(),
+        };
+        let mut out = Vec::new();
+        let mut stack: Vec<(usize, [f64; 16], usize)> =
+            roots.iter().rev().map(|&r| (r, IDENTITY, 0)).collect();
+        while let Some((n, parent, depth)) = stack.pop() {
+            let Some(node) = self.nodes.get(n) else {
+                continue;
+            };
+            if depth > self.nodes.len() {
+                continue;
+            }
+            let world = mat4_mul(&parent, &node.transform.matrix());
+            if node.mesh == Some(mesh) {
+                out.push(world);
+            }
+            for &c in node.children.iter().rev() {
+                stack.push((c, world, depth + 1));
+            }
+        }
+        out
+    }
+}
+
+/// The 4x4 identity, column-major.
+pub const IDENTITY: [f64; 16] = [
+    1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0,
+];
+
+/// `a * b` for column-major 4x4 matrices.
+pub fn mat4_mul(a: &[f64; 16], b: &[f64; 16]) -> [f64; 16] {
+    std::array::from_fn(|i| {
+        let (col, row) = (i / 4, i % 4);
+        (0..4).map(|k| a[k * 4 + row] * b[col * 4 + k]).sum()
+    })
 }

@@ -6,7 +6,7 @@
 mod common;
 
 use crackle::mesh::{MeshInput, SimMesh};
-use crackle::pipeline::{Bounds, Pipeline};
+use crackle::pipeline::{Bounds, Pipeline, Placement};
 use crackle::sim::{run_with, SimParams, SimReport};
 use crackle::stress::{StressField, Term, TermKind};
 
@@ -224,7 +224,7 @@ fn run_preset(fixture: &str, preset: &str) -> (SimMesh, SimMesh, SimReport, Pipe
     let before = entries[0].sim.clone();
     let mut mesh = before.clone();
     let b = Bounds::of(mesh.vertices().map(|v| mesh.position(v)));
-    let terms = p.terms(&b, &masks).unwrap();
+    let terms = p.terms(&Placement::local(b), &masks).unwrap();
     let params = p.params(&[]);
     let field = StressField::build(&mesh, &terms, params.seed).unwrap();
     let r = run_with(&mut mesh, &params, Some(&field), &mut ()).unwrap();

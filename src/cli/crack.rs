@@ -5,7 +5,7 @@ use anyhow::Result;
 use crackle::bridge::{build_sim_meshes, write_back};
 use crackle::geometry::curvature::{self, CurvatureField};
 use crackle::mesh::WeldOptions;
-use crackle::pipeline::{Bounds, Pipeline};
+use crackle::pipeline::{Bounds, Pipeline, Placement};
 use crackle::scene::{Geometry, Material, Primitive, RawAccessor, RawGeometry, Scene};
 use crackle::sim::SimReport;
 use crackle::stress::StressField;
@@ -393,8 +393,28 @@ pub fn run(mut a: CrackArgs) -> Result<()> {
         let t = Instant::now();
         for ((e, params), k) in entries.iter().zip(&params_of).zip(&curvatures) {
             let bounds = Bounds::of(e.sim.vertices().map(|v| e.sim.position(v)));
+            let place = if pipe.uses_world_space() {
+                // World-space keys map into the mesh through its first
+                // instance; the crack pattern is shared by every instance.
+                let worlds = scene.mesh_world_matrices(e.mesh_index);
+                if worlds.iter().skip(1).any(|w| w != &worlds[0]) {
+                    log::warn!(
+                        "{}: {} is instanced {} times with different transforms; world-space stress keys use its first instance",
+                        a.input.display(),
+                        e.label,
+                        worlds.len()
+                    );
+                }
+                match worlds.first() {
+                    Some(w) => Placement::new(bounds, w)
+                        .map_err(|m| anyhow::anyhow!("{}: {}: {m}", a.input.display(), e.label))?,
+                    None => Placement::local(bounds),
+                }
+            } else {
+                Placement::local(bounds)
+            };
             let terms = pipe
-                .terms(&bounds, &masks)
+                .terms(&place, &masks)
                 .map_err(|m| super::UsageError(format!("stress: {m}")))?;
             let field = StressField::build_with(&e.sim, &terms, params.seed, k.as_ref())
                 .map_err(|err| anyhow::anyhow!("{}: {}: {err}", a.input.display(), e.label))?;
