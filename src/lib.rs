@@ -12,6 +12,7 @@ pub mod geometry;
 pub mod io;
 pub mod mesh;
 pub mod pipeline;
+pub mod post;
 pub mod scene;
 pub mod sim;
 pub mod stress;

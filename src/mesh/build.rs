@@ -197,6 +197,7 @@ impl SimMesh {
             vertex_parent: (0..nv as u32).collect(),
             he_origin: kept.iter().flatten().copied().collect(),
             he_twin: vec![INVALID; 3 * nf],
+            he_crack: vec![false; 3 * nf],
             he_wedge: kept_src
                 .iter()
                 .flat_map(|&t| input.triangles[t as usize])

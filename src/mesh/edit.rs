@@ -77,6 +77,7 @@ impl SimMesh {
         self.he_origin.extend_from_slice(&v);
         self.he_wedge.extend_from_slice(&w);
         self.he_twin.extend_from_slice(&[INVALID; 3]);
+        self.he_crack.extend_from_slice(&[false; 3]);
         self.face_groups.push(group);
         self.face_source.push(source);
         b
@@ -88,13 +89,18 @@ impl SimMesh {
         self.he_twin[b] = a as u32;
     }
 
-    /// Sets the twin of `a` to `t` (which may be `INVALID`) and back.
+    /// Halfedge `a` takes over the edge halfedge `from` stood for: its twin
+    /// (which may be `INVALID`) and its crack flag. `from` is relinked by the
+    /// caller.
     #[inline]
-    fn relink(&mut self, a: usize, t: u32) {
+    fn take_edge(&mut self, a: usize, from: usize) {
+        let t = self.he_twin[from];
         self.he_twin[a] = t;
         if t != INVALID {
             self.he_twin[t as usize] = a as u32;
         }
+        self.he_crack[a] = self.he_crack[from];
+        self.he_crack[from] = false;
     }
 
     /// Splits the edge of `h` at `(1 - t) * origin + t * dest`, splitting
@@ -138,10 +144,9 @@ impl SimMesh {
             self.face_source[f0],
         );
         let (g0, g1, g2) = (g, g + 1, g + 2);
-        let old_t1 = self.he_twin[h1];
+        self.take_edge(g1, h1);
         self.he_origin[h1] = m;
         self.he_wedge[h1] = wm1;
-        self.relink(g1, old_t1);
         self.link(h1, g2);
         if self.vertex_halfedge[b as usize] == h1 as u32 {
             self.vertex_halfedge[b as usize] = g1 as u32;
@@ -149,9 +154,11 @@ impl SimMesh {
         let mut new_faces = vec![(FaceId(f0 as u32), FaceId((g / 3) as u32))];
 
         if opp == INVALID {
-            // g0 (m -> b) is the boundary halfedge of the new vertex.
+            // g0 (m -> b) is the boundary halfedge of the new vertex; it is
+            // a crack side when h was.
             self.he_twin[h0] = INVALID;
             self.he_twin[g0] = INVALID;
+            self.he_crack[g0] = self.he_crack[h0];
             self.vertex_halfedge[m as usize] = g0 as u32;
         } else {
             // Side of o = (b -> a): (b, a, d) -> (b, m, d) + (m, a, d).
@@ -175,10 +182,9 @@ impl SimMesh {
                 self.face_source[f1],
             );
             let (k0, k1, k2) = (k, k + 1, k + 2);
-            let old_o1 = self.he_twin[o1];
+            self.take_edge(k1, o1);
             self.he_origin[o1] = m;
             self.he_wedge[o1] = wm2;
-            self.relink(k1, old_o1);
             self.link(o1, k2);
             self.link(h0, k0);
             self.link(o0, g0);
@@ -235,11 +241,10 @@ impl SimMesh {
         // f: (a, b, c) -> (a, b, m); new (b, c, m) and (c, a, m).
         let p0 = self.push_face([b, c, m], [wb, wc, wm], group, source);
         let q0 = self.push_face([c, a, m], [wc, wa, wm], group, source);
-        let (old1, old2) = (self.he_twin[h1], self.he_twin[h2]);
+        self.take_edge(p0, h1);
+        self.take_edge(q0, h2);
         self.he_origin[h2] = m;
         self.he_wedge[h2] = wm;
-        self.relink(p0, old1);
-        self.relink(q0, old2);
         self.link(h1, p0 + 2);
         self.link(h2, q0 + 1);
         self.link(p0 + 1, q0 + 2);
@@ -279,6 +284,8 @@ impl SimMesh {
         let was_boundary = ends.map(|(v, _)| self.is_boundary_vertex(v));
         self.he_twin[h.idx()] = INVALID;
         self.he_twin[t.idx()] = INVALID;
+        self.he_crack[h.idx()] = true;
+        self.he_crack[t.idx()] = true;
         let mut new_vertices = Vec::new();
         for ((v, start), boundary) in ends.into_iter().zip(was_boundary) {
             if !boundary {
@@ -586,5 +593,52 @@ mod tests {
         // Each face's corners point at wedges in range, and the mesh still
         // covers the same surface pieces.
         assert!(m.connected_components().0 >= 1);
+    }
+
+    #[test]
+    fn crack_flags_follow_opened_edges_through_splits() {
+        let (mut m, _) = build(&grid_input(4, 4));
+        let count = |m: &SimMesh| m.halfedges().filter(|&h| m.is_crack_halfedge(h)).count();
+        assert_eq!(count(&m), 0, "the input border is not a crack");
+        // Open the interior edge (1,2)-(2,2).
+        let a = vertex_at(&m, [1.0, 2.0]);
+        let b = vertex_at(&m, [2.0, 2.0]);
+        let h = m.find_halfedge(a, b).unwrap();
+        m.open_edge(h).unwrap();
+        assert_eq!(count(&m), 2);
+        // Split one side of the crack: both halves stay crack sides.
+        let side = m.halfedges().find(|&h| m.is_crack_halfedge(h)).unwrap();
+        m.split_edge(side, 0.5).unwrap();
+        m.validate().unwrap();
+        assert_eq!(count(&m), 3);
+        // Splitting the faces next to the crack moves the flag with the edge.
+        let faces: Vec<FaceId> = m.faces().collect();
+        for f in faces {
+            m.split_face(f, [1.0, 1.0, 1.0]).unwrap();
+        }
+        m.validate().unwrap();
+        assert_eq!(count(&m), 3);
+        for h in m.halfedges().filter(|&h| m.is_crack_halfedge(h)) {
+            let (p, q) = (m.position(m.origin(h)), m.position(m.dest(h)));
+            assert!(p[1] == 2.0 && q[1] == 2.0 && p[0] >= 1.0 && q[0] <= 2.0 && q[0] >= 1.0);
+        }
+        // Splitting an interior edge whose neighbour edges are crack sides keeps the count.
+        let inner: Vec<HalfedgeId> = m
+            .halfedges()
+            .filter(|&h| m.twin(h).is_some())
+            .take(20)
+            .collect();
+        for h in inner {
+            if m.twin(h).is_some() {
+                m.split_edge(h, 0.3).unwrap();
+            }
+        }
+        m.validate().unwrap();
+        assert_eq!(count(&m), 3);
+        assert_eq!(
+            m.halfedges().filter(|&h| m.is_boundary_halfedge(h)).count(),
+            3 + 16,
+            "crack sides plus the 16 border edges"
+        );
     }
 }

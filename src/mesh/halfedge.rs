@@ -38,6 +38,9 @@ pub struct SimMesh {
     pub(super) he_twin: Vec<u32>,
     /// Wedge of the corner at each halfedge's origin.
     pub(super) he_wedge: Vec<u32>,
+    /// Whether each halfedge is a side of a crack (opened by
+    /// [`open_edge`](SimMesh::open_edge), or a piece of one after a split).
+    pub(super) he_crack: Vec<bool>,
     /// Input group (primitive / material) of each face.
     pub(super) face_groups: Vec<u32>,
     /// Input triangle each face comes from.
@@ -218,6 +221,13 @@ impl SimMesh {
     #[inline]
     pub fn is_boundary_halfedge(&self, h: HalfedgeId) -> bool {
         self.he_twin[h.idx()] == INVALID
+    }
+
+    /// Whether `h` is one side of a crack (a boundary halfedge made by
+    /// opening an edge, not the input's own border).
+    #[inline]
+    pub fn is_crack_halfedge(&self, h: HalfedgeId) -> bool {
+        self.he_crack[h.idx()]
     }
 
     /// The outgoing halfedge of `v` (the boundary one if `v` is on a

@@ -34,6 +34,15 @@ impl SimMesh {
         // Lengths.
         ensure!(nh == 3 * nf, "{nh} halfedges for {nf} faces");
         ensure!(
+            self.he_crack.len() == nh,
+            "he_crack has {} entries for {nh} halfedges",
+            self.he_crack.len()
+        );
+        ensure!(
+            (0..nh).all(|h| !self.he_crack[h] || self.he_twin[h] == INVALID),
+            "a crack halfedge has a twin"
+        );
+        ensure!(
             self.he_twin.len() == nh && self.he_wedge.len() == nh,
             "halfedge arrays have lengths {} {} {}",
             nh,

@@ -1,0 +1,1 @@
+//! Distance along the surface to the nearest crack.

@@ -1,0 +1,6 @@
+//! Post-processing of a cracked simulation mesh (Iben & O'Brien 2009,
+//! sec. 5): crack width and curling, side walls, and per-vertex shader
+//! attributes. Pure geometry: no I/O, nothing printed.
+
+pub mod distance;
+pub mod walls;

@@ -1,0 +1,1 @@
+//! Side walls of opened cracks.
