@@ -161,6 +161,13 @@ pub fn build_sim_meshes(scene: &Scene, options: &WeldOptions) -> (Vec<SimEntry>,
 /// gets the simulation faces of its group, one output vertex per distinct
 /// (vertex, wedge) pair, with the attributes the primitive had.
 pub fn write_back(scene: &mut Scene, entry: &SimEntry) {
+    write_back_with(scene, entry, &[]);
+}
+
+/// As [`write_back`], adding per-vertex scalar attributes (`(semantic,
+/// value per simulation vertex)`, e.g. `_CRACK_DISTANCE`) to every
+/// primitive written.
+pub fn write_back_with(scene: &mut Scene, entry: &SimEntry, extra: &[(String, Vec<f64>)]) {
     let sim = &entry.sim;
     let n_prims = entry.layouts.len();
     let mut per_group: Vec<Vec<u32>> = vec![Vec::new(); n_prims];
@@ -194,6 +201,14 @@ pub fn write_back(scene: &mut Scene, entry: &SimEntry) {
                 data: Vec::new(),
             })
             .collect();
+        let mut extra_attrs: Vec<VertexAttribute> = extra
+            .iter()
+            .map(|(name, _)| VertexAttribute {
+                semantic: name.clone(),
+                components: 1,
+                data: Vec::new(),
+            })
+            .collect();
         let n_targets = t.targets.len();
         for &f in &per_group[pi] {
             let f = crate::mesh::FaceId(f);
@@ -206,6 +221,10 @@ pub fn write_back(scene: &mut Scene, entry: &SimEntry) {
                     out.positions.push(sim.position(vs[k]).map(|x| x as f32));
                     for ((ch, c), a) in chans.iter().zip(attrs.iter_mut()) {
                         a.data.extend(ch.get(ws[k])[..*c].iter().map(|&x| x as f32));
+                    }
+                    for ((_, values), a) in extra.iter().zip(extra_attrs.iter_mut()) {
+                        a.data
+                            .push(values.get(vs[k].idx()).copied().unwrap_or(0.0) as f32);
                     }
                     next
                 });
@@ -224,6 +243,7 @@ pub fn write_back(scene: &mut Scene, entry: &SimEntry) {
                 _ => out.attributes.push(a),
             }
         }
+        out.attributes.extend(extra_attrs);
         *t = out;
     }
 }

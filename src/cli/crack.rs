@@ -2,11 +2,11 @@
 //! crack network as a LINES primitive, and report.
 
 use anyhow::Result;
-use crackle::bridge::{build_sim_meshes, write_back};
+use crackle::bridge::build_sim_meshes;
 use crackle::geometry::curvature::{self, CurvatureField};
 use crackle::mesh::WeldOptions;
 use crackle::pipeline::{Bounds, Pipeline, Placement};
-use crackle::scene::{Geometry, Material, Primitive, RawAccessor, RawGeometry, Scene};
+use crackle::scene::{Geometry, Scene};
 use crackle::sim::SimReport;
 use crackle::stress::StressField;
 use serde_json::json;
@@ -211,94 +211,6 @@ impl crackle::sim::Observer for Bar {
     }
 }
 
-/// Add the crack segments of mesh `mesh_index` as a LINES primitive with the
-/// `crack_lines` material; `_CRACK_TIME` gives each line vertex the
-/// simulation time its segment formed at (for shaders: grow cracks over time).
-fn add_crack_lines(
-    scene: &mut Scene,
-    mesh_index: usize,
-    segments: &[[[f64; 3]; 2]],
-    times: &[f64],
-) {
-    if segments.is_empty() {
-        return;
-    }
-    let mut data = Vec::with_capacity(segments.len() * 24);
-    let mut min = [f32::INFINITY; 3];
-    let mut max = [f32::NEG_INFINITY; 3];
-    for seg in segments {
-        for p in seg {
-            for k in 0..3 {
-                let x = p[k] as f32;
-                min[k] = min[k].min(x);
-                max[k] = max[k].max(x);
-                data.extend_from_slice(&x.to_le_bytes());
-            }
-        }
-    }
-    let acc = scene.accessors.len();
-    scene.accessors.push(RawAccessor {
-        component_type: 5126,
-        kind: "VEC3".into(),
-        normalized: false,
-        count: segments.len() * 2,
-        min: Some(json!(min)),
-        max: Some(json!(max)),
-        name: Some("crack_lines".into()),
-        data,
-    });
-    let mut tdata = Vec::with_capacity(segments.len() * 8);
-    let (mut tmin, mut tmax) = (f32::INFINITY, f32::NEG_INFINITY);
-    for &t in times.iter().take(segments.len()) {
-        let t = t as f32;
-        tmin = tmin.min(t);
-        tmax = tmax.max(t);
-        for _ in 0..2 {
-            tdata.extend_from_slice(&t.to_le_bytes());
-        }
-    }
-    let time_acc = (times.len() == segments.len()).then(|| {
-        scene.accessors.push(RawAccessor {
-            component_type: 5126,
-            kind: "SCALAR".into(),
-            normalized: false,
-            count: segments.len() * 2,
-            min: Some(json!([tmin])),
-            max: Some(json!([tmax])),
-            name: Some("crack_time".into()),
-            data: tdata,
-        });
-        scene.accessors.len() - 1
-    });
-    let material = match scene
-        .materials
-        .iter()
-        .position(|m| m.name() == Some("crack_lines"))
-    {
-        Some(m) => m,
-        None => {
-            let m = json!({"name": "crack_lines", "pbrMetallicRoughness": {"baseColorFactor": [0.02, 0.02, 0.02, 1.0], "metallicFactor": 0.0}});
-            scene.materials.push(Material {
-                json: m.as_object().cloned().unwrap_or_default(),
-            });
-            scene.materials.len() - 1
-        }
-    };
-    let mut geo = RawGeometry {
-        mode: crackle::scene::mode::LINES,
-        ..Default::default()
-    };
-    geo.attributes.insert("POSITION".into(), acc);
-    if let Some(t) = time_acc {
-        geo.attributes.insert("_CRACK_TIME".into(), t);
-    }
-    scene.meshes[mesh_index].primitives.push(Primitive {
-        material: Some(material),
-        geometry: Geometry::Raw(geo),
-        rest: Default::default(),
-    });
-}
-
 pub fn run(mut a: CrackArgs) -> Result<()> {
     // Mask images are decoded before anything else, so a bad image is
     // refused before any work.
@@ -456,14 +368,20 @@ pub fn run(mut a: CrackArgs) -> Result<()> {
         }
         per_mesh.push((e.mesh_index, r));
     }
-    stages.push(json!({"name": "simulate", "seconds": t.elapsed().as_secs_f64()}));
+    // Finishing runs inside the simulation; it is its own stage.
+    let finish_seconds: f64 = per_mesh
+        .iter()
+        .filter_map(|(_, r)| r.finish.as_ref().map(|f| f.seconds))
+        .sum();
+    stages.push(json!({"name": "simulate", "seconds": t.elapsed().as_secs_f64() - finish_seconds}));
+    if pipe.post.finish {
+        stages.push(json!({"name": "finish", "seconds": finish_seconds}));
+    }
+    let post = super::post::apply(&mut scene, &mut entries, &per_mesh, &pipe.post)?;
+    for (name, seconds) in &post.stages {
+        stages.push(json!({"name": name, "seconds": seconds}));
+    }
     let t = Instant::now();
-    for e in &entries {
-        write_back(&mut scene, e);
-    }
-    for (mi, r) in &per_mesh {
-        add_crack_lines(&mut scene, *mi, &r.segments, &r.segment_times);
-    }
     let summary = super::write_output(&scene, a.output)?;
     stages.push(json!({"name": "write", "seconds": t.elapsed().as_secs_f64()}));
     let report = json!({
@@ -478,7 +396,7 @@ pub fn run(mut a: CrackArgs) -> Result<()> {
         "rounds": total.rounds,
         "energy": {"start": total.energy[0], "end": total.energy[1]},
         "stages": stages,
-        "meshes": per_mesh.iter().map(|(mi, r)| json!({"index": mi, "report": r})).collect::<Vec<_>>(),
+        "meshes": per_mesh.iter().zip(&post.details).map(|((mi, r), d)| json!({"index": mi, "report": r, "post": d})).collect::<Vec<_>>(),
         "warnings": scene.warnings,
     });
     if let Some(p) = a.report {

@@ -4,6 +4,7 @@ mod convert;
 mod crack;
 mod info;
 pub mod logger;
+mod post;
 
 use clap::{Parser, Subcommand};
 use std::path::PathBuf;

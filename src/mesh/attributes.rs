@@ -102,6 +102,14 @@ impl WedgeAttributes {
         self.channels.iter().find(|c| c.name == name)
     }
 
+    /// The values of the channel named `name` (wedge-major), to edit in place.
+    pub fn channel_values_mut(&mut self, name: &str) -> Option<&mut [f64]> {
+        self.channels
+            .iter_mut()
+            .find(|c| c.name == name)
+            .map(|c| c.data.as_mut_slice())
+    }
+
     /// Appends a wedge holding the weighted combination of `sources`
     /// (weights are expected to sum to 1) and returns its id.
     ///

@@ -17,6 +17,7 @@
 //! counter-clockwise faces), ending at a missing twin for boundary vertices.
 
 use super::attributes::WedgeAttributes;
+use super::error::MeshError;
 use super::ids::{FaceId, HalfedgeId, VertexId, WedgeId, INVALID};
 
 /// A simulation mesh: an oriented 2-manifold triangle mesh with boundary,
@@ -130,6 +131,38 @@ impl SimMesh {
     /// Rest position of `v`.
     pub fn position(&self, v: VertexId) -> [f64; 3] {
         self.positions[v.idx()]
+    }
+
+    /// Move every vertex to `positions` (indexed by vertex id), for
+    /// post-processing after the simulation (crack width, curling).
+    ///
+    /// # Errors
+    /// A length that is not the vertex count, or a non-finite coordinate.
+    pub fn set_positions(&mut self, positions: &[[f64; 3]]) -> Result<(), MeshError> {
+        if positions.len() != self.positions.len() {
+            return Err(MeshError::InvalidEdit(format!(
+                "set_positions: {} positions for {} vertices",
+                positions.len(),
+                self.positions.len()
+            )));
+        }
+        if let Some(i) = positions
+            .iter()
+            .position(|p| p.iter().any(|x| !x.is_finite()))
+        {
+            return Err(MeshError::InvalidEdit(format!(
+                "set_positions: vertex {i} is not finite"
+            )));
+        }
+        self.positions.copy_from_slice(positions);
+        self.bump();
+        Ok(())
+    }
+
+    /// The wedge attribute values, for post-processing (normals after the
+    /// surface moved). The channel layout cannot change.
+    pub fn wedge_values_mut(&mut self, name: &str) -> Option<&mut [f64]> {
+        self.wedges.channel_values_mut(name)
     }
 
     /// The input vertex `v` was welded from (its representative), or `None`

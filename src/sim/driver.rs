@@ -76,6 +76,13 @@ pub struct SimParams {
     /// only tangential motion relaxes stress. Without it a free closed shell
     /// under uniform shrinkage just shrinks and never cracks. Default true.
     pub bonded: bool,
+    /// Finish cracks after the run (sec. 5): every remaining crack tip, and
+    /// every vertex where two crack edges enclose more than 270 degrees of
+    /// surface, keeps cracking along its last direction, with relaxation
+    /// between steps, until it meets another crack or the border. Set by a
+    /// pipeline's `[post] finish`. Default false.
+    #[serde(skip)]
+    pub finish: bool,
     /// Geometric cracking rules.
     #[serde(skip)]
     pub rules: CrackRules,
@@ -101,6 +108,7 @@ impl Default for SimParams {
             fixed_boundary: false,
             fixed_groups: Vec::new(),
             bonded: true,
+            finish: false,
             rules: CrackRules::default(),
         }
     }
@@ -184,12 +192,47 @@ pub struct SimReport {
     /// When each segment of `segments` formed (simulation time).
     #[serde(skip)]
     pub segment_times: Vec<f64>,
+    /// Crack finishing, when asked for.
+    pub finish: Option<FinishReport>,
+    /// Per node of the final mesh: its accumulated relaxation displacement
+    /// (eq. 15 with `c = 1`), in mesh (scene) units. Crack width comes from it.
+    #[serde(skip)]
+    pub displacement: Vec<[f64; 3]>,
+    /// Per node of the final mesh: the simulation time it first lay on a
+    /// crack (NaN: never).
+    #[serde(skip)]
+    pub crack_time: Vec<f64>,
+}
+
+/// What crack finishing did.
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
+pub struct FinishReport {
+    /// Tips found after the run (open crack ends and > 270 degree corners).
+    pub tips: usize,
+    /// Crack events made while finishing.
+    pub cracks: usize,
+    /// Crack length added (mesh units).
+    pub length: f64,
+    /// Finishing passes (each: every tip one step, then a relaxation round).
+    pub passes: usize,
+    /// Tips that could not go on (blocked by the angle rules) and were left.
+    pub stuck: usize,
+    /// Wall-clock seconds spent finishing.
+    pub seconds: f64,
 }
 
 /// Progress reports from the loop (the CLI turns them into a progress bar).
 pub trait Observer {
     /// After each round.
     fn round(&mut self, _round: usize, _max_rounds: usize, _cracks: usize) {}
+    /// After each round (and each finishing pass), the mesh, every node's
+    /// accumulated displacement (mesh units) and the simulation time: for
+    /// time-lapse frames. Called only when [`Observer::wants_state`] is true.
+    fn state(&mut self, _mesh: &SimMesh, _displacement: &[[f64; 3]], _time: f64) {}
+    /// Whether [`Observer::state`] should be called.
+    fn wants_state(&self) -> bool {
+        false
+    }
 }
 
 impl Observer for () {}
@@ -223,6 +266,8 @@ struct State {
     sep_scale: Vec<f64>,
     /// Accumulated virtual displacement per node (for crack width later).
     displacement: Vec<[f64; 3]>,
+    /// Time each node first lay on a crack (NaN: never).
+    crack_time: Vec<f64>,
     unit: f64,
 }
 
@@ -240,9 +285,24 @@ impl State {
     }
 
     /// Extend per-node and per-face state to new nodes and faces.
+    /// Duplicates inherit their parent's displacement and crack time;
+    /// inserted vertices are settled by the caller.
     fn grow(&mut self, mesh: &SimMesh, params: &SimParams) {
         self.residual.resize(mesh.n_vertices(), Sym3::ZERO);
-        self.displacement.resize(mesh.n_vertices(), [0.0; 3]);
+        while self.displacement.len() < mesh.n_vertices() {
+            let v = VertexId(self.displacement.len() as u32);
+            let parent = mesh.vertex_parent(v);
+            let (d, t) = if parent != v && parent.idx() < self.displacement.len() {
+                (
+                    self.displacement[parent.idx()],
+                    self.crack_time[parent.idx()],
+                )
+            } else {
+                ([0.0; 3], f64::NAN)
+            };
+            self.displacement.push(d);
+            self.crack_time.push(t);
+        }
         while self.fixed.len() < mesh.n_vertices() {
             let v = VertexId(self.fixed.len() as u32);
             // Duplicates inherit fixedness from their parent; inserted
@@ -346,6 +406,7 @@ pub fn run_with(
             .map(|f| f.separation_scale.clone())
             .unwrap_or_default(),
         displacement: Vec::new(),
+        crack_time: Vec::new(),
         unit,
     };
     st.els.elements = (0..mesh.n_faces())
@@ -361,59 +422,16 @@ pub fn run_with(
     report.stopped = format!("reached max_rounds ({})", params.max_rounds);
     for round in 0..params.max_rounds {
         // ---- relax, with the load increasing unless held or complete
-        // Step: the stable step of a typical node (the median bound); stiffer
-        // nodes (next to slivers or tiny triangles) move with a smaller
-        // mobility so every node stays within its own stable limit.
-        let fans = Fans::new(mesh);
-        let bounds = node_bounds(&fans, &st.els);
-        let mut sorted: Vec<f64> = bounds.iter().copied().filter(|b| *b > 0.0).collect();
-        sorted.sort_by(f64::total_cmp);
-        let mut dt_max = sorted
-            .get(sorted.len() / 2)
-            .map_or(f64::INFINITY, |b| 1.9 / b);
-        if params.relax_dt > 0.0 {
-            dt_max = dt_max.min(params.relax_dt);
-        }
-        if !dt_max.is_finite() {
-            dt_max = params.relax_time; // no element: nothing to relax
-        }
-        let mobility: Vec<f64> = bounds
-            .iter()
-            .map(|&b| {
-                if b * dt_max > 1.9 {
-                    1.9 / (b * dt_max)
-                } else {
-                    1.0
-                }
-            })
-            .collect();
-        let (steps, dt) = if params.relax_steps > 0 {
-            (params.relax_steps, dt_max)
-        } else {
-            let n = ((params.relax_time / dt_max).ceil() as usize).max(1);
-            (n, params.relax_time / n as f64)
-        };
         let loading = !hold && loaded < params.load_time;
-        let normals = if params.bonded {
-            node_normals(&fans, &st.els)
-        } else {
-            Vec::new()
-        };
-        for _ in 0..steps {
-            let load_dt = if loading {
-                dt.min(params.load_time - loaded)
-            } else {
-                0.0
-            };
-            loaded += load_dt;
-            let load = Load {
-                dt: load_dt,
-                shrink_rate: params.shrink_rate,
-            };
-            relax_and_evolve(&fans, &normals, &mobility, &mut st, dt, load, &mut g);
-        }
-        report.time += steps as f64 * dt;
-        report.relax_steps += steps;
+        relax_round(
+            mesh,
+            &mut st,
+            params,
+            &mut g,
+            loading,
+            &mut loaded,
+            &mut report,
+        );
         report.rounds = round + 1;
         // ---- queue every failing node
         let sep = separations(mesh, &st);
@@ -430,45 +448,11 @@ pub fn run_with(
                 continue;
             }
             let ev = crack_node(mesh, v, dir, &params.rules).map_err(SimError::Mesh)?;
-            st.grow(mesh, params);
-            for (&q, &(a, b, border)) in ev.inserted.iter().zip(&ev.inserted_on) {
-                // A vertex on a fixed border edge is fixed.
-                if border && st.fixed[a.idx()] && st.fixed[b.idx()] && params.fixed_boundary {
-                    st.fixed[q.idx()] = true;
-                }
-            }
             st.residual[v.idx()] = Sym3::ZERO;
-            if ev.segments.is_empty() {
+            if !apply_event(mesh, &mut st, params, &mut report, &ev) {
                 continue;
             }
-            report.cracks += 1;
             cracked_this_round += 1;
-            report.crack_length += ev.length;
-            report.first_crack_time.get_or_insert(report.time);
-            report.segments.extend(
-                ev.segments
-                    .iter()
-                    .map(|&(a, b)| [mesh.position(a), mesh.position(b)]),
-            );
-            report
-                .segment_times
-                .extend(ev.segments.iter().map(|_| report.time));
-            // Children inherit their parent's stress; touched faces get new elements.
-            let mut touched: Vec<FaceId> = Vec::new();
-            for &(parent, child) in &ev.split_faces {
-                st.stress[child.idx()] = st.stress[parent.idx()];
-                if !st.evolve.is_empty() {
-                    st.evolve[child.idx()] = st.evolve[parent.idx()];
-                }
-                if !st.sep_scale.is_empty() {
-                    st.sep_scale[child.idx()] = st.sep_scale[parent.idx()];
-                }
-                touched.push(parent);
-                touched.push(child);
-            }
-            for f in &touched {
-                st.els.elements[f.idx()] = st.element(mesh, *f);
-            }
             // Residual propagation to the new crack tips.
             let residual = val - params.toughness + params.residual_constant;
             for &(_, tip) in &ev.segments {
@@ -479,23 +463,16 @@ pub fn run_with(
                 }
             }
             // New and nearby nodes get their separation immediately.
-            let mut nodes: Vec<VertexId> = Vec::new();
-            for &(a, b) in &ev.segments {
-                for x in [a, b] {
-                    nodes.extend(mesh.vertex_faces(x).flat_map(|f| mesh.face_vertices(f)));
-                }
-            }
-            nodes.extend(ev.duplicated.iter().map(|&(n, _)| n));
-            nodes.extend(ev.inserted.iter().copied());
-            nodes.sort();
-            nodes.dedup();
-            for n in nodes {
+            for n in touched_nodes(mesh, &ev) {
                 let s = node_separation(mesh, &st, n);
                 queue.set(n.0, s.max_eigen().0, params.toughness);
             }
         }
         hold = cracked_this_round >= per_round_cap;
         observer.round(round + 1, params.max_rounds, report.cracks);
+        if observer.wants_state() {
+            observer.state(mesh, &st.displacement, report.time);
+        }
         if report.cracks >= params.max_cracks {
             report.stopped = format!("reached max_cracks ({})", params.max_cracks);
             break;
@@ -506,10 +483,345 @@ pub fn run_with(
             break;
         }
     }
+    if params.finish {
+        let t = std::time::Instant::now();
+        let mut fin = finish_cracks(mesh, &mut st, params, &mut g, &mut report, observer)?;
+        fin.seconds = t.elapsed().as_secs_f64();
+        report.finish = Some(fin);
+    }
     report.energy[1] = energy(&st.els, &st.stress);
     report.triangles[1] = mesh.n_faces();
     report.nodes[1] = mesh.n_vertices();
+    report.displacement = st.displacement;
+    report.crack_time = st.crack_time;
     Ok(report)
+}
+
+/// One relaxation round of `params.relax_time` (or `relax_steps` steps),
+/// with the load acting while `loading` (and `loaded` below the load time).
+///
+/// Step: the stable step of a typical node (the median bound); stiffer
+/// nodes (next to slivers or tiny triangles) move with a smaller mobility
+/// so every node stays within its own stable limit.
+fn relax_round(
+    mesh: &SimMesh,
+    st: &mut State,
+    params: &SimParams,
+    g: &mut Vec<[f64; 3]>,
+    loading: bool,
+    loaded: &mut f64,
+    report: &mut SimReport,
+) {
+    let fans = Fans::new(mesh);
+    let bounds = node_bounds(&fans, &st.els);
+    let mut sorted: Vec<f64> = bounds.iter().copied().filter(|b| *b > 0.0).collect();
+    sorted.sort_by(f64::total_cmp);
+    let mut dt_max = sorted
+        .get(sorted.len() / 2)
+        .map_or(f64::INFINITY, |b| 1.9 / b);
+    if params.relax_dt > 0.0 {
+        dt_max = dt_max.min(params.relax_dt);
+    }
+    if !dt_max.is_finite() {
+        dt_max = params.relax_time; // no element: nothing to relax
+    }
+    let mobility: Vec<f64> = bounds
+        .iter()
+        .map(|&b| {
+            if b * dt_max > 1.9 {
+                1.9 / (b * dt_max)
+            } else {
+                1.0
+            }
+        })
+        .collect();
+    let (steps, dt) = if params.relax_steps > 0 {
+        (params.relax_steps, dt_max)
+    } else {
+        let n = ((params.relax_time / dt_max).ceil() as usize).max(1);
+        (n, params.relax_time / n as f64)
+    };
+    let normals = if params.bonded {
+        node_normals(&fans, &st.els)
+    } else {
+        Vec::new()
+    };
+    for _ in 0..steps {
+        let load_dt = if loading {
+            dt.min(params.load_time - *loaded).max(0.0)
+        } else {
+            0.0
+        };
+        *loaded += load_dt;
+        let load = Load {
+            dt: load_dt,
+            shrink_rate: params.shrink_rate,
+        };
+        relax_and_evolve(&fans, &normals, &mobility, st, dt, load, g);
+    }
+    report.time += steps as f64 * dt;
+    report.relax_steps += steps;
+}
+
+/// Book-keeping after `crack_node`: grow the state, fix vertices on fixed
+/// borders, record segments and crack times, give split faces their
+/// parent's stress and new elements, and settle inserted vertices'
+/// displacement. Returns whether the event made a crack.
+fn apply_event(
+    mesh: &SimMesh,
+    st: &mut State,
+    params: &SimParams,
+    report: &mut SimReport,
+    ev: &crate::sim::crack::CrackEvent,
+) -> bool {
+    st.grow(mesh, params);
+    for (&q, &(a, b, border)) in ev.inserted.iter().zip(&ev.inserted_on) {
+        // A vertex on a fixed border edge is fixed.
+        if border && st.fixed[a.idx()] && st.fixed[b.idx()] && params.fixed_boundary {
+            st.fixed[q.idx()] = true;
+        }
+        // Its displacement is interpolated along the edge it split.
+        let (pa, pb, pq) = (mesh.position(a), mesh.position(b), mesh.position(q));
+        let l = v3::norm(v3::sub(pb, pa));
+        let t = if l > 0.0 {
+            (v3::norm(v3::sub(pq, pa)) / l).clamp(0.0, 1.0)
+        } else {
+            0.5
+        };
+        let (da, db) = (st.displacement[a.idx()], st.displacement[b.idx()]);
+        st.displacement[q.idx()] = v3::add(v3::scale(da, 1.0 - t), v3::scale(db, t));
+    }
+    if ev.segments.is_empty() {
+        return false;
+    }
+    report.cracks += 1;
+    report.crack_length += ev.length;
+    report.first_crack_time.get_or_insert(report.time);
+    report.segments.extend(
+        ev.segments
+            .iter()
+            .map(|&(a, b)| [mesh.position(a), mesh.position(b)]),
+    );
+    report
+        .segment_times
+        .extend(ev.segments.iter().map(|_| report.time));
+    // Crack times: the segment ends, then the copies opening made of them.
+    for &(a, b) in &ev.segments {
+        for x in [a, b] {
+            if st.crack_time[x.idx()].is_nan() {
+                st.crack_time[x.idx()] = report.time;
+            }
+        }
+    }
+    for &(new, orig) in &ev.duplicated {
+        if st.crack_time[new.idx()].is_nan() {
+            st.crack_time[new.idx()] = st.crack_time[orig.idx()];
+        }
+    }
+    // Children inherit their parent's stress; touched faces get new elements.
+    let mut touched: Vec<FaceId> = Vec::new();
+    for &(parent, child) in &ev.split_faces {
+        st.stress[child.idx()] = st.stress[parent.idx()];
+        if !st.evolve.is_empty() {
+            st.evolve[child.idx()] = st.evolve[parent.idx()];
+        }
+        if !st.sep_scale.is_empty() {
+            st.sep_scale[child.idx()] = st.sep_scale[parent.idx()];
+        }
+        touched.push(parent);
+        touched.push(child);
+    }
+    for f in &touched {
+        st.els.elements[f.idx()] = st.element(mesh, *f);
+    }
+    true
+}
+
+/// The nodes whose separation a crack event changes: the fans around its
+/// segments, its duplicates and inserted vertices (sorted, unique).
+fn touched_nodes(mesh: &SimMesh, ev: &crate::sim::crack::CrackEvent) -> Vec<VertexId> {
+    let mut nodes: Vec<VertexId> = Vec::new();
+    for &(a, b) in &ev.segments {
+        for x in [a, b] {
+            nodes.extend(mesh.vertex_faces(x).flat_map(|f| mesh.face_vertices(f)));
+        }
+    }
+    nodes.extend(ev.duplicated.iter().map(|&(n, _)| n));
+    nodes.extend(ev.inserted.iter().copied());
+    nodes.sort();
+    nodes.dedup();
+    nodes
+}
+
+/// The tips to finish, in id order, with the normal of the plane each
+/// cracks along.
+fn finish_tips(mesh: &SimMesh, st: &State) -> Vec<(VertexId, [f64; 3])> {
+    mesh.vertices()
+        .filter_map(|v| tip_plane(mesh, st, v).map(|p| (v, p)))
+        .collect()
+}
+
+/// Whether `v` is a crack tip to finish, and the normal of the plane it
+/// cracks along: an open crack end (one crack edge, not on the border) goes
+/// on along its residual's direction, or straight on; a node where two
+/// crack edges enclose more than 270 degrees of surface splits that corner
+/// along its bisector.
+fn tip_plane(mesh: &SimMesh, st: &State, v: VertexId) -> Option<[f64; 3]> {
+    let mut crack_sides = 0;
+    for h in mesh.vertex_outgoing(v) {
+        for e in [h, mesh.prev(h)] {
+            if mesh.is_boundary_halfedge(e) {
+                if !mesh.is_crack_halfedge(e) {
+                    return None; // on the border: finished
+                }
+                crack_sides += 1;
+            }
+        }
+    }
+    if crack_sides == 0 {
+        return None;
+    }
+    let dirs = crate::sim::crack::crack_directions(mesh, v);
+    let n = mesh
+        .vertex_faces(v)
+        .map(|f| mesh.face_normal(f))
+        .fold([0.0; 3], v3::add);
+    if dirs.len() == 1 {
+        let (val, dir) = st.residual[v.idx()].max_eigen();
+        Some(if val > 0.0 {
+            dir
+        } else {
+            v3::cross(n, dirs[0])
+        })
+    } else {
+        wide_corner(mesh, v).map(|bisector| v3::cross(n, bisector))
+    }
+}
+
+/// For a node whose single fan (it is duplicated per side of a crack, so
+/// each copy has one) spans more than 270 degrees between two crack
+/// edges, the unit bisector of that fan; otherwise `None`.
+fn wide_corner(mesh: &SimMesh, v: VertexId) -> Option<[f64; 3]> {
+    let pv = mesh.position(v);
+    let mut total = 0.0;
+    let mut first: Option<[f64; 3]> = None;
+    let mut edges: Vec<([f64; 3], [f64; 3])> = Vec::new();
+    for f in mesh.vertex_faces(v) {
+        let [a, b, c] = mesh.face_vertices(f);
+        let (p, q) = if a == v {
+            (b, c)
+        } else if b == v {
+            (c, a)
+        } else {
+            (a, b)
+        };
+        let (e1, e2) = (v3::sub(mesh.position(p), pv), v3::sub(mesh.position(q), pv));
+        let (l1, l2) = (v3::norm(e1), v3::norm(e2));
+        if l1 > 0.0 && l2 > 0.0 {
+            total += (v3::dot(e1, e2) / (l1 * l2)).clamp(-1.0, 1.0).acos();
+        }
+        first.get_or_insert(e1);
+        edges.push((e1, e2));
+    }
+    if total <= 1.5 * std::f64::consts::PI {
+        return None;
+    }
+    // Walk the fan to the middle of its angle.
+    let half = 0.5 * total;
+    let mut acc = 0.0;
+    for (e1, e2) in edges {
+        let (l1, l2) = (v3::norm(e1), v3::norm(e2));
+        if l1 == 0.0 || l2 == 0.0 {
+            continue;
+        }
+        let (u1, u2) = (v3::scale(e1, 1.0 / l1), v3::scale(e2, 1.0 / l2));
+        let a = v3::dot(u1, u2).clamp(-1.0, 1.0).acos();
+        if acc + a >= half {
+            // Rotate u1 towards u2 by (half - acc) within this corner.
+            let s = if a > 0.0 { (half - acc) / a } else { 0.0 };
+            let (w1, w2) = (((1.0 - s) * a).sin(), (s * a).sin());
+            let d = v3::add(v3::scale(u1, w1), v3::scale(u2, w2));
+            let l = v3::norm(d);
+            return (l > 0.0).then(|| v3::scale(d, 1.0 / l));
+        }
+        acc += a;
+    }
+    None
+}
+
+/// Crack finishing (sec. 5): each pass cracks every tip once along its
+/// plane (its residual's direction, or straight on), regardless of the
+/// toughness, then relaxes without load; until no tip is left, every tip is
+/// stuck, or `max_cracks` is reached. A tip whose step makes no crack
+/// (blocked by the angle rules) is left where it is.
+fn finish_cracks(
+    mesh: &mut SimMesh,
+    st: &mut State,
+    params: &SimParams,
+    g: &mut Vec<[f64; 3]>,
+    report: &mut SimReport,
+    observer: &mut dyn Observer,
+) -> Result<FinishReport, SimError> {
+    let mut fin = FinishReport::default();
+    let mut stuck: std::collections::BTreeSet<u32> = Default::default();
+    let (cracks0, length0) = (report.cracks, report.crack_length);
+    let mut first = true;
+    let mut loaded = params.load_time;
+    // Every pass moves each tip at least one fan further; a generous bound
+    // on the passes keeps a pathological mesh from looping.
+    let max_passes = 4 * mesh.n_vertices().max(16);
+    while fin.passes < max_passes && report.cracks < params.max_cracks {
+        let tips: Vec<(VertexId, [f64; 3])> = finish_tips(mesh, st)
+            .into_iter()
+            .filter(|(v, _)| !stuck.contains(&v.0))
+            .collect();
+        if first {
+            fin.tips = tips.len();
+            first = false;
+        }
+        if tips.is_empty() {
+            break;
+        }
+        fin.passes += 1;
+        let mut moved = false;
+        for (v, _) in tips {
+            if report.cracks >= params.max_cracks {
+                break;
+            }
+            // A tip may have stopped being one during this pass (another
+            // crack ran into it).
+            let Some(plane) = tip_plane(mesh, st, v) else {
+                continue;
+            };
+            let ev = crack_node(mesh, v, plane, &params.rules).map_err(SimError::Mesh)?;
+            let residual = st.residual[v.idx()];
+            st.residual[v.idx()] = Sym3::ZERO;
+            if apply_event(mesh, st, params, report, &ev) {
+                moved = true;
+                // The new tips carry the direction on.
+                for &(_, tip) in &ev.segments {
+                    st.residual[tip.idx()] = if residual.frobenius_sq() > 0.0 {
+                        residual
+                    } else {
+                        Sym3::m(plane)
+                    };
+                }
+            } else {
+                stuck.insert(v.0);
+            }
+        }
+        relax_round(mesh, st, params, g, false, &mut loaded, report);
+        if observer.wants_state() {
+            observer.state(mesh, &st.displacement, report.time);
+        }
+        if !moved {
+            break;
+        }
+    }
+    fin.cracks = report.cracks - cracks0;
+    fin.length = report.crack_length - length0;
+    fin.stuck = finish_tips(mesh, st).len();
+    Ok(fin)
 }
 
 /// Separation tensor of node `v`: the force-based tensor (eq. 3) plus the
@@ -781,5 +1093,97 @@ mod tests {
             "a mesh in centimetres cracks like the same mesh in metres"
         );
         assert!((l1 - l2).abs() < 1e-6 * l1);
+    }
+
+    #[test]
+    fn finishing_runs_open_tips_into_cracks_or_the_border() {
+        // Stop early (few rounds, low residual constant) so cracks are left
+        // open; finishing must run them on.
+        let params = SimParams {
+            max_rounds: 12,
+            residual_constant: 0.0,
+            alpha: 0.3,
+            ..Default::default()
+        };
+        let mut open = jittered_plate(24, 0.3, 5);
+        let r0 = run(&mut open, &params, &mut ()).unwrap();
+        let st_tips = |mesh: &SimMesh, r: &SimReport| {
+            // Tips as the finisher sees them (residuals do not matter for counting).
+            let st = State {
+                els: Elements {
+                    elements: Vec::new(),
+                    clamp: 0.0,
+                },
+                stress: Vec::new(),
+                residual: vec![Sym3::ZERO; mesh.n_vertices()],
+                fixed: Vec::new(),
+                shrink_scale: Vec::new(),
+                evolve: Vec::new(),
+                sep_scale: Vec::new(),
+                displacement: Vec::new(),
+                crack_time: Vec::new(),
+                unit: r.length_unit,
+            };
+            finish_tips(mesh, &st).len()
+        };
+        let before = st_tips(&open, &r0);
+        assert!(before > 3, "the early stop leaves open tips: {before}");
+        let mut done = jittered_plate(24, 0.3, 5);
+        let r1 = run(
+            &mut done,
+            &SimParams {
+                finish: true,
+                ..params.clone()
+            },
+            &mut (),
+        )
+        .unwrap();
+        done.validate().unwrap();
+        let fin = r1.finish.clone().unwrap();
+        assert_eq!(fin.tips, before, "{fin:?}");
+        assert!(fin.cracks > 0 && fin.length > 0.0, "{fin:?}");
+        let after = st_tips(&done, &r1);
+        eprintln!("finishing: {before} tips before, {after} after: {fin:?}");
+        assert_eq!(after, fin.stuck);
+        assert!(
+            after * 4 <= before,
+            "finishing closes most tips: {before} before, {after} after ({fin:?})"
+        );
+        // The main run is the same up to finishing.
+        assert_eq!(&r1.segments[..r0.segments.len()], &r0.segments[..]);
+        // Every crack node has a crack time, within the run; others none.
+        for v in done.vertices() {
+            let on_crack = done
+                .vertex_outgoing(v)
+                .any(|h| done.is_crack_halfedge(h) || done.is_crack_halfedge(done.prev(h)));
+            let t = r1.crack_time[v.idx()];
+            assert_eq!(on_crack, !t.is_nan(), "vertex {v}");
+            if on_crack {
+                assert!(t >= 0.0 && t <= r1.time, "{t}");
+            }
+        }
+        assert_eq!(r1.displacement.len(), done.n_vertices());
+    }
+
+    #[test]
+    fn duplicates_inherit_displacement_so_crack_sides_start_together() {
+        let mut mesh = jittered_plate(16, 0.3, 9);
+        let r = run(&mut mesh, &SimParams::default(), &mut ()).unwrap();
+        assert!(r.cracks > 5);
+        // The two sides of a crack moved apart (the gap opens): for crack
+        // copies of one root, the displacement differs; for the whole mesh
+        // the displacement is finite.
+        assert!(r.displacement.iter().flatten().all(|x| x.is_finite()));
+        let mut opened = 0;
+        for v in mesh.vertices() {
+            let p = mesh.vertex_parent(v);
+            if p != v {
+                let d = v3::norm(v3::sub(r.displacement[v.idx()], r.displacement[p.idx()]));
+                if d > 1e-6 * r.length_unit {
+                    opened += 1;
+                }
+            }
+        }
+        assert!(opened > 0, "crack sides move apart");
     }
 }

@@ -1,0 +1,304 @@
+//! The post-processing stages of `crackle crack`: crack width and curling,
+//! side walls, shader attributes, crack lines. Each runs only when the
+//! pipeline's `[post]` table asks for it.
+
+use crackle::bridge::{write_back_with, SimEntry};
+use crackle::pipeline::Post;
+use crackle::post::distance::{crack_vertices, distance_field};
+use crackle::post::walls::{build_walls, WallOptions, Walls};
+use crackle::post::width::{displace, turn_normals, WidthOptions};
+use crackle::scene::{
+    Geometry, Material, Primitive, RawAccessor, RawGeometry, Scene, TriGeometry, VertexAttribute,
+};
+use crackle::sim::SimReport;
+use serde_json::{json, Value};
+use std::time::Instant;
+
+/// Seconds per post stage and what each did, summed over meshes.
+#[derive(Default)]
+pub struct PostOutcome {
+    /// (stage name, seconds), in the order the stages ran.
+    pub stages: Vec<(&'static str, f64)>,
+    /// Per mesh: the stage details for the report.
+    pub details: Vec<Value>,
+}
+
+impl PostOutcome {
+    fn time(&mut self, name: &'static str, seconds: f64) {
+        match self.stages.iter_mut().find(|(n, _)| *n == name) {
+            Some((_, s)) => *s += seconds,
+            None => self.stages.push((name, seconds)),
+        }
+    }
+}
+
+/// A mesh's crack segments and their times (fractions of the run).
+type CrackLines = (Vec<[[f64; 3]; 2]>, Vec<f64>);
+
+/// Post-process every simulated mesh and write it back into `scene`:
+/// width and curling, walls, attributes, then the crack lines.
+pub fn apply(
+    scene: &mut Scene,
+    entries: &mut [SimEntry],
+    reports: &[(usize, SimReport)],
+    post: &Post,
+) -> anyhow::Result<PostOutcome> {
+    let mut out = PostOutcome::default();
+    let mut walls_of: Vec<Option<Walls>> = Vec::new();
+    let mut lines_of: Vec<CrackLines> = Vec::new();
+    for (e, (_, r)) in entries.iter_mut().zip(reports) {
+        let mut detail = serde_json::Map::new();
+        let mut positions: Vec<[f64; 3]> = e.sim.positions().to_vec();
+        let moves = post.width > 0.0 || post.curl > 0.0;
+        let mut mean_gap = 0.0;
+        if moves {
+            let t = Instant::now();
+            let d = displace(
+                &e.sim,
+                &r.displacement,
+                &WidthOptions {
+                    scale: post.width,
+                    max_width: post.max_width,
+                    curl: post.curl,
+                    curl_rings: post.curl_rings,
+                    curl_falloff: post.curl_falloff,
+                },
+            );
+            detail.insert(
+                "width".into(),
+                json!({
+                    "max_gap": d.max_gap,
+                    "mean_gap": d.mean_gap,
+                    "width_limited_nodes": d.width_limited,
+                    "inverted_triangles_prevented": d.inverted_triangles,
+                    "shortened_nodes": d.shortened_nodes,
+                }),
+            );
+            mean_gap = d.mean_gap;
+            positions = d.positions;
+            out.time("width", t.elapsed().as_secs_f64());
+        }
+        let walls = if post.walls {
+            let t = Instant::now();
+            let depth = if post.wall_depth > 0.0 {
+                post.wall_depth
+            } else {
+                post.wall_depth_relative * mean_gap
+            };
+            let w = build_walls(&e.sim, &positions, &WallOptions { depth });
+            detail.insert(
+                "walls".into(),
+                json!({
+                    "depth": depth,
+                    "triangles": w.triangles.len(),
+                    "skipped_degenerate": w.skipped_degenerate,
+                }),
+            );
+            out.time("walls", t.elapsed().as_secs_f64());
+            Some(w)
+        } else {
+            None
+        };
+        // Times as fractions of the run (0..1).
+        let end = if r.time > 0.0 { r.time } else { 1.0 };
+        let mut extra: Vec<(String, Vec<f64>)> = Vec::new();
+        if post.attributes {
+            let t = Instant::now();
+            let sources: Vec<_> = crack_vertices(&e.sim)
+                .into_iter()
+                .map(|v| {
+                    let time = r.crack_time.get(v.idx()).copied().unwrap_or(f64::NAN);
+                    (v, if time.is_nan() { 1.0 } else { time / end })
+                })
+                .collect();
+            let (dist, label) = distance_field(&e.sim, &positions, &sources);
+            // Meshes without cracks (or pieces no crack reaches): the
+            // largest finite distance, and time 1 (not yet cracked).
+            let far = dist
+                .iter()
+                .copied()
+                .filter(|d| d.is_finite())
+                .fold(0.0, f64::max);
+            let dist = dist
+                .into_iter()
+                .map(|d| if d.is_finite() { d } else { far })
+                .collect();
+            let label = label
+                .into_iter()
+                .map(|l| {
+                    if l.is_finite() {
+                        l.clamp(0.0, 1.0)
+                    } else {
+                        1.0
+                    }
+                })
+                .collect();
+            extra.push(("_CRACK_DISTANCE".into(), dist));
+            extra.push(("_CRACK_TIME".into(), label));
+            out.time("attributes", t.elapsed().as_secs_f64());
+        }
+        if moves {
+            turn_normals(&mut e.sim, &positions);
+            e.sim
+                .set_positions(&positions)
+                .map_err(|err| anyhow::anyhow!("{}: {err}", e.label))?;
+        }
+        write_back_with(scene, e, &extra);
+        walls_of.push(walls);
+        lines_of.push((
+            r.segments.clone(),
+            r.segment_times.iter().map(|t| t / end).collect(),
+        ));
+        out.details.push(Value::Object(detail));
+    }
+    for ((e, walls), (segments, times)) in entries.iter().zip(walls_of).zip(lines_of) {
+        if let Some(w) = walls {
+            add_walls(scene, e.mesh_index, &w, &post.wall_material);
+        }
+        if post.lines {
+            add_crack_lines(scene, e.mesh_index, &segments, &times);
+        }
+    }
+    Ok(out)
+}
+
+/// Index of the material named `name`, added with `json` when missing.
+fn material(scene: &mut Scene, name: &str, json: Value) -> usize {
+    if let Some(i) = scene.materials.iter().position(|m| m.name() == Some(name)) {
+        return i;
+    }
+    let mut m = json.as_object().cloned().unwrap_or_default();
+    m.insert("name".into(), json!(name));
+    scene.materials.push(Material { json: m });
+    scene.materials.len() - 1
+}
+
+/// Morph targets the mesh's primitives have (every primitive of a glTF mesh
+/// needs the same number).
+fn n_targets(scene: &Scene, mesh_index: usize) -> usize {
+    scene.meshes[mesh_index]
+        .primitives
+        .iter()
+        .map(|p| match &p.geometry {
+            Geometry::Triangles(t) => t.targets.len(),
+            Geometry::Raw(r) => r.targets.len(),
+        })
+        .max()
+        .unwrap_or(0)
+}
+
+/// The walls as a triangle primitive with their own material (normals and
+/// UVs from the wall builder; zero morph-target displacements when the mesh
+/// has targets).
+fn add_walls(scene: &mut Scene, mesh_index: usize, w: &Walls, name: &str) {
+    if w.triangles.is_empty() {
+        return;
+    }
+    let m = material(
+        scene,
+        name,
+        json!({"pbrMetallicRoughness": {"baseColorFactor": [0.22, 0.16, 0.11, 1.0], "metallicFactor": 0.0, "roughnessFactor": 1.0}}),
+    );
+    let f32s = |v: &[[f64; 3]]| v.iter().map(|p| p.map(|x| x as f32)).collect::<Vec<_>>();
+    let n = w.positions.len();
+    let targets = (0..n_targets(scene, mesh_index))
+        .map(|_| {
+            vec![VertexAttribute {
+                semantic: "POSITION".into(),
+                components: 3,
+                data: vec![0.0; 3 * n],
+            }]
+        })
+        .collect();
+    let geo = TriGeometry {
+        positions: f32s(&w.positions),
+        attributes: vec![
+            VertexAttribute {
+                semantic: "NORMAL".into(),
+                components: 3,
+                data: w.normals.iter().flatten().map(|&x| x as f32).collect(),
+            },
+            VertexAttribute {
+                semantic: "TEXCOORD_0".into(),
+                components: 2,
+                data: w.uvs.iter().flatten().map(|&x| x as f32).collect(),
+            },
+        ],
+        triangles: w.triangles.clone(),
+        targets,
+        group: None,
+    };
+    scene.meshes[mesh_index].primitives.push(Primitive {
+        material: Some(m),
+        geometry: Geometry::Triangles(geo),
+        rest: Default::default(),
+    });
+}
+
+/// Add the crack segments of mesh `mesh_index` as a LINES primitive with the
+/// `crack_lines` material; `_CRACK_TIME` gives each line vertex the time
+/// its segment formed at, as a fraction of the run (for shaders: grow
+/// cracks over time).
+fn add_crack_lines(
+    scene: &mut Scene,
+    mesh_index: usize,
+    segments: &[[[f64; 3]; 2]],
+    times: &[f64],
+) {
+    if segments.is_empty() {
+        return;
+    }
+    let f32_accessor = |scene: &mut Scene, kind: &str, comps: usize, data: Vec<f32>, name: &str| {
+        let count = data.len() / comps;
+        let mut min = vec![f32::INFINITY; comps];
+        let mut max = vec![f32::NEG_INFINITY; comps];
+        for c in data.chunks(comps) {
+            for k in 0..comps {
+                min[k] = min[k].min(c[k]);
+                max[k] = max[k].max(c[k]);
+            }
+        }
+        scene.accessors.push(RawAccessor {
+            component_type: 5126,
+            kind: kind.into(),
+            normalized: false,
+            count,
+            min: Some(json!(min)),
+            max: Some(json!(max)),
+            name: Some(name.into()),
+            data: data.iter().flat_map(|x| x.to_le_bytes()).collect(),
+        });
+        scene.accessors.len() - 1
+    };
+    let pos: Vec<f32> = segments
+        .iter()
+        .flat_map(|s| s.iter().flat_map(|p| p.map(|x| x as f32)))
+        .collect();
+    let n = pos.len() / 3;
+    let acc = f32_accessor(scene, "VEC3", 3, pos, "crack_lines");
+    let mut geo = RawGeometry {
+        mode: crackle::scene::mode::LINES,
+        ..Default::default()
+    };
+    geo.attributes.insert("POSITION".into(), acc);
+    if times.len() == segments.len() {
+        let t: Vec<f32> = times.iter().flat_map(|&t| [t as f32; 2]).collect();
+        let acc = f32_accessor(scene, "SCALAR", 1, t, "crack_time");
+        geo.attributes.insert("_CRACK_TIME".into(), acc);
+    }
+    for _ in 0..n_targets(scene, mesh_index) {
+        let acc = f32_accessor(scene, "VEC3", 3, vec![0.0; 3 * n], "crack_lines_target");
+        geo.targets
+            .push([("POSITION".to_string(), acc)].into_iter().collect());
+    }
+    let m = material(
+        scene,
+        "crack_lines",
+        json!({"pbrMetallicRoughness": {"baseColorFactor": [0.02, 0.02, 0.02, 1.0], "metallicFactor": 0.0}}),
+    );
+    scene.meshes[mesh_index].primitives.push(Primitive {
+        material: Some(m),
+        geometry: Geometry::Raw(geo),
+        rest: Default::default(),
+    });
+}

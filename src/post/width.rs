@@ -1,0 +1,633 @@
+//! Crack width and curling (Iben & O'Brien 2009, sec. 5).
+//!
+//! The simulation never moves a node; it accumulates each node's relaxation
+//! displacement (eq. 15). Displacing the nodes by a multiple of it opens the
+//! cracks into gaps, because the two sides of a crack were pulled apart
+//! after it opened. Curling then lifts crack nodes along the surface normal
+//! by a fraction of how far they moved, falling off over a few rings of
+//! neighbours (mud, peeling paint).
+//!
+//! Nothing here inverts a triangle silently: a node whose move would flip
+//! or collapse one of its triangles has its move shortened (halved until the
+//! triangle is fine, at most [`MAX_HALVINGS`] times, then dropped), and the
+//! shortened nodes and flipped triangles are counted.
+
+use crate::mesh::{FaceId, SimMesh, VertexId};
+use crate::stress::tensor::v3;
+
+/// How many times a node's move is halved before it is dropped.
+pub const MAX_HALVINGS: usize = 12;
+
+/// A triangle whose area falls below this fraction of its rest area counts
+/// as collapsed.
+const MIN_AREA_FRACTION: f64 = 1e-3;
+
+/// Options of [`displace`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct WidthOptions {
+    /// Multiplier of the accumulated displacement (0: no width).
+    pub scale: f64,
+    /// Largest gap across a crack, in scene units (0: no limit).
+    pub max_width: f64,
+    /// Lift of crack nodes along the normal, as a fraction of how far they
+    /// moved (0: no curling).
+    pub curl: f64,
+    /// Rings of neighbours the lift falls off over.
+    pub curl_rings: usize,
+    /// Factor of the lift from one ring to the next, in [0, 1].
+    pub curl_falloff: f64,
+}
+
+/// The displaced surface and what it took.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Displaced {
+    /// Final position of every vertex, indexed by vertex id.
+    pub positions: Vec<[f64; 3]>,
+    /// Nodes whose move was shortened by the width limit.
+    pub width_limited: usize,
+    /// Crack nodes whose move relative to the other side of their crack was
+    /// reduced to a pure opening (no overlap, no sliding along the crack).
+    pub closed_nodes: usize,
+    /// Triangles the full moves would have flipped or collapsed.
+    pub inverted_triangles: usize,
+    /// Nodes whose move was shortened so no triangle flips.
+    pub shortened_nodes: usize,
+    /// Widest gap across a crack after the moves (scene units).
+    pub max_gap: f64,
+    /// Mean gap over the crack nodes (scene units; 0 without cracks).
+    pub mean_gap: f64,
+}
+
+/// The vertex `v` was duplicated from, followed to the original.
+pub fn root(mesh: &SimMesh, mut v: VertexId) -> VertexId {
+    for _ in 0..mesh.n_vertices() {
+        let p = mesh.vertex_parent(v);
+        if p == v {
+            break;
+        }
+        v = p;
+    }
+    v
+}
+
+/// Whether `v` lies on a crack side.
+pub fn on_crack(mesh: &SimMesh, v: VertexId) -> bool {
+    mesh.vertex_outgoing(v)
+        .any(|h| mesh.is_crack_halfedge(h) || mesh.is_crack_halfedge(mesh.prev(h)))
+}
+
+/// Unit area-weighted normal of every vertex at `positions` (zero where
+/// undefined).
+pub fn vertex_normals(mesh: &SimMesh, positions: &[[f64; 3]]) -> Vec<[f64; 3]> {
+    let mut n = vec![[0.0; 3]; mesh.n_vertices()];
+    for f in mesh.faces() {
+        let vs = mesh.face_vertices(f);
+        let [a, b, c] = vs.map(|v| positions[v.idx()]);
+        let fnrm = v3::cross(v3::sub(b, a), v3::sub(c, a)); // length: twice the area
+        for v in vs {
+            n[v.idx()] = v3::add(n[v.idx()], fnrm);
+        }
+    }
+    for x in &mut n {
+        let l = v3::norm(*x);
+        *x = if l > 0.0 && l.is_finite() {
+            v3::scale(*x, 1.0 / l)
+        } else {
+            [0.0; 3]
+        };
+    }
+    n
+}
+
+/// The unit direction from crack node `v` into its own faces: the middle
+/// of the angle its fan spans (a copy of a crack node has one fan, between
+/// two crack edges; a tip's fan goes all round and its middle points away
+/// from the crack). Perpendicular to a straight crack, the bisector at a
+/// junction. `None` when undefined.
+fn away_from_crack(mesh: &SimMesh, v: VertexId) -> Option<[f64; 3]> {
+    let pv = mesh.position(v);
+    // The fan in order, from the boundary halfedge leaving v.
+    let mut corners: Vec<([f64; 3], [f64; 3], f64)> = Vec::new();
+    for h in mesh.vertex_outgoing(v) {
+        let a = v3::sub(mesh.position(mesh.dest(h)), pv);
+        let b = v3::sub(mesh.position(mesh.origin(mesh.prev(h))), pv);
+        let (la, lb) = (v3::norm(a), v3::norm(b));
+        if la > 0.0 && lb > 0.0 {
+            let (ua, ub) = (v3::scale(a, 1.0 / la), v3::scale(b, 1.0 / lb));
+            corners.push((ua, ub, v3::dot(ua, ub).clamp(-1.0, 1.0).acos()));
+        }
+    }
+    // A fan that ends on the input's border: open perpendicular to the
+    // crack edge, into the fan.
+    let first = mesh.vertex_outgoing(v).next();
+    let last = mesh.vertex_outgoing(v).last().map(|h| mesh.prev(h));
+    if let (Some(h0), Some(h1)) = (first, last) {
+        let crack_edge = match (mesh.is_crack_halfedge(h0), mesh.is_crack_halfedge(h1)) {
+            (true, false) => Some(v3::sub(mesh.position(mesh.dest(h0)), pv)),
+            (false, true) => Some(v3::sub(mesh.position(mesh.origin(h1)), pv)),
+            _ => None,
+        };
+        if let (Some(e), Some((ua, ub, _))) = (crack_edge, corners.first().copied()) {
+            let n = v3::cross(ua, ub);
+            let mut d = v3::cross(n, e);
+            let into = v3::add(ua, ub);
+            if v3::dot(d, into) < 0.0 {
+                d = v3::scale(d, -1.0);
+            }
+            let l = v3::norm(d);
+            return (l > 0.0 && l.is_finite()).then(|| v3::scale(d, 1.0 / l));
+        }
+    }
+    let total: f64 = corners.iter().map(|c| c.2).sum();
+    let half = 0.5 * total;
+    let mut acc = 0.0;
+    for (u1, u2, a) in corners {
+        if acc + a >= half {
+            let s = if a > 0.0 { (half - acc) / a } else { 0.0 };
+            let d = v3::add(
+                v3::scale(u1, ((1.0 - s) * a).sin()),
+                v3::scale(u2, (s * a).sin()),
+            );
+            let l = v3::norm(d);
+            return (l > 0.0 && l.is_finite()).then(|| v3::scale(d, 1.0 / l));
+        }
+        acc += a;
+    }
+    None
+}
+
+/// Crack nodes that lie inside a crack side edge of another group (rest
+/// positions): `(node, edge start, edge end, parameter along the edge)`, in
+/// node order. Found with a uniform grid over the crack nodes.
+fn t_junctions(mesh: &SimMesh) -> Vec<(VertexId, VertexId, VertexId, f64)> {
+    let nodes: Vec<VertexId> = mesh.vertices().filter(|&v| on_crack(mesh, v)).collect();
+    let sides: Vec<(VertexId, VertexId)> = mesh
+        .halfedges()
+        .filter(|&h| mesh.is_crack_halfedge(h))
+        .map(|h| (mesh.origin(h), mesh.dest(h)))
+        .collect();
+    if nodes.is_empty() || sides.is_empty() {
+        return Vec::new();
+    }
+    let cell = sides
+        .iter()
+        .map(|&(a, b)| v3::norm(v3::sub(mesh.position(b), mesh.position(a))))
+        .fold(0.0, f64::max)
+        .max(1e-300);
+    let key = |p: [f64; 3]| p.map(|x| (x / cell).floor() as i64);
+    let mut grid: std::collections::BTreeMap<[i64; 3], Vec<VertexId>> = Default::default();
+    for &v in &nodes {
+        grid.entry(key(mesh.position(v))).or_default().push(v);
+    }
+    let mut out = Vec::new();
+    for (a, b) in sides {
+        let (pa, pb) = (mesh.position(a), mesh.position(b));
+        let e = v3::sub(pb, pa);
+        let l2 = v3::dot(e, e);
+        if l2 == 0.0 {
+            continue;
+        }
+        let (ra, rb) = (root(mesh, a), root(mesh, b));
+        let (ka, kb) = (key(pa), key(pb));
+        let lo: [i64; 3] = std::array::from_fn(|k| ka[k].min(kb[k]) - 1);
+        let hi: [i64; 3] = std::array::from_fn(|k| ka[k].max(kb[k]) + 1);
+        for x in lo[0]..=hi[0] {
+            for y in lo[1]..=hi[1] {
+                for z in lo[2]..=hi[2] {
+                    for &q in grid.get(&[x, y, z]).map_or(&[][..], |v| v.as_slice()) {
+                        let rq = root(mesh, q);
+                        if rq == ra || rq == rb {
+                            continue;
+                        }
+                        let d = v3::sub(mesh.position(q), pa);
+                        let t = v3::dot(d, e) / l2;
+                        if t <= 0.0 || t >= 1.0 {
+                            continue;
+                        }
+                        let off = v3::sub(d, v3::scale(e, t));
+                        if v3::dot(off, off) <= 1e-18 * l2 {
+                            out.push((q, a, b, t));
+                        }
+                    }
+                }
+            }
+        }
+    }
+    out.sort_by(|x, y| x.0.cmp(&y.0).then(x.1.cmp(&y.1)).then(x.2.cmp(&y.2)));
+    out
+}
+
+/// Crack nodes grouped by root, in root order: the copies of each crack
+/// vertex.
+fn crack_groups(mesh: &SimMesh) -> Vec<Vec<VertexId>> {
+    let mut groups: std::collections::BTreeMap<u32, Vec<VertexId>> = Default::default();
+    for v in mesh.vertices().filter(|&v| on_crack(mesh, v)) {
+        groups.entry(root(mesh, v).0).or_default().push(v);
+    }
+    groups.into_values().collect()
+}
+
+/// Widest distance between two of `group`'s positions.
+fn spread(group: &[VertexId], positions: &[[f64; 3]]) -> f64 {
+    let mut w: f64 = 0.0;
+    for (i, a) in group.iter().enumerate() {
+        for b in &group[i + 1..] {
+            w = w.max(v3::norm(v3::sub(positions[a.idx()], positions[b.idx()])));
+        }
+    }
+    w
+}
+
+/// Whether face `f` is flipped or collapsed at `positions` compared with
+/// its rest shape.
+fn bad_face(mesh: &SimMesh, f: FaceId, positions: &[[f64; 3]]) -> bool {
+    let vs = mesh.face_vertices(f);
+    let [a, b, c] = vs.map(|v| mesh.position(v));
+    let rest = v3::cross(v3::sub(b, a), v3::sub(c, a));
+    let rest_area = v3::norm(rest);
+    if rest_area <= 0.0 {
+        return false; // degenerate already: nothing to keep
+    }
+    let [a, b, c] = vs.map(|v| positions[v.idx()]);
+    let now = v3::cross(v3::sub(b, a), v3::sub(c, a));
+    v3::dot(now, rest) <= MIN_AREA_FRACTION * rest_area * rest_area
+}
+
+/// Displace the nodes of `mesh` by `opts.scale` times `displacement` (scene
+/// units, per vertex), limit the gaps to `opts.max_width`, curl the crack
+/// edges, and shorten moves that would flip a triangle.
+pub fn displace(mesh: &SimMesh, displacement: &[[f64; 3]], opts: &WidthOptions) -> Displaced {
+    let rest: Vec<[f64; 3]> = mesh.positions().to_vec();
+    let mut mv: Vec<[f64; 3]> = (0..mesh.n_vertices())
+        .map(|i| {
+            let d = displacement.get(i).copied().unwrap_or([0.0; 3]);
+            if d.iter().all(|x| x.is_finite()) {
+                v3::scale(d, opts.scale)
+            } else {
+                [0.0; 3]
+            }
+        })
+        .collect();
+    let groups = crack_groups(mesh);
+    let mut out = Displaced::default();
+
+    // Width limit: shrink each crack vertex's copies towards their mean move.
+    if opts.max_width > 0.0 {
+        for g in &groups {
+            let moved: Vec<[f64; 3]> = g
+                .iter()
+                .map(|v| v3::add(rest[v.idx()], mv[v.idx()]))
+                .collect();
+            let mut w: f64 = 0.0;
+            for (i, a) in moved.iter().enumerate() {
+                for b in &moved[i + 1..] {
+                    w = w.max(v3::norm(v3::sub(*a, *b)));
+                }
+            }
+            if w > opts.max_width {
+                let k = opts.max_width / w;
+                let mean = g.iter().fold([0.0; 3], |s, v| v3::add(s, mv[v.idx()]));
+                let mean = v3::scale(mean, 1.0 / g.len() as f64);
+                for v in g {
+                    let off = v3::sub(mv[v.idx()], mean);
+                    mv[v.idx()] = v3::add(mean, v3::scale(off, k));
+                }
+                out.width_limited += g.len();
+            }
+        }
+    }
+
+    // Cracks only open: each copy of a crack node moves with its copies'
+    // mean move plus an opening straight away from the crack into its own
+    // faces. The rest of its own move is dropped: moving back across the
+    // crack (a squeezed crack stays closed instead of its sides
+    // overlapping), and sliding along the crack or off the surface
+    // relative to the other side (which would tilt the walls into their
+    // neighbours).
+    for g in &groups {
+        if g.len() < 2 {
+            continue;
+        }
+        let mean = g.iter().fold([0.0; 3], |s, v| v3::add(s, mv[v.idx()]));
+        let mean = v3::scale(mean, 1.0 / g.len() as f64);
+        for &v in g {
+            let open = away_from_crack(mesh, v)
+                .map(|dir| v3::scale(dir, v3::dot(v3::sub(mv[v.idx()], mean), dir).max(0.0)))
+                .unwrap_or([0.0; 3]);
+            let new = v3::add(mean, open);
+            if v3::norm(v3::sub(new, mv[v.idx()])) > 1e-12 * (1.0 + v3::norm(mean)) {
+                out.closed_nodes += 1;
+            }
+            mv[v.idx()] = new;
+        }
+    }
+    // The same at T-junctions: a crack node lying on the other side's edge
+    // (that side has no node there) opens away from that edge only.
+    for (q, a, b, t) in t_junctions(mesh) {
+        let w = v3::add(v3::scale(mv[a.idx()], 1.0 - t), v3::scale(mv[b.idx()], t));
+        let open = away_from_crack(mesh, q)
+            .map(|dir| v3::scale(dir, v3::dot(v3::sub(mv[q.idx()], w), dir).max(0.0)))
+            .unwrap_or([0.0; 3]);
+        mv[q.idx()] = v3::add(w, open);
+        out.closed_nodes += 1;
+    }
+
+    // Curling: crack nodes rise by a fraction of how far they moved, and
+    // each ring of neighbours rises by `falloff` times the ring before.
+    if opts.curl > 0.0 && !groups.is_empty() {
+        let normals = vertex_normals(mesh, &rest);
+        let mut lift = vec![f64::NAN; mesh.n_vertices()];
+        let mut ring: Vec<VertexId> = Vec::new();
+        for g in &groups {
+            for &v in g {
+                lift[v.idx()] = opts.curl * v3::norm(mv[v.idx()]);
+                ring.push(v);
+            }
+        }
+        for _ in 0..opts.curl_rings {
+            let mut next: Vec<(VertexId, f64)> = Vec::new();
+            for &v in &ring {
+                for f in mesh.vertex_faces(v) {
+                    for u in mesh.face_vertices(f) {
+                        if lift[u.idx()].is_nan() {
+                            next.push((u, opts.curl_falloff * lift[v.idx()]));
+                        }
+                    }
+                }
+            }
+            // The largest offer wins; id order keeps it deterministic.
+            next.sort_by(|a, b| a.0.cmp(&b.0).then(b.1.total_cmp(&a.1)));
+            next.dedup_by_key(|x| x.0);
+            ring = next.iter().map(|x| x.0).collect();
+            for (u, l) in next {
+                lift[u.idx()] = l;
+            }
+            if ring.is_empty() {
+                break;
+            }
+        }
+        for (i, l) in lift.iter().enumerate() {
+            if l.is_finite() && *l > 0.0 {
+                mv[i] = v3::add(mv[i], v3::scale(normals[i], *l));
+            }
+        }
+    }
+
+    // No silent inversion: halve the moves of the nodes of flipped
+    // triangles until none is left, then drop the rest.
+    let mut positions: Vec<[f64; 3]> = rest.iter().zip(&mv).map(|(p, d)| v3::add(*p, *d)).collect();
+    let bad = |positions: &[[f64; 3]]| -> Vec<FaceId> {
+        mesh.faces()
+            .filter(|&f| bad_face(mesh, f, positions))
+            .collect()
+    };
+    let mut flipped = bad(&positions);
+    out.inverted_triangles = flipped.len();
+    let mut shortened = vec![false; mesh.n_vertices()];
+    for round in 0..=MAX_HALVINGS {
+        if flipped.is_empty() {
+            break;
+        }
+        let mut nodes: Vec<VertexId> = flipped
+            .iter()
+            .flat_map(|&f| mesh.face_vertices(f))
+            .collect();
+        nodes.sort();
+        nodes.dedup();
+        for v in nodes {
+            shortened[v.idx()] = true;
+            mv[v.idx()] = if round == MAX_HALVINGS {
+                [0.0; 3]
+            } else {
+                v3::scale(mv[v.idx()], 0.5)
+            };
+            positions[v.idx()] = v3::add(rest[v.idx()], mv[v.idx()]);
+        }
+        flipped = bad(&positions);
+    }
+    out.shortened_nodes = shortened.iter().filter(|&&s| s).count();
+
+    let mut sum = 0.0;
+    for g in &groups {
+        let w = spread(g, &positions);
+        out.max_gap = out.max_gap.max(w);
+        sum += w;
+    }
+    if !groups.is_empty() {
+        out.mean_gap = sum / groups.len() as f64;
+    }
+    out.positions = positions;
+    out
+}
+
+/// Turn the wedges' `NORMAL` (and `TANGENT` direction) values of every
+/// moved vertex by the rotation taking its rest normal to its normal at
+/// `positions`, so shading follows curled edges while hard edges stay hard.
+/// Call before moving the mesh to `positions`.
+pub fn turn_normals(mesh: &mut SimMesh, positions: &[[f64; 3]]) {
+    let before = vertex_normals(mesh, mesh.positions());
+    let after = vertex_normals(mesh, positions);
+    // The rotation of each wedge: from the first corner that uses it.
+    let mut rot: Vec<Option<([f64; 3], [f64; 3])>> = vec![None; mesh.n_wedges()];
+    for h in mesh.halfedges() {
+        let (v, w) = (mesh.origin(h), mesh.wedge(h));
+        if rot[w.idx()].is_none() {
+            rot[w.idx()] = Some((before[v.idx()], after[v.idx()]));
+        }
+    }
+    for (name, comps) in [("NORMAL", 3usize), ("TANGENT", 4usize)] {
+        let Some(values) = mesh.wedge_values_mut(name) else {
+            continue;
+        };
+        if values.len() != rot.len() * comps {
+            continue;
+        }
+        for (w, r) in rot.iter().enumerate() {
+            let Some((a, b)) = r else { continue };
+            let x = &mut values[w * comps..w * comps + 3];
+            let y = rotate([x[0], x[1], x[2]], *a, *b);
+            x.copy_from_slice(&y);
+        }
+    }
+}
+
+/// Rotate `x` by the smallest rotation taking unit `a` to unit `b`
+/// (identity when either is zero or they are opposite).
+fn rotate(x: [f64; 3], a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    let c = v3::dot(a, b);
+    let k = v3::cross(a, b);
+    let s = v3::norm(k);
+    if s < 1e-12 || c <= -1.0 + 1e-12 || v3::norm(a) == 0.0 || v3::norm(b) == 0.0 {
+        return x;
+    }
+    // Rodrigues with k = a x b (|k| = sin): x c + (k x x) + k (k.x) / (1 + c).
+    v3::add(
+        v3::add(v3::scale(x, c), v3::cross(k, x)),
+        v3::scale(k, v3::dot(k, x) / (1.0 + c)),
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mesh::test_util::{build, grid_input};
+
+    /// A 6 x 6 grid with the interior edges along y = 3 opened from x = 0
+    /// to x = 6 (a crack across the plate).
+    fn cracked_plate() -> SimMesh {
+        let (mut m, _) = build(&grid_input(6, 6));
+        for x in 0..6 {
+            let find = |m: &SimMesh, p: [f64; 2]| {
+                m.vertices()
+                    .find(|&v| m.position(v)[0] == p[0] && m.position(v)[1] == p[1])
+                    .unwrap()
+            };
+            let a = find(&m, [x as f64, 3.0]);
+            let b = find(&m, [x as f64 + 1.0, 3.0]);
+            // The copy of `a` on the lower side may be the one connected to b.
+            let h = m
+                .vertex_outgoing(a)
+                .find(|&h| m.dest(h) == b)
+                .or_else(|| m.find_halfedge(a, b))
+                .unwrap();
+            if m.twin(h).is_some() {
+                m.open_edge(h).unwrap();
+            }
+        }
+        m.validate().unwrap();
+        m
+    }
+
+    /// Upper side moves +y by `d`, lower side -y.
+    fn pull_apart(m: &SimMesh, d: f64) -> Vec<[f64; 3]> {
+        m.vertices()
+            .map(|v| {
+                let y = m.position(v)[1];
+                let up = y > 3.0
+                    || (y == 3.0
+                        && m.vertex_faces(v)
+                            .all(|f| m.face_vertices(f).iter().all(|&u| m.position(u)[1] >= 3.0)));
+                [0.0, if up { d } else { -d }, 0.0]
+            })
+            .collect()
+    }
+
+    fn opts(scale: f64) -> WidthOptions {
+        WidthOptions {
+            scale,
+            max_width: 0.0,
+            curl: 0.0,
+            curl_rings: 3,
+            curl_falloff: 0.5,
+        }
+    }
+
+    #[test]
+    fn the_gap_opens_by_the_scaled_displacement() {
+        let m = cracked_plate();
+        let d = pull_apart(&m, 0.1);
+        let out = displace(&m, &d, &opts(2.0));
+        assert!((out.max_gap - 0.4).abs() < 1e-12, "{}", out.max_gap);
+        assert!((out.mean_gap - 0.4).abs() < 1e-12);
+        assert_eq!(out.inverted_triangles, 0);
+        assert_eq!(out.shortened_nodes, 0);
+        for v in m.vertices() {
+            let p = out.positions[v.idx()];
+            assert!((p[1] - m.position(v)[1] - 2.0 * d[v.idx()][1]).abs() < 1e-12);
+        }
+        // Scale 0: nothing moves.
+        let out = displace(&m, &d, &opts(0.0));
+        assert_eq!(out.positions, m.positions().to_vec());
+        assert_eq!(out.max_gap, 0.0);
+    }
+
+    #[test]
+    fn max_width_limits_the_gap() {
+        let m = cracked_plate();
+        let d = pull_apart(&m, 0.1);
+        let out = displace(
+            &m,
+            &d,
+            &WidthOptions {
+                max_width: 0.05,
+                ..opts(1.0)
+            },
+        );
+        assert!((out.max_gap - 0.05).abs() < 1e-12, "{}", out.max_gap);
+        assert!(out.width_limited > 0);
+    }
+
+    #[test]
+    fn flipping_moves_are_shortened_and_counted() {
+        let m = cracked_plate();
+        // Push one interior node far across its neighbours.
+        let mut d = vec![[0.0; 3]; m.n_vertices()];
+        let v = m
+            .vertices()
+            .find(|&v| m.position(v) == [1.0, 1.0, 0.0])
+            .unwrap();
+        d[v.idx()] = [3.0, 0.0, 0.0];
+        let out = displace(&m, &d, &opts(1.0));
+        assert!(out.inverted_triangles > 0);
+        assert!(out.shortened_nodes > 0);
+        for f in m.faces() {
+            assert!(!bad_face(&m, f, &out.positions), "face {f} still flipped");
+        }
+        // The node still moved some of the way.
+        assert!(out.positions[v.idx()][0] > 1.0);
+    }
+
+    #[test]
+    fn curling_lifts_crack_edges_and_falls_off() {
+        let m = cracked_plate();
+        let d = pull_apart(&m, 0.1);
+        let out = displace(
+            &m,
+            &d,
+            &WidthOptions {
+                curl: 0.5,
+                ..opts(1.0)
+            },
+        );
+        // Crack nodes rise by 0.5 * 0.1; the next ring by half that; rows
+        // further than 3 rings stay flat.
+        for v in m.vertices() {
+            let y = m.position(v)[1];
+            let z = out.positions[v.idx()][2];
+            let ring = (y - 3.0).abs().round() as i32;
+            let expect = match ring {
+                0 => 0.05,
+                1 => 0.025,
+                2 => 0.0125,
+                3 => 0.00625,
+                _ => 0.0,
+            };
+            assert!((z - expect).abs() < 1e-9, "y {y}: z {z}, expected {expect}");
+        }
+    }
+
+    #[test]
+    fn normals_turn_with_the_surface() {
+        let mut input = grid_input(4, 4);
+        let n = input.positions.len();
+        input.wedge_channels.push(crate::mesh::Channel::new(
+            "NORMAL",
+            3,
+            crate::mesh::ChannelKind::UnitVector,
+            [0.0, 0.0, 1.0].repeat(n),
+        ));
+        let (mut m, _) = build(&input);
+        // Turn the whole plate 90 degrees about x, (x, y, z) -> (x, -z, y):
+        // normals go from +z to -y.
+        let rot: Vec<[f64; 3]> = m.positions().iter().map(|p| [p[0], -p[2], p[1]]).collect();
+        turn_normals(&mut m, &rot);
+        let ch = m.wedges().channel("NORMAL").unwrap();
+        for w in 0..m.n_wedges() {
+            let x = ch.get(crate::mesh::WedgeId(w as u32));
+            assert!(
+                x[0].abs() < 1e-9 && (x[1] + 1.0).abs() < 1e-9 && x[2].abs() < 1e-9,
+                "{x:?}"
+            );
+        }
+    }
+}
