@@ -248,6 +248,7 @@ fn post_values_are_checked_and_lines_can_be_left_out() {
         ("post.width=-1", "post.width"),
         ("post.curl_falloff=2", "post.curl_falloff"),
         ("post.wals=true", "wals"),
+        ("post.split_islands=true", "split_islands"),
     ] {
         let out = dir.path().join("x.glb");
         let o = Command::new(common::crackle_bin())
