@@ -5,33 +5,20 @@
 
 mod common;
 
+use common::stages;
 use std::path::Path;
 use std::process::Command;
 
+/// `crackle crack`, which must succeed; its report.
 fn crack(input: &Path, out: &Path, extra: &[&str]) -> serde_json::Value {
-    let rep = out.with_extension("json");
-    let o = Command::new(common::crackle_bin())
-        .args(["crack".as_ref(), input.as_os_str(), out.as_os_str()])
-        .args(["--report".as_ref(), rep.as_os_str()])
-        .args(extra)
-        .output()
-        .unwrap();
+    let o = common::crack(input, out, extra);
     assert!(
         o.status.success(),
         "{}: {}",
         input.display(),
         String::from_utf8_lossy(&o.stderr)
     );
-    serde_json::from_slice(&std::fs::read(rep).unwrap()).unwrap()
-}
-
-fn stages(r: &serde_json::Value) -> Vec<String> {
-    r["stages"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|s| s["name"].as_str().unwrap().to_string())
-        .collect()
+    common::report(out)
 }
 
 /// Triangles of an output, per material name, in world-free mesh coordinates.

@@ -4,30 +4,7 @@
 
 mod common;
 
-use std::process::Command;
-
-fn crack(input: &std::path::Path, out: &std::path::Path, extra: &[&str]) -> std::process::Output {
-    let rep = out.with_extension("json");
-    Command::new(common::crackle_bin())
-        .args(["crack".as_ref(), input.as_os_str(), out.as_os_str()])
-        .args(["--report".as_ref(), rep.as_os_str()])
-        .args(extra)
-        .output()
-        .unwrap()
-}
-
-fn report(out: &std::path::Path) -> serde_json::Value {
-    serde_json::from_slice(&std::fs::read(out.with_extension("json")).unwrap()).unwrap()
-}
-
-fn stages(r: &serde_json::Value) -> Vec<String> {
-    r["stages"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|s| s["name"].as_str().unwrap().to_string())
-        .collect()
-}
+use common::{crack, report, stages};
 
 const PRESETS: [(&str, &str); 8] = [
     ("glaze", "icosphere.obj"),

@@ -289,13 +289,13 @@ pub fn run(mut a: CrackArgs) -> Result<()> {
         .into());
     }
     // Curvature: a stage only when a stress term uses it.
-    let mut curvatures: Vec<Option<CurvatureField>> = Vec::new();
+    let mut curvatures: Vec<Option<CurvatureField>> = vec![None; entries.len()];
     if pipe.needs_curvature() {
         let t = Instant::now();
-        curvatures.extend(entries.iter().map(|e| Some(curvature::estimate(&e.sim))));
+        for (k, e) in curvatures.iter_mut().zip(&entries) {
+            *k = Some(curvature::estimate(&e.sim));
+        }
         stages.push(json!({"name": "curvature", "seconds": t.elapsed().as_secs_f64()}));
-    } else {
-        curvatures.resize(entries.len(), None);
     }
     // Stress fields: a stage only when the pipeline has stress terms.
     let mut fields: Vec<Option<StressField>> = Vec::new();
@@ -332,7 +332,6 @@ pub fn run(mut a: CrackArgs) -> Result<()> {
                 .map_err(|err| anyhow::anyhow!("{}: {}: {err}", a.input.display(), e.label))?;
             fields.push(Some(field));
         }
-        drop(curvatures);
         stages.push(json!({"name": "stress", "seconds": t.elapsed().as_secs_f64()}));
     }
     let t = Instant::now();

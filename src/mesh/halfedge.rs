@@ -178,6 +178,31 @@ impl SimMesh {
         VertexId(self.vertex_parent[v.idx()])
     }
 
+    /// The root of every vertex, indexed by vertex id: [`vertex_parent`](SimMesh::vertex_parent)
+    /// followed to the vertex nothing was duplicated from (all copies of a
+    /// crack vertex share it). Bounded, in case of a corrupted parent cycle.
+    pub fn vertex_roots(&self) -> Vec<u32> {
+        let n = self.n_vertices();
+        let mut root = vec![0u32; n];
+        for v in 0..n {
+            let mut r = v;
+            for _ in 0..n {
+                if r < v {
+                    // Already resolved (copies are appended after their parent).
+                    r = root[r] as usize;
+                    break;
+                }
+                let p = self.vertex_parent[r] as usize;
+                if p == r {
+                    break;
+                }
+                r = p;
+            }
+            root[v] = r as u32;
+        }
+        root
+    }
+
     /// Input group of every face, indexed by [`FaceId::idx`].
     pub fn face_groups(&self) -> &[u32] {
         &self.face_groups

@@ -50,6 +50,7 @@ use std::cmp::Ordering;
 use std::collections::BinaryHeap;
 
 use crate::mesh::{SimMesh, VertexId};
+use crate::stress::tensor::v3::{dot, norm, sub};
 
 /// A triangle whose angle at the updated vertex has `sin^2` below this is
 /// treated as degenerate (edge updates only).
@@ -344,21 +345,6 @@ fn point_update(pc: [f64; 3], pa: [f64; 3], da: f64, pb: [f64; 3], db: f64) -> O
         return None;
     }
     u.is_finite().then_some(u)
-}
-
-#[inline]
-fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-
-#[inline]
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-#[inline]
-fn norm(a: [f64; 3]) -> f64 {
-    dot(a, a).sqrt()
 }
 
 #[cfg(test)]

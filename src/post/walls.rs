@@ -181,7 +181,7 @@ pub fn build_walls(mesh: &SimMesh, top: &[[f64; 3]], opts: &WallOptions) -> Wall
         top.len(),
         mesh.n_vertices()
     );
-    let roots = vertex_roots(mesh);
+    let roots = mesh.vertex_roots();
     let bottoms = Bottoms::new(mesh, &roots, &crack, opts.depth);
     let grid = RootGrid::new(mesh, &roots, &bottoms, &crack);
     let next = chain_next(mesh, &crack);
@@ -230,30 +230,6 @@ fn crack_halfedges(mesh: &SimMesh) -> Vec<HalfedgeId> {
     mesh.halfedges()
         .filter(|&h| mesh.is_crack_halfedge(h) && mesh.is_boundary_halfedge(h))
         .collect()
-}
-
-/// The root of every vertex: [`SimMesh::vertex_parent`] followed to a
-/// fixpoint (bounded, in case of a corrupted parent cycle).
-fn vertex_roots(mesh: &SimMesh) -> Vec<u32> {
-    let n = mesh.n_vertices();
-    let mut root = vec![0u32; n];
-    for v in 0..n {
-        let mut r = v;
-        for _ in 0..n {
-            if r < v {
-                // Already resolved (copies are appended after their parent).
-                r = root[r] as usize;
-                break;
-            }
-            let p = mesh.vertex_parent(VertexId::from_idx(r)).idx();
-            if p == r {
-                break;
-            }
-            r = p;
-        }
-        root[v] = r as u32;
-    }
-    root
 }
 
 /// The bottom vertices: one slot per root vertex of a crack vertex, in
@@ -874,7 +850,7 @@ mod tests {
     /// `+-amount` in y); crack tips (one copy) and all other vertices stay
     /// at rest.
     fn separate(m: &SimMesh, amount: f64, y_only: bool) -> Vec<P3> {
-        let roots = vertex_roots(m);
+        let roots = m.vertex_roots();
         let mut copies = vec![0usize; m.n_vertices()];
         for v in m.vertices() {
             copies[roots[v.idx()] as usize] += 1;
@@ -1335,7 +1311,7 @@ mod tests {
         }
         let crack = crack_halfedges(&m);
         assert_eq!(crack.len(), 10);
-        let roots = vertex_roots(&m);
+        let roots = m.vertex_roots();
         let depth = 0.1;
         let b = Bottoms::new(&m, &roots, &crack, depth);
         assert_eq!(b.rest.len(), 6);
@@ -1375,7 +1351,7 @@ mod tests {
         let (mut m, _) = build(&input);
         open_between(&mut m, [0.0, 0.0, 0.0], [1.0, 0.0, 0.0]);
         let crack = crack_halfedges(&m);
-        let roots = vertex_roots(&m);
+        let roots = m.vertex_roots();
         let b = Bottoms::new(&m, &roots, &crack, 0.5);
         let normal = bottom_normals(&m, &roots, &b.slot_of_root, &crack, b.rest.len());
         assert_eq!(normal.len(), 2);

@@ -13,6 +13,8 @@
 //! shortened nodes and flipped triangles are counted.
 
 use crate::mesh::{FaceId, SimMesh, VertexId};
+use crate::post::distance::crack_vertices;
+use crate::sim::crack::fan_middle;
 use crate::stress::tensor::v3;
 
 /// How many times a node's move is halved before it is dropped.
@@ -58,24 +60,6 @@ pub struct Displaced {
     pub mean_gap: f64,
 }
 
-/// The vertex `v` was duplicated from, followed to the original.
-pub fn root(mesh: &SimMesh, mut v: VertexId) -> VertexId {
-    for _ in 0..mesh.n_vertices() {
-        let p = mesh.vertex_parent(v);
-        if p == v {
-            break;
-        }
-        v = p;
-    }
-    v
-}
-
-/// Whether `v` lies on a crack side.
-pub fn on_crack(mesh: &SimMesh, v: VertexId) -> bool {
-    mesh.vertex_outgoing(v)
-        .any(|h| mesh.is_crack_halfedge(h) || mesh.is_crack_halfedge(mesh.prev(h)))
-}
-
 /// Unit area-weighted normal of every vertex at `positions` (zero where
 /// undefined).
 pub fn vertex_normals(mesh: &SimMesh, positions: &[[f64; 3]]) -> Vec<[f64; 3]> {
@@ -105,62 +89,40 @@ pub fn vertex_normals(mesh: &SimMesh, positions: &[[f64; 3]]) -> Vec<[f64; 3]> {
 /// from the crack). Perpendicular to a straight crack, the bisector at a
 /// junction. `None` when undefined.
 fn away_from_crack(mesh: &SimMesh, v: VertexId) -> Option<[f64; 3]> {
-    let pv = mesh.position(v);
-    // The fan in order, from the boundary halfedge leaving v.
-    let mut corners: Vec<([f64; 3], [f64; 3], f64)> = Vec::new();
-    for h in mesh.vertex_outgoing(v) {
-        let a = v3::sub(mesh.position(mesh.dest(h)), pv);
-        let b = v3::sub(mesh.position(mesh.origin(mesh.prev(h))), pv);
-        let (la, lb) = (v3::norm(a), v3::norm(b));
-        if la > 0.0 && lb > 0.0 {
-            let (ua, ub) = (v3::scale(a, 1.0 / la), v3::scale(b, 1.0 / lb));
-            corners.push((ua, ub, v3::dot(ua, ub).clamp(-1.0, 1.0).acos()));
-        }
-    }
     // A fan that ends on the input's border: open perpendicular to the
     // crack edge, into the fan.
-    let first = mesh.vertex_outgoing(v).next();
-    let last = mesh.vertex_outgoing(v).last().map(|h| mesh.prev(h));
-    if let (Some(h0), Some(h1)) = (first, last) {
-        let crack_edge = match (mesh.is_crack_halfedge(h0), mesh.is_crack_halfedge(h1)) {
-            (true, false) => Some(v3::sub(mesh.position(mesh.dest(h0)), pv)),
-            (false, true) => Some(v3::sub(mesh.position(mesh.origin(h1)), pv)),
-            _ => None,
-        };
-        if let (Some(e), Some((ua, ub, _))) = (crack_edge, corners.first().copied()) {
-            let n = v3::cross(ua, ub);
-            let mut d = v3::cross(n, e);
-            let into = v3::add(ua, ub);
-            if v3::dot(d, into) < 0.0 {
-                d = v3::scale(d, -1.0);
-            }
-            let l = v3::norm(d);
-            return (l > 0.0 && l.is_finite()).then(|| v3::scale(d, 1.0 / l));
-        }
+    let pv = mesh.position(v);
+    let first = mesh.vertex_outgoing(v).next()?;
+    let last = mesh.prev(mesh.vertex_outgoing(v).last()?);
+    let crack_edge = match (mesh.is_crack_halfedge(first), mesh.is_crack_halfedge(last)) {
+        (true, false) => v3::sub(mesh.position(mesh.dest(first)), pv),
+        (false, true) => v3::sub(mesh.position(mesh.origin(last)), pv),
+        _ => return fan_middle(mesh, v).map(|(_, middle)| middle),
+    };
+    // The plane and the inside of the fan from its first proper corner.
+    let unit = |x: [f64; 3]| {
+        let l = v3::norm(x);
+        (l > 0.0).then(|| v3::scale(x, 1.0 / l))
+    };
+    let (ua, ub) = mesh.vertex_outgoing(v).find_map(|h| {
+        let a = unit(v3::sub(mesh.position(mesh.dest(h)), pv))?;
+        let b = unit(v3::sub(mesh.position(mesh.origin(mesh.prev(h))), pv))?;
+        Some((a, b))
+    })?;
+    let mut d = v3::cross(v3::cross(ua, ub), crack_edge);
+    if v3::dot(d, v3::add(ua, ub)) < 0.0 {
+        d = v3::scale(d, -1.0);
     }
-    let total: f64 = corners.iter().map(|c| c.2).sum();
-    let half = 0.5 * total;
-    let mut acc = 0.0;
-    for (u1, u2, a) in corners {
-        if acc + a >= half {
-            let s = if a > 0.0 { (half - acc) / a } else { 0.0 };
-            let d = v3::add(
-                v3::scale(u1, ((1.0 - s) * a).sin()),
-                v3::scale(u2, (s * a).sin()),
-            );
-            let l = v3::norm(d);
-            return (l > 0.0 && l.is_finite()).then(|| v3::scale(d, 1.0 / l));
-        }
-        acc += a;
-    }
-    None
+    let l = v3::norm(d);
+    (l > 0.0 && l.is_finite()).then(|| v3::scale(d, 1.0 / l))
 }
 
 /// Crack nodes that lie inside a crack side edge of another group (rest
 /// positions): `(node, edge start, edge end, parameter along the edge)`, in
 /// node order. Found with a uniform grid over the crack nodes.
 fn t_junctions(mesh: &SimMesh) -> Vec<(VertexId, VertexId, VertexId, f64)> {
-    let nodes: Vec<VertexId> = mesh.vertices().filter(|&v| on_crack(mesh, v)).collect();
+    let nodes = crack_vertices(mesh);
+    let roots = mesh.vertex_roots();
     let sides: Vec<(VertexId, VertexId)> = mesh
         .halfedges()
         .filter(|&h| mesh.is_crack_halfedge(h))
@@ -187,7 +149,7 @@ fn t_junctions(mesh: &SimMesh) -> Vec<(VertexId, VertexId, VertexId, f64)> {
         if l2 == 0.0 {
             continue;
         }
-        let (ra, rb) = (root(mesh, a), root(mesh, b));
+        let (ra, rb) = (roots[a.idx()], roots[b.idx()]);
         let (ka, kb) = (key(pa), key(pb));
         let lo: [i64; 3] = std::array::from_fn(|k| ka[k].min(kb[k]) - 1);
         let hi: [i64; 3] = std::array::from_fn(|k| ka[k].max(kb[k]) + 1);
@@ -195,7 +157,7 @@ fn t_junctions(mesh: &SimMesh) -> Vec<(VertexId, VertexId, VertexId, f64)> {
             for y in lo[1]..=hi[1] {
                 for z in lo[2]..=hi[2] {
                     for &q in grid.get(&[x, y, z]).map_or(&[][..], |v| v.as_slice()) {
-                        let rq = root(mesh, q);
+                        let rq = roots[q.idx()];
                         if rq == ra || rq == rb {
                             continue;
                         }
@@ -221,21 +183,28 @@ fn t_junctions(mesh: &SimMesh) -> Vec<(VertexId, VertexId, VertexId, f64)> {
 /// vertex.
 fn crack_groups(mesh: &SimMesh) -> Vec<Vec<VertexId>> {
     let mut groups: std::collections::BTreeMap<u32, Vec<VertexId>> = Default::default();
-    for v in mesh.vertices().filter(|&v| on_crack(mesh, v)) {
-        groups.entry(root(mesh, v).0).or_default().push(v);
+    let roots = mesh.vertex_roots();
+    for v in crack_vertices(mesh) {
+        groups.entry(roots[v.idx()]).or_default().push(v);
     }
     groups.into_values().collect()
 }
 
 /// Widest distance between two of `group`'s positions.
-fn spread(group: &[VertexId], positions: &[[f64; 3]]) -> f64 {
+fn spread(group: &[VertexId], position: impl Fn(VertexId) -> [f64; 3]) -> f64 {
     let mut w: f64 = 0.0;
-    for (i, a) in group.iter().enumerate() {
-        for b in &group[i + 1..] {
-            w = w.max(v3::norm(v3::sub(positions[a.idx()], positions[b.idx()])));
+    for (i, &a) in group.iter().enumerate() {
+        for &b in &group[i + 1..] {
+            w = w.max(v3::norm(v3::sub(position(a), position(b))));
         }
     }
     w
+}
+
+/// Mean of `group`'s moves.
+fn mean_move(group: &[VertexId], mv: &[[f64; 3]]) -> [f64; 3] {
+    let sum = group.iter().fold([0.0; 3], |s, v| v3::add(s, mv[v.idx()]));
+    v3::scale(sum, 1.0 / group.len() as f64)
 }
 
 /// Whether face `f` is flipped or collapsed at `positions` compared with
@@ -274,20 +243,10 @@ pub fn displace(mesh: &SimMesh, displacement: &[[f64; 3]], opts: &WidthOptions) 
     // Width limit: shrink each crack vertex's copies towards their mean move.
     if opts.max_width > 0.0 {
         for g in &groups {
-            let moved: Vec<[f64; 3]> = g
-                .iter()
-                .map(|v| v3::add(rest[v.idx()], mv[v.idx()]))
-                .collect();
-            let mut w: f64 = 0.0;
-            for (i, a) in moved.iter().enumerate() {
-                for b in &moved[i + 1..] {
-                    w = w.max(v3::norm(v3::sub(*a, *b)));
-                }
-            }
+            let w = spread(g, |v| v3::add(rest[v.idx()], mv[v.idx()]));
             if w > opts.max_width {
                 let k = opts.max_width / w;
-                let mean = g.iter().fold([0.0; 3], |s, v| v3::add(s, mv[v.idx()]));
-                let mean = v3::scale(mean, 1.0 / g.len() as f64);
+                let mean = mean_move(g, &mv);
                 for v in g {
                     let off = v3::sub(mv[v.idx()], mean);
                     mv[v.idx()] = v3::add(mean, v3::scale(off, k));
@@ -308,8 +267,7 @@ pub fn displace(mesh: &SimMesh, displacement: &[[f64; 3]], opts: &WidthOptions) 
         if g.len() < 2 {
             continue;
         }
-        let mean = g.iter().fold([0.0; 3], |s, v| v3::add(s, mv[v.idx()]));
-        let mean = v3::scale(mean, 1.0 / g.len() as f64);
+        let mean = mean_move(g, &mv);
         for &v in g {
             let open = away_from_crack(mesh, v)
                 .map(|dir| v3::scale(dir, v3::dot(v3::sub(mv[v.idx()], mean), dir).max(0.0)))
@@ -409,7 +367,7 @@ pub fn displace(mesh: &SimMesh, displacement: &[[f64; 3]], opts: &WidthOptions) 
 
     let mut sum = 0.0;
     for g in &groups {
-        let w = spread(g, &positions);
+        let w = spread(g, |v| positions[v.idx()]);
         out.max_gap = out.max_gap.max(w);
         sum += w;
     }

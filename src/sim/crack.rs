@@ -93,6 +93,40 @@ pub fn crack_directions(mesh: &SimMesh, v: VertexId) -> Vec<[f64; 3]> {
     out
 }
 
+/// The angle `v`'s fan of faces spans at `v`, and the unit direction
+/// through the middle of that angle (the fan walked counter-clockwise from
+/// [`SimMesh::vertex_halfedge`]). On a copy of a crack node the fan lies
+/// between two crack edges, so the middle points away from the crack:
+/// perpendicular to a straight crack, the bisector at a corner. `None` when
+/// the fan has no non-degenerate corner or the middle direction vanishes.
+pub fn fan_middle(mesh: &SimMesh, v: VertexId) -> Option<(f64, [f64; 3])> {
+    let pv = mesh.position(v);
+    let mut corners: Vec<([f64; 3], [f64; 3], f64)> = Vec::new();
+    for h in mesh.vertex_outgoing(v) {
+        let a = unit(v3::sub(mesh.position(mesh.dest(h)), pv));
+        let b = unit(v3::sub(mesh.position(mesh.origin(mesh.prev(h))), pv));
+        if let (Some(ua), Some(ub)) = (a, b) {
+            corners.push((ua, ub, v3::dot(ua, ub).clamp(-1.0, 1.0).acos()));
+        }
+    }
+    let total: f64 = corners.iter().map(|c| c.2).sum();
+    let half = 0.5 * total;
+    let mut acc = 0.0;
+    for (u1, u2, a) in corners {
+        if acc + a >= half {
+            // Turn u1 towards u2 by (half - acc) within this corner.
+            let s = if a > 0.0 { (half - acc) / a } else { 0.0 };
+            let d = v3::add(
+                v3::scale(u1, ((1.0 - s) * a).sin()),
+                v3::scale(u2, (s * a).sin()),
+            );
+            return unit(d).map(|d| (total, d));
+        }
+        acc += a;
+    }
+    None
+}
+
 /// Triangle quality `4 sqrt(3) A / (l0^2 + l1^2 + l2^2)`: 1 for an
 /// equilateral triangle, 0 for a degenerate one.
 pub fn triangle_quality(p: [[f64; 3]; 3]) -> f64 {

@@ -702,51 +702,9 @@ fn tip_plane(mesh: &SimMesh, st: &State, v: VertexId) -> Option<[f64; 3]> {
 /// each copy has one) spans more than 270 degrees between two crack
 /// edges, the unit bisector of that fan; otherwise `None`.
 fn wide_corner(mesh: &SimMesh, v: VertexId) -> Option<[f64; 3]> {
-    let pv = mesh.position(v);
-    let mut total = 0.0;
-    let mut first: Option<[f64; 3]> = None;
-    let mut edges: Vec<([f64; 3], [f64; 3])> = Vec::new();
-    for f in mesh.vertex_faces(v) {
-        let [a, b, c] = mesh.face_vertices(f);
-        let (p, q) = if a == v {
-            (b, c)
-        } else if b == v {
-            (c, a)
-        } else {
-            (a, b)
-        };
-        let (e1, e2) = (v3::sub(mesh.position(p), pv), v3::sub(mesh.position(q), pv));
-        let (l1, l2) = (v3::norm(e1), v3::norm(e2));
-        if l1 > 0.0 && l2 > 0.0 {
-            total += (v3::dot(e1, e2) / (l1 * l2)).clamp(-1.0, 1.0).acos();
-        }
-        first.get_or_insert(e1);
-        edges.push((e1, e2));
-    }
-    if total <= 1.5 * std::f64::consts::PI {
-        return None;
-    }
-    // Walk the fan to the middle of its angle.
-    let half = 0.5 * total;
-    let mut acc = 0.0;
-    for (e1, e2) in edges {
-        let (l1, l2) = (v3::norm(e1), v3::norm(e2));
-        if l1 == 0.0 || l2 == 0.0 {
-            continue;
-        }
-        let (u1, u2) = (v3::scale(e1, 1.0 / l1), v3::scale(e2, 1.0 / l2));
-        let a = v3::dot(u1, u2).clamp(-1.0, 1.0).acos();
-        if acc + a >= half {
-            // Rotate u1 towards u2 by (half - acc) within this corner.
-            let s = if a > 0.0 { (half - acc) / a } else { 0.0 };
-            let (w1, w2) = (((1.0 - s) * a).sin(), (s * a).sin());
-            let d = v3::add(v3::scale(u1, w1), v3::scale(u2, w2));
-            let l = v3::norm(d);
-            return (l > 0.0).then(|| v3::scale(d, 1.0 / l));
-        }
-        acc += a;
-    }
-    None
+    crate::sim::crack::fan_middle(mesh, v)
+        .filter(|(angle, _)| *angle > 1.5 * std::f64::consts::PI)
+        .map(|(_, d)| d)
 }
 
 /// Crack finishing (sec. 5): each pass cracks every tip once along its
@@ -765,7 +723,7 @@ fn finish_cracks(
     let mut fin = FinishReport::default();
     let mut stuck: std::collections::BTreeSet<u32> = Default::default();
     let (cracks0, length0) = (report.cracks, report.crack_length);
-    let mut first = true;
+    fin.tips = finish_tips(mesh, st).len();
     let mut loaded = params.load_time;
     // Every pass moves each tip at least one fan further; a generous bound
     // on the passes keeps a pathological mesh from looping.
@@ -775,10 +733,6 @@ fn finish_cracks(
             .into_iter()
             .filter(|(v, _)| !stuck.contains(&v.0))
             .collect();
-        if first {
-            fin.tips = tips.len();
-            first = false;
-        }
         if tips.is_empty() {
             break;
         }

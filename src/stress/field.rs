@@ -383,11 +383,7 @@ impl StressField {
     /// A term with an invalid value, or a mask on a mesh without the UV set
     /// it samples (the message names the term).
     pub fn build(mesh: &SimMesh, terms: &[Term], seed: u64) -> Result<StressField, FieldError> {
-        let k = terms
-            .iter()
-            .any(Term::needs_curvature)
-            .then(|| curvature::estimate(mesh));
-        StressField::build_with(mesh, terms, seed, k.as_ref())
+        StressField::build_with(mesh, terms, seed, None)
     }
 
     /// As [`StressField::build`], with the curvature estimate given (it is

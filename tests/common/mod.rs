@@ -145,6 +145,33 @@ pub struct Validator {
     script: PathBuf,
 }
 
+/// `crackle crack INPUT OUT --report OUT.json EXTRA...`, its report next to
+/// the output (see [`report`]).
+pub fn crack(input: &Path, out: &Path, extra: &[&str]) -> Output {
+    let rep = out.with_extension("json");
+    Command::new(crackle_bin())
+        .args(["crack".as_ref(), input.as_os_str(), out.as_os_str()])
+        .args(["--report".as_ref(), rep.as_os_str()])
+        .args(extra)
+        .output()
+        .unwrap()
+}
+
+/// The report [`crack`] wrote for `out`.
+pub fn report(out: &Path) -> serde_json::Value {
+    serde_json::from_slice(&std::fs::read(out.with_extension("json")).unwrap()).unwrap()
+}
+
+/// The names of the stages a report lists, in order.
+pub fn stages(r: &serde_json::Value) -> Vec<String> {
+    r["stages"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|s| s["name"].as_str().unwrap().to_string())
+        .collect()
+}
+
 /// Finds the glTF-Validator. Returns `None` (after printing a SKIP line) when node or
 /// the package is missing, except under CI, where this panics.
 pub fn validator() -> Option<Validator> {
