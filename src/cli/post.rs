@@ -92,6 +92,7 @@ pub fn apply(
                     "depth": depth,
                     "triangles": w.triangles.len(),
                     "skipped_degenerate": w.skipped_degenerate,
+                    "skipped_closed_sides": w.skipped_closed,
                 }),
             );
             out.time("walls", t.elapsed().as_secs_f64());

@@ -29,6 +29,14 @@
 //! the crack side's face, and finally to zero (the bottom vertex at the rest
 //! position); it is never NaN.
 //!
+//! The bottom line then moves along the surface with the crack: each bottom
+//! vertex by the tangential part (perpendicular to its normal) of the mean
+//! move of the crack vertices over it, or at a T-junction of the spanning
+//! side's edge alone (see [`Bottoms::follow_the_surface`]). The walls hang
+//! below the middle of the gap, instead of slanting back to where the crack
+//! was at rest; slanted walls of a narrow gap that slid far along the crack
+//! passed through each other.
+//!
 //! # T-junctions
 //!
 //! A crack may end *on* another crack: the junction vertex exists on one
@@ -72,6 +80,16 @@
 //! triangle, although they coincide geometrically (both sides share both top
 //! vertices, so that pocket has no volume and the surface itself is pinched
 //! along the edge).
+//!
+//! # Closed cracks
+//!
+//! Where a crack stayed shut (both sides of a crack edge have their top
+//! vertices at exactly the same positions, as the opening rule of crack
+//! width leaves a squeezed crack), the pocket has no volume and the two
+//! walls would lie on each other. Both are left out and counted in
+//! [`Walls::skipped_closed`]; the union stays closed, because the surface
+//! edges of the two sides coincide and so do the end edges of the walls
+//! next to them.
 //!
 //! # Orientation and output
 //!
@@ -147,6 +165,9 @@ pub struct Walls {
     /// Wall triangles not emitted because their area was (nearly) zero: at
     /// most `1e-12` times their longest edge squared, or not finite.
     pub skipped_degenerate: usize,
+    /// Crack sides without walls because the crack stayed shut there (see
+    /// [`build_walls`]'s module docs, "Closed cracks").
+    pub skipped_closed: usize,
 }
 
 impl Walls {
@@ -182,7 +203,7 @@ pub fn build_walls(mesh: &SimMesh, top: &[[f64; 3]], opts: &WallOptions) -> Wall
         mesh.n_vertices()
     );
     let roots = mesh.vertex_roots();
-    let bottoms = Bottoms::new(mesh, &roots, &crack, opts.depth);
+    let mut bottoms = Bottoms::new(mesh, &roots, &crack, opts.depth);
     let grid = RootGrid::new(mesh, &roots, &bottoms, &crack);
     let next = chain_next(mesh, &crack);
     let arc = arc_starts(mesh, &crack, &next, top);
@@ -201,14 +222,28 @@ pub fn build_walls(mesh: &SimMesh, top: &[[f64; 3]], opts: &WallOptions) -> Wall
         }
     }
 
+    let lines: Vec<Vec<(f64, usize)>> = crack
+        .iter()
+        .map(|&h| {
+            let su = bottoms.slot_of(&roots, mesh.origin(h));
+            let sv = bottoms.slot_of(&roots, mesh.dest(h));
+            let mut line = vec![(0.0, su)];
+            line.extend(grid.on_segment(&bottoms.rest, su, sv));
+            line.push((1.0, sv));
+            line
+        })
+        .collect();
+    bottoms.follow_the_surface(mesh, &roots, &crack, &lines, top);
+
+    let closed = closed_sides(mesh, &crack, &lines, &bottoms, &roots, top);
+
     let mut out = Walls::default();
-    for (i, &h) in crack.iter().enumerate() {
+    for (i, (&h, line)) in crack.iter().zip(&lines).enumerate() {
+        if closed[i] {
+            out.skipped_closed += 1;
+            continue;
+        }
         let (u, v) = (mesh.origin(h), mesh.dest(h));
-        let su = bottoms.slot_of(&roots, u);
-        let sv = bottoms.slot_of(&roots, v);
-        let mut line = vec![(0.0, su)];
-        line.extend(grid.on_segment(&bottoms.rest, su, sv));
-        line.push((1.0, sv));
         let apex = match (tip_at_start[i], tip_at_end[i]) {
             (true, _) => Apex::Start,
             (false, true) => Apex::End,
@@ -217,12 +252,59 @@ pub fn build_walls(mesh: &SimMesh, top: &[[f64; 3]], opts: &WallOptions) -> Wall
         let wall = WallPolygon {
             tu: top[u.idx()],
             tv: top[v.idx()],
-            line: &line,
+            line,
             u0: arc[i],
         };
         wall.emit(&mut out, &bottoms.position, apex);
     }
     out
+}
+
+/// Which crack sides stayed shut: the side `u -> v` and an opposite side
+/// `v' -> u'` (same bottom vertices, reversed, and no junction between)
+/// whose top vertices are at exactly the same positions. Their pocket has
+/// no volume, and their walls would lie on each other; both are left out.
+/// The union stays closed: the surface edges of the two sides coincide, and
+/// so do the end edges of the walls on either side of them.
+fn closed_sides(
+    mesh: &SimMesh,
+    crack: &[HalfedgeId],
+    lines: &[Vec<(f64, usize)>],
+    bottoms: &Bottoms,
+    roots: &[u32],
+    top: &[P3],
+) -> Vec<bool> {
+    let mut closed = vec![false; crack.len()];
+    let mut by_ends: BTreeMap<(usize, usize), Vec<usize>> = BTreeMap::new();
+    for (i, line) in lines.iter().enumerate() {
+        if line.len() == 2 {
+            by_ends.entry((line[0].1, line[1].1)).or_default().push(i);
+        }
+    }
+    for (i, &h) in crack.iter().enumerate() {
+        if closed[i] || lines[i].len() != 2 {
+            continue;
+        }
+        let (su, sv) = (lines[i][0].1, lines[i][1].1);
+        if su == sv {
+            continue;
+        }
+        let (u, v) = (mesh.origin(h), mesh.dest(h));
+        let partner = by_ends.get(&(sv, su)).and_then(|list| {
+            list.iter().copied().find(|&j| {
+                let g = crack[j];
+                !closed[j]
+                    && top[mesh.origin(g).idx()] == top[v.idx()]
+                    && top[mesh.dest(g).idx()] == top[u.idx()]
+            })
+        });
+        if let Some(j) = partner {
+            debug_assert_eq!(bottoms.slot_of(roots, mesh.origin(crack[j])), sv);
+            closed[i] = true;
+            closed[j] = true;
+        }
+    }
+    closed
 }
 
 /// The crack sides of `mesh` (crack and boundary halfedges), in id order.
@@ -245,8 +327,11 @@ struct Bottoms {
     rest: Vec<P3>,
     /// Bottom position of each slot: `rest - depth * n`, with `n` the
     /// slot's outward unit (or, failing every fallback, zero) normal from
-    /// [`bottom_normals`].
+    /// [`bottom_normals`], later moved along the surface by
+    /// [`Bottoms::follow_the_surface`].
     position: Vec<P3>,
+    /// Each slot's outward unit (or zero) normal.
+    normal: Vec<P3>,
 }
 
 impl Bottoms {
@@ -282,6 +367,67 @@ impl Bottoms {
             slot_of_root,
             rest,
             position,
+            normal,
+        }
+    }
+
+    /// Move every bottom vertex along the surface with the crack line: by
+    /// the tangential part (perpendicular to the slot's normal) of the mean
+    /// move `top - rest` of the crack vertices of the slot, or, at a
+    /// T-junction, of the spanning sides' edges at the junction's parameter
+    /// alone (`lines`, one per crack side): the split side's copies there
+    /// open into the branch, and a bottom pulled after them slants the
+    /// spanning side's wall under the split side's.
+    fn follow_the_surface(
+        &mut self,
+        mesh: &SimMesh,
+        roots: &[u32],
+        crack: &[HalfedgeId],
+        lines: &[Vec<(f64, usize)>],
+        top: &[P3],
+    ) {
+        let n = self.rest.len();
+        let mut sum = vec![[0.0; 3]; n];
+        let mut count = vec![0.0f64; n];
+        // At T-junctions: the spanning sides' moves alone.
+        let mut span_sum = vec![[0.0; 3]; n];
+        let mut span_count = vec![0.0f64; n];
+        let mut seen = vec![false; mesh.n_vertices()];
+        let moved = |v: VertexId| v3::sub(top[v.idx()], mesh.position(v));
+        for (&h, line) in crack.iter().zip(lines) {
+            let (u, v) = (mesh.origin(h), mesh.dest(h));
+            for w in [u, v] {
+                if !seen[w.idx()] {
+                    seen[w.idx()] = true;
+                    let s = self.slot_of(roots, w);
+                    sum[s] = v3::add(sum[s], moved(w));
+                    count[s] += 1.0;
+                }
+            }
+            let (mu, mv) = (moved(u), moved(v));
+            for &(t, s) in &line[1..line.len() - 1] {
+                let m = v3::add(v3::scale(mu, 1.0 - t), v3::scale(mv, t));
+                span_sum[s] = v3::add(span_sum[s], m);
+                span_count[s] += 1.0;
+            }
+        }
+        for s in 0..n {
+            if span_count[s] > 0.0 {
+                sum[s] = span_sum[s];
+                count[s] = span_count[s];
+            }
+        }
+        for s in 0..n {
+            if count[s] == 0.0 {
+                continue;
+            }
+            let mean = v3::scale(sum[s], 1.0 / count[s]);
+            if !mean.iter().all(|x| x.is_finite()) {
+                continue;
+            }
+            let nrm = self.normal[s];
+            let along = v3::sub(mean, v3::scale(nrm, v3::dot(mean, nrm)));
+            self.position[s] = v3::add(self.position[s], along);
         }
     }
 
@@ -1121,31 +1267,15 @@ mod tests {
         assert_eq!(intersecting_pairs(&positions, &tris), vec![]);
 
         // A crack of a single edge: tips at both ends, so both sides share
-        // both top vertices (the surface itself is pinched there). The two
-        // walls coincide geometrically but use different diagonals, so they
-        // share no triangle and every edge among them pairs up.
+        // both top vertices (the surface itself is pinched there): the
+        // pocket has no volume, and neither side gets a wall.
         let (mut m, _) = build(&grid_input(4, 4));
         open_path(&mut m, &[[1.0, 2.0], [2.0, 2.0]]);
         let top = m.positions().to_vec();
         let w = build_walls(&m, &top, &WallOptions { depth: DEPTH });
-        assert_well_formed(&w);
-        assert_eq!(w.triangles.len(), 4);
-        let key = |p: P3| p.map(f64::to_bits);
-        let mut sets = BTreeSet::new();
-        let mut edges: BTreeMap<([u64; 3], [u64; 3]), usize> = BTreeMap::new();
-        for i in 0..4 {
-            let p = triangle(&w, i);
-            let mut k = p.map(key);
-            k.sort_unstable();
-            assert!(sets.insert(k), "the two walls share a triangle");
-            for j in 0..3 {
-                *edges.entry((key(p[j]), key(p[(j + 1) % 3]))).or_default() += 1;
-            }
-        }
-        for (&(a, b), &c) in &edges {
-            assert_eq!(c, 1);
-            assert_eq!(edges.get(&(b, a)), Some(&1));
-        }
+        assert!(w.triangles.is_empty());
+        assert_eq!(w.skipped_closed, 2);
+        assert_eq!(open_edges(&m, &top, &w), vec![]);
     }
 
     /// A plate with crack 1 along y = 3 from x = 1 to 5, whose lower side's
@@ -1185,11 +1315,15 @@ mod tests {
         assert_eq!(w.skipped_degenerate, 0);
         assert_eq!(w.triangles.len(), 2 * n_sides + 1);
         assert_eq!(open_edges(&m, &top, &w), vec![]);
-        let junction = [3.5, 3.0, -DEPTH];
+        // The junction's bottom: below the junction, moved along the plate
+        // with the mean of the sides meeting there (less than the
+        // separation).
+        let is_junction =
+            |q: &P3| q[2] == -DEPTH && (q[0] - 3.5).abs() < 0.1 && (q[1] - 3.0).abs() < 0.1;
         let upper = (0..w.triangles.len())
             .map(|t| triangle(&w, t))
             .filter(|p| p.iter().any(|q| q[1] > 3.0))
-            .filter(|p| p.contains(&junction))
+            .filter(|p| p.iter().any(is_junction))
             .count();
         assert!(
             upper >= 1,
@@ -1244,6 +1378,38 @@ mod tests {
     }
 
     /// Requirement 5: nothing to build.
+    /// A crack whose sides did not move apart has no walls (each pair of
+    /// opposite sides is counted as closed), and the union is still closed:
+    /// the surface edges of the two sides coincide.
+    #[test]
+    fn closed_cracks_get_no_walls_and_stay_closed() {
+        let (m, _) = straight_crack();
+        let top = m.positions().to_vec();
+        let w = build_walls(&m, &top, &WallOptions { depth: DEPTH });
+        let n_sides = m.halfedges().filter(|&h| m.is_crack_halfedge(h)).count();
+        assert!(w.triangles.is_empty());
+        assert_eq!(w.skipped_closed, n_sides);
+        assert_eq!(open_edges(&m, &top, &w), vec![]);
+        // Opened on one half only: the other half stays shut and the union
+        // is closed.
+        let mut top = separate(&m, 0.1, true);
+        for v in m.vertices() {
+            if m.position(v)[0] < 2.0 {
+                top[v.idx()] = m.position(v);
+            }
+        }
+        let w = build_walls(&m, &top, &WallOptions { depth: DEPTH });
+        assert!(w.skipped_closed > 0 && !w.triangles.is_empty());
+        // Open only where the gap meets the plate's rim at x = 4.
+        let open = open_edges(&m, &top, &w);
+        assert!(
+            open.iter().all(|(a, b)| a[0] == 4.0 && b[0] == 4.0),
+            "{open:?}"
+        );
+        let (positions, tris) = union(&m, &top, &w);
+        assert_eq!(intersecting_pairs(&positions, &tris), vec![]);
+    }
+
     #[test]
     fn uncracked_mesh_or_bad_depth_gives_no_walls() {
         let (m, _) = build(&grid_input(3, 3));
@@ -1272,6 +1438,13 @@ mod tests {
             .find(|&v| m.position(v) == [2.0, 2.0, 0.0] && top[v.idx()][1] < 2.0)
             .unwrap();
         top[v.idx()] = [2.0, 2.0, -DEPTH];
+        // The other copy stays put, so the bottom does not move along the
+        // surface (only `v` moved, along the normal).
+        let other = m
+            .vertices()
+            .find(|&u| u != v && m.position(u) == [2.0, 2.0, 0.0])
+            .unwrap();
+        top[other.idx()] = [2.0, 2.0, 0.0];
         let w = build_walls(&m, &top, &WallOptions { depth: DEPTH });
         assert_eq!(w.skipped_degenerate, 2);
         assert_eq!(w.triangles.len(), 2 * 8 - 2);
@@ -1361,9 +1534,10 @@ mod tests {
         for p in &b.position {
             assert_eq!(p[2], -0.5);
         }
+        // Both sides share both top vertices: a shut crack, no walls.
         let w = build_walls(&m, m.positions(), &WallOptions { depth: 0.5 });
-        assert_well_formed(&w);
-        assert_eq!(w.triangles.len(), 4);
+        assert!(w.triangles.is_empty());
+        assert_eq!(w.skipped_closed, 2);
     }
 
     /// Requirement 8: a jittered plate with a zig-zag crack from the rim to

@@ -179,15 +179,105 @@ fn t_junctions(mesh: &SimMesh) -> Vec<(VertexId, VertexId, VertexId, f64)> {
     out
 }
 
-/// Crack nodes grouped by root, in root order: the copies of each crack
-/// vertex.
-fn crack_groups(mesh: &SimMesh) -> Vec<Vec<VertexId>> {
-    let mut groups: std::collections::BTreeMap<u32, Vec<VertexId>> = Default::default();
-    let roots = mesh.vertex_roots();
-    for v in crack_vertices(mesh) {
-        groups.entry(roots[v.idx()]).or_default().push(v);
+/// Sets of crack nodes whose moves are tied together by the opening rules:
+/// the copies of a crack vertex, joined with the copies of the ends of the
+/// edge a T-junction node lies on.
+struct Links {
+    /// Set index of each vertex ([`usize::MAX`]: not a crack node).
+    set_of: Vec<usize>,
+    /// Members of each set, in id order.
+    sets: Vec<Vec<VertexId>>,
+}
+
+impl Links {
+    /// `v` and every node tied to it (just `v` when it is not a crack node).
+    fn of(&self, v: VertexId) -> Vec<VertexId> {
+        match self.set_of[v.idx()] {
+            usize::MAX => vec![v],
+            s => self.sets[s].clone(),
+        }
     }
-    groups.into_values().collect()
+}
+
+/// The [`Links`] of `mesh` from its crack groups and T-junctions.
+fn linked_nodes(
+    mesh: &SimMesh,
+    groups: &[Vec<VertexId>],
+    junctions: &[(VertexId, VertexId, VertexId, f64)],
+) -> Links {
+    // Union-find over groups.
+    let mut group_of = vec![usize::MAX; mesh.n_vertices()];
+    for (i, g) in groups.iter().enumerate() {
+        for v in g {
+            group_of[v.idx()] = i;
+        }
+    }
+    let mut parent: Vec<usize> = (0..groups.len()).collect();
+    fn find(parent: &mut [usize], mut x: usize) -> usize {
+        while parent[x] != x {
+            parent[x] = parent[parent[x]];
+            x = parent[x];
+        }
+        x
+    }
+    for &(q, a, b, _) in junctions {
+        let gq = group_of[q.idx()];
+        for e in [a, b] {
+            let ge = group_of[e.idx()];
+            if gq != usize::MAX && ge != usize::MAX {
+                let (x, y) = (find(&mut parent, gq), find(&mut parent, ge));
+                // The smaller index as the root keeps the sets' order fixed.
+                parent[x.max(y)] = x.min(y);
+            }
+        }
+    }
+    let mut set_index = vec![usize::MAX; groups.len()];
+    let mut sets: Vec<Vec<VertexId>> = Vec::new();
+    let mut set_of = vec![usize::MAX; mesh.n_vertices()];
+    for (i, group) in groups.iter().enumerate() {
+        let r = find(&mut parent, i);
+        if set_index[r] == usize::MAX {
+            set_index[r] = sets.len();
+            sets.push(Vec::new());
+        }
+        let s = set_index[r];
+        for &v in group {
+            sets[s].push(v);
+            set_of[v.idx()] = s;
+        }
+    }
+    for s in &mut sets {
+        s.sort();
+    }
+    Links { set_of, sets }
+}
+
+/// Crack nodes grouped by root, in order of the smallest root: the copies
+/// of each crack vertex. Roots at exactly the same rest position form one
+/// group (where both sides of a crack edge were split at the same point,
+/// each side's new vertex is its own root), as for the walls' bottom
+/// vertices.
+fn crack_groups(mesh: &SimMesh) -> Vec<Vec<VertexId>> {
+    let roots = mesh.vertex_roots();
+    let mut group_at: std::collections::BTreeMap<[u64; 3], usize> = Default::default();
+    let mut groups: Vec<Vec<VertexId>> = Vec::new();
+    let mut by_root: std::collections::BTreeMap<u32, Vec<VertexId>> = Default::default();
+    for v in crack_vertices(mesh) {
+        by_root.entry(roots[v.idx()]).or_default().push(v);
+    }
+    for (r, vs) in by_root {
+        let key = mesh.position(VertexId(r)).map(|x| (x + 0.0).to_bits()); // -0.0 and 0.0 alike
+        let next = groups.len();
+        let g = *group_at.entry(key).or_insert(next);
+        if g == next {
+            groups.push(Vec::new());
+        }
+        groups[g].extend(vs);
+    }
+    for g in &mut groups {
+        g.sort();
+    }
+    groups
 }
 
 /// Widest distance between two of `group`'s positions.
@@ -281,7 +371,8 @@ pub fn displace(mesh: &SimMesh, displacement: &[[f64; 3]], opts: &WidthOptions) 
     }
     // The same at T-junctions: a crack node lying on the other side's edge
     // (that side has no node there) opens away from that edge only.
-    for (q, a, b, t) in t_junctions(mesh) {
+    let junctions = t_junctions(mesh);
+    for &(q, a, b, t) in &junctions {
         let w = v3::add(v3::scale(mv[a.idx()], 1.0 - t), v3::scale(mv[b.idx()], t));
         let open = away_from_crack(mesh, q)
             .map(|dir| v3::scale(dir, v3::dot(v3::sub(mv[q.idx()], w), dir).max(0.0)))
@@ -339,6 +430,11 @@ pub fn displace(mesh: &SimMesh, displacement: &[[f64; 3]], opts: &WidthOptions) 
             .filter(|&f| bad_face(mesh, f, positions))
             .collect()
     };
+    // A crack node is halved together with every node its move was tied
+    // to above (its copies, and at a T-junction the spanning edge's ends
+    // and their copies), so the two sides of a crack stay apart: halving
+    // one copy alone would slide it against the other side.
+    let links = linked_nodes(mesh, &groups, &junctions);
     let mut flipped = bad(&positions);
     out.inverted_triangles = flipped.len();
     let mut shortened = vec![false; mesh.n_vertices()];
@@ -349,6 +445,7 @@ pub fn displace(mesh: &SimMesh, displacement: &[[f64; 3]], opts: &WidthOptions) 
         let mut nodes: Vec<VertexId> = flipped
             .iter()
             .flat_map(|&f| mesh.face_vertices(f))
+            .flat_map(|v| links.of(v))
             .collect();
         nodes.sort();
         nodes.dedup();
@@ -533,6 +630,59 @@ mod tests {
         }
         // The node still moved some of the way.
         assert!(out.positions[v.idx()][0] > 1.0);
+    }
+
+    /// A crack node whose triangle would flip is shortened together with
+    /// its copy on the other side, so the two never slide past each other:
+    /// after the halving, every pair of copies differs by a pure opening
+    /// (across the crack, here along y).
+    #[test]
+    fn shortening_keeps_the_copies_of_a_crack_node_together() {
+        let m = cracked_plate();
+        let mut d = pull_apart(&m, 0.1);
+        // Both copies of the crack node at x = 2 slide far along the crack,
+        // flipping triangles on both sides.
+        for v in m.vertices() {
+            if m.position(v) == [2.0, 3.0, 0.0] {
+                d[v.idx()][0] = 2.5;
+            }
+        }
+        let out = displace(&m, &d, &opts(1.0));
+        assert!(out.shortened_nodes > 0);
+        let copies: Vec<VertexId> = m
+            .vertices()
+            .filter(|&v| m.position(v) == [2.0, 3.0, 0.0])
+            .collect();
+        assert_eq!(copies.len(), 2);
+        let (a, b) = (
+            out.positions[copies[0].idx()],
+            out.positions[copies[1].idx()],
+        );
+        assert_eq!(a[0], b[0], "the copies slid apart along the crack");
+        assert!(a[0] > 2.0, "still moved some of the way");
+        for f in m.faces() {
+            assert!(!bad_face(&m, f, &out.positions));
+        }
+    }
+
+    /// Two roots at one rest position (both sides split at the same point)
+    /// are one crack node for the opening rule.
+    #[test]
+    fn roots_at_one_position_form_one_group() {
+        let m = cracked_plate();
+        let groups = crack_groups(&m);
+        for g in &groups {
+            let p = m.position(g[0]);
+            assert!(g.iter().all(|&v| m.position(v) == p));
+        }
+        let mut positions: Vec<[u64; 3]> = groups
+            .iter()
+            .map(|g| m.position(g[0]).map(f64::to_bits))
+            .collect();
+        let n = positions.len();
+        positions.sort();
+        positions.dedup();
+        assert_eq!(positions.len(), n, "one group per rest position");
     }
 
     #[test]
