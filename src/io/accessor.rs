@@ -317,7 +317,7 @@ impl<'a> AccessorReader<'a> {
     }
 
     /// Accessor `index` as `f32` components (normalized integers are mapped to
-    /// [0,1] or [-1,1], other integers converted). Matrices are refused.
+    /// `[0,1]` or `[-1,1]`, other integers converted). Matrices are refused.
     pub fn read_f32(&self, index: usize) -> Result<(AccessorInfo, Vec<f32>), String> {
         let (info, bytes) = self.read_packed(index)?;
         if info.kind.starts_with("MAT") {

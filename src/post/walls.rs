@@ -32,7 +32,7 @@
 //! The bottom line then moves along the surface with the crack: each bottom
 //! vertex by the tangential part (perpendicular to its normal) of the mean
 //! move of the crack vertices over it, or at a T-junction of the spanning
-//! side's edge alone (see [`Bottoms::follow_the_surface`]). The walls hang
+//! side's edge alone (`Bottoms::follow_the_surface`). The walls hang
 //! below the middle of the gap, instead of slanting back to where the crack
 //! was at rest; slanted walls of a narrow gap that slid far along the crack
 //! passed through each other.
