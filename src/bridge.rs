@@ -157,6 +157,23 @@ pub fn build_sim_meshes(scene: &Scene, options: &WeldOptions) -> (Vec<SimEntry>,
     (entries, skipped)
 }
 
+/// The simulation faces behind the triangles [`write_back`] writes into
+/// each primitive of the scene mesh, in the order written (`None` for a
+/// primitive it leaves alone).
+pub fn primitive_faces(entry: &SimEntry) -> Vec<Option<Vec<crate::mesh::FaceId>>> {
+    let mut out: Vec<Option<Vec<crate::mesh::FaceId>>> = entry
+        .layouts
+        .iter()
+        .map(|l| l.as_ref().map(|_| Vec::new()))
+        .collect();
+    for f in entry.sim.faces() {
+        if let Some(Some(list)) = out.get_mut(entry.sim.face_group(f) as usize) {
+            list.push(f);
+        }
+    }
+    out
+}
+
 /// Write a simulation mesh back into its scene mesh: each triangle primitive
 /// gets the simulation faces of its group, one output vertex per distinct
 /// (vertex, wedge) pair, with the attributes the primitive had.

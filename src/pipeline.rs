@@ -146,8 +146,8 @@ pub struct Post {
     /// the surface to the nearest crack, scene units) and `_CRACK_TIME`
     /// (when the nearest crack formed, 0..1). Default false.
     pub attributes: bool,
-    /// Write each piece the cracks cut the surface into as its own node
-    /// (not available yet: refused). Default false.
+    /// Write each piece the cracks cut the surface into as its own mesh on
+    /// its own node, with its pivot at the piece's centroid. Default false.
     pub split_islands: bool,
 }
 
@@ -202,9 +202,6 @@ impl Post {
         }
         if self.wall_material.is_empty() {
             return Err("post.wall_material must not be empty".into());
-        }
-        if self.split_islands {
-            return Err("post.split_islands is not available yet in this version".into());
         }
         Ok(())
     }

@@ -55,6 +55,22 @@ fn triangles(path: &Path) -> Vec<Tris> {
     out
 }
 
+/// Positions of the LINES primitives of an output.
+fn line_positions(path: &Path) -> Vec<[f64; 3]> {
+    let (doc, buffers, _) = gltf::import(path).unwrap();
+    let mut out = Vec::new();
+    for p in doc
+        .meshes()
+        .flat_map(|m| m.primitives().collect::<Vec<_>>())
+    {
+        if p.mode() == gltf::mesh::Mode::Lines {
+            let r = p.reader(|b| Some(&buffers[b.index()]));
+            out.extend(r.read_positions().unwrap().map(|q| q.map(f64::from)));
+        }
+    }
+    out
+}
+
 fn area(p: &[[f64; 3]], t: [u32; 3]) -> f64 {
     let [a, b, c] = t.map(|i| p[i as usize]);
     let u = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
@@ -93,6 +109,27 @@ fn mud_presets_give_gaps_walls_and_valid_files() {
                 .filter(|t| t.material == "crack_wall")
                 .collect();
             assert_eq!(walls.len(), 1, "{preset}: one wall primitive");
+            // The crack lines moved with the opened surface: they stay
+            // inside its bounding box (the width pulls the plate's border
+            // in; lines left at rest would poke out past it).
+            let surface = prims.iter().find(|t| t.material.is_empty()).unwrap();
+            let (lo, hi) = surface.positions.iter().fold(
+                ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]),
+                |(lo, hi), p| {
+                    (
+                        std::array::from_fn(|k| lo[k].min(p[k])),
+                        std::array::from_fn(|k| hi[k].max(p[k])),
+                    )
+                },
+            );
+            let lines = line_positions(&out);
+            assert!(!lines.is_empty());
+            for p in &lines {
+                assert!(
+                    (0..3).all(|k| p[k] >= lo[k] - 1e-6 && p[k] <= hi[k] + 1e-6),
+                    "{preset}: a crack line vertex {p:?} outside the surface {lo:?}..{hi:?}"
+                );
+            }
             assert!(walls[0].attributes.contains(&"NORMAL".to_string()));
             assert!(walls[0].attributes.contains(&"TEXCOORD_0".to_string()));
             // No zero-area faces made by the tool (the inputs have none).
@@ -233,7 +270,6 @@ fn post_values_are_checked_and_lines_can_be_left_out() {
         ("post.width=-1", "post.width"),
         ("post.curl_falloff=2", "post.curl_falloff"),
         ("post.wals=true", "wals"),
-        ("post.split_islands=true", "split_islands"),
     ] {
         let out = dir.path().join("x.glb");
         let o = Command::new(common::crackle_bin())
@@ -253,4 +289,186 @@ fn post_values_are_checked_and_lines_can_be_left_out() {
         .meshes()
         .flat_map(|m| m.primitives().collect::<Vec<_>>())
         .all(|p| p.mode() != gltf::mesh::Mode::Lines));
+}
+
+/// World-space triangles of every mesh node (node transforms applied), as
+/// (material, [corner positions]) with positions rounded to 1e-5 so the
+/// split and unsplit outputs compare despite f32 rounding of the pivots.
+fn world_triangles(path: &Path) -> Vec<(String, [[i64; 3]; 3])> {
+    let (doc, buffers, _) = gltf::import(path).unwrap();
+    let mut out = Vec::new();
+    fn walk(
+        n: gltf::Node,
+        parent: [[f64; 4]; 4],
+        buffers: &[gltf::buffer::Data],
+        out: &mut Vec<(String, [[i64; 3]; 3])>,
+    ) {
+        let local = n.transform().matrix().map(|c| c.map(f64::from));
+        let mut m = [[0.0; 4]; 4];
+        for (c, col) in m.iter_mut().enumerate() {
+            for (r, x) in col.iter_mut().enumerate() {
+                *x = (0..4).map(|k| parent[k][r] * local[c][k]).sum();
+            }
+        }
+        if let Some(mesh) = n.mesh() {
+            for p in mesh.primitives() {
+                if p.mode() != gltf::mesh::Mode::Triangles {
+                    continue;
+                }
+                let r = p.reader(|b| Some(&buffers[b.index()]));
+                let pos: Vec<[f64; 3]> = r
+                    .read_positions()
+                    .unwrap()
+                    .map(|q| {
+                        let q = q.map(f64::from);
+                        std::array::from_fn(|k| {
+                            m[0][k] * q[0] + m[1][k] * q[1] + m[2][k] * q[2] + m[3][k]
+                        })
+                    })
+                    .collect();
+                let idx: Vec<u32> = r.read_indices().unwrap().into_u32().collect();
+                let name = p.material().name().unwrap_or("").to_string();
+                for c in idx.chunks(3) {
+                    let t = [0, 1, 2].map(|k| pos[c[k] as usize].map(|x| (x * 1e5).round() as i64));
+                    out.push((name.clone(), t));
+                }
+            }
+        }
+        for c in n.children() {
+            walk(c, m, buffers, out);
+        }
+    }
+    let id = [
+        [1.0, 0.0, 0.0, 0.0],
+        [0.0, 1.0, 0.0, 0.0],
+        [0.0, 0.0, 1.0, 0.0],
+        [0.0, 0.0, 0.0, 1.0],
+    ];
+    for n in doc.default_scene().unwrap().nodes() {
+        walk(n, id, &buffers, &mut out);
+    }
+    out.sort();
+    out
+}
+
+#[test]
+fn split_islands_writes_each_piece_as_its_own_node() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = common::fixture("plate_jittered.obj");
+    let whole = dir.path().join("whole.glb");
+    let split = dir.path().join("split.glb");
+    let r0 = crack(&input, &whole, &["--preset", "mud"]);
+    let r = crack(&input, &split, &["--preset", "mud", "--split-islands"]);
+    assert!(stages(&r).contains(&"islands".to_string()));
+    assert!(!stages(&r0).contains(&"islands".to_string()));
+    assert_eq!(
+        r["cracks"], r0["cracks"],
+        "splitting does not change the run"
+    );
+    let pieces = r["meshes"][0]["post"]["islands"]["pieces"]
+        .as_u64()
+        .unwrap() as usize;
+    assert!(pieces >= 5, "the mud plate breaks into cells: {pieces}");
+    if let Some(v) = common::validator() {
+        v.assert_clean(&split);
+    }
+    // The same triangles in the world, surface and walls, just regrouped.
+    let (a, b) = (world_triangles(&whole), world_triangles(&split));
+    assert_eq!(a.len(), b.len());
+    let diff = a.iter().zip(&b).filter(|(x, y)| {
+        x.0 != y.0 || (0..3).any(|c| (0..3).any(|k| (x.1[c][k] - y.1[c][k]).abs() > 1))
+    });
+    assert_eq!(diff.count(), 0, "the pieces put together are the whole");
+
+    let (doc, buffers, _) = gltf::import(&split).unwrap();
+    let piece_nodes: Vec<gltf::Node> = doc
+        .nodes()
+        .filter(|n| n.name().is_some_and(|s| s.contains("_piece_")))
+        .collect();
+    assert_eq!(piece_nodes.len(), pieces);
+    let mut walls = 0;
+    for n in &piece_nodes {
+        let mesh = n.mesh().expect("a piece node has its mesh");
+        // Pivot at the piece's centroid: the local area-weighted centroid
+        // of its surface triangles is (about) zero, and the node is moved
+        // there.
+        let (mut sum, mut area_sum) = ([0.0f64; 3], 0.0);
+        for p in mesh.primitives() {
+            let r = p.reader(|b| Some(&buffers[b.index()]));
+            let pos: Vec<[f64; 3]> = r
+                .read_positions()
+                .unwrap()
+                .map(|q| q.map(f64::from))
+                .collect();
+            let idx: Vec<u32> = r.read_indices().unwrap().into_u32().collect();
+            if p.material().name() == Some("crack_wall") {
+                walls += 1;
+                continue;
+            }
+            for c in idx.chunks(3) {
+                let t = [c[0], c[1], c[2]];
+                let a = area(&pos, t);
+                for k in 0..3 {
+                    sum[k] += a
+                        * (pos[t[0] as usize][k] + pos[t[1] as usize][k] + pos[t[2] as usize][k])
+                        / 3.0;
+                }
+                area_sum += a;
+            }
+        }
+        assert!(area_sum > 0.0);
+        for s in sum {
+            assert!(
+                (s / area_sum).abs() < 1e-5,
+                "{:?}: centroid {:?}",
+                n.name(),
+                sum.map(|x| x / area_sum)
+            );
+        }
+        let (t, _, _) = n.transform().decomposed();
+        assert!(t.iter().any(|x| x.abs() > 1e-3), "moved to its centroid");
+    }
+    assert!(walls >= pieces / 2, "pieces carry their walls");
+}
+
+#[test]
+fn split_islands_keeps_instances_and_the_hierarchy() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("h.glb");
+    let input = common::fixture("hierarchy.glb");
+    let r = crack(&input, &out, &["--preset", "mud", "--split-islands"]);
+    if let Some(v) = common::validator() {
+        v.assert_clean(&out);
+    }
+    let (doc, _, _) = gltf::import(&out).unwrap();
+    let (orig, _, _) = gltf::import(&input).unwrap();
+    // Every original node is still there, in order, with its name.
+    for (a, b) in orig.nodes().zip(doc.nodes()) {
+        assert_eq!(a.name(), b.name());
+    }
+    // Each instance of a split mesh got its own piece children, and the
+    // instances share the piece meshes.
+    for m in r["meshes"].as_array().unwrap() {
+        let mi = m["index"].as_u64().unwrap() as usize;
+        let pieces = m["post"]["islands"]["pieces"].as_u64().unwrap() as usize;
+        let instances: Vec<gltf::Node> = orig
+            .nodes()
+            .filter(|n| n.mesh().map(|x| x.index()) == Some(mi))
+            .collect();
+        assert!(!instances.is_empty());
+        let mut shared: Option<Vec<usize>> = None;
+        for n in instances {
+            let out_node = doc.nodes().nth(n.index()).unwrap();
+            let kids: Vec<usize> = out_node
+                .children()
+                .filter(|c| c.name().is_some_and(|s| s.contains("_piece_")))
+                .map(|c| c.mesh().unwrap().index())
+                .collect();
+            assert_eq!(kids.len(), pieces, "{:?}", n.name());
+            match &shared {
+                None => shared = Some(kids),
+                Some(s) => assert_eq!(s, &kids, "instances share the piece meshes"),
+            }
+        }
+    }
 }

@@ -80,6 +80,9 @@ pub struct SimArgs {
     /// Do not bond the surface to the body under it (closed shells then shrink instead of cracking)
     #[arg(long)]
     unbonded: bool,
+    /// Write each piece the cracks cut a mesh into as its own node (same as --set post.split_islands=true)
+    #[arg(long)]
+    split_islands: bool,
 }
 
 impl SimArgs {
@@ -126,6 +129,9 @@ impl SimArgs {
         set("bonded", self.unbonded.then(|| "false".to_string()));
         if self.fixed_boundary {
             sets.push("select.fixed_boundary=true".into());
+        }
+        if self.split_islands {
+            sets.push("post.split_islands=true".into());
         }
         sets.extend(self.sets.iter().cloned());
         let usage = |e: crackle::pipeline::PipelineError| super::UsageError(e.to_string());

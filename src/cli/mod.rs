@@ -3,6 +3,7 @@
 mod convert;
 mod crack;
 mod info;
+mod islands;
 pub mod logger;
 mod post;
 

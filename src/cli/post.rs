@@ -138,6 +138,14 @@ pub fn apply(
             extra.push(("_CRACK_TIME".into(), label));
             out.time("attributes", t.elapsed().as_secs_f64());
         }
+        // The crack lines follow the opened surface: each end moves to the
+        // middle of the gap (the mean of the crack vertices at its rest
+        // position).
+        let segments = if moves {
+            follow_gaps(&e.sim, &positions, &r.segments)
+        } else {
+            r.segments.clone()
+        };
         if moves {
             turn_normals(&mut e.sim, &positions);
             e.sim
@@ -146,21 +154,70 @@ pub fn apply(
         }
         write_back_with(scene, e, &extra);
         walls_of.push(walls);
-        lines_of.push((
-            r.segments.clone(),
-            r.segment_times.iter().map(|t| t / end).collect(),
-        ));
+        lines_of.push((segments, r.segment_times.iter().map(|t| t / end).collect()));
         out.details.push(Value::Object(detail));
     }
-    for ((e, walls), (segments, times)) in entries.iter().zip(walls_of).zip(lines_of) {
-        if let Some(w) = walls {
-            add_walls(scene, e.mesh_index, &w, &post.wall_material);
-        }
+    let mut timing = PostOutcome::default();
+    for (((e, walls), (segments, times)), detail) in entries
+        .iter()
+        .zip(walls_of)
+        .zip(lines_of)
+        .zip(out.details.iter_mut())
+    {
+        let targets = n_targets(scene, e.mesh_index);
         if post.lines {
             add_crack_lines(scene, e.mesh_index, &segments, &times);
         }
+        if post.split_islands {
+            let t = Instant::now();
+            let wall_material = &post.wall_material;
+            let make = |scene: &mut Scene, w: &Walls, tris: &[usize], offset: [f64; 3]| {
+                wall_primitive(scene, w, tris, offset, wall_material, targets)
+            };
+            let s = super::islands::split(scene, e, walls.as_ref(), &make);
+            if let Value::Object(d) = detail {
+                d.insert(
+                    "islands".into(),
+                    json!({"pieces": s.pieces, "recentred": s.recentred, "largest_piece_triangles": s.largest}),
+                );
+            }
+            timing.time("islands", t.elapsed().as_secs_f64());
+        } else if let Some(w) = walls {
+            let all: Vec<usize> = (0..w.triangles.len()).collect();
+            if let Some(p) = wall_primitive(scene, &w, &all, [0.0; 3], &post.wall_material, targets)
+            {
+                scene.meshes[e.mesh_index].primitives.push(p);
+            }
+        }
     }
+    if post.split_islands {
+        super::islands::remove_empty_meshes(scene);
+    }
+    out.stages.extend(timing.stages);
     Ok(out)
+}
+
+/// `segments` (ends at crack vertices' rest positions) with each end moved
+/// to the mean of the `positions` of the crack vertices resting there; ends
+/// at no crack vertex stay.
+fn follow_gaps(
+    mesh: &crackle::mesh::SimMesh,
+    positions: &[[f64; 3]],
+    segments: &[[[f64; 3]; 2]],
+) -> Vec<[[f64; 3]; 2]> {
+    let key = |p: [f64; 3]| p.map(|x| (x + 0.0).to_bits());
+    let mut at: std::collections::BTreeMap<[u64; 3], ([f64; 3], f64)> = Default::default();
+    for v in crack_vertices(mesh) {
+        let e = at.entry(key(mesh.position(v))).or_insert(([0.0; 3], 0.0));
+        let p = positions[v.idx()];
+        e.0 = std::array::from_fn(|k| e.0[k] + p[k]);
+        e.1 += 1.0;
+    }
+    let moved = |p: [f64; 3]| match at.get(&key(p)) {
+        Some((sum, n)) => sum.map(|s| s / n),
+        None => p,
+    };
+    segments.iter().map(|s| s.map(moved)).collect()
 }
 
 /// Index of the material named `name`, added with `json` when missing.
@@ -188,52 +245,73 @@ fn n_targets(scene: &Scene, mesh_index: usize) -> usize {
         .unwrap_or(0)
 }
 
-/// The walls as a triangle primitive with their own material (normals and
-/// UVs from the wall builder; zero morph-target displacements when the mesh
-/// has targets).
-fn add_walls(scene: &mut Scene, mesh_index: usize, w: &Walls, name: &str) {
-    if w.triangles.is_empty() {
-        return;
+/// Triangles `tris` of the walls as a primitive with their own material
+/// `name` (normals and UVs from the wall builder; `targets` zero
+/// morph-target displacements), positions moved by `-offset`. `None` for
+/// no triangles.
+fn wall_primitive(
+    scene: &mut Scene,
+    w: &Walls,
+    tris: &[usize],
+    offset: [f64; 3],
+    name: &str,
+    targets: usize,
+) -> Option<Primitive> {
+    if tris.is_empty() {
+        return None;
     }
     let m = material(
         scene,
         name,
         json!({"pbrMetallicRoughness": {"baseColorFactor": [0.22, 0.16, 0.11, 1.0], "metallicFactor": 0.0, "roughnessFactor": 1.0}}),
     );
-    let f32s = |v: &[[f64; 3]]| v.iter().map(|p| p.map(|x| x as f32)).collect::<Vec<_>>();
-    let n = w.positions.len();
-    let targets = (0..n_targets(scene, mesh_index))
-        .map(|_| {
-            vec![VertexAttribute {
-                semantic: "POSITION".into(),
-                components: 3,
-                data: vec![0.0; 3 * n],
-            }]
-        })
+    // Wall vertices are not shared between triangles: take each
+    // triangle's three.
+    let corners = || {
+        tris.iter()
+            .flat_map(|&t| w.triangles[t])
+            .map(|i| i as usize)
+    };
+    let positions: Vec<[f32; 3]> = corners()
+        .map(|i| std::array::from_fn(|k| (w.positions[i][k] - offset[k]) as f32))
         .collect();
+    let n = positions.len();
     let geo = TriGeometry {
-        positions: f32s(&w.positions),
+        positions,
         attributes: vec![
             VertexAttribute {
                 semantic: "NORMAL".into(),
                 components: 3,
-                data: w.normals.iter().flatten().map(|&x| x as f32).collect(),
+                data: corners()
+                    .flat_map(|i| w.normals[i])
+                    .map(|x| x as f32)
+                    .collect(),
             },
             VertexAttribute {
                 semantic: "TEXCOORD_0".into(),
                 components: 2,
-                data: w.uvs.iter().flatten().map(|&x| x as f32).collect(),
+                data: corners().flat_map(|i| w.uvs[i]).map(|x| x as f32).collect(),
             },
         ],
-        triangles: w.triangles.clone(),
-        targets,
+        triangles: (0..tris.len() as u32)
+            .map(|t| [3 * t, 3 * t + 1, 3 * t + 2])
+            .collect(),
+        targets: (0..targets)
+            .map(|_| {
+                vec![VertexAttribute {
+                    semantic: "POSITION".into(),
+                    components: 3,
+                    data: vec![0.0; 3 * n],
+                }]
+            })
+            .collect(),
         group: None,
     };
-    scene.meshes[mesh_index].primitives.push(Primitive {
+    Some(Primitive {
         material: Some(m),
         geometry: Geometry::Triangles(geo),
         rest: Default::default(),
-    });
+    })
 }
 
 /// Add the crack segments of mesh `mesh_index` as a LINES primitive with the

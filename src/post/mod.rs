@@ -3,5 +3,6 @@
 //! attributes. Pure geometry: no I/O, nothing printed.
 
 pub mod distance;
+pub mod islands;
 pub mod walls;
 pub mod width;

@@ -115,7 +115,7 @@ use parry3d::bounding_volume::Aabb;
 use parry3d::math::Vector;
 use parry3d::partitioning::{Bvh, BvhBuildStrategy};
 
-use crate::mesh::{HalfedgeId, SimMesh, VertexId};
+use crate::mesh::{FaceId, HalfedgeId, SimMesh, VertexId};
 use crate::stress::tensor::v3;
 
 /// A point or vector.
@@ -165,6 +165,10 @@ pub struct Walls {
     /// Wall triangles not emitted because their area was (nearly) zero: at
     /// most `1e-12` times their longest edge squared, or not finite.
     pub skipped_degenerate: usize,
+    /// For each triangle, the surface face on whose crack side it hangs
+    /// (the face of the side's halfedge): which piece of the surface it
+    /// belongs to.
+    pub side_faces: Vec<FaceId>,
     /// Crack sides without walls because the crack stayed shut there (see
     /// [`build_walls`]'s module docs, "Closed cracks").
     pub skipped_closed: usize,
@@ -254,6 +258,7 @@ pub fn build_walls(mesh: &SimMesh, top: &[[f64; 3]], opts: &WallOptions) -> Wall
             tv: top[v.idx()],
             line,
             u0: arc[i],
+            face: mesh.face(h),
         };
         wall.emit(&mut out, &bottoms.position, apex);
     }
@@ -708,6 +713,8 @@ struct WallPolygon<'a> {
     line: &'a [(f64, usize)],
     /// Arc length at `u`.
     u0: f64,
+    /// The surface face of the crack side.
+    face: FaceId,
 }
 
 impl WallPolygon<'_> {
@@ -741,13 +748,13 @@ impl WallPolygon<'_> {
             tris.push([1, 2 + i, 3 + i]);
         }
         for t in tris {
-            emit_triangle(out, t.map(|l| pos[l]), t.map(|l| uv[l]));
+            emit_triangle(out, t.map(|l| pos[l]), t.map(|l| uv[l]), self.face);
         }
     }
 }
 
 /// Appends one flat-shaded triangle, or counts it as degenerate.
-fn emit_triangle(out: &mut Walls, p: [P3; 3], uv: [[f64; 2]; 3]) {
+fn emit_triangle(out: &mut Walls, p: [P3; 3], uv: [[f64; 2]; 3], face: FaceId) {
     let c = v3::cross(v3::sub(p[1], p[0]), v3::sub(p[2], p[0]));
     let twice_area = v3::norm(c);
     let longest2 = (0..3)
@@ -768,6 +775,7 @@ fn emit_triangle(out: &mut Walls, p: [P3; 3], uv: [[f64; 2]; 3]) {
         out.uvs.push(uvk);
     }
     out.triangles.push([base, base + 1, base + 2]);
+    out.side_faces.push(face);
 }
 
 /// The pairs `(i, j)`, `i < j`, of triangles (indices into `triangles`,
