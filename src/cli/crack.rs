@@ -160,6 +160,8 @@ pub struct CrackArgs<'a> {
     /// Folder of the pipeline file, for relative mask images.
     pub pipeline_dir: Option<PathBuf>,
     pub quiet: bool,
+    /// `--frames N DIR`.
+    pub frames: Option<super::frames::FramesArgs>,
 }
 
 /// Groups (primitive indices) of mesh `mesh_index` whose material or OBJ
@@ -340,6 +342,8 @@ pub fn run(mut a: CrackArgs) -> Result<()> {
         }
         stages.push(json!({"name": "stress", "seconds": t.elapsed().as_secs_f64()}));
     }
+    // Frames replay each mesh from its start.
+    let starts = a.frames.as_ref().map(|_| entries.clone());
     let t = Instant::now();
     let show = !a.quiet && std::io::stderr().is_terminal();
     let mut total = SimReport::default();
@@ -382,6 +386,7 @@ pub fn run(mut a: CrackArgs) -> Result<()> {
     if pipe.post.finish {
         stages.push(json!({"name": "finish", "seconds": finish_seconds}));
     }
+    let template = a.frames.as_ref().map(|_| scene.clone());
     let post = super::post::apply(&mut scene, &mut entries, &per_mesh, &pipe.post)?;
     for (name, seconds) in &post.stages {
         stages.push(json!({"name": name, "seconds": seconds}));
@@ -389,6 +394,28 @@ pub fn run(mut a: CrackArgs) -> Result<()> {
     let t = Instant::now();
     let summary = super::write_output(&scene, a.output)?;
     stages.push(json!({"name": "write", "seconds": t.elapsed().as_secs_f64()}));
+    let mut frames_report = serde_json::Value::Null;
+    if let (Some(frames), Some(starts), Some(template)) = (&a.frames, starts, template) {
+        let t = Instant::now();
+        let replays = starts
+            .into_iter()
+            .zip(&params_of)
+            .zip(&fields)
+            .zip(&per_mesh)
+            .map(|(((start, params), field), (_, r))| super::frames::Replay {
+                start,
+                params,
+                field: field.as_ref(),
+                end_time: r.time,
+            })
+            .collect();
+        let files = super::frames::write_frames(frames, a.output, &template, replays, &pipe.post)?;
+        stages.push(json!({"name": "frames", "seconds": t.elapsed().as_secs_f64()}));
+        frames_report = json!({
+            "count": files.len(),
+            "files": files.iter().map(|f| f.display().to_string()).collect::<Vec<_>>(),
+        });
+    }
     let report = json!({
         "input": a.input.display().to_string(),
         "output": a.output.display().to_string(),
@@ -403,6 +430,7 @@ pub fn run(mut a: CrackArgs) -> Result<()> {
         "stages": stages,
         "meshes": per_mesh.iter().zip(&post.details).map(|((mi, r), d)| json!({"index": mi, "report": r, "post": d})).collect::<Vec<_>>(),
         "warnings": scene.warnings,
+        "frames": frames_report,
     });
     if let Some(p) = a.report {
         std::fs::write(p, serde_json::to_vec_pretty(&report)?)

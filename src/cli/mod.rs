@@ -2,6 +2,7 @@
 
 mod convert;
 mod crack;
+mod frames;
 mod info;
 mod islands;
 pub mod logger;
@@ -60,6 +61,9 @@ enum Command {
         /// Weld tolerance, relative to each mesh's bounding-box diagonal
         #[arg(long, value_name = "REL", default_value_t = crackle::mesh::WeldOptions::default().relative_tolerance)]
         weld_tolerance: f64,
+        /// Also write N frames of the crack state through the run into DIR (a time-lapse; runs the simulation twice)
+        #[arg(long, num_args = 2, value_names = ["N", "DIR"])]
+        frames: Option<Vec<String>>,
     },
     /// Read, weld and write a mesh (.gltf or .glb output)
     Convert {
@@ -169,6 +173,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
             report,
             sim,
             weld_tolerance,
+            frames,
         } => crack::run(crack::CrackArgs {
             input: &input,
             output: &output,
@@ -177,6 +182,10 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
             pipeline: sim.pipeline()?,
             pipeline_dir: sim.pipeline_dir(),
             quiet: cli.quiet,
+            frames: frames
+                .map(|v| frames::FramesArgs::parse(&v))
+                .transpose()
+                .map_err(UsageError)?,
         }),
         Command::Presets { show } => presets(show.as_deref()),
         Command::Convert {

@@ -225,10 +225,10 @@ pub struct FinishReport {
 pub trait Observer {
     /// After each round.
     fn round(&mut self, _round: usize, _max_rounds: usize, _cracks: usize) {}
-    /// After each round (and each finishing pass), the mesh, every node's
-    /// accumulated displacement (mesh units) and the simulation time: for
-    /// time-lapse frames. Called only when [`Observer::wants_state`] is true.
-    fn state(&mut self, _mesh: &SimMesh, _displacement: &[[f64; 3]], _time: f64) {}
+    /// Before the first round, after each round and after each finishing
+    /// pass: the state of the run so far, for time-lapse frames. Called only
+    /// when [`Observer::wants_state`] is true.
+    fn state(&mut self, _snapshot: &Snapshot) {}
     /// Whether [`Observer::state`] should be called.
     fn wants_state(&self) -> bool {
         false
@@ -236,6 +236,39 @@ pub trait Observer {
 }
 
 impl Observer for () {}
+
+/// The state of a run at one moment, for [`Observer::state`].
+pub struct Snapshot<'a> {
+    /// The mesh, cracks opened so far.
+    pub mesh: &'a SimMesh,
+    /// Simulation time.
+    pub time: f64,
+    /// Every node's accumulated relaxation displacement, as
+    /// [`SimReport::displacement`].
+    pub displacement: &'a [[f64; 3]],
+    /// Every node's crack time so far (NaN: not on a crack), as
+    /// [`SimReport::crack_time`].
+    pub crack_time: &'a [f64],
+    /// The crack segments so far and their times, as
+    /// [`SimReport::segments`] and [`SimReport::segment_times`].
+    pub segments: &'a [[[f64; 3]; 2]],
+    /// See `segments`.
+    pub segment_times: &'a [f64],
+}
+
+/// Tell `observer` the state, when it wants it.
+fn observe(observer: &mut dyn Observer, mesh: &SimMesh, st: &State, report: &SimReport) {
+    if observer.wants_state() {
+        observer.state(&Snapshot {
+            mesh,
+            time: report.time,
+            displacement: &st.displacement,
+            crack_time: &st.crack_time,
+            segments: &report.segments,
+            segment_times: &report.segment_times,
+        });
+    }
+}
 
 /// A uniform value in [-1, 1] from `seed` and `key` (SplitMix64), the same
 /// on every platform and thread count.
@@ -415,6 +448,7 @@ pub fn run_with(
         .collect();
     st.grow(mesh, params);
     report.energy[0] = energy(&st.els, &st.stress);
+    observe(observer, mesh, &st, &report);
     let mut queue = FailureQueue::new();
     let mut loaded = 0.0; // time the load has acted so far
     let mut hold = false; // hold the load this round (the last one hit the cap)
@@ -470,9 +504,7 @@ pub fn run_with(
         }
         hold = cracked_this_round >= per_round_cap;
         observer.round(round + 1, params.max_rounds, report.cracks);
-        if observer.wants_state() {
-            observer.state(mesh, &st.displacement, report.time);
-        }
+        observe(observer, mesh, &st, &report);
         if report.cracks >= params.max_cracks {
             report.stopped = format!("reached max_cracks ({})", params.max_cracks);
             break;
@@ -765,9 +797,7 @@ fn finish_cracks(
             }
         }
         relax_round(mesh, st, params, g, false, &mut loaded, report);
-        if observer.wants_state() {
-            observer.state(mesh, &st.displacement, report.time);
-        }
+        observe(observer, mesh, st, report);
         if !moved {
             break;
         }

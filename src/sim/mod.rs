@@ -9,7 +9,7 @@ pub mod queue;
 pub mod relax;
 
 pub use crack::{crack_node, CrackEvent, CrackRules};
-pub use driver::{run, run_with, Observer, SimError, SimParams, SimReport};
+pub use driver::{run, run_with, Observer, SimError, SimParams, SimReport, Snapshot};
 pub use forces::{element_forces, node_forces, separation_tensor, split_tensile, Elements};
 pub use queue::FailureQueue;
 pub use relax::{energy, relax_step, stable_dt, RelaxStep};

@@ -1,0 +1,173 @@
+//! `--frames N DIR`: a time-lapse of the crack state through the run, like
+//! the drying-mud animation of Iben & O'Brien (2009).
+//!
+//! The run is deterministic, so the frames come from a second run of each
+//! mesh from the same start: knowing how long the first run took, the
+//! observer keeps the state at `N` evenly spaced times, from the uncracked
+//! mesh (time 0) to the end (the state written as the output). Each frame is
+//! then post-processed with the pipeline's `[post]` steps (width, walls and
+//! curling from the displacement reached by then, lines and attributes,
+//! crack times as fractions of the whole run) and written as
+//! `DIR/<output stem>_<k>.<ext>`, `k` zero-padded from 0. The kept states
+//! are full copies of the mesh, so memory grows with `N`.
+
+use crackle::bridge::SimEntry;
+use crackle::mesh::SimMesh;
+use crackle::pipeline::Post;
+use crackle::scene::Scene;
+use crackle::sim::{Observer, SimParams, SimReport, Snapshot};
+use crackle::stress::StressField;
+use std::path::{Path, PathBuf};
+
+/// One kept state.
+struct Kept {
+    mesh: SimMesh,
+    report: SimReport,
+}
+
+/// Keeps the state at each target time.
+struct Keeper {
+    targets: Vec<f64>,
+    kept: Vec<Kept>,
+}
+
+impl Observer for Keeper {
+    fn wants_state(&self) -> bool {
+        self.kept.len() < self.targets.len()
+    }
+
+    fn state(&mut self, s: &Snapshot) {
+        let end = *self.targets.last().unwrap_or(&0.0);
+        let slack = 1e-9 * end.abs().max(1.0);
+        while self.kept.len() < self.targets.len()
+            && self.targets[self.kept.len()] <= s.time + slack
+        {
+            self.kept.push(Kept {
+                mesh: s.mesh.clone(),
+                report: SimReport {
+                    time: s.time,
+                    displacement: s.displacement.to_vec(),
+                    crack_time: s.crack_time.to_vec(),
+                    segments: s.segments.to_vec(),
+                    segment_times: s.segment_times.to_vec(),
+                    ..Default::default()
+                },
+            });
+        }
+    }
+}
+
+/// The `--frames` request, checked.
+pub struct FramesArgs {
+    pub count: usize,
+    pub dir: PathBuf,
+}
+
+impl FramesArgs {
+    /// From the two command-line values `N DIR`.
+    pub fn parse(values: &[String]) -> Result<Self, String> {
+        let [n, dir] = values else {
+            return Err("--frames takes two values: N DIR".into());
+        };
+        let count: usize = n
+            .parse()
+            .map_err(|_| format!("--frames N: '{n}' is not a whole number"))?;
+        if !(2..=10_000).contains(&count) {
+            return Err(format!("--frames N must be in 2..=10000, got {count}"));
+        }
+        let dir = PathBuf::from(dir);
+        if dir.exists() && !dir.is_dir() {
+            return Err(format!("--frames DIR: {} is not a folder", dir.display()));
+        }
+        Ok(FramesArgs { count, dir })
+    }
+
+    /// File of frame `k` for output `output`.
+    pub fn path(&self, output: &Path, k: usize) -> PathBuf {
+        let stem = output
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_else(|| "frame".into());
+        let ext = output
+            .extension()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_else(|| "glb".into());
+        let width = (self.count - 1).to_string().len().max(4);
+        self.dir.join(format!("{stem}_{k:0width$}.{ext}"))
+    }
+}
+
+/// One mesh to replay: its start state, parameters, stress field and how
+/// long its first run took.
+pub struct Replay<'a> {
+    pub start: SimEntry,
+    pub params: &'a SimParams,
+    pub field: Option<&'a StressField>,
+    pub end_time: f64,
+}
+
+/// Replay every mesh, post-process each frame on a copy of `scene` (the
+/// scene before post-processing) and write it. Returns the files written.
+pub fn write_frames(
+    frames: &FramesArgs,
+    output: &Path,
+    scene: &Scene,
+    replays: Vec<Replay>,
+    post: &Post,
+) -> anyhow::Result<Vec<PathBuf>> {
+    let n = frames.count;
+    let mut per_mesh: Vec<(SimEntry, f64, Vec<Kept>)> = Vec::new();
+    for r in replays {
+        let targets: Vec<f64> = (0..n)
+            .map(|k| r.end_time * k as f64 / (n - 1) as f64)
+            .collect();
+        let mut keeper = Keeper {
+            targets,
+            kept: Vec::new(),
+        };
+        let mut entry = r.start;
+        crackle::sim::run_with(&mut entry.sim, r.params, r.field, &mut keeper)
+            .map_err(|e| anyhow::anyhow!("{}: frames: {e}", entry.label))?;
+        // A run that ended early (it cannot, being the same run) would
+        // leave the last frames at the final state.
+        while keeper.kept.len() < n {
+            let last = Kept {
+                mesh: entry.sim.clone(),
+                report: keeper
+                    .kept
+                    .last()
+                    .map(|k| k.report.clone())
+                    .unwrap_or_default(),
+            };
+            keeper.kept.push(last);
+        }
+        per_mesh.push((entry, r.end_time, keeper.kept));
+    }
+    std::fs::create_dir_all(&frames.dir).map_err(|e| {
+        anyhow::anyhow!(
+            "{}: cannot create the frames folder: {e}",
+            frames.dir.display()
+        )
+    })?;
+    let mut written = Vec::new();
+    for k in 0..n {
+        let mut scene_k = scene.clone();
+        let mut entries: Vec<SimEntry> = Vec::new();
+        let mut reports: Vec<(usize, SimReport)> = Vec::new();
+        for (entry, end, kept) in &mut per_mesh {
+            let state = &mut kept[k];
+            let mut e = entry.clone();
+            e.sim = std::mem::take(&mut state.mesh);
+            let mut r = std::mem::take(&mut state.report);
+            // Crack times are fractions of the whole run.
+            r.time = *end;
+            reports.push((e.mesh_index, r));
+            entries.push(e);
+        }
+        super::post::apply(&mut scene_k, &mut entries, &reports, post)?;
+        let path = frames.path(output, k);
+        super::write_output(&scene_k, &path)?;
+        written.push(path);
+    }
+    Ok(written)
+}
