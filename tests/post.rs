@@ -214,7 +214,8 @@ fn glaze_keeps_lines_and_shader_attributes_without_width() {
     let r = crack(&input, &out, &["--preset", "glaze"]);
     let st = stages(&r);
     assert!(st.contains(&"attributes".to_string()), "{st:?}");
-    for s in ["finish", "width", "walls"] {
+    assert!(st.contains(&"finish".to_string()), "{st:?}");
+    for s in ["width", "walls"] {
         assert!(!st.contains(&s.to_string()), "{st:?}");
     }
     if let Some(v) = common::validator() {
