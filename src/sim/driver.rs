@@ -10,7 +10,7 @@
 use crate::geometry::element::Element;
 use crate::mesh::{FaceId, MeshError, SimMesh, VertexId};
 use crate::sim::crack::{crack_node, CrackRules};
-use crate::sim::forces::{face_points, node_force, separation_tensor, Elements, Fans};
+use crate::sim::forces::{corner_forces, face_points, gather, separation_tensor, Elements, Fans};
 use crate::sim::queue::FailureQueue;
 use crate::sim::relax::{apply_virtual_displacement, energy, node_bounds};
 use crate::stress::field::StressField;
@@ -302,6 +302,8 @@ struct State {
     /// Time each node first lay on a crack (NaN: never).
     crack_time: Vec<f64>,
     unit: f64,
+    /// Scratch: per-corner element forces of the current step.
+    corner: Vec<[f64; 3]>,
 }
 
 impl State {
@@ -441,6 +443,7 @@ pub fn run_with(
         displacement: Vec::new(),
         crack_time: Vec::new(),
         unit,
+        corner: Vec::new(),
     };
     st.els.elements = (0..mesh.n_faces())
         .into_par_iter()
@@ -882,7 +885,8 @@ fn relax_and_evolve(
     g: &mut Vec<[f64; 3]>,
 ) {
     g.resize(fans.n_vertices(), [0.0; 3]);
-    let (els, stress, fixed, unit) = (&st.els, &st.stress, &st.fixed, st.unit);
+    corner_forces(&st.els, &st.stress, &mut st.corner);
+    let (corner, fixed, unit) = (&st.corner, &st.fixed, st.unit);
     g.par_iter_mut()
         .zip(st.displacement.par_iter_mut())
         .enumerate()
@@ -890,7 +894,7 @@ fn relax_and_evolve(
         .for_each(|(v, (gn, d))| {
             let mut f_net = [0.0; 3];
             if !fixed[v] {
-                f_net = node_force(fans, els, stress, v);
+                f_net = gather(fans, corner, v);
                 if let Some(n) = normals.get(v) {
                     f_net = v3::sub(f_net, v3::scale(*n, v3::dot(f_net, *n)));
                 }

@@ -155,6 +155,36 @@ pub fn node_force(fans: &Fans, els: &Elements, stress: &[Sym3], v: usize) -> [f6
     g
 }
 
+/// Every element's force on each of its corners, `-A_e S_e g_k^e` at
+/// `3 f + k` (zero for a face without element), into `out`. Summing these
+/// over a node's fan in fan order ([`gather`]) gives exactly
+/// [`node_force`]; computing them face by face first reads the elements
+/// and stresses in order instead of once per corner at random.
+pub fn corner_forces(els: &Elements, stress: &[Sym3], out: &mut Vec<[f64; 3]>) {
+    out.resize(3 * els.elements.len(), [0.0; 3]);
+    out.par_chunks_mut(3)
+        .zip(els.elements.par_iter().zip(stress.par_iter()))
+        .with_min_len(1024)
+        .for_each(|(c, (el, s))| match el {
+            Some(el) => {
+                for k in 0..3 {
+                    c[k] = v3::scale(s.mul_vec(el.grads[k]), -el.area);
+                }
+            }
+            None => c.fill([0.0; 3]),
+        });
+}
+
+/// Net force on node `v` from [`corner_forces`], summed in fan order.
+#[inline]
+pub fn gather(fans: &Fans, corner: &[[f64; 3]], v: usize) -> [f64; 3] {
+    let mut g = [0.0; 3];
+    for &(f, k) in fans.fan(v) {
+        g = v3::add(g, corner[3 * f as usize + k as usize]);
+    }
+    g
+}
+
 /// [`node_forces`] on precomputed fans.
 pub fn node_forces_fans(fans: &Fans, els: &Elements, stress: &[Sym3]) -> Vec<[f64; 3]> {
     (0..fans.n_vertices())
