@@ -1111,6 +1111,7 @@ mod tests {
                 displacement: Vec::new(),
                 crack_time: Vec::new(),
                 unit: r.length_unit,
+                corner: Vec::new(),
             };
             finish_tips(mesh, &st).len()
         };

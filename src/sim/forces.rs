@@ -167,8 +167,8 @@ pub fn corner_forces(els: &Elements, stress: &[Sym3], out: &mut Vec<[f64; 3]>) {
         .with_min_len(1024)
         .for_each(|(c, (el, s))| match el {
             Some(el) => {
-                for k in 0..3 {
-                    c[k] = v3::scale(s.mul_vec(el.grads[k]), -el.area);
+                for (ck, gk) in c.iter_mut().zip(&el.grads) {
+                    *ck = v3::scale(s.mul_vec(*gk), -el.area);
                 }
             }
             None => c.fill([0.0; 3]),
