@@ -254,6 +254,8 @@ pub struct Snapshot<'a> {
     pub segments: &'a [[[f64; 3]; 2]],
     /// See `segments`.
     pub segment_times: &'a [f64],
+    /// Area-weighted stress energy `1/2 sum_e A_e |S_e|^2` now.
+    pub energy: f64,
 }
 
 /// Tell `observer` the state, when it wants it.
@@ -266,6 +268,7 @@ fn observe(observer: &mut dyn Observer, mesh: &SimMesh, st: &State, report: &Sim
             crack_time: &st.crack_time,
             segments: &report.segments,
             segment_times: &report.segment_times,
+            energy: energy(&st.els, &st.stress),
         });
     }
 }
