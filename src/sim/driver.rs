@@ -12,7 +12,7 @@ use crate::mesh::{FaceId, MeshError, SimMesh, VertexId};
 use crate::sim::crack::{crack_node, CrackRules};
 use crate::sim::forces::{corner_forces, face_points, gather, separation_tensor, Elements, Fans};
 use crate::sim::queue::FailureQueue;
-use crate::sim::relax::{apply_virtual_displacement, energy, node_bounds};
+use crate::sim::relax::{apply_virtual_displacement_with_forces, energy, node_bounds};
 use crate::stress::field::StressField;
 use crate::stress::tensor::{v3, Sym3};
 use rayon::prelude::*;
@@ -584,6 +584,7 @@ fn relax_round(
     } else {
         Vec::new()
     };
+    corner_forces(&st.els, &st.stress, &mut st.corner);
     for _ in 0..steps {
         let load_dt = if loading {
             dt.min(params.load_time - *loaded).max(0.0)
@@ -888,7 +889,8 @@ fn relax_and_evolve(
     g: &mut Vec<[f64; 3]>,
 ) {
     g.resize(fans.n_vertices(), [0.0; 3]);
-    corner_forces(&st.els, &st.stress, &mut st.corner);
+    // `st.corner` holds the forces at the current stress (set by the
+    // caller before the first step, then by the fused update below).
     let (corner, fixed, unit) = (&st.corner, &st.fixed, st.unit);
     g.par_iter_mut()
         .zip(st.displacement.par_iter_mut())
@@ -907,17 +909,25 @@ fn relax_and_evolve(
             *d = v3::add(*d, v3::scale(f_net, dt * unit));
         });
     let (scale, evolve) = (&st.shrink_scale, &st.evolve);
-    apply_virtual_displacement(fans, &st.els, &mut st.stress, g, dt, |f, el| {
-        if load.dt <= 0.0 {
-            return Sym3::ZERO;
-        }
-        let k = load.dt * scale[f];
-        let mut ds = Sym3::tangent_identity(el.normal, k * load.shrink_rate);
-        if let Some(e) = evolve.get(f) {
-            ds += *e * k;
-        }
-        ds
-    });
+    apply_virtual_displacement_with_forces(
+        fans,
+        &st.els,
+        &mut st.stress,
+        &mut st.corner,
+        g,
+        dt,
+        |f, el| {
+            if load.dt <= 0.0 {
+                return Sym3::ZERO;
+            }
+            let k = load.dt * scale[f];
+            let mut ds = Sym3::tangent_identity(el.normal, k * load.shrink_rate);
+            if let Some(e) = evolve.get(f) {
+                ds += *e * k;
+            }
+            ds
+        },
+    );
 }
 
 /// Errors of a simulation run.
