@@ -304,6 +304,11 @@ fn a_step_far_above_stability_is_handled() {
     };
     let r = check("dt 100x stable", &mut m, &p, 3.0);
     assert!(r.cracks > 0);
+    // The report says so.
+    assert!(r.dt_limited_rounds > 0 && r.stable_dt < p.relax_dt, "{r:?}");
+    let mut m = build(&plate(12, 0.3, 6));
+    let r = check("default dt", &mut m, &released(2.0), 3.0);
+    assert_eq!(r.dt_limited_rounds, 0);
 }
 
 /// Two plates touching at one corner (a non-manifold vertex the mesh

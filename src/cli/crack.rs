@@ -366,6 +366,16 @@ pub fn run(mut a: CrackArgs) -> Result<()> {
         if let Some(b) = obs.0 {
             b.finish_and_clear();
         }
+        if r.dt_limited_rounds > 0 {
+            log::warn!(
+                "{}: {}: relax_dt {} is above the stable step ({:.3e}) in {} rounds; those rounds took stable steps over the same relaxation time",
+                a.input.display(),
+                e.label,
+                params.relax_dt,
+                r.stable_dt,
+                r.dt_limited_rounds
+            );
+        }
         total.cracks += r.cracks;
         total.crack_length += r.crack_length;
         total.rounds = total.rounds.max(r.rounds);

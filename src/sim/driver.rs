@@ -194,6 +194,13 @@ pub struct SimReport {
     pub segment_times: Vec<f64>,
     /// Crack finishing, when asked for.
     pub finish: Option<FinishReport>,
+    /// Relaxation rounds whose requested `relax_dt` was above the stable
+    /// step: they ran the stable step instead (more, smaller steps over the
+    /// same relaxation time).
+    pub dt_limited_rounds: usize,
+    /// The smallest stable step of any round (the median node bound's;
+    /// stiffer nodes move more slowly still). Infinite without elements.
+    pub stable_dt: f64,
     /// Per node of the final mesh: its accumulated relaxation displacement
     /// (eq. 15 with `c = 1`), in mesh (scene) units. Crack width comes from it.
     #[serde(skip)]
@@ -415,6 +422,7 @@ pub fn run_with(
         triangles: [mesh.n_faces(), 0],
         nodes: [mesh.n_vertices(), 0],
         length_unit: unit,
+        stable_dt: f64::INFINITY,
         ..Default::default()
     };
     let per_round_cap = if params.max_cracks_per_round > 0 {
@@ -557,7 +565,11 @@ fn relax_round(
     let mut dt_max = sorted
         .get(sorted.len() / 2)
         .map_or(f64::INFINITY, |b| 1.9 / b);
+    report.stable_dt = report.stable_dt.min(dt_max);
     if params.relax_dt > 0.0 {
+        if params.relax_dt > dt_max {
+            report.dt_limited_rounds += 1;
+        }
         dt_max = dt_max.min(params.relax_dt);
     }
     if !dt_max.is_finite() {
