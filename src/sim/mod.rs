@@ -5,6 +5,7 @@
 pub mod crack;
 pub mod driver;
 pub mod forces;
+pub mod implicit;
 pub mod queue;
 pub mod relax;
 
