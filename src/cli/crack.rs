@@ -59,6 +59,12 @@ pub struct SimArgs {
     /// Relaxation steps per round; 0: as many as --relax-time needs [default: 0]
     #[arg(long)]
     relax_steps: Option<usize>,
+    /// Relaxation integrator: local-euler, euler, paper-euler (needs --relax-dt) or backward-euler [default: local-euler]
+    #[arg(long, value_name = "NAME")]
+    integrator: Option<String>,
+    /// Relative residual of each backward-Euler solve [default: 1e-4]
+    #[arg(long)]
+    tolerance: Option<f64>,
     /// Most relaxation rounds [default: 200]
     #[arg(long)]
     max_rounds: Option<usize>,
@@ -119,6 +125,8 @@ impl SimArgs {
         set("relax_time", self.relax_time.map(|x| x.to_string()));
         set("relax_dt", self.relax_dt.map(|x| x.to_string()));
         set("relax_steps", self.relax_steps.map(|x| x.to_string()));
+        set("integrator", self.integrator.clone());
+        set("tolerance", self.tolerance.map(|x| x.to_string()));
         set("max_rounds", self.max_rounds.map(|x| x.to_string()));
         set("max_cracks", self.max_cracks.map(|x| x.to_string()));
         set(

@@ -10,7 +10,10 @@ pub mod queue;
 pub mod relax;
 
 pub use crack::{crack_node, CrackEvent, CrackRules};
-pub use driver::{run, run_with, Observer, SimError, SimParams, SimReport, Snapshot};
+pub use driver::{
+    relax_only, run, run_with, Integrator, Observer, Phase, Relaxed, SimError, SimParams,
+    SimReport, Snapshot,
+};
 pub use forces::{element_forces, node_forces, separation_tensor, split_tensile, Elements};
 pub use queue::FailureQueue;
 pub use relax::{energy, relax_step, stable_dt, RelaxStep};
