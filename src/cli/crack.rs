@@ -320,32 +320,7 @@ pub fn run(mut a: CrackArgs) -> Result<()> {
     } else {
         let t = Instant::now();
         for ((e, params), k) in entries.iter().zip(&params_of).zip(&curvatures) {
-            let bounds = Bounds::of(e.sim.vertices().map(|v| e.sim.position(v)));
-            let place = if pipe.uses_world_space() {
-                // World-space keys map into the mesh through its first
-                // instance; the crack pattern is shared by every instance.
-                let worlds = scene.mesh_world_matrices(e.mesh_index);
-                if worlds.iter().skip(1).any(|w| w != &worlds[0]) {
-                    log::warn!(
-                        "{}: {} is instanced {} times with different transforms; world-space stress keys use its first instance",
-                        a.input.display(),
-                        e.label,
-                        worlds.len()
-                    );
-                }
-                match worlds.first() {
-                    Some(w) => Placement::new(bounds, w)
-                        .map_err(|m| anyhow::anyhow!("{}: {}: {m}", a.input.display(), e.label))?,
-                    None => Placement::local(bounds),
-                }
-            } else {
-                Placement::local(bounds)
-            };
-            let terms = pipe
-                .terms(&place, &masks)
-                .map_err(|m| super::UsageError(format!("stress: {m}")))?;
-            let field = StressField::build_with(&e.sim, &terms, params.seed, k.as_ref())
-                .map_err(|err| anyhow::anyhow!("{}: {}: {err}", a.input.display(), e.label))?;
+            let field = stress_field(&scene, e, pipe, &masks, k.as_ref(), params.seed, a.input)?;
             fields.push(Some(field));
         }
         stages.push(json!({"name": "stress", "seconds": t.elapsed().as_secs_f64()}));
@@ -467,4 +442,43 @@ pub fn run(mut a: CrackArgs) -> Result<()> {
         );
     }
     Ok(())
+}
+
+/// The stress field of simulation mesh `e` from the pipeline's terms:
+/// world-space keys mapped through the mesh's first instance.
+pub fn stress_field(
+    scene: &Scene,
+    e: &crackle::bridge::SimEntry,
+    pipe: &Pipeline,
+    masks: &[Option<std::sync::Arc<crackle::stress::texture::Mask>>],
+    curvature: Option<&CurvatureField>,
+    seed: u64,
+    input: &Path,
+) -> Result<StressField> {
+    let bounds = Bounds::of(e.sim.vertices().map(|v| e.sim.position(v)));
+    let place = if pipe.uses_world_space() {
+        // World-space keys map into the mesh through its first instance;
+        // the crack pattern is shared by every instance.
+        let worlds = scene.mesh_world_matrices(e.mesh_index);
+        if worlds.iter().skip(1).any(|w| w != &worlds[0]) {
+            log::warn!(
+                "{}: {} is instanced {} times with different transforms; world-space stress keys use its first instance",
+                input.display(),
+                e.label,
+                worlds.len()
+            );
+        }
+        match worlds.first() {
+            Some(w) => Placement::new(bounds, w)
+                .map_err(|m| anyhow::anyhow!("{}: {}: {m}", input.display(), e.label))?,
+            None => Placement::local(bounds),
+        }
+    } else {
+        Placement::local(bounds)
+    };
+    let terms = pipe
+        .terms(&place, masks)
+        .map_err(|m| super::UsageError(format!("stress: {m}")))?;
+    StressField::build_with(&e.sim, &terms, seed, curvature)
+        .map_err(|err| anyhow::anyhow!("{}: {}: {err}", input.display(), e.label))
 }

@@ -7,6 +7,7 @@ mod info;
 mod islands;
 pub mod logger;
 mod post;
+mod study;
 
 use clap::{Parser, Subcommand};
 use std::path::PathBuf;
@@ -64,6 +65,25 @@ enum Command {
         /// Also write N frames of the crack state through the run into DIR (a time-lapse; runs the simulation twice)
         #[arg(long, num_args = 2, value_names = ["N", "DIR"])]
         frames: Option<Vec<String>>,
+    },
+    /// Error against run time of every relaxation integrator on one mesh (the largest of the input) and pipeline
+    Study {
+        /// Input mesh (.obj, .gltf, .glb)
+        input: PathBuf,
+        #[command(flatten)]
+        sim: crack::SimArgs,
+        /// Write study.csv, study.json and study.svg (error against seconds) into this folder
+        #[arg(long, value_name = "DIR")]
+        out: Option<PathBuf>,
+        /// Relaxation rounds (of relax_time) every integrator runs
+        #[arg(long, default_value_t = 4)]
+        rounds: usize,
+        /// Also compare whole simulations with cracking (crack count, length, cells, junction angles)
+        #[arg(long)]
+        full: bool,
+        /// Weld tolerance, relative to each mesh's bounding-box diagonal
+        #[arg(long, value_name = "REL", default_value_t = crackle::mesh::WeldOptions::default().relative_tolerance)]
+        weld_tolerance: f64,
     },
     /// Read, weld and write a mesh (.gltf or .glb output)
     Convert {
@@ -188,6 +208,22 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
                 .map_err(UsageError)?,
         }),
         Command::Presets { show } => presets(show.as_deref()),
+        Command::Study {
+            input,
+            sim,
+            out,
+            rounds,
+            full,
+            weld_tolerance,
+        } => study::run(study::StudyArgs {
+            input: &input,
+            pipeline: sim.pipeline()?,
+            pipeline_dir: sim.pipeline_dir(),
+            out: out.as_deref(),
+            rounds,
+            full,
+            weld: weld_options(weld_tolerance)?,
+        }),
         Command::Convert {
             input,
             output,

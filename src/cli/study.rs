@@ -1,0 +1,451 @@
+//! `crackle study`: error against run time for every relaxation integrator
+//! on one mesh and pipeline.
+//!
+//! Relaxation study: the same relaxation (the pipeline's stress field and
+//! load, no cracking) for `rounds` rounds of `relax_time`, by each
+//! integrator and a range of steps and tolerances. The error is the
+//! area-weighted relative L2 difference of the stress field from a
+//! converged reference at the same relaxation time: the paper's forward
+//! Euler at a half and a quarter of the stable step, extrapolated
+//! (Richardson, `2 S(h/4) - S(h/2)`, second order).
+//!
+//! Full study (`--full`): whole simulations with cracking, compared with the
+//! run of the paper's scheme at half the stable step: crack count, crack
+//! length, cells (pieces the cracks cut the surface into) and the
+//! distance between junction-angle histograms.
+
+use crackle::bridge::build_sim_meshes;
+use crackle::mesh::SimMesh;
+use crackle::post::islands::face_islands;
+use crackle::sim::{relax_only, Integrator, Relaxed, SimParams};
+use crackle::stress::tensor::v3;
+use crackle::stress::StressField;
+use serde_json::{json, Value};
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// Options of the study command.
+pub struct StudyArgs<'a> {
+    pub input: &'a Path,
+    pub pipeline: crackle::pipeline::Pipeline,
+    pub pipeline_dir: Option<PathBuf>,
+    pub out: Option<&'a Path>,
+    pub rounds: usize,
+    pub full: bool,
+    pub weld: crackle::mesh::WeldOptions,
+}
+
+/// One measured configuration.
+struct Row {
+    kind: &'static str,
+    integrator: &'static str,
+    dt: f64,
+    tolerance: f64,
+    seconds: f64,
+    error: f64,
+    steps: usize,
+    cg_iterations: usize,
+    extra: Value,
+}
+
+fn relaxed(
+    mesh: &SimMesh,
+    params: &SimParams,
+    field: Option<&StressField>,
+    rounds: usize,
+) -> anyhow::Result<(Relaxed, f64)> {
+    let t = Instant::now();
+    let r = relax_only(mesh, params, field, rounds)?;
+    Ok((r, t.elapsed().as_secs_f64()))
+}
+
+/// Angles (degrees) between angularly adjacent crack edges at every crack
+/// junction (a rest position where three or more crack segments meet), as
+/// a normalised 12-bin histogram over 0..180.
+fn junction_histogram(segments: &[[[f64; 3]; 2]]) -> Vec<f64> {
+    use std::collections::BTreeMap;
+    let key = |p: [f64; 3]| p.map(|x| (x + 0.0).to_bits());
+    let mut at: BTreeMap<[u64; 3], Vec<[f64; 3]>> = BTreeMap::new();
+    for s in segments {
+        for (a, b) in [(s[0], s[1]), (s[1], s[0])] {
+            let d = v3::sub(b, a);
+            let l = v3::norm(d);
+            if l > 0.0 {
+                at.entry(key(a)).or_default().push(v3::scale(d, 1.0 / l));
+            }
+        }
+    }
+    let mut hist = vec![0.0; 12];
+    for dirs in at.values().filter(|d| d.len() >= 3) {
+        // Angle of each direction around the mean normal-free plane: use
+        // the plane of the first two directions.
+        let n = v3::cross(dirs[0], dirs[1]);
+        let nl = v3::norm(n);
+        if nl == 0.0 {
+            continue;
+        }
+        let n = v3::scale(n, 1.0 / nl);
+        let e1 = dirs[0];
+        let e2 = v3::cross(n, e1);
+        let mut ang: Vec<f64> = dirs
+            .iter()
+            .map(|d| v3::dot(*d, e2).atan2(v3::dot(*d, e1)))
+            .collect();
+        ang.sort_by(f64::total_cmp);
+        for i in 0..ang.len() {
+            let next = if i + 1 < ang.len() {
+                ang[i + 1]
+            } else {
+                ang[0] + 2.0 * std::f64::consts::PI
+            };
+            let deg = (next - ang[i]).to_degrees().clamp(0.0, 179.999);
+            hist[(deg / 15.0) as usize] += 1.0;
+        }
+    }
+    let total: f64 = hist.iter().sum();
+    if total > 0.0 {
+        for h in &mut hist {
+            *h /= total;
+        }
+    }
+    hist
+}
+
+pub fn run(mut a: StudyArgs) -> anyhow::Result<()> {
+    if a.pipeline.has_masks() {
+        a.pipeline
+            .load_images(a.pipeline_dir.as_deref())
+            .map_err(|e| super::UsageError(e.to_string()))?;
+    }
+    let pipe = &a.pipeline;
+    let scene = super::read_crackable(a.input)?;
+    let (entries, _) = build_sim_meshes(&scene, &a.weld);
+    let Some(e) = entries
+        .iter()
+        .max_by_key(|e| (e.sim.n_faces(), usize::MAX - e.mesh_index))
+    else {
+        anyhow::bail!("{}: no crackable mesh", a.input.display());
+    };
+    let masks = if pipe.has_masks() {
+        let dir = a
+            .input
+            .parent()
+            .filter(|d| !d.as_os_str().is_empty())
+            .unwrap_or(Path::new("."));
+        pipe.masks_for(&scene, dir)
+            .map_err(|m| super::UsageError(format!("{}: {m}", a.input.display())))?
+    } else {
+        Vec::new()
+    };
+    let base = pipe.params(&[]);
+    let curvature = pipe
+        .needs_curvature()
+        .then(|| crackle::geometry::curvature::estimate(&e.sim));
+    let field = if pipe.stress.is_empty() {
+        None
+    } else {
+        Some(super::crack::stress_field(
+            &scene,
+            e,
+            pipe,
+            &masks,
+            curvature.as_ref(),
+            base.seed,
+            a.input,
+        )?)
+    };
+    let field = field.as_ref();
+    let mesh = &e.sim;
+    let rounds = a.rounds.max(1);
+    let with = |integrator: Integrator, dt: f64, tolerance: f64| SimParams {
+        integrator,
+        relax_dt: dt,
+        tolerance,
+        relax_steps: 0,
+        ..base.clone()
+    };
+    log::info!(
+        "{}: {} ({} triangles), {} rounds of relaxation time {}",
+        a.input.display(),
+        e.label,
+        mesh.n_faces(),
+        rounds,
+        base.relax_time
+    );
+
+    // The stable step, from a stable-step Euler run (also a study row).
+    let (euler, euler_s) = relaxed(mesh, &with(Integrator::Euler, 0.0, 1e-4), field, rounds)?;
+    let h = euler.report.stable_dt;
+    if !(h.is_finite() && h > 0.0) {
+        anyhow::bail!(
+            "{}: {}: no stable step (no elements?)",
+            a.input.display(),
+            e.label
+        );
+    }
+    let (half, half_s) = relaxed(
+        mesh,
+        &with(Integrator::PaperEuler, h / 2.0, 1e-4),
+        field,
+        rounds,
+    )?;
+    let (quarter, quarter_s) = relaxed(
+        mesh,
+        &with(Integrator::PaperEuler, h / 4.0, 1e-4),
+        field,
+        rounds,
+    )?;
+    let reference = Relaxed {
+        stress: half
+            .stress
+            .iter()
+            .zip(&quarter.stress)
+            .map(|(s2, s4)| *s4 * 2.0 - *s2)
+            .collect(),
+        areas: quarter.areas.clone(),
+        report: quarter.report.clone(),
+    };
+    let mut rows: Vec<Row> = Vec::new();
+    let mut push = |kind, r: &Relaxed, dt: f64, tolerance: f64, seconds: f64| {
+        rows.push(Row {
+            kind,
+            integrator: r.report.integrator,
+            dt,
+            tolerance,
+            seconds,
+            error: r.error_against(&reference),
+            steps: r.report.relax_steps,
+            cg_iterations: r.report.phases.iter().map(|p| p.cg_iterations).sum(),
+            extra: Value::Null,
+        })
+    };
+    push("relaxation", &half, h / 2.0, 0.0, half_s);
+    push("relaxation", &quarter, h / 4.0, 0.0, quarter_s);
+    push("relaxation", &euler, h, 0.0, euler_s);
+    let (local, local_s) = relaxed(
+        mesh,
+        &with(Integrator::LocalEuler, 0.0, 1e-4),
+        field,
+        rounds,
+    )?;
+    let local_dt = local.report.stable_dt;
+    push("relaxation", &local, local_dt, 0.0, local_s);
+    let rt = base.relax_time;
+    for k in [1.0, 2.0, 4.0, 8.0, 16.0, 32.0] {
+        let dt = rt / k;
+        let (r, s) = relaxed(
+            mesh,
+            &with(Integrator::BackwardEuler, dt, 1e-4),
+            field,
+            rounds,
+        )?;
+        push("relaxation", &r, dt, 1e-4, s);
+    }
+    for tol in [1e-2, 1e-6] {
+        let dt = rt / 8.0;
+        let (r, s) = relaxed(
+            mesh,
+            &with(Integrator::BackwardEuler, dt, tol),
+            field,
+            rounds,
+        )?;
+        push("relaxation", &r, dt, tol, s);
+    }
+
+    // Full runs with cracking against the paper's scheme at h / 2.
+    if a.full {
+        let full = |p: &SimParams| -> anyhow::Result<(Value, f64, Vec<f64>)> {
+            let mut m = mesh.clone();
+            let t = Instant::now();
+            let r = crackle::sim::run_with(&mut m, p, field, &mut ())?;
+            let s = t.elapsed().as_secs_f64();
+            let cells = face_islands(&m).count;
+            let hist = junction_histogram(&r.segments);
+            Ok((
+                json!({"cracks": r.cracks, "crack_length": r.crack_length, "cells": cells, "relax_steps": r.relax_steps}),
+                s,
+                hist,
+            ))
+        };
+        let configs: Vec<(Integrator, f64, f64)> = vec![
+            (Integrator::PaperEuler, h / 2.0, 1e-4),
+            (Integrator::Euler, 0.0, 1e-4),
+            (Integrator::LocalEuler, 0.0, 1e-4),
+            (Integrator::BackwardEuler, rt / 8.0, 1e-4),
+            (Integrator::BackwardEuler, rt / 2.0, 1e-4),
+            (Integrator::BackwardEuler, rt, 1e-4),
+        ];
+        let mut reference: Option<(Value, Vec<f64>)> = None;
+        for (integrator, dt, tol) in configs {
+            let (stats, seconds, hist) = full(&with(integrator, dt, tol))?;
+            let (rs, rh) = reference
+                .get_or_insert_with(|| (stats.clone(), hist.clone()))
+                .clone();
+            let rel = |k: &str| {
+                let (x, y) = (
+                    stats[k].as_f64().unwrap_or(0.0),
+                    rs[k].as_f64().unwrap_or(0.0),
+                );
+                if y != 0.0 {
+                    (x - y).abs() / y.abs()
+                } else {
+                    (x - y).abs()
+                }
+            };
+            let hist_dist: f64 = 0.5
+                * hist
+                    .iter()
+                    .zip(&rh)
+                    .map(|(p, q)| (p - q).abs())
+                    .sum::<f64>();
+            let error = rel("cracks").max(rel("crack_length"));
+            rows.push(Row {
+                kind: "full",
+                integrator: integrator.name(),
+                dt,
+                tolerance: tol,
+                seconds,
+                error,
+                steps: stats["relax_steps"].as_u64().unwrap_or(0) as usize,
+                cg_iterations: 0,
+                extra: json!({
+                    "stats": stats,
+                    "crack_count_difference": rel("cracks"),
+                    "crack_length_difference": rel("crack_length"),
+                    "cells_difference": rel("cells"),
+                    "junction_angle_distance": hist_dist,
+                }),
+            });
+        }
+    }
+
+    // Output: table, CSV, JSON, SVG.
+    println!(
+        "{:<10} {:<15} {:>10} {:>8} {:>9} {:>11} {:>7} {:>8}",
+        "kind", "integrator", "dt", "tol", "seconds", "error", "steps", "cg iters"
+    );
+    for r in &rows {
+        println!(
+            "{:<10} {:<15} {:>10.3e} {:>8.0e} {:>9.3} {:>11.3e} {:>7} {:>8}",
+            r.kind, r.integrator, r.dt, r.tolerance, r.seconds, r.error, r.steps, r.cg_iterations
+        );
+    }
+    if let Some(dir) = a.out {
+        std::fs::create_dir_all(dir)
+            .map_err(|e| anyhow::anyhow!("{}: cannot create the folder: {e}", dir.display()))?;
+        let mut csv =
+            String::from("kind,integrator,dt,tolerance,seconds,error,steps,cg_iterations\n");
+        for r in &rows {
+            csv += &format!(
+                "{},{},{},{},{},{},{},{}\n",
+                r.kind,
+                r.integrator,
+                r.dt,
+                r.tolerance,
+                r.seconds,
+                r.error,
+                r.steps,
+                r.cg_iterations
+            );
+        }
+        std::fs::write(dir.join("study.csv"), csv)?;
+        let doc = json!({
+            "input": a.input.display().to_string(),
+            "mesh": e.label,
+            "triangles": mesh.n_faces(),
+            "rounds": rounds,
+            "relax_time": rt,
+            "stable_dt": h,
+            "reference": "paper-euler at stable_dt/2 and /4, Richardson-extrapolated",
+            "rows": rows.iter().map(|r| json!({
+                "kind": r.kind, "integrator": r.integrator, "dt": r.dt, "tolerance": r.tolerance,
+                "seconds": r.seconds, "error": r.error, "steps": r.steps,
+                "cg_iterations": r.cg_iterations, "full": r.extra,
+            })).collect::<Vec<_>>(),
+        });
+        std::fs::write(dir.join("study.json"), serde_json::to_vec_pretty(&doc)?)?;
+        plot(
+            &rows,
+            &dir.join("study.svg"),
+            &format!("{} ({} triangles)", e.label, mesh.n_faces()),
+        )?;
+    }
+    Ok(())
+}
+
+/// Error (log) against seconds (log), one series per integrator, for the
+/// relaxation rows.
+fn plot(rows: &[Row], path: &Path, title: &str) -> anyhow::Result<()> {
+    use plotters::prelude::*;
+    let pts: Vec<&Row> = rows
+        .iter()
+        .filter(|r| r.kind == "relaxation" && r.error > 0.0 && r.seconds > 0.0)
+        .collect();
+    if pts.is_empty() {
+        return Ok(());
+    }
+    let (mut x0, mut x1, mut y0, mut y1) = (f64::MAX, 0.0f64, f64::MAX, 0.0f64);
+    for r in &pts {
+        x0 = x0.min(r.seconds);
+        x1 = x1.max(r.seconds);
+        y0 = y0.min(r.error);
+        y1 = y1.max(r.error);
+    }
+    let root = SVGBackend::new(path, (800, 560)).into_drawing_area();
+    let err = |e: &dyn std::fmt::Display| anyhow::anyhow!("{}: plot: {e}", path.display());
+    root.fill(&WHITE).map_err(|e| err(&e))?;
+    let mut chart = ChartBuilder::on(&root)
+        .caption(
+            format!("relaxation error against run time: {title}"),
+            ("sans-serif", 20),
+        )
+        .margin(16)
+        .x_label_area_size(44)
+        .y_label_area_size(70)
+        .build_cartesian_2d(
+            (x0 / 1.5..x1 * 1.5).log_scale(),
+            (y0 / 2.0..y1 * 2.0).log_scale(),
+        )
+        .map_err(|e| err(&e))?;
+    chart
+        .configure_mesh()
+        .x_desc("seconds")
+        .y_desc("relative stress error")
+        .draw()
+        .map_err(|e| err(&e))?;
+    let series: [(&str, RGBColor); 4] = [
+        ("paper-euler", RGBColor(200, 60, 40)),
+        ("euler", RGBColor(230, 150, 30)),
+        ("local-euler", RGBColor(40, 130, 60)),
+        ("backward-euler", RGBColor(40, 80, 200)),
+    ];
+    for (name, color) in series {
+        let mut s: Vec<(f64, f64)> = pts
+            .iter()
+            .filter(|r| r.integrator == name && (r.tolerance == 0.0 || r.tolerance == 1e-4))
+            .map(|r| (r.seconds, r.error))
+            .collect();
+        if s.is_empty() {
+            continue;
+        }
+        s.sort_by(|a, b| a.0.total_cmp(&b.0));
+        chart
+            .draw_series(LineSeries::new(s.clone(), color.stroke_width(2)))
+            .map_err(|e| err(&e))?
+            .label(name)
+            .legend(move |(x, y)| {
+                PathElement::new(vec![(x, y), (x + 18, y)], color.stroke_width(2))
+            });
+        chart
+            .draw_series(s.iter().map(|&p| Circle::new(p, 4, color.filled())))
+            .map_err(|e| err(&e))?;
+    }
+    chart
+        .configure_series_labels()
+        .background_style(WHITE.mix(0.9))
+        .border_style(BLACK)
+        .draw()
+        .map_err(|e| err(&e))?;
+    root.present().map_err(|e| err(&e))?;
+    Ok(())
+}

@@ -1,0 +1,81 @@
+//! `crackle study`: the work-precision table, CSV, JSON and SVG plot.
+
+mod common;
+
+use std::process::Command;
+
+#[test]
+fn study_writes_a_work_precision_table_and_plot() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = common::fixture("plate_jittered.obj");
+    let o = Command::new(common::crackle_bin())
+        .args(["study".as_ref(), input.as_os_str()])
+        .args(["--preset", "glaze", "--rounds", "2", "--full", "--out"])
+        .arg(dir.path())
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(stdout.contains("backward-euler") && stdout.contains("paper-euler"));
+    let doc: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.path().join("study.json")).unwrap()).unwrap();
+    let rows = doc["rows"].as_array().unwrap();
+    let csv = std::fs::read_to_string(dir.path().join("study.csv")).unwrap();
+    assert_eq!(csv.lines().count(), rows.len() + 1);
+    for r in rows {
+        let e = r["error"].as_f64().unwrap();
+        assert!(e.is_finite() && e >= 0.0, "{r}");
+        assert!(r["seconds"].as_f64().unwrap() >= 0.0);
+    }
+    // Backward Euler at tolerance 1e-4: the error falls with the step, at
+    // first order (halving the step about halves it).
+    let mut be: Vec<(f64, f64)> = rows
+        .iter()
+        .filter(|r| {
+            r["kind"] == "relaxation"
+                && r["integrator"] == "backward-euler"
+                && r["tolerance"] == 1e-4
+        })
+        .map(|r| (r["dt"].as_f64().unwrap(), r["error"].as_f64().unwrap()))
+        .collect();
+    be.sort_by(|a, b| b.0.total_cmp(&a.0));
+    assert!(be.len() >= 5);
+    for w in be.windows(2) {
+        let ratio = w[0].1 / w[1].1;
+        assert!((1.5..2.6).contains(&ratio), "{be:?}");
+    }
+    // The reference's own ingredients are close to it.
+    let paper: Vec<f64> = rows
+        .iter()
+        .filter(|r| r["kind"] == "relaxation" && r["integrator"] == "paper-euler")
+        .map(|r| r["error"].as_f64().unwrap())
+        .collect();
+    assert!(paper.iter().all(|&e| e < 1e-2), "{paper:?}");
+    // Full runs: the reference run first, at zero difference.
+    let full: Vec<&serde_json::Value> = rows.iter().filter(|r| r["kind"] == "full").collect();
+    assert!(full.len() >= 4);
+    assert_eq!(full[0]["error"].as_f64().unwrap(), 0.0);
+    assert!(full[0]["full"]["stats"]["cracks"].as_u64().unwrap() > 0);
+    let svg = std::fs::read_to_string(dir.path().join("study.svg")).unwrap();
+    assert!(svg.starts_with("<svg") && svg.contains("backward-euler"));
+}
+
+#[test]
+fn study_refuses_a_bad_input_and_a_bad_integrator() {
+    let dir = tempfile::tempdir().unwrap();
+    let missing = dir.path().join("nothing.obj");
+    let o = Command::new(common::crackle_bin())
+        .args(["study".as_ref(), missing.as_os_str()])
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("nothing.obj"));
+    let input = common::fixture("plate_jittered.obj");
+    let o = Command::new(common::crackle_bin())
+        .args(["study".as_ref(), input.as_os_str()])
+        .args(["--integrator", "rk4"])
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("rk4"));
+}
