@@ -5,7 +5,7 @@
 use crackle::bridge::{write_back_with, SimEntry};
 use crackle::pipeline::Post;
 use crackle::post::distance::{crack_vertices, distance_field};
-use crackle::post::walls::{build_walls, WallOptions, Walls};
+use crackle::post::walls::{build_walls, crossings, WallOptions, Walls};
 use crackle::post::width::{displace, turn_normals, WidthOptions};
 use crackle::scene::{
     Geometry, Material, Primitive, RawAccessor, RawGeometry, Scene, TriGeometry, VertexAttribute,
@@ -86,10 +86,17 @@ pub fn apply(
                 post.wall_depth_relative * mean_gap
             };
             let w = build_walls(&e.sim, &positions, &WallOptions { depth });
+            // Walls passing through the surface or each other (narrow,
+            // sheared gaps at junctions), counted for the report.
+            let (crossing, _) = crossings(&e.sim, &positions, &w);
+            if crossing > 0 {
+                log::info!("{}: {crossing} wall triangle pairs cross", e.label);
+            }
             detail.insert(
                 "walls".into(),
                 json!({
                     "depth": depth,
+                    "crossing_pairs": crossing,
                     "triangles": w.triangles.len(),
                     "skipped_degenerate": w.skipped_degenerate,
                     "skipped_closed_sides": w.skipped_closed,

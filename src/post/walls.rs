@@ -169,6 +169,8 @@ pub struct Walls {
     /// (the face of the side's halfedge): which piece of the surface it
     /// belongs to.
     pub side_faces: Vec<FaceId>,
+    /// For each triangle, the crack side (boundary halfedge) it hangs on.
+    pub sides: Vec<HalfedgeId>,
     /// Crack sides without walls because the crack stayed shut there (see
     /// [`build_walls`]'s module docs, "Closed cracks").
     pub skipped_closed: usize,
@@ -259,6 +261,7 @@ pub fn build_walls(mesh: &SimMesh, top: &[[f64; 3]], opts: &WallOptions) -> Wall
             line,
             u0: arc[i],
             face: mesh.face(h),
+            side: h,
         };
         wall.emit(&mut out, &bottoms.position, apex);
     }
@@ -715,6 +718,8 @@ struct WallPolygon<'a> {
     u0: f64,
     /// The surface face of the crack side.
     face: FaceId,
+    /// The crack side.
+    side: HalfedgeId,
 }
 
 impl WallPolygon<'_> {
@@ -748,13 +753,19 @@ impl WallPolygon<'_> {
             tris.push([1, 2 + i, 3 + i]);
         }
         for t in tris {
-            emit_triangle(out, t.map(|l| pos[l]), t.map(|l| uv[l]), self.face);
+            emit_triangle(
+                out,
+                t.map(|l| pos[l]),
+                t.map(|l| uv[l]),
+                self.face,
+                self.side,
+            );
         }
     }
 }
 
 /// Appends one flat-shaded triangle, or counts it as degenerate.
-fn emit_triangle(out: &mut Walls, p: [P3; 3], uv: [[f64; 2]; 3], face: FaceId) {
+fn emit_triangle(out: &mut Walls, p: [P3; 3], uv: [[f64; 2]; 3], face: FaceId, side: HalfedgeId) {
     let c = v3::cross(v3::sub(p[1], p[0]), v3::sub(p[2], p[0]));
     let twice_area = v3::norm(c);
     let longest2 = (0..3)
@@ -776,6 +787,70 @@ fn emit_triangle(out: &mut Walls, p: [P3; 3], uv: [[f64; 2]; 3], face: FaceId) {
     }
     out.triangles.push([base, base + 1, base + 2]);
     out.side_faces.push(face);
+    out.sides.push(side);
+}
+
+/// Where the walls pass through the surface or each other: the number of
+/// crossing (wall, wall) and (wall, surface face) pairs, and the crack
+/// vertices involved (the ends of the walls' crack sides and the crack
+/// vertices of the surface faces), sorted. Only surface faces at crack
+/// vertices take part. Every triangle is shrunk towards its centroid by 1%
+/// first, so pairs that only touch along an edge or at a corner (as the
+/// walls of one crack do by construction) are not counted.
+pub fn crossings(mesh: &SimMesh, top: &[[f64; 3]], walls: &Walls) -> (usize, Vec<VertexId>) {
+    const SHRINK: f64 = 1e-2;
+    let on_crack = crate::post::distance::crack_vertices(mesh);
+    let mut is_crack = vec![false; mesh.n_vertices()];
+    for v in &on_crack {
+        is_crack[v.idx()] = true;
+    }
+    let mut faces: Vec<FaceId> = on_crack
+        .iter()
+        .flat_map(|&v| mesh.vertex_faces(v))
+        .collect();
+    faces.sort();
+    faces.dedup();
+    let mut pos: Vec<P3> = Vec::new();
+    let mut tris: Vec<[u32; 3]> = Vec::new();
+    let mut push = |p: [P3; 3]| {
+        let c: P3 = std::array::from_fn(|k| (p[0][k] + p[1][k] + p[2][k]) / 3.0);
+        let base = pos.len() as u32;
+        for q in p {
+            pos.push(std::array::from_fn(|k| q[k] + SHRINK * (c[k] - q[k])));
+        }
+        tris.push([base, base + 1, base + 2]);
+    };
+    for t in &walls.triangles {
+        push(t.map(|i| walls.positions[i as usize]));
+    }
+    let n_walls = walls.triangles.len();
+    for &f in &faces {
+        push(mesh.face_vertices(f).map(|v| top[v.idx()]));
+    }
+    let mut nodes: Vec<VertexId> = Vec::new();
+    let mut count = 0;
+    for (a, b) in intersecting_pairs(&pos, &tris) {
+        if a >= n_walls && b >= n_walls {
+            continue; // surface with surface: not the walls' doing
+        }
+        count += 1;
+        for t in [a, b] {
+            if t < n_walls {
+                let h = walls.sides[t];
+                nodes.extend([mesh.origin(h), mesh.dest(h)]);
+            } else {
+                let f = faces[t - n_walls];
+                nodes.extend(
+                    mesh.face_vertices(f)
+                        .into_iter()
+                        .filter(|v| is_crack[v.idx()]),
+                );
+            }
+        }
+    }
+    nodes.sort();
+    nodes.dedup();
+    (count, nodes)
 }
 
 /// The pairs `(i, j)`, `i < j`, of triangles (indices into `triangles`,
@@ -1416,6 +1491,27 @@ mod tests {
         );
         let (positions, tris) = union(&m, &top, &w);
         assert_eq!(intersecting_pairs(&positions, &tris), vec![]);
+    }
+
+    /// `crossings` finds no crossing for the straight crack's walls, and
+    /// finds walls pushed through the surface, naming their crack vertices.
+    #[test]
+    fn crossings_are_found_and_named() {
+        let (m, top) = straight_crack();
+        let w = build_walls(&m, &top, &WallOptions { depth: DEPTH });
+        assert_eq!(crossings(&m, &top, &w), (0, vec![]));
+        let mut pushed = w.clone();
+        for p in &mut pushed.positions {
+            // Sideways into the plate and up through it.
+            p[1] += 0.5;
+            p[2] += 0.5 * DEPTH;
+        }
+        let (n, nodes) = crossings(&m, &top, &pushed);
+        assert!(n > 0);
+        assert!(!nodes.is_empty());
+        assert!(nodes
+            .iter()
+            .all(|&v| (m.position(v)[1] - 2.0).abs() < 1e-12));
     }
 
     #[test]
