@@ -116,7 +116,14 @@ pub enum Integrator {
     /// when 0) per solve, by preconditioned conjugate gradients to
     /// `tolerance`: stable for every step.
     BackwardEuler,
+    /// The limit of long relaxation: each round solves for equilibrium
+    /// (`K du = f`, no residual force left) after adding the round's load.
+    Equilibrium,
 }
+
+/// The step of an equilibrium solve: long enough that `I` is negligible
+/// beside `dt K` (stiffness is of order 1 in normalised units).
+const EQUILIBRIUM_DT: f64 = 1e12;
 
 impl Integrator {
     /// The pipeline name.
@@ -126,6 +133,7 @@ impl Integrator {
             Integrator::Euler => "euler",
             Integrator::PaperEuler => "paper-euler",
             Integrator::BackwardEuler => "backward-euler",
+            Integrator::Equilibrium => "equilibrium",
         }
     }
 }
@@ -750,13 +758,24 @@ fn relax_round(
             (n, params.relax_time / n as f64)
         }
     };
-    if params.integrator == Integrator::BackwardEuler {
+    if matches!(
+        params.integrator,
+        Integrator::BackwardEuler | Integrator::Equilibrium
+    ) {
         let dt_req = if params.relax_dt > 0.0 {
             params.relax_dt
         } else {
             params.relax_time
         };
-        let (steps, dt) = steps_for(dt_req);
+        // Equilibrium: one solve per round with a step so long that
+        // `(I + dt K) du = dt f` is `K du = f` to working precision; the
+        // round's load goes in at once.
+        let (steps, dt, solve_dt) = if params.integrator == Integrator::Equilibrium {
+            (1, params.relax_time, EQUILIBRIUM_DT)
+        } else {
+            let (n, dt) = steps_for(dt_req);
+            (n, dt, dt)
+        };
         let op = crate::sim::implicit::Operator {
             fans: &fans,
             els: &st.els,
@@ -784,11 +803,11 @@ fn relax_round(
             corner_forces(&st.els, &stress, &mut corner);
             let rhs: Vec<[f64; 3]> = (0..fans.n_vertices())
                 .into_par_iter()
-                .map(|n| v3::scale(op.project(n, gather(&fans, &corner, n)), dt))
+                .map(|n| v3::scale(op.project(n, gather(&fans, &corner, n)), solve_dt))
                 .collect();
             let cg = crate::sim::implicit::solve_shifted(
                 &op,
-                dt,
+                solve_dt,
                 &rhs,
                 &diag,
                 params.tolerance,
@@ -1429,6 +1448,53 @@ mod tests {
         let local = with(Integrator::LocalEuler, 0.0).error_against(&reference);
         eprintln!("one backward-Euler step: {one}, euler at the stable step: {stable}, local-euler: {local}");
         assert!(one.is_finite() && stable < one, "{stable} vs {one}");
+    }
+
+    /// An equilibrium round leaves (almost) no residual force, and no
+    /// finite backward-Euler step relaxes further.
+    #[test]
+    fn equilibrium_leaves_no_residual_force() {
+        let mesh = jittered_plate(12, 0.3, 2);
+        let terms = [crate::stress::Term {
+            kind: crate::stress::TermKind::Uniform,
+            init: 1.0,
+            evolve: 0.0,
+            mask: None,
+        }];
+        let field = StressField::build(&mesh, &terms, 1).unwrap();
+        let p = |integrator, tolerance| SimParams {
+            shrink_rate: 0.0,
+            load_time: 0.0,
+            integrator,
+            tolerance,
+            ..Default::default()
+        };
+        let eq = relax_only(&mesh, &p(Integrator::Equilibrium, 1e-8), Some(&field), 1).unwrap();
+        let be = relax_only(&mesh, &p(Integrator::BackwardEuler, 1e-8), Some(&field), 1).unwrap();
+        let start =
+            relax_only(&mesh, &p(Integrator::BackwardEuler, 1e-8), Some(&field), 0).unwrap();
+        let f0 = {
+            let mut m = mesh.clone();
+            let r = run_with(
+                &mut m,
+                &SimParams {
+                    max_rounds: 1,
+                    toughness: 1e30,
+                    ..p(Integrator::BackwardEuler, 1e-8)
+                },
+                Some(&field),
+                &mut (),
+            )
+            .unwrap();
+            r.phases[0].residual
+        };
+        let res = eq.report.phases[0].residual;
+        assert!(
+            res < 1e-6 * f0.max(1.0),
+            "equilibrium residual {res} (one BE round: {f0})"
+        );
+        assert!(eq.report.energy[1] <= be.report.energy[1] * (1.0 + 1e-9));
+        assert!(eq.report.energy[1] < start.report.energy[1]);
     }
 
     /// The paper's scheme with a step far above the stable one stops with an
