@@ -294,6 +294,10 @@ pub struct Phase {
     pub cg_iterations: usize,
     /// Largest relative residual any solve of the round ended with.
     pub cg_residual: f64,
+    /// Estimated relative stress error of the round's time integration
+    /// (see `relax_round`; for equilibrium rounds the solve's residual).
+    /// Sampled: the first round and every 8th; NaN (`null`) between.
+    pub error_estimate: f64,
 }
 
 /// What crack finishing did.
@@ -328,6 +332,9 @@ pub trait Observer {
 }
 
 impl Observer for () {}
+
+/// Rounds between two error estimates of the time integration.
+const ESTIMATE_EVERY: usize = 8;
 
 /// The state of a run at one moment, for [`Observer::state`].
 pub struct Snapshot<'a> {
@@ -758,6 +765,9 @@ fn relax_round(
             (n, params.relax_time / n as f64)
         }
     };
+    // What the error estimate needs: the step and the mobility used.
+    let step_dt;
+    let mut step_mobility: Vec<f64> = Vec::new();
     if matches!(
         params.integrator,
         Integrator::BackwardEuler | Integrator::Equilibrium
@@ -832,6 +842,11 @@ fn relax_round(
         }
         st.stress = stress;
         corner_forces(&st.els, &st.stress, &mut st.corner);
+        step_dt = if params.integrator == Integrator::Equilibrium {
+            0.0
+        } else {
+            dt
+        };
         report.time += steps as f64 * dt;
         report.relax_steps += steps;
         phase.steps = steps;
@@ -882,27 +897,67 @@ fn relax_round(
         report.time += steps as f64 * dt;
         report.relax_steps += steps;
         phase.steps = steps;
+        step_dt = dt;
+        step_mobility = mobility;
     }
     // The round's phase: energy and residual force at its end (`st.corner`
     // holds the corner forces at the final stress: the explicit steps'
     // fused update leaves them there, the implicit branch computes them).
     let fixed = &st.fixed;
     let corner = &st.corner;
-    let residual2: Vec<f64> = (0..fans.n_vertices())
+    let force: Vec<[f64; 3]> = (0..fans.n_vertices())
         .into_par_iter()
         .map(|n| {
             if fixed[n] {
-                return 0.0;
+                return [0.0; 3];
             }
             let mut f = gather(&fans, corner, n);
             if let Some(nrm) = normals.get(n) {
                 f = v3::sub(f, v3::scale(*nrm, v3::dot(f, *nrm)));
             }
-            v3::dot(f, f)
+            f
         })
         .collect();
-    phase.residual = residual2.iter().sum::<f64>().sqrt();
+    phase.residual = crate::sim::implicit::dot(&force, &force).sqrt();
     phase.energy = energy(&st.els, &st.stress);
+    // Error estimate of the round (relative, like the study's error): a
+    // first-order step of `dt` errs by `dt^2 / 2 |u''|` with `u'' = M K M f`
+    // (M the mobility), which moves the stress by `B u''`; the round's
+    // steps add up. Its stress norm is `sqrt(u''^T K u'')` against
+    // `|S| = sqrt(2 E)`. Equilibrium rounds report their solve's residual.
+    // It costs two stiffness products, so it is sampled: the first round
+    // and every `ESTIMATE_EVERY`-th after it (NaN, `null` in JSON, between).
+    let sampled = report.phases.len() % ESTIMATE_EVERY == 0;
+    phase.error_estimate = if !sampled {
+        f64::NAN
+    } else if step_dt > 0.0 && phase.energy > 0.0 {
+        let op = crate::sim::implicit::Operator {
+            fans: &fans,
+            els: &st.els,
+            normals: &normals,
+            fixed: &st.fixed,
+        };
+        let mob = |n: usize| step_mobility.get(n).copied().unwrap_or(1.0);
+        let mf: Vec<[f64; 3]> = force
+            .iter()
+            .enumerate()
+            .map(|(n, f)| v3::scale(*f, mob(n)))
+            .collect();
+        let mut scratch = Vec::new();
+        let mut kmf = vec![[0.0; 3]; mf.len()];
+        op.apply(&mf, &mut scratch, &mut kmf);
+        let w: Vec<[f64; 3]> = kmf
+            .iter()
+            .enumerate()
+            .map(|(n, x)| v3::scale(*x, mob(n)))
+            .collect();
+        let mut kw = vec![[0.0; 3]; w.len()];
+        op.apply(&w, &mut scratch, &mut kw);
+        let stress_norm = crate::sim::implicit::dot(&w, &kw).max(0.0).sqrt();
+        phase.steps as f64 * 0.5 * step_dt * step_dt * stress_norm / (2.0 * phase.energy).sqrt()
+    } else {
+        phase.cg_residual
+    };
     phase.time = report.time;
     report.phases.push(phase);
     if !phase.energy.is_finite()
@@ -1428,7 +1483,12 @@ mod tests {
                 .map(|&dt| {
                     let r = with(integrator, dt);
                     assert!(r.report.energy[1] < r.report.energy[0]);
-                    r.error_against(&reference)
+                    let err = r.error_against(&reference);
+                    let est = r.report.phases[0].error_estimate;
+                    eprintln!("{integrator:?} dt {dt}: error {err:.3e}, estimate {est:.3e}");
+                    // The round's own estimate is of the right size.
+                    assert!(est > err / 2.0 && est < err * 2.0, "{err} vs {est}");
+                    err
                 })
                 .collect();
             eprintln!("{integrator:?}: relative stress errors at dt 0.04, 0.02, 0.01: {errors:?}");
