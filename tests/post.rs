@@ -529,3 +529,44 @@ fn frames_show_the_cracks_growing_and_end_at_the_output() {
         assert!(!plain.exists());
     }
 }
+
+/// Morph-target weights animated on a split node drive every piece, and a
+/// node left without a mesh keeps no weights channel (that would be invalid
+/// glTF).
+#[test]
+fn split_islands_keeps_morph_animation_on_the_pieces() {
+    let Some(input) = common::eval_data("gltf/AnimatedMorphCube/AnimatedMorphCube.gltf") else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    for extra in [&["--set", "post.lines=false"][..], &[][..]] {
+        let out = dir.path().join("morph.glb");
+        let mut args = vec!["--preset", "mud", "--split-islands"];
+        args.extend_from_slice(extra);
+        crack(&input, &out, &args);
+        if let Some(v) = common::validator() {
+            v.assert_clean(&out);
+        }
+        let (doc, _, _) = gltf::import(&out).unwrap();
+        let driven: Vec<usize> = doc
+            .animations()
+            .flat_map(|a| a.channels().collect::<Vec<_>>())
+            .filter(|c| c.target().property() == gltf::animation::Property::MorphTargetWeights)
+            .map(|c| c.target().node().index())
+            .collect();
+        for n in doc.nodes() {
+            let pieces = n.name().is_some_and(|s| s.contains("_piece_"));
+            if pieces {
+                assert!(
+                    driven.contains(&n.index()),
+                    "{:?} is not animated",
+                    n.name()
+                );
+            }
+            if driven.contains(&n.index()) {
+                let m = n.mesh().expect("a driven node has a mesh");
+                assert!(m.primitives().all(|p| p.morph_targets().count() > 0));
+            }
+        }
+    }
+}

@@ -112,28 +112,28 @@ impl SimArgs {
                 sets.push(format!("simulation.{k}={v}"));
             }
         };
-        set("toughness", self.toughness.map(|x| x.to_string()));
-        set("alpha", self.alpha.map(|x| x.to_string()));
+        set("toughness", self.toughness.map(|x| format!("{x:?}")));
+        set("alpha", self.alpha.map(|x| format!("{x:?}")));
         set(
             "residual_constant",
-            self.residual_constant.map(|x| x.to_string()),
+            self.residual_constant.map(|x| format!("{x:?}")),
         );
-        set("shrink_rate", self.shrink_rate.map(|x| x.to_string()));
-        set("load_time", self.load_time.map(|x| x.to_string()));
-        set("noise", self.noise.map(|x| x.to_string()));
+        set("shrink_rate", self.shrink_rate.map(|x| format!("{x:?}")));
+        set("load_time", self.load_time.map(|x| format!("{x:?}")));
+        set("noise", self.noise.map(|x| format!("{x:?}")));
         set("seed", self.seed.map(|x| x.to_string()));
-        set("relax_time", self.relax_time.map(|x| x.to_string()));
-        set("relax_dt", self.relax_dt.map(|x| x.to_string()));
+        set("relax_time", self.relax_time.map(|x| format!("{x:?}")));
+        set("relax_dt", self.relax_dt.map(|x| format!("{x:?}")));
         set("relax_steps", self.relax_steps.map(|x| x.to_string()));
         set("integrator", self.integrator.clone());
-        set("tolerance", self.tolerance.map(|x| x.to_string()));
+        set("tolerance", self.tolerance.map(|x| format!("{x:?}")));
         set("max_rounds", self.max_rounds.map(|x| x.to_string()));
         set("max_cracks", self.max_cracks.map(|x| x.to_string()));
         set(
             "max_cracks_per_round",
             self.max_cracks_per_round.map(|x| x.to_string()),
         );
-        set("clamp_factor", self.clamp_factor.map(|x| x.to_string()));
+        set("clamp_factor", self.clamp_factor.map(|x| format!("{x:?}")));
         set("bonded", self.unbonded.then(|| "false".to_string()));
         if self.fixed_boundary {
             sets.push("select.fixed_boundary=true".into());
@@ -174,7 +174,7 @@ pub struct CrackArgs<'a> {
 
 /// Groups (primitive indices) of mesh `mesh_index` whose material or OBJ
 /// group name is in `names`, and the names that matched.
-fn fixed_groups(scene: &Scene, mesh_index: usize, names: &[String]) -> (Vec<u32>, Vec<String>) {
+pub fn fixed_groups(scene: &Scene, mesh_index: usize, names: &[String]) -> (Vec<u32>, Vec<String>) {
     let mut groups = Vec::new();
     let mut matched = Vec::new();
     for (pi, p) in scene.meshes[mesh_index].primitives.iter().enumerate() {

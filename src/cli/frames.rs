@@ -8,8 +8,10 @@
 //! then post-processed with the pipeline's `[post]` steps (width, walls and
 //! curling from the displacement reached by then, lines and attributes,
 //! crack times as fractions of the whole run) and written as
-//! `DIR/<output stem>_<k>.<ext>`, `k` zero-padded from 0. The kept states
-//! are full copies of the mesh, so memory grows with `N`.
+//! `DIR/<output stem>_<k>.<ext>`, `k` zero-padded from 0. With one simulated mesh each
+//! frame is written as soon as it is reached; with several, the states are
+//! kept (full copies of the meshes) until all meshes reached them, so
+//! memory grows with `N`.
 
 use crackle::bridge::SimEntry;
 use crackle::mesh::SimMesh;
@@ -25,24 +27,29 @@ struct Kept {
     report: SimReport,
 }
 
-/// Keeps the state at each target time.
-struct Keeper {
+/// Where a reached frame goes.
+type Sink<'a> = dyn FnMut(usize, Kept) -> anyhow::Result<()> + 'a;
+
+/// Keeps the state at each target time, or hands it to a sink at once.
+struct Keeper<'a> {
     targets: Vec<f64>,
+    /// Frames reached so far.
+    count: usize,
     kept: Vec<Kept>,
+    sink: Option<&'a mut Sink<'a>>,
+    error: Option<anyhow::Error>,
 }
 
-impl Observer for Keeper {
+impl Observer for Keeper<'_> {
     fn wants_state(&self) -> bool {
-        self.kept.len() < self.targets.len()
+        self.count < self.targets.len() && self.error.is_none()
     }
 
     fn state(&mut self, s: &Snapshot) {
         let end = *self.targets.last().unwrap_or(&0.0);
         let slack = 1e-9 * end.abs().max(1.0);
-        while self.kept.len() < self.targets.len()
-            && self.targets[self.kept.len()] <= s.time + slack
-        {
-            self.kept.push(Kept {
+        while self.count < self.targets.len() && self.targets[self.count] <= s.time + slack {
+            let kept = Kept {
                 mesh: s.mesh.clone(),
                 report: SimReport {
                     time: s.time,
@@ -52,7 +59,17 @@ impl Observer for Keeper {
                     segment_times: s.segment_times.to_vec(),
                     ..Default::default()
                 },
-            });
+            };
+            match self.sink.as_mut() {
+                Some(sink) => {
+                    if let Err(e) = sink(self.count, kept) {
+                        self.error = Some(e);
+                        return;
+                    }
+                }
+                None => self.kept.push(kept),
+            }
+            self.count += 1;
         }
     }
 }
@@ -116,20 +133,71 @@ pub fn write_frames(
     post: &Post,
 ) -> anyhow::Result<Vec<PathBuf>> {
     let n = frames.count;
+    std::fs::create_dir_all(&frames.dir).map_err(|e| {
+        anyhow::anyhow!(
+            "{}: cannot create the frames folder: {e}",
+            frames.dir.display()
+        )
+    })?;
+    let targets =
+        |end: f64| -> Vec<f64> { (0..n).map(|k| end * k as f64 / (n - 1) as f64).collect() };
+    // One simulated mesh: each frame is written as soon as it is reached,
+    // so memory does not grow with N.
+    if replays.len() == 1 {
+        let r = replays.into_iter().next().unwrap_or_else(|| unreachable!());
+        let mut entry = r.start;
+        let template = entry.clone();
+        let end = r.end_time;
+        let mut written = Vec::new();
+        let mut last: Option<Kept> = None;
+        {
+            let mut write = |k: usize, kept: Kept| -> anyhow::Result<()> {
+                let path = frames.path(output, k);
+                write_frame(scene, &template, end, &kept, post, &path)?;
+                written.push(path);
+                last = Some(kept);
+                Ok(())
+            };
+            let mut keeper = Keeper {
+                targets: targets(end),
+                count: 0,
+                kept: Vec::new(),
+                sink: Some(&mut write),
+                error: None,
+            };
+            crackle::sim::run_with(&mut entry.sim, r.params, r.field, &mut keeper)
+                .map_err(|e| anyhow::anyhow!("{}: frames: {e}", entry.label))?;
+            if let Some(e) = keeper.error {
+                return Err(e);
+            }
+        }
+        // A run that ended early (it cannot, being the same run) would
+        // leave the last frames at the final state.
+        while written.len() < n {
+            let k = written.len();
+            let kept = last.take().unwrap_or_else(|| Kept {
+                mesh: entry.sim.clone(),
+                report: SimReport::default(),
+            });
+            let path = frames.path(output, k);
+            write_frame(scene, &template, end, &kept, post, &path)?;
+            written.push(path);
+            last = Some(kept);
+        }
+        return Ok(written);
+    }
     let mut per_mesh: Vec<(SimEntry, f64, Vec<Kept>)> = Vec::new();
     for r in replays {
-        let targets: Vec<f64> = (0..n)
-            .map(|k| r.end_time * k as f64 / (n - 1) as f64)
-            .collect();
         let mut keeper = Keeper {
-            targets,
+            targets: targets(r.end_time),
+            count: 0,
             kept: Vec::new(),
+            sink: None,
+            error: None,
         };
         let mut entry = r.start;
         crackle::sim::run_with(&mut entry.sim, r.params, r.field, &mut keeper)
             .map_err(|e| anyhow::anyhow!("{}: frames: {e}", entry.label))?;
-        // A run that ended early (it cannot, being the same run) would
-        // leave the last frames at the final state.
         while keeper.kept.len() < n {
             let last = Kept {
                 mesh: entry.sim.clone(),
@@ -143,12 +211,6 @@ pub fn write_frames(
         }
         per_mesh.push((entry, r.end_time, keeper.kept));
     }
-    std::fs::create_dir_all(&frames.dir).map_err(|e| {
-        anyhow::anyhow!(
-            "{}: cannot create the frames folder: {e}",
-            frames.dir.display()
-        )
-    })?;
     let mut written = Vec::new();
     for k in 0..n {
         let mut scene_k = scene.clone();
@@ -170,4 +232,26 @@ pub fn write_frames(
         written.push(path);
     }
     Ok(written)
+}
+
+/// Post-process one kept state of the single simulated mesh `entry` on a
+/// copy of `scene` and write it to `path`.
+fn write_frame(
+    scene: &Scene,
+    entry: &SimEntry,
+    end: f64,
+    kept: &Kept,
+    post: &Post,
+    path: &Path,
+) -> anyhow::Result<()> {
+    let mut scene_k = scene.clone();
+    let mut e = entry.clone();
+    e.sim = kept.mesh.clone();
+    let mut r = kept.report.clone();
+    // Crack times are fractions of the whole run.
+    r.time = end;
+    let reports = [(e.mesh_index, r)];
+    super::post::apply(&mut scene_k, std::slice::from_mut(&mut e), &reports, post)?;
+    super::write_output(&scene_k, path)?;
+    Ok(())
 }

@@ -35,13 +35,14 @@ pub struct Split {
     pub largest: usize,
 }
 
-/// The triangles of `t` whose `keep` is true, with only the vertices they
-/// use (renumbered in order of first use), moved by `-offset`.
-fn subset(t: &TriGeometry, keep: &[bool], offset: [f64; 3]) -> TriGeometry {
-    let mut new_of = vec![u32::MAX; t.positions.len()];
+/// Triangles `tris` of `t` (in that order), with only the vertices they
+/// use (renumbered in order of first use, through the shared scratch map
+/// `new_of`, which is left all `u32::MAX` again), moved by `-offset`.
+fn subset(t: &TriGeometry, tris: &[usize], offset: [f64; 3], new_of: &mut Vec<u32>) -> TriGeometry {
+    new_of.resize(t.positions.len(), u32::MAX);
     let mut order: Vec<usize> = Vec::new();
     let mut triangles = Vec::new();
-    for (tri, _) in t.triangles.iter().zip(keep).filter(|(_, &k)| k) {
+    for tri in tris.iter().map(|&k| t.triangles[k]) {
         triangles.push(tri.map(|i| {
             let i = i as usize;
             if new_of[i] == u32::MAX {
@@ -50,6 +51,9 @@ fn subset(t: &TriGeometry, keep: &[bool], offset: [f64; 3]) -> TriGeometry {
             }
             new_of[i]
         }));
+    }
+    for &i in &order {
+        new_of[i] = u32::MAX;
     }
     let pick = |a: &crackle::scene::VertexAttribute| crackle::scene::VertexAttribute {
         semantic: a.semantic.clone(),
@@ -113,6 +117,7 @@ pub fn split(
     let old = std::mem::take(&mut scene.meshes[mi].primitives);
     let mut kept: Vec<Primitive> = Vec::new();
     let mut piece_prims: Vec<Vec<Primitive>> = vec![Vec::new(); pieces.len()];
+    let mut new_of: Vec<u32> = Vec::new();
     for (pi, prim) in old.into_iter().enumerate() {
         let faces = match (&prim.geometry, per_prim.get(pi)) {
             (Geometry::Triangles(t), Some(Some(faces))) if t.triangles.len() == faces.len() => {
@@ -126,15 +131,18 @@ pub fn split(
         let Geometry::Triangles(t) = &prim.geometry else {
             continue;
         };
-        let of_tri: Vec<u32> = faces.iter().map(|f| islands.of_face[f.idx()]).collect();
-        for (k, prims) in piece_prims.iter_mut().enumerate() {
-            let keep: Vec<bool> = of_tri.iter().map(|&i| i as usize == k).collect();
-            if !keep.iter().any(|&x| x) {
+        // Triangles bucketed by piece in one pass.
+        let mut tris_of: Vec<Vec<usize>> = vec![Vec::new(); pieces.len()];
+        for (k, f) in faces.iter().enumerate() {
+            tris_of[islands.of_face[f.idx()] as usize].push(k);
+        }
+        for ((prims, tris), centre) in piece_prims.iter_mut().zip(&tris_of).zip(&centres) {
+            if tris.is_empty() {
                 continue;
             }
             prims.push(Primitive {
                 material: prim.material,
-                geometry: Geometry::Triangles(subset(t, &keep, centres[k])),
+                geometry: Geometry::Triangles(subset(t, tris, *centre, &mut new_of)),
                 rest: prim.rest.clone(),
             });
         }
@@ -177,6 +185,7 @@ pub fn split(
     }
     let empty = scene.meshes[mi].primitives.is_empty();
     for i in instances {
+        let first_child = scene.nodes.len();
         let node_name = scene.nodes[i].name.clone().unwrap_or_else(|| base.clone());
         let (skin, node_weights) = (scene.nodes[i].skin, scene.nodes[i].weights.clone());
         for (k, m) in piece_mesh.iter().enumerate() {
@@ -202,11 +211,46 @@ pub fn split(
             scene.nodes[i].skin = None;
             scene.nodes[i].weights = None;
         }
+        let children: Vec<usize> = (first_child..scene.nodes.len()).collect();
+        drive_piece_weights(scene, i, &children, empty);
     }
     Split {
         pieces: pieces.len(),
         recentred,
         largest,
+    }
+}
+
+/// Morph-target weights animated on node `node` drive its piece nodes
+/// `pieces` too: every `weights` channel targeting the node gets a copy
+/// per piece (sharing its sampler). When the node lost its mesh, its own
+/// channel moves to the first piece instead (a weights channel on a node
+/// without morph targets is invalid).
+fn drive_piece_weights(scene: &mut Scene, node: usize, pieces: &[usize], moved: bool) {
+    if pieces.is_empty() {
+        return;
+    }
+    for anim in &mut scene.animations {
+        let Some(channels) = anim.get_mut("channels").and_then(|c| c.as_array_mut()) else {
+            continue;
+        };
+        let mut added = Vec::new();
+        for ch in channels.iter_mut() {
+            let target = &ch["target"];
+            if target["path"] != "weights" || target["node"].as_u64() != Some(node as u64) {
+                continue;
+            }
+            let first = usize::from(moved);
+            for &p in &pieces[first..] {
+                let mut c = ch.clone();
+                c["target"]["node"] = serde_json::json!(p);
+                added.push(c);
+            }
+            if moved {
+                ch["target"]["node"] = serde_json::json!(pieces[0]);
+            }
+        }
+        channels.extend(added);
     }
 }
 

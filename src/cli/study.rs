@@ -77,15 +77,26 @@ fn junction_histogram(segments: &[[[f64; 3]; 2]]) -> Vec<f64> {
     }
     let mut hist = vec![0.0; 12];
     for dirs in at.values().filter(|d| d.len() >= 3) {
-        // Angle of each direction around the mean normal-free plane: use
-        // the plane of the first two directions.
-        let n = v3::cross(dirs[0], dirs[1]);
-        let nl = v3::norm(n);
-        if nl == 0.0 {
+        // Angles around the plane the directions lie in: its normal is the
+        // direction of least spread (smallest eigenvector of sum d d^T).
+        let mut m = nalgebra::Matrix3::<f64>::zeros();
+        for d in dirs {
+            let v = nalgebra::Vector3::new(d[0], d[1], d[2]);
+            m += v * v.transpose();
+        }
+        let eig = m.symmetric_eigen();
+        let k = (0..3)
+            .min_by(|&i, &j| eig.eigenvalues[i].total_cmp(&eig.eigenvalues[j]))
+            .unwrap_or(0);
+        let c = eig.eigenvectors.column(k);
+        let n = [c[0], c[1], c[2]];
+        // First axis: the first direction, flattened into the plane.
+        let e1 = v3::sub(dirs[0], v3::scale(n, v3::dot(dirs[0], n)));
+        let l1 = v3::norm(e1);
+        if l1 <= 0.0 || l1.is_nan() {
             continue;
         }
-        let n = v3::scale(n, 1.0 / nl);
-        let e1 = dirs[0];
+        let e1 = v3::scale(e1, 1.0 / l1);
         let e2 = v3::cross(n, e1);
         let mut ang: Vec<f64> = dirs
             .iter()
@@ -137,7 +148,16 @@ pub fn run(mut a: StudyArgs) -> anyhow::Result<()> {
     } else {
         Vec::new()
     };
-    let base = pipe.params(&[]);
+    let (groups, matched) = super::crack::fixed_groups(&scene, e.mesh_index, &pipe.select.fix);
+    if let Some(missing) = pipe.select.fix.iter().find(|n| !matched.contains(n)) {
+        return Err(super::UsageError(format!(
+            "--fix {missing}: {} of {} has no primitive with that material or group name",
+            e.label,
+            a.input.display()
+        ))
+        .into());
+    }
+    let base = pipe.params(&groups);
     let curvature = pipe
         .needs_curvature()
         .then(|| crackle::geometry::curvature::estimate(&e.sim));
@@ -261,8 +281,9 @@ pub fn run(mut a: StudyArgs) -> anyhow::Result<()> {
             let s = t.elapsed().as_secs_f64();
             let cells = face_islands(&m).count;
             let hist = junction_histogram(&r.segments);
+            let cg: usize = r.phases.iter().map(|p| p.cg_iterations).sum();
             Ok((
-                json!({"cracks": r.cracks, "crack_length": r.crack_length, "cells": cells, "relax_steps": r.relax_steps}),
+                json!({"cracks": r.cracks, "crack_length": r.crack_length, "cells": cells, "relax_steps": r.relax_steps, "cg_iterations": cg}),
                 s,
                 hist,
             ))
@@ -307,7 +328,7 @@ pub fn run(mut a: StudyArgs) -> anyhow::Result<()> {
                 seconds,
                 error,
                 steps: stats["relax_steps"].as_u64().unwrap_or(0) as usize,
-                cg_iterations: 0,
+                cg_iterations: stats["cg_iterations"].as_u64().unwrap_or(0) as usize,
                 extra: json!({
                     "stats": stats,
                     "crack_count_difference": rel("cracks"),
