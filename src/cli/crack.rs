@@ -349,6 +349,15 @@ pub fn run(mut a: CrackArgs) -> Result<()> {
         if let Some(b) = obs.0 {
             b.finish_and_clear();
         }
+        if r.cg_unconverged > 0 {
+            log::warn!(
+                "{}: {}: {} implicit solves stopped before reaching tolerance {}",
+                a.input.display(),
+                e.label,
+                r.cg_unconverged,
+                params.tolerance
+            );
+        }
         if r.dt_limited_rounds > 0 {
             log::warn!(
                 "{}: {}: relax_dt {} is above the stable step ({:.3e}) in {} rounds; those rounds took stable steps over the same relaxation time",

@@ -265,6 +265,9 @@ pub struct SimReport {
     pub stable_dt: f64,
     /// The integrator used.
     pub integrator: &'static str,
+    /// Implicit solves that stopped before reaching `tolerance` (iteration
+    /// cap, or a breakdown); their step was still taken.
+    pub cg_unconverged: usize,
     /// Per relaxation round (and finishing pass): the time at its end, the
     /// energy, the norm of the residual node forces, and the conjugate
     /// gradient iterations (backward Euler).
@@ -825,6 +828,9 @@ fn relax_round(
                 &mut x,
             );
             phase.cg_iterations += cg.iterations;
+            if !cg.converged {
+                report.cg_unconverged += 1;
+            }
             phase.cg_residual = phase.cg_residual.max(cg.relative_residual);
             crate::sim::relax::apply_virtual_displacement(
                 &fans,
