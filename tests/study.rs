@@ -58,6 +58,8 @@ fn study_writes_a_work_precision_table_and_plot() {
     assert!(full[0]["full"]["stats"]["cracks"].as_u64().unwrap() > 0);
     let svg = std::fs::read_to_string(dir.path().join("study.svg")).unwrap();
     assert!(svg.starts_with("<svg") && svg.contains("backward-euler"));
+    let png = std::fs::read(dir.path().join("study.png")).unwrap();
+    assert!(png.starts_with(b"\x89PNG") && png.len() > 10_000);
 }
 
 #[test]

@@ -72,7 +72,7 @@ enum Command {
         input: PathBuf,
         #[command(flatten)]
         sim: crack::SimArgs,
-        /// Write study.csv, study.json and study.svg (error against seconds) into this folder
+        /// Write study.csv, study.json, study.svg and study.png (error against seconds) into this folder
         #[arg(long, value_name = "DIR")]
         out: Option<PathBuf>,
         /// Relaxation rounds (of relax_time) every integrator runs

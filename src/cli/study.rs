@@ -13,6 +13,9 @@
 //! run of the paper's scheme at half the stable step: crack count, crack
 //! length, cells (pieces the cracks cut the surface into) and the
 //! distance between junction-angle histograms.
+//!
+//! Output: a table on stdout; with `--out`, `study.csv`, `study.json`, and
+//! the plot as `study.svg` and `study.png`.
 
 use crackle::bridge::build_sim_meshes;
 use crackle::mesh::SimMesh;
@@ -394,16 +397,41 @@ pub fn run(mut a: StudyArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// The plot's font (DejaVu Sans, Bitstream Vera license:
+/// `assets/fonts/LICENSE-DejaVu.txt`), compiled in so the PNG has labels on
+/// any machine.
+static FONT: &[u8] = include_bytes!("../../assets/fonts/DejaVuSans.ttf");
+
 /// Error (log) against seconds (log), one series per integrator, for the
-/// relaxation rows.
+/// relaxation rows: `path` as SVG and the same path with `.png`.
 fn plot(rows: &[Row], path: &Path, title: &str) -> anyhow::Result<()> {
     use plotters::prelude::*;
+    use plotters::style::FontStyle;
+    plotters::style::register_font("sans-serif", FontStyle::Normal, FONT)
+        .map_err(|_| anyhow::anyhow!("the plot font does not load"))?;
+    let err = |p: &Path, e: &dyn std::fmt::Display| anyhow::anyhow!("{}: plot: {e}", p.display());
+    let svg = SVGBackend::new(path, (800, 560)).into_drawing_area();
+    draw(rows, svg, title).map_err(|e| err(path, &e))?;
+    let png_path = path.with_extension("png");
+    let png = BitMapBackend::new(&png_path, (800, 560)).into_drawing_area();
+    draw(rows, png, title).map_err(|e| err(&png_path, &e))?;
+    Ok(())
+}
+
+fn draw<DB: plotters::prelude::DrawingBackend>(
+    rows: &[Row],
+    root: plotters::drawing::DrawingArea<DB, plotters::coord::Shift>,
+    title: &str,
+) -> Result<(), String> {
+    use plotters::prelude::*;
+    let e = |x: &dyn std::fmt::Debug| format!("{x:?}");
     let pts: Vec<&Row> = rows
         .iter()
         .filter(|r| r.kind == "relaxation" && r.error > 0.0 && r.seconds > 0.0)
         .collect();
+    root.fill(&WHITE).map_err(|x| e(&x))?;
     if pts.is_empty() {
-        return Ok(());
+        return root.present().map_err(|x| e(&x));
     }
     let (mut x0, mut x1, mut y0, mut y1) = (f64::MAX, 0.0f64, f64::MAX, 0.0f64);
     for r in &pts {
@@ -412,9 +440,6 @@ fn plot(rows: &[Row], path: &Path, title: &str) -> anyhow::Result<()> {
         y0 = y0.min(r.error);
         y1 = y1.max(r.error);
     }
-    let root = SVGBackend::new(path, (800, 560)).into_drawing_area();
-    let err = |e: &dyn std::fmt::Display| anyhow::anyhow!("{}: plot: {e}", path.display());
-    root.fill(&WHITE).map_err(|e| err(&e))?;
     let mut chart = ChartBuilder::on(&root)
         .caption(
             format!("relaxation error against run time: {title}"),
@@ -427,13 +452,13 @@ fn plot(rows: &[Row], path: &Path, title: &str) -> anyhow::Result<()> {
             (x0 / 1.5..x1 * 1.5).log_scale(),
             (y0 / 2.0..y1 * 2.0).log_scale(),
         )
-        .map_err(|e| err(&e))?;
+        .map_err(|x| e(&x))?;
     chart
         .configure_mesh()
         .x_desc("seconds")
         .y_desc("relative stress error")
         .draw()
-        .map_err(|e| err(&e))?;
+        .map_err(|x| e(&x))?;
     let series: [(&str, RGBColor); 4] = [
         ("paper-euler", RGBColor(200, 60, 40)),
         ("euler", RGBColor(230, 150, 30)),
@@ -452,21 +477,20 @@ fn plot(rows: &[Row], path: &Path, title: &str) -> anyhow::Result<()> {
         s.sort_by(|a, b| a.0.total_cmp(&b.0));
         chart
             .draw_series(LineSeries::new(s.clone(), color.stroke_width(2)))
-            .map_err(|e| err(&e))?
+            .map_err(|x| e(&x))?
             .label(name)
             .legend(move |(x, y)| {
                 PathElement::new(vec![(x, y), (x + 18, y)], color.stroke_width(2))
             });
         chart
             .draw_series(s.iter().map(|&p| Circle::new(p, 4, color.filled())))
-            .map_err(|e| err(&e))?;
+            .map_err(|x| e(&x))?;
     }
     chart
         .configure_series_labels()
         .background_style(WHITE.mix(0.9))
         .border_style(BLACK)
         .draw()
-        .map_err(|e| err(&e))?;
-    root.present().map_err(|e| err(&e))?;
-    Ok(())
+        .map_err(|x| e(&x))?;
+    root.present().map_err(|x| e(&x))
 }
