@@ -521,8 +521,8 @@ pub fn run_with(
         )?;
         report.rounds = round + 1;
         // ---- queue every failing node
-        let sep = separations(mesh, &st);
-        for (v, (val, _)) in sep.iter().enumerate() {
+        let sep = separations(mesh, &st, params.toughness);
+        for (v, val) in sep.iter().enumerate() {
             queue.set(v as u32, *val, params.toughness);
         }
         // ---- crack while the top fails
@@ -552,7 +552,7 @@ pub fn run_with(
             // New and nearby nodes get their separation immediately.
             for n in touched_nodes(mesh, &ev) {
                 let s = node_separation(mesh, &st, n);
-                queue.set(n.0, s.max_eigen().0, params.toughness);
+                queue.set(n.0, queue_value(s, params.toughness), params.toughness);
             }
         }
         hold = cracked_this_round >= per_round_cap;
@@ -1231,11 +1231,26 @@ fn node_separation(mesh: &SimMesh, st: &State, v: VertexId) -> Sym3 {
 }
 
 /// Largest separation eigenvalue and its direction at every node.
-fn separations(mesh: &SimMesh, st: &State) -> Vec<(f64, [f64; 3])> {
+fn separations(mesh: &SimMesh, st: &State, threshold: f64) -> Vec<f64> {
     (0..mesh.n_vertices())
         .into_par_iter()
-        .map(|v| node_separation(mesh, st, VertexId(v as u32)).max_eigen())
+        .map(|v| queue_value(node_separation(mesh, st, VertexId(v as u32)), threshold))
         .collect()
+}
+
+/// The value to queue a node with: its largest separation eigenvalue, or,
+/// when the Gershgorin bound already shows that it cannot exceed
+/// `threshold`, that bound (the queue drops both alike, and the bound
+/// saves the eigen-decomposition for the many nodes far from failing).
+fn queue_value(s: Sym3, threshold: f64) -> f64 {
+    let bound = (s.xx + s.xy.abs() + s.xz.abs())
+        .max(s.yy + s.xy.abs() + s.yz.abs())
+        .max(s.zz + s.xz.abs() + s.yz.abs());
+    if bound <= threshold {
+        bound
+    } else {
+        s.max_eigen().0
+    }
 }
 
 /// Unit area-weighted normal of every node (zero where undefined).
