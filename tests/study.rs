@@ -22,6 +22,10 @@ fn study_writes_a_work_precision_table_and_plot() {
     let rows = doc["rows"].as_array().unwrap();
     let csv = std::fs::read_to_string(dir.path().join("study.csv")).unwrap();
     assert_eq!(csv.lines().count(), rows.len() + 1);
+    // Every CSV line has every column.
+    for line in csv.lines() {
+        assert_eq!(line.split(',').count(), 9, "{line}");
+    }
     for r in rows {
         let e = r["error"].as_f64().unwrap();
         assert!(e.is_finite() && e >= 0.0, "{r}");
