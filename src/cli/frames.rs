@@ -141,6 +141,11 @@ pub fn write_frames(
     })?;
     let targets =
         |end: f64| -> Vec<f64> { (0..n).map(|k| end * k as f64 / (n - 1) as f64).collect() };
+    // The replay is the first run again, so it reaches every target (the
+    // last at its final time); anything else is a bug, not a short frame set.
+    let short = |label: &str, got: usize| {
+        anyhow::anyhow!("{label}: frames: the replay reached {got} of {n} frames")
+    };
     // One simulated mesh: each frame is written as soon as it is reached,
     // so memory does not grow with N.
     if replays.len() == 1 {
@@ -149,44 +154,30 @@ pub fn write_frames(
         let template = entry.clone();
         let end = r.end_time;
         let mut written = Vec::new();
-        let mut last: Option<Kept> = None;
-        {
-            let mut write = |k: usize, kept: Kept| -> anyhow::Result<()> {
-                let path = frames.path(output, k);
-                write_frame(scene, &template, end, &kept, post, &path)?;
-                written.push(path);
-                last = Some(kept);
-                Ok(())
-            };
-            let mut keeper = Keeper {
-                targets: targets(end),
-                count: 0,
-                kept: Vec::new(),
-                sink: Some(&mut write),
-                error: None,
-            };
-            crackle::sim::run_with(&mut entry.sim, r.params, r.field, &mut keeper)
-                .map_err(|e| anyhow::anyhow!("{}: frames: {e}", entry.label))?;
-            if let Some(e) = keeper.error {
-                return Err(e);
-            }
-        }
-        // A run that ended early (it cannot, being the same run) would
-        // leave the last frames at the final state.
-        while written.len() < n {
-            let k = written.len();
-            let kept = last.take().unwrap_or_else(|| Kept {
-                mesh: entry.sim.clone(),
-                report: SimReport::default(),
-            });
+        let mut write = |k: usize, kept: Kept| -> anyhow::Result<()> {
             let path = frames.path(output, k);
-            write_frame(scene, &template, end, &kept, post, &path)?;
+            write_frame(scene, vec![(&template, end, kept)], post, &path)?;
             written.push(path);
-            last = Some(kept);
+            Ok(())
+        };
+        let mut keeper = Keeper {
+            targets: targets(end),
+            count: 0,
+            kept: Vec::new(),
+            sink: Some(&mut write),
+            error: None,
+        };
+        crackle::sim::run_with(&mut entry.sim, r.params, r.field, &mut keeper)
+            .map_err(|e| anyhow::anyhow!("{}: frames: {e}", entry.label))?;
+        if let Some(e) = keeper.error {
+            return Err(e);
+        }
+        if keeper.count < n {
+            return Err(short(&entry.label, keeper.count));
         }
         return Ok(written);
     }
-    let mut per_mesh: Vec<(SimEntry, f64, Vec<Kept>)> = Vec::new();
+    let mut per_mesh: Vec<(SimEntry, f64, std::vec::IntoIter<Kept>)> = Vec::new();
     for r in replays {
         let mut keeper = Keeper {
             targets: targets(r.end_time),
@@ -198,60 +189,44 @@ pub fn write_frames(
         let mut entry = r.start;
         crackle::sim::run_with(&mut entry.sim, r.params, r.field, &mut keeper)
             .map_err(|e| anyhow::anyhow!("{}: frames: {e}", entry.label))?;
-        while keeper.kept.len() < n {
-            let last = Kept {
-                mesh: entry.sim.clone(),
-                report: keeper
-                    .kept
-                    .last()
-                    .map(|k| k.report.clone())
-                    .unwrap_or_default(),
-            };
-            keeper.kept.push(last);
+        if keeper.count < n {
+            return Err(short(&entry.label, keeper.count));
         }
-        per_mesh.push((entry, r.end_time, keeper.kept));
+        per_mesh.push((entry, r.end_time, keeper.kept.into_iter()));
     }
     let mut written = Vec::new();
     for k in 0..n {
-        let mut scene_k = scene.clone();
-        let mut entries: Vec<SimEntry> = Vec::new();
-        let mut reports: Vec<(usize, SimReport)> = Vec::new();
-        for (entry, end, kept) in &mut per_mesh {
-            let state = &mut kept[k];
-            let mut e = entry.clone();
-            e.sim = std::mem::take(&mut state.mesh);
-            let mut r = std::mem::take(&mut state.report);
-            // Crack times are fractions of the whole run.
-            r.time = *end;
-            reports.push((e.mesh_index, r));
-            entries.push(e);
-        }
-        super::post::apply(&mut scene_k, &mut entries, &reports, post)?;
+        let states = per_mesh
+            .iter_mut()
+            .filter_map(|(entry, end, kept)| kept.next().map(|s| (&*entry, *end, s)))
+            .collect();
         let path = frames.path(output, k);
-        super::write_output(&scene_k, &path)?;
+        write_frame(scene, states, post, &path)?;
         written.push(path);
     }
     Ok(written)
 }
 
-/// Post-process one kept state of the single simulated mesh `entry` on a
-/// copy of `scene` and write it to `path`.
+/// Post-process kept states `(mesh entry, end time of its run, state)` on
+/// a copy of `scene` and write it to `path`.
 fn write_frame(
     scene: &Scene,
-    entry: &SimEntry,
-    end: f64,
-    kept: &Kept,
+    states: Vec<(&SimEntry, f64, Kept)>,
     post: &Post,
     path: &Path,
 ) -> anyhow::Result<()> {
     let mut scene_k = scene.clone();
-    let mut e = entry.clone();
-    e.sim = kept.mesh.clone();
-    let mut r = kept.report.clone();
-    // Crack times are fractions of the whole run.
-    r.time = end;
-    let reports = [(e.mesh_index, r)];
-    super::post::apply(&mut scene_k, std::slice::from_mut(&mut e), &reports, post)?;
-    super::write_output(&scene_k, path)?;
-    Ok(())
+    let mut entries: Vec<SimEntry> = Vec::new();
+    let mut reports: Vec<(usize, SimReport)> = Vec::new();
+    for (entry, end, kept) in states {
+        let mut e = entry.clone();
+        e.sim = kept.mesh;
+        let mut r = kept.report;
+        // Crack times are fractions of the whole run.
+        r.time = end;
+        reports.push((e.mesh_index, r));
+        entries.push(e);
+    }
+    super::post::apply(&mut scene_k, &mut entries, &reports, post)?;
+    super::write_output(&scene_k, path).map(|_| ())
 }

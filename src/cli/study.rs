@@ -234,23 +234,7 @@ pub fn run(mut a: StudyArgs) -> anyhow::Result<()> {
     };
     // The start state (no round run): how much the reference changed.
     let initial = relax_only(mesh, &with(Integrator::Euler, 0.0, 1e-4), field, 0)?;
-    let change = {
-        let (mut num, mut den) = (0.0, 0.0);
-        for ((s, r), a) in initial
-            .stress
-            .iter()
-            .zip(&reference.stress)
-            .zip(&reference.areas)
-        {
-            num += a * (*r - *s).frobenius_sq();
-            den += a * r.frobenius_sq();
-        }
-        if den > 0.0 {
-            (num / den).sqrt()
-        } else {
-            0.0
-        }
-    };
+    let change = initial.error_against(&reference);
     let mut rows: Vec<Row> = Vec::new();
     let mut push = |kind, r: &Relaxed, dt: f64, tolerance: f64, seconds: f64| {
         let error = r.error_against(&reference);

@@ -4,6 +4,7 @@
 //! separate: the simulation mesh has already split such vertices.
 
 use crate::mesh::{FaceId, SimMesh};
+use crate::stress::tensor::v3;
 
 /// The pieces of a mesh.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
@@ -61,25 +62,14 @@ pub fn centroid(mesh: &SimMesh, faces: &[FaceId], positions: &[[f64; 3]]) -> [f6
     let (mut sum, mut area) = ([0.0; 3], 0.0);
     let (mut corners, mut n) = ([0.0; 3], 0.0);
     for &f in faces {
-        let p = mesh.face_vertices(f).map(|v| positions[v.idx()]);
-        let e1: [f64; 3] = std::array::from_fn(|k| p[1][k] - p[0][k]);
-        let e2: [f64; 3] = std::array::from_fn(|k| p[2][k] - p[0][k]);
-        let c = [
-            e1[1] * e2[2] - e1[2] * e2[1],
-            e1[2] * e2[0] - e1[0] * e2[2],
-            e1[0] * e2[1] - e1[1] * e2[0],
-        ];
-        let a = 0.5 * (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt();
-        for k in 0..3 {
-            let m = (p[0][k] + p[1][k] + p[2][k]) / 3.0;
-            if a.is_finite() {
-                sum[k] += a * m;
-            }
-            corners[k] += m;
+        let [a, b, c] = mesh.face_vertices(f).map(|v| positions[v.idx()]);
+        let w = 0.5 * v3::norm(v3::cross(v3::sub(b, a), v3::sub(c, a)));
+        let m: [f64; 3] = std::array::from_fn(|k| (a[k] + b[k] + c[k]) / 3.0);
+        if w.is_finite() {
+            sum = v3::add(sum, v3::scale(m, w));
+            area += w;
         }
-        if a.is_finite() {
-            area += a;
-        }
+        corners = v3::add(corners, m);
         n += 1.0;
     }
     if area > 0.0 {

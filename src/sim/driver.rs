@@ -909,20 +909,16 @@ fn relax_round(
     // The round's phase: energy and residual force at its end (`st.corner`
     // holds the corner forces at the final stress: the explicit steps'
     // fused update leaves them there, the implicit branch computes them).
-    let fixed = &st.fixed;
+    let op = crate::sim::implicit::Operator {
+        fans: &fans,
+        els: &st.els,
+        normals: &normals,
+        fixed: &st.fixed,
+    };
     let corner = &st.corner;
     let force: Vec<[f64; 3]> = (0..fans.n_vertices())
         .into_par_iter()
-        .map(|n| {
-            if fixed[n] {
-                return [0.0; 3];
-            }
-            let mut f = gather(&fans, corner, n);
-            if let Some(nrm) = normals.get(n) {
-                f = v3::sub(f, v3::scale(*nrm, v3::dot(f, *nrm)));
-            }
-            f
-        })
+        .map(|n| op.project(n, gather(&fans, corner, n)))
         .collect();
     phase.residual = crate::sim::implicit::dot(&force, &force).sqrt();
     phase.energy = energy(&st.els, &st.stress);
@@ -937,12 +933,6 @@ fn relax_round(
     phase.error_estimate = if !sampled {
         f64::NAN
     } else if step_dt > 0.0 && phase.energy > 0.0 {
-        let op = crate::sim::implicit::Operator {
-            fans: &fans,
-            els: &st.els,
-            normals: &normals,
-            fixed: &st.fixed,
-        };
         let mob = |n: usize| step_mobility.get(n).copied().unwrap_or(1.0);
         let mf: Vec<[f64; 3]> = force
             .iter()

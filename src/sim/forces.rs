@@ -166,13 +166,38 @@ pub fn corner_forces(els: &Elements, stress: &[Sym3], out: &mut Vec<[f64; 3]>) {
         .zip(els.elements.par_iter().zip(stress.par_iter()))
         .with_min_len(1024)
         .for_each(|(c, (el, s))| match el {
-            Some(el) => {
-                for (ck, gk) in c.iter_mut().zip(&el.grads) {
-                    *ck = v3::scale(s.mul_vec(*gk), -el.area);
-                }
-            }
+            Some(el) => element_corner_forces(el, s, c),
             None => c.fill([0.0; 3]),
         });
+}
+
+/// The linearised strain `start + sum_k sym(g_k (P d_k)^T)` of moving an
+/// element's corners by `d_k = scale * g[corners[k]]`, `P` projecting onto
+/// the element's plane (the virtual displacement of eq. 15).
+#[inline]
+pub fn element_strain(
+    el: &Element,
+    corners: [u32; 3],
+    g: &[[f64; 3]],
+    scale: f64,
+    start: Sym3,
+) -> Sym3 {
+    let mut ds = start;
+    for k in 0..3 {
+        let dp = v3::scale(g[corners[k] as usize], scale);
+        // Tangential part of the virtual displacement.
+        let d = v3::sub(dp, v3::scale(el.normal, v3::dot(dp, el.normal)));
+        ds += Sym3::sym_outer(el.grads[k], d);
+    }
+    ds
+}
+
+/// The element's force `-A S g_k` on each of its corners, into `out`.
+#[inline]
+pub fn element_corner_forces(el: &Element, s: &Sym3, out: &mut [[f64; 3]]) {
+    for (ck, gk) in out.iter_mut().zip(&el.grads) {
+        *ck = v3::scale(s.mul_vec(*gk), -el.area);
+    }
 }
 
 /// Net force on node `v` from [`corner_forces`], summed in fan order.

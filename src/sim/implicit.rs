@@ -17,7 +17,7 @@
 //! `1 + dt d_n`, `d_n = sum_e A_e |g_n^e|^2`. Every dot product sums fixed
 //! chunks in order, so results do not depend on the thread count.
 
-use crate::sim::forces::{gather, Elements, Fans};
+use crate::sim::forces::{element_corner_forces, element_strain, gather, Elements, Fans};
 use crate::stress::tensor::{v3, Sym3};
 use rayon::prelude::*;
 
@@ -74,23 +74,15 @@ impl Operator<'_> {
                     c.fill([0.0; 3]);
                     return;
                 };
-                let vs = fans.corners(f);
-                let mut s = Sym3::ZERO;
-                for k in 0..3 {
-                    let d = v[vs[k] as usize];
-                    let d = v3::sub(d, v3::scale(el.normal, v3::dot(d, el.normal)));
-                    s += Sym3::sym_outer(el.grads[k], d);
-                }
-                for (ck, gk) in c.iter_mut().zip(&el.grads) {
-                    // K v = B^T A (B v): the force of strain B v, negated.
-                    *ck = v3::scale(s.mul_vec(*gk), el.area);
-                }
+                let s = element_strain(el, fans.corners(f), v, 1.0, Sym3::ZERO);
+                element_corner_forces(el, &s, c);
             });
+        // K v = B^T A (B v): the force of the strain B v, negated.
         let corner = &*corner;
         out.par_iter_mut()
             .enumerate()
             .with_min_len(512)
-            .for_each(|(n, o)| *o = self.project(n, gather(fans, corner, n)));
+            .for_each(|(n, o)| *o = self.project(n, v3::scale(gather(fans, corner, n), -1.0)));
     }
 
     /// The Jacobi scale `d_n = sum_e A_e |g_n^e|^2` of every node.

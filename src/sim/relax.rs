@@ -10,7 +10,7 @@
 
 use crate::geometry::element::Element;
 use crate::mesh::SimMesh;
-use crate::sim::forces::{node_forces_fans, Elements, Fans};
+use crate::sim::forces::{element_corner_forces, element_strain, node_forces_fans, Elements, Fans};
 use crate::stress::tensor::{v3, Sym3};
 use rayon::prelude::*;
 
@@ -124,15 +124,7 @@ pub fn apply_virtual_displacement(
             let Some(Some(el)) = els.elements.get(f) else {
                 return;
             };
-            let vs = fans.corners(f);
-            let mut ds = load(f, el);
-            for k in 0..3 {
-                let dp = v3::scale(g[vs[k] as usize], dt);
-                // Tangential part of the virtual displacement.
-                let d = v3::sub(dp, v3::scale(el.normal, v3::dot(dp, el.normal)));
-                ds += Sym3::sym_outer(el.grads[k], d);
-            }
-            *s += ds;
+            *s += element_strain(el, fans.corners(f), g, dt, load(f, el));
         });
 }
 
@@ -159,17 +151,8 @@ pub fn apply_virtual_displacement_with_forces(
                 c.fill([0.0; 3]);
                 return;
             };
-            let vs = fans.corners(f);
-            let mut ds = load(f, el);
-            for k in 0..3 {
-                let dp = v3::scale(g[vs[k] as usize], dt);
-                let d = v3::sub(dp, v3::scale(el.normal, v3::dot(dp, el.normal)));
-                ds += Sym3::sym_outer(el.grads[k], d);
-            }
-            *s += ds;
-            for (ck, gk) in c.iter_mut().zip(&el.grads) {
-                *ck = v3::scale(s.mul_vec(*gk), -el.area);
-            }
+            *s += element_strain(el, fans.corners(f), g, dt, load(f, el));
+            element_corner_forces(el, s, c);
         });
 }
 
