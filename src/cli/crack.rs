@@ -65,6 +65,9 @@ pub struct SimArgs {
     /// Relative residual of each backward-Euler solve [default: 1e-4]
     #[arg(long)]
     tolerance: Option<f64>,
+    /// Finishing passes relax only this many rings around their new cracks; 0: the whole mesh [default: 8]
+    #[arg(long, value_name = "RINGS")]
+    finish_rings: Option<usize>,
     /// Most relaxation rounds [default: 200]
     #[arg(long)]
     max_rounds: Option<usize>,
@@ -127,6 +130,7 @@ impl SimArgs {
         set("relax_steps", self.relax_steps.map(|x| x.to_string()));
         set("integrator", self.integrator.clone());
         set("tolerance", self.tolerance.map(|x| format!("{x:?}")));
+        set("finish_rings", self.finish_rings.map(|x| x.to_string()));
         set("max_rounds", self.max_rounds.map(|x| x.to_string()));
         set("max_cracks", self.max_cracks.map(|x| x.to_string()));
         set(

@@ -131,6 +131,11 @@ impl Fans {
         self.offsets.len() - 1
     }
 
+    /// Number of faces.
+    pub fn n_faces(&self) -> usize {
+        self.corners.len()
+    }
+
     /// The (face, corner) pairs around node `v`.
     pub fn fan(&self, v: usize) -> &[(u32, u8)] {
         &self.entries[self.offsets[v] as usize..self.offsets[v + 1] as usize]
