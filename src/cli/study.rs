@@ -277,6 +277,12 @@ pub fn run(mut a: StudyArgs) -> anyhow::Result<()> {
         )?;
         push("relaxation", &r, dt, 1e-4, s);
     }
+    // RKL super-steps: one per round, then shorter ones (relax_dt).
+    for k in [1.0, 2.0, 4.0, 8.0] {
+        let dt = rt / k;
+        let (r, s) = relaxed(mesh, &with(Integrator::Rkl, dt, 1e-4), field, rounds)?;
+        push("relaxation", &r, dt, 0.0, s);
+    }
     for tol in [1e-2, 1e-6] {
         let dt = rt / 8.0;
         let (r, s) = relaxed(
@@ -311,6 +317,8 @@ pub fn run(mut a: StudyArgs) -> anyhow::Result<()> {
             (Integrator::BackwardEuler, rt / 8.0, 1e-4),
             (Integrator::BackwardEuler, rt / 2.0, 1e-4),
             (Integrator::BackwardEuler, rt, 1e-4),
+            (Integrator::Rkl, rt, 1e-4),
+            (Integrator::Rkl, rt / 4.0, 1e-4),
         ];
         let mut reference: Option<(Value, Vec<f64>)> = None;
         for (integrator, dt, tol) in configs {

@@ -226,13 +226,48 @@ pub fn node_forces_fans(fans: &Fans, els: &Elements, stress: &[Sym3]) -> Vec<[f6
 /// The separation tensor of node `v` (eq. 3):
 /// `S = 1/2 (-m(f+) + sum_e m(f+_e) + m(f-) - sum_e m(f-_e))`.
 pub fn separation_tensor(mesh: &SimMesh, els: &Elements, stress: &[Sym3], v: VertexId) -> Sym3 {
+    separation_with(mesh, els, v, |f, el| split_tensile(el, &stress[f]))
+}
+
+/// Every face's [`split_tensile`] (zero for a face without element): the
+/// separation tensors of all nodes then share them instead of splitting
+/// each face once per corner.
+pub fn tensile_splits(els: &Elements, stress: &[Sym3]) -> Vec<(Sym3, Sym3)> {
+    els.elements
+        .par_iter()
+        .zip(stress.par_iter())
+        .with_min_len(1024)
+        .map(|(el, s)| match el {
+            Some(el) => split_tensile(el, s),
+            None => (Sym3::ZERO, Sym3::ZERO),
+        })
+        .collect()
+}
+
+/// [`separation_tensor`] from precomputed [`tensile_splits`] (the same
+/// value, bit for bit).
+pub fn separation_tensor_split(
+    mesh: &SimMesh,
+    els: &Elements,
+    splits: &[(Sym3, Sym3)],
+    v: VertexId,
+) -> Sym3 {
+    separation_with(mesh, els, v, |f, _| splits[f])
+}
+
+fn separation_with(
+    mesh: &SimMesh,
+    els: &Elements,
+    v: VertexId,
+    split: impl Fn(usize, &Element) -> (Sym3, Sym3),
+) -> Sym3 {
     let mut fp = [0.0; 3];
     let mut fm = [0.0; 3];
     let mut acc = Sym3::ZERO;
     for f in mesh.vertex_faces(v) {
         let Some(el) = els.get(f) else { continue };
         let k = corner_of(mesh, f, v);
-        let (sp, sm) = split_tensile(el, &stress[f.idx()]);
+        let (sp, sm) = split(f.idx(), el);
         let fpe = v3::scale(sp.mul_vec(el.grads[k]), -el.area);
         let fme = v3::scale(sm.mul_vec(el.grads[k]), -el.area);
         fp = v3::add(fp, fpe);

@@ -156,6 +156,155 @@ pub fn apply_virtual_displacement_with_forces(
         });
 }
 
+/// Coefficients of one super-step of the second-order Runge-Kutta-Legendre
+/// method (RKL2; Meyer, Balsara & Aslam 2014) with `s` stages: for
+/// `y' = F(y)` and a super-step `tau`,
+///
+/// `Y1 = Y0 + mu_t[1] tau F(Y0)`,
+/// `Yj = mu[j] Y(j-1) + nu[j] Y(j-2) + (1 - mu[j] - nu[j]) Y0
+///       + mu_t[j] tau F(Y(j-1)) + gamma_t[j] tau F(Y0)`, `j = 2..s`,
+///
+/// and the result is `Ys`. It is stable (its amplification stays within
+/// [-1, 1]) for `tau <= (s^2 + s - 2) / 4 * h` with `h` forward Euler's
+/// limit `2 / lambda_max`: `s` force evaluations cover the time of about
+/// `s^2 / 4` forward-Euler steps, and the result is second-order accurate.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Rkl2 {
+    /// Stages.
+    pub s: usize,
+    /// `mu[j]` (index 0 and 1 unused).
+    pub mu: Vec<f64>,
+    /// `nu[j]` (index 0 and 1 unused).
+    pub nu: Vec<f64>,
+    /// `mu_t[j]` (index 0 unused).
+    pub mu_t: Vec<f64>,
+    /// `gamma_t[j]` (index 0 and 1 unused).
+    pub gamma_t: Vec<f64>,
+    /// For a part of the state that does not feed back (the nodes'
+    /// displacement, whose rate depends only on the stress): the
+    /// super-step adds `tau sum_i weights[i] F(Y_i)`, `i = 0..s-1`.
+    pub weights: Vec<f64>,
+}
+
+impl Rkl2 {
+    /// The fewest stages (at least 2) whose super-step covers `ratio`
+    /// forward-Euler stable steps: `(s^2 + s - 2) / 4 >= ratio`.
+    pub fn stages_for(ratio: f64) -> usize {
+        let mut s = 2usize;
+        while Self::reach(s) < ratio && s < 1 << 20 {
+            s += 1;
+        }
+        s
+    }
+
+    /// How many forward-Euler stable steps one super-step of `s` stages covers.
+    pub fn reach(s: usize) -> f64 {
+        (s * s + s - 2) as f64 / 4.0
+    }
+
+    /// The coefficients for `s >= 2` stages.
+    pub fn new(s: usize) -> Rkl2 {
+        let s = s.max(2);
+        let w1 = 4.0 / (s * s + s - 2) as f64;
+        let b = |j: usize| {
+            if j < 2 {
+                1.0 / 3.0
+            } else {
+                let j = j as f64;
+                (j * j + j - 2.0) / (2.0 * j * (j + 1.0))
+            }
+        };
+        let a = |j: usize| 1.0 - b(j);
+        let mut mu = vec![0.0; s + 1];
+        let mut nu = vec![0.0; s + 1];
+        let mut mu_t = vec![0.0; s + 1];
+        let mut gamma_t = vec![0.0; s + 1];
+        mu_t[1] = b(1) * w1;
+        for j in 2..=s {
+            let jf = j as f64;
+            mu[j] = (2.0 * jf - 1.0) / jf * b(j) / b(j - 1);
+            nu[j] = -(jf - 1.0) / jf * b(j) / b(j - 2);
+            mu_t[j] = mu[j] * w1;
+            gamma_t[j] = -a(j - 1) * mu_t[j];
+        }
+        // The recurrence on the weights of F(Y_0..s-1) in Y_j - Y_0.
+        let mut back = vec![0.0; s];
+        let mut cur = vec![0.0; s];
+        cur[0] = mu_t[1];
+        for j in 2..=s {
+            let mut next: Vec<f64> = cur
+                .iter()
+                .zip(&back)
+                .map(|(c, b)| mu[j] * c + nu[j] * b)
+                .collect();
+            next[j - 1] += mu_t[j];
+            next[0] += gamma_t[j];
+            back = std::mem::replace(&mut cur, next);
+        }
+        Rkl2 {
+            s,
+            mu,
+            nu,
+            mu_t,
+            gamma_t,
+            weights: cur,
+        }
+    }
+
+    /// The amplification `R(z)` of one super-step on `y' = lambda y`,
+    /// `z = lambda tau`.
+    pub fn amplification(&self, z: f64) -> f64 {
+        let (y0, f0) = (1.0, z);
+        let mut prev = y0;
+        let mut cur = y0 + self.mu_t[1] * f0;
+        for j in 2..=self.s {
+            let next = self.mu[j] * cur
+                + self.nu[j] * prev
+                + (1.0 - self.mu[j] - self.nu[j]) * y0
+                + self.mu_t[j] * z * cur
+                + self.gamma_t[j] * f0;
+            prev = cur;
+            cur = next;
+        }
+        cur
+    }
+
+    /// The `z^3` coefficient of `R(z)` (the exponential's is 1/6): the
+    /// leading local error of a super-step is `|c3 - 1/6| tau^3` times the
+    /// solution's third derivative.
+    pub fn cubic_coefficient(&self) -> f64 {
+        // The recurrence on polynomials in z, truncated after z^3.
+        type P = [f64; 4];
+        let shift = |p: &P| [0.0, p[0], p[1], p[2]];
+        let comb = |terms: &[(f64, &P)]| {
+            let mut r = [0.0; 4];
+            for (c, p) in terms {
+                for (rk, pk) in r.iter_mut().zip(p.iter()) {
+                    *rk += c * pk;
+                }
+            }
+            r
+        };
+        let y0: P = [1.0, 0.0, 0.0, 0.0];
+        let f0 = shift(&y0);
+        let mut prev = y0;
+        let mut cur = comb(&[(1.0, &y0), (self.mu_t[1], &f0)]);
+        for j in 2..=self.s {
+            let fc = shift(&cur);
+            let next = comb(&[
+                (self.mu[j], &cur),
+                (self.nu[j], &prev),
+                (1.0 - self.mu[j] - self.nu[j], &y0),
+                (self.mu_t[j], &fc),
+                (self.gamma_t[j], &f0),
+            ]);
+            prev = cur;
+            cur = next;
+        }
+        cur[3]
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -298,5 +447,40 @@ mod tests {
             e1 < 1e-3 * e0,
             "a free plate sheds its stress: {e0} -> {e1}"
         );
+    }
+
+    #[test]
+    fn rkl2_is_second_order_and_stable_over_its_reach() {
+        for s in [2usize, 3, 5, 9, 17, 32] {
+            let m = Rkl2::new(s);
+            // Stable: |R(z)| <= 1 on [-2 reach, 0] (forward Euler: [-2, 0]).
+            let reach = 2.0 * Rkl2::reach(s);
+            for k in 0..=4000 {
+                let z = -reach * k as f64 / 4000.0;
+                let r = m.amplification(z);
+                assert!(r.abs() <= 1.0 + 1e-9, "s {s} z {z}: R = {r}");
+            }
+            // Second order: R(z) = e^z + O(z^3), the local error falling
+            // 8-fold when the step halves.
+            let err = |z: f64| (m.amplification(z) - f64::exp(z)).abs();
+            let ratio = err(-2e-2) / err(-1e-2);
+            assert!((ratio - 8.0).abs() < 0.2, "s {s}: error ratio {ratio}");
+            assert!(err(-1e-2) < 0.2e-6, "s {s}: {:e}", err(-1e-2));
+            // The cubic coefficient matches the amplification.
+            let z = -1e-3;
+            let quad = 1.0 + z + z * z / 2.0;
+            let c3 = (m.amplification(z) - quad) / z.powi(3);
+            let c3_poly = m.cubic_coefficient();
+            assert!((c3 - c3_poly).abs() < 1e-4, "{c3} vs {c3_poly}");
+        }
+        // A constant rate is integrated exactly: the weights sum to 1.
+        for s in [2usize, 7, 30] {
+            let w: f64 = Rkl2::new(s).weights.iter().sum();
+            assert!((w - 1.0).abs() < 1e-12, "s {s}: {w}");
+        }
+        assert_eq!(Rkl2::stages_for(1.0), 2);
+        assert_eq!(Rkl2::stages_for(75.0), 17);
+        assert!(Rkl2::reach(Rkl2::stages_for(75.0)) >= 75.0);
+        assert!(Rkl2::reach(Rkl2::stages_for(75.0) - 1) < 75.0);
     }
 }
