@@ -563,7 +563,7 @@ pub fn run_with(
     for round in 0..params.max_rounds {
         // ---- relax, with the load increasing unless held or complete
         let loading = !hold && loaded < params.load_time;
-        relax_round(
+        let fans = relax_round(
             mesh,
             &mut st,
             params,
@@ -575,7 +575,7 @@ pub fn run_with(
         )?;
         report.rounds = round + 1;
         // ---- queue every failing node
-        let sep = separations(mesh, &st, params.toughness);
+        let sep = separations(mesh, &fans, &st, params.toughness);
         for (v, val) in sep.iter().enumerate() {
             queue.set(v as u32, *val, params.toughness);
         }
@@ -798,7 +798,7 @@ fn relax_round(
     loaded: &mut f64,
     report: &mut SimReport,
     seeds: Option<&[VertexId]>,
-) -> Result<(), SimError> {
+) -> Result<Fans, SimError> {
     let fans = Fans::new(mesh);
     // Local relaxation (no load): only the region around `seeds` moves.
     let region = match seeds {
@@ -1163,7 +1163,7 @@ fn relax_round(
             report.stable_dt
         )));
     }
-    Ok(())
+    Ok(fans)
 }
 
 /// The stress the load adds to face `f` during one step.
@@ -1432,14 +1432,17 @@ fn scaled_separation(mesh: &SimMesh, st: &State, v: VertexId, s: Sym3) -> Sym3 {
 }
 
 /// Largest separation eigenvalue and its direction at every node.
-fn separations(mesh: &SimMesh, st: &State, threshold: f64) -> Vec<f64> {
+/// `fans` must be those of `mesh` as it is.
+fn separations(mesh: &SimMesh, fans: &Fans, st: &State, threshold: f64) -> Vec<f64> {
     let splits = tensile_splits(&st.els, &st.stress);
     (0..mesh.n_vertices())
         .into_par_iter()
         .map(|v| {
-            let v = VertexId(v as u32);
-            let s = separation_tensor_split(mesh, &st.els, &splits, v);
-            queue_value(scaled_separation(mesh, st, v, s), threshold)
+            let s = separation_tensor_split(fans, &st.els, &splits, v);
+            queue_value(
+                scaled_separation(mesh, st, VertexId(v as u32), s),
+                threshold,
+            )
         })
         .collect()
 }
@@ -1768,6 +1771,11 @@ fn rkl_super_step(
                     cf.fill([0.0; 3]);
                     return;
                 };
+                crate::sim::relax::prefetch_corners(
+                    fans,
+                    gg,
+                    f + crate::sim::relax::PREFETCH_AHEAD,
+                );
                 let r = element_strain(el, fans.corners(f), gg, 1.0, load(f, el));
                 let two_back = if j == 2 { s0[f] } else { *back };
                 let x = *s * mu + two_back * nu + s0[f] * rest + r * a + r0[f] * b;

@@ -226,7 +226,10 @@ pub fn node_forces_fans(fans: &Fans, els: &Elements, stress: &[Sym3]) -> Vec<[f6
 /// The separation tensor of node `v` (eq. 3):
 /// `S = 1/2 (-m(f+) + sum_e m(f+_e) + m(f-) - sum_e m(f-_e))`.
 pub fn separation_tensor(mesh: &SimMesh, els: &Elements, stress: &[Sym3], v: VertexId) -> Sym3 {
-    separation_with(mesh, els, v, |f, el| split_tensile(el, &stress[f]))
+    let fan = mesh
+        .vertex_faces(v)
+        .map(|f| (f.idx(), corner_of(mesh, f, v)));
+    separation_with(els, fan, |f, el| split_tensile(el, &stress[f]))
 }
 
 /// Every face's [`split_tensile`] (zero for a face without element): the
@@ -244,30 +247,32 @@ pub fn tensile_splits(els: &Elements, stress: &[Sym3]) -> Vec<(Sym3, Sym3)> {
         .collect()
 }
 
-/// [`separation_tensor`] from precomputed [`tensile_splits`] (the same
-/// value, bit for bit).
+/// [`separation_tensor`] of node `v` from the mesh's [`Fans`] and
+/// precomputed [`tensile_splits`] (the same value, bit for bit).
 pub fn separation_tensor_split(
-    mesh: &SimMesh,
+    fans: &Fans,
     els: &Elements,
     splits: &[(Sym3, Sym3)],
-    v: VertexId,
+    v: usize,
 ) -> Sym3 {
-    separation_with(mesh, els, v, |f, _| splits[f])
+    let fan = fans.fan(v).iter().map(|&(f, k)| (f as usize, k as usize));
+    separation_with(els, fan, |f, _| splits[f])
 }
 
+/// Eq. 3 over a node's fan of (face, corner) pairs.
 fn separation_with(
-    mesh: &SimMesh,
     els: &Elements,
-    v: VertexId,
+    fan: impl Iterator<Item = (usize, usize)>,
     split: impl Fn(usize, &Element) -> (Sym3, Sym3),
 ) -> Sym3 {
     let mut fp = [0.0; 3];
     let mut fm = [0.0; 3];
     let mut acc = Sym3::ZERO;
-    for f in mesh.vertex_faces(v) {
-        let Some(el) = els.get(f) else { continue };
-        let k = corner_of(mesh, f, v);
-        let (sp, sm) = split(f.idx(), el);
+    for (f, k) in fan {
+        let Some(Some(el)) = els.elements.get(f) else {
+            continue;
+        };
+        let (sp, sm) = split(f, el);
         let fpe = v3::scale(sp.mul_vec(el.grads[k]), -el.area);
         let fme = v3::scale(sm.mul_vec(el.grads[k]), -el.area);
         fp = v3::add(fp, fpe);

@@ -70,6 +70,7 @@ impl Operator<'_> {
             .enumerate()
             .with_min_len(1024)
             .for_each(|(f, (c, el))| {
+                crate::sim::relax::prefetch_corners(fans, v, f + crate::sim::relax::PREFETCH_AHEAD);
                 let Some(el) = el else {
                     c.fill([0.0; 3]);
                     return;

@@ -147,6 +147,7 @@ pub fn apply_virtual_displacement_with_forces(
         .enumerate()
         .with_min_len(512)
         .for_each(|(f, (s, c))| {
+            prefetch_corners(fans, g, f + PREFETCH_AHEAD);
             let Some(Some(el)) = els.elements.get(f) else {
                 c.fill([0.0; 3]);
                 return;
@@ -154,6 +155,30 @@ pub fn apply_virtual_displacement_with_forces(
             *s += element_strain(el, fans.corners(f), g, dt, load(f, el));
             element_corner_forces(el, s, c);
         });
+}
+
+/// How many faces ahead the element loop asks for its corners' node values.
+pub const PREFETCH_AHEAD: usize = 12;
+
+/// Ask the cache for the node values `g` at face `f`'s corners (a hint
+/// only: the node reads are scattered and otherwise stall the loop).
+#[inline(always)]
+pub fn prefetch_corners(fans: &Fans, g: &[[f64; 3]], f: usize) {
+    #[cfg(target_arch = "x86_64")]
+    if f < fans.n_faces() {
+        for c in fans.corners(f) {
+            if let Some(x) = g.get(c as usize) {
+                // SAFETY: prefetching is a hint and never faults.
+                unsafe {
+                    std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(
+                        x.as_ptr().cast(),
+                    )
+                }
+            }
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = (fans, g, f);
 }
 
 /// Coefficients of one super-step of the second-order Runge-Kutta-Legendre
