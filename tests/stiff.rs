@@ -362,3 +362,45 @@ fn the_ogre_with_44_components_cracks() {
         v.assert_clean(&out);
     }
 }
+
+#[test]
+fn every_integrator_stays_stable_on_slivers_and_mixed_sizes() {
+    use crackle::sim::Integrator;
+    for integrator in [
+        Integrator::Euler,
+        Integrator::Rkl,
+        Integrator::BackwardEuler,
+    ] {
+        let params = SimParams {
+            integrator,
+            max_rounds: 12,
+            ..released(2.0)
+        };
+        let mut m = build(&sliver_plate(1e6));
+        check(
+            &format!("{} on aspect 1e6", integrator.name()),
+            &mut m,
+            &params,
+            3.0,
+        );
+        let mut m = build(&graded_disc(1e4));
+        check(
+            &format!("{} on the graded disc", integrator.name()),
+            &mut m,
+            &params,
+            3.0,
+        );
+        // Unclamped gradients: the slivers' full stiffness.
+        let stiff = SimParams {
+            clamp_factor: 1e9,
+            ..params.clone()
+        };
+        let mut m = build(&sliver_plate(1e4));
+        check(
+            &format!("{} on aspect 1e4 unclamped", integrator.name()),
+            &mut m,
+            &stiff,
+            3.0,
+        );
+    }
+}
