@@ -60,6 +60,27 @@ fn study_writes_a_work_precision_table_and_plot() {
     assert!(full.len() >= 4);
     assert_eq!(full[0]["error"].as_f64().unwrap(), 0.0);
     assert!(full[0]["full"]["stats"]["cracks"].as_u64().unwrap() > 0);
+    // RKL at super-steps of a half and a quarter round: second order or
+    // better (the error falls at least 3-fold per halving).
+    let rkl: Vec<f64> = rows
+        .iter()
+        .filter(|r| r["kind"] == "relaxation" && r["integrator"] == "rkl")
+        .map(|r| r["error"].as_f64().unwrap())
+        .collect();
+    assert_eq!(rkl.len(), 4);
+    for w in rkl[1..].windows(2) {
+        assert!(w[0] / w[1] > 3.0, "{rkl:?}");
+    }
+    // glaze finishes its cracks: local finishing against global finishing,
+    // same cracks here (the finishing steps follow the tips' directions).
+    let stats = |name: &str| {
+        full.iter()
+            .find(|r| r["integrator"] == name)
+            .unwrap_or_else(|| panic!("no full row {name}"))["full"]["stats"]
+            .clone()
+    };
+    let (local, global) = (stats("local-euler"), stats("local-euler global-finishing"));
+    assert_eq!(local["cracks"], global["cracks"]);
     let svg = std::fs::read_to_string(dir.path().join("study.svg")).unwrap();
     assert!(svg.starts_with("<svg") && svg.contains("backward-euler"));
     let png = std::fs::read(dir.path().join("study.png")).unwrap();

@@ -78,6 +78,9 @@ enum Command {
         /// Relaxation rounds (of relax_time) every integrator runs
         #[arg(long, default_value_t = 4)]
         rounds: usize,
+        /// Time each relaxation this many times and keep the least (the results are identical)
+        #[arg(long, default_value_t = 1, value_name = "N")]
+        repeat: usize,
         /// Also compare whole simulations with cracking (crack count, length, cells, junction angles)
         #[arg(long)]
         full: bool,
@@ -213,6 +216,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
             sim,
             out,
             rounds,
+            repeat,
             full,
             weld_tolerance,
         } => study::run(study::StudyArgs {
@@ -221,6 +225,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
             pipeline_dir: sim.pipeline_dir(),
             out: out.as_deref(),
             rounds,
+            repeat,
             full,
             weld: weld_options(weld_tolerance)?,
         }),
