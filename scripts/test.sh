@@ -1,12 +1,14 @@
 #!/usr/bin/env bash
 # The project's test command: installs the glTF-Validator the tests use
-# (into tools/node_modules), then runs the whole test suite in release mode
+# (into tools/node_modules) and Ninja (into tools/ninja), then runs the whole test suite in release mode
 # and closes with one summary line over every test binary.
 # Extra arguments are passed to cargo test (e.g. a test name filter).
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 
 bash scripts/install-validator.sh
+bash scripts/install-ninja.sh
+command -v make >/dev/null 2>&1 || { echo "ERROR: make is not on PATH (the batch tests run an emitted Makefile; apt-get install make)" >&2; exit 1; }
 log=$(mktemp)
 trap 'rm -f "$log"' EXIT
 status=0

@@ -17,7 +17,7 @@ fn main() -> ExitCode {
     };
     cli::logger::init(args.verbose, args.quiet);
     match cli::run(args) {
-        Ok(()) => ExitCode::SUCCESS,
+        Ok(code) => ExitCode::from(code),
         Err(e) => {
             eprintln!("error: {e:#}");
             ExitCode::from(cli::exit_code(&e))

@@ -53,6 +53,26 @@ pub struct Scene {
     pub copyright: Option<String>,
     /// What the reader could not keep or had to change, for the user.
     pub warnings: Vec<String>,
+    /// Files the reader read besides the input itself (external buffers,
+    /// MTL libraries), sorted. Image files are in [`Scene::images`]; see
+    /// [`Scene::referenced_files`].
+    pub sources: Vec<PathBuf>,
+}
+
+impl Scene {
+    /// Every file the asset refers to and the reader used: [`Scene::sources`]
+    /// and the images read from files, sorted, without repeats.
+    pub fn referenced_files(&self) -> Vec<PathBuf> {
+        let mut out = self.sources.clone();
+        for img in &self.images {
+            if let ImageSource::File(p) = &img.source {
+                out.push(p.clone());
+            }
+        }
+        out.sort();
+        out.dedup();
+        out
+    }
 }
 
 /// A glTF scene: a set of root nodes.

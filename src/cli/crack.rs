@@ -109,7 +109,57 @@ impl SimArgs {
     /// The pipeline these options give: the file or preset (or the
     /// defaults), then the flags, then `--set`, all checked.
     pub fn pipeline(&self) -> Result<Pipeline> {
-        let mut sets: Vec<String> = Vec::new();
+        self.pipeline_with(self.pipeline.as_deref(), self.preset.as_deref(), &[])
+    }
+
+    /// The `--pipeline` file, if given.
+    pub fn pipeline_file(&self) -> Option<&Path> {
+        self.pipeline.as_deref()
+    }
+
+    /// The `--preset` name, if given.
+    pub fn preset_name(&self) -> Option<&str> {
+        self.preset.as_deref()
+    }
+
+    /// The `--fix` names.
+    pub fn fix_names(&self) -> &[String] {
+        &self.fix
+    }
+
+    /// Whether `--pipeline` or `--preset` was given.
+    pub fn has_choice(&self) -> bool {
+        self.pipeline.is_some() || self.preset.is_some()
+    }
+
+    /// The pipeline of `file` or `preset` (or the defaults) with these
+    /// options' flags and `--set` on top.
+    pub fn pipeline_with(
+        &self,
+        file: Option<&Path>,
+        preset: Option<&str>,
+        extra: &[String],
+    ) -> Result<Pipeline> {
+        let sets = self.overrides(extra);
+        let usage = |e: crackle::pipeline::PipelineError| super::UsageError(e.to_string());
+        let mut p = match (file, preset) {
+            (Some(path), _) => {
+                let text = std::fs::read_to_string(path).map_err(|e| {
+                    super::UsageError(format!("{}: cannot read the pipeline: {e}", path.display()))
+                })?;
+                Pipeline::parse(&text, &path.display().to_string(), &sets).map_err(usage)?
+            }
+            (None, Some(name)) => Pipeline::preset(name, &sets).map_err(usage)?,
+            (None, None) => Pipeline::parse("", "defaults", &sets).map_err(usage)?,
+        };
+        p.select.fix.extend(self.fix.iter().cloned());
+        Ok(p)
+    }
+
+    /// Every override as a `--set KEY=VALUE` string: `extra` first, then
+    /// the flags, then `--set`.
+    pub fn overrides(&self, extra: &[String]) -> Vec<String> {
+        let mut sets: Vec<String> = extra.to_vec();
         let mut set = |k: &str, v: Option<String>| {
             if let Some(v) = v {
                 sets.push(format!("simulation.{k}={v}"));
@@ -146,19 +196,7 @@ impl SimArgs {
             sets.push("post.split_islands=true".into());
         }
         sets.extend(self.sets.iter().cloned());
-        let usage = |e: crackle::pipeline::PipelineError| super::UsageError(e.to_string());
-        let mut p = match (&self.pipeline, &self.preset) {
-            (Some(path), _) => {
-                let text = std::fs::read_to_string(path).map_err(|e| {
-                    super::UsageError(format!("{}: cannot read the pipeline: {e}", path.display()))
-                })?;
-                Pipeline::parse(&text, &path.display().to_string(), &sets).map_err(usage)?
-            }
-            (None, Some(name)) => Pipeline::preset(name, &sets).map_err(usage)?,
-            (None, None) => Pipeline::parse("", "defaults", &sets).map_err(usage)?,
-        };
-        p.select.fix.extend(self.fix.iter().cloned());
-        Ok(p)
+        sets
     }
 }
 
@@ -174,6 +212,9 @@ pub struct CrackArgs<'a> {
     pub quiet: bool,
     /// `--frames N DIR`.
     pub frames: Option<super::frames::FramesArgs>,
+    /// Told what the run is doing (`read`, `weld`, `simulate <mesh> round
+    /// 3/200`...), for a batch's progress display.
+    pub on_stage: Option<&'a (dyn Fn(&str) + Sync)>,
 }
 
 /// Groups (primitive indices) of mesh `mesh_index` whose material or OBJ
@@ -219,19 +260,58 @@ fn all_names(scene: &Scene) -> Vec<String> {
     out
 }
 
-struct Bar(Option<indicatif::ProgressBar>);
+/// A batch's stage callback.
+type StageFn<'a> = &'a (dyn Fn(&str) + Sync);
 
-impl crackle::sim::Observer for Bar {
+struct Bar<'a> {
+    bar: Option<indicatif::ProgressBar>,
+    /// The batch's stage callback and the mesh's label.
+    stage: Option<(StageFn<'a>, String)>,
+}
+
+impl crackle::sim::Observer for Bar<'_> {
     fn round(&mut self, round: usize, max_rounds: usize, cracks: usize) {
-        if let Some(b) = &self.0 {
+        if let Some(b) = &self.bar {
             b.set_length(max_rounds as u64);
             b.set_position(round as u64);
             b.set_message(format!("{cracks} cracks"));
         }
+        if let Some((f, label)) = &self.stage {
+            f(&format!("simulate {label}: round {round}, {cracks} cracks"));
+        }
     }
 }
 
-pub fn run(mut a: CrackArgs) -> Result<()> {
+/// `crackle crack`: process, write the report, print the summary line.
+pub fn run(a: CrackArgs) -> Result<()> {
+    let (input, output, report_path, quiet) = (a.input, a.output, a.report, a.quiet);
+    let report = process(a)?;
+    if let Some(p) = report_path {
+        std::fs::write(p, serde_json::to_vec_pretty(&report)?)
+            .map_err(|e| anyhow::anyhow!("{}: cannot write the report: {e}", p.display()))?;
+    }
+    if !quiet {
+        eprintln!(
+            "{} -> {}: {} cracks, crack length {:.3}, {} -> {} triangles, {} relaxation steps",
+            input.display(),
+            output.display(),
+            report["cracks"],
+            report["crack_length"].as_f64().unwrap_or(0.0),
+            report["triangles"]["before"],
+            report["triangles"]["after"],
+            report["relaxation_steps"]
+        );
+    }
+    Ok(())
+}
+
+/// Read, crack and write one asset; returns its report.
+pub fn process(mut a: CrackArgs) -> Result<serde_json::Value> {
+    let stage = |name: &str| {
+        if let Some(f) = a.on_stage {
+            f(name);
+        }
+    };
     // Mask images are decoded before anything else, so a bad image is
     // refused before any work.
     let t = Instant::now();
@@ -245,6 +325,7 @@ pub fn run(mut a: CrackArgs) -> Result<()> {
     let pipe = &a.pipeline;
     let mut stages = Vec::new();
     let t = Instant::now();
+    stage("read");
     let mut scene = super::read_crackable(a.input)?;
     stages.push(json!({"name": "read", "seconds": t.elapsed().as_secs_f64()}));
     let masks = if pipe.has_masks() {
@@ -264,6 +345,7 @@ pub fn run(mut a: CrackArgs) -> Result<()> {
         Vec::new()
     };
     let t = Instant::now();
+    stage("weld");
     let (mut entries, skipped) = build_sim_meshes(&scene, &a.weld);
     for s in &skipped {
         log::warn!(
@@ -312,6 +394,7 @@ pub fn run(mut a: CrackArgs) -> Result<()> {
     let mut curvatures: Vec<Option<CurvatureField>> = vec![None; entries.len()];
     if pipe.needs_curvature() {
         let t = Instant::now();
+        stage("curvature");
         for (k, e) in curvatures.iter_mut().zip(&entries) {
             *k = Some(curvature::estimate(&e.sim));
         }
@@ -323,6 +406,7 @@ pub fn run(mut a: CrackArgs) -> Result<()> {
         fields.resize(entries.len(), None);
     } else {
         let t = Instant::now();
+        stage("stress");
         for ((e, params), k) in entries.iter().zip(&params_of).zip(&curvatures) {
             let field = stress_field(&scene, e, pipe, &masks, k.as_ref(), params.seed, a.input)?;
             fields.push(Some(field));
@@ -347,10 +431,14 @@ pub fn run(mut a: CrackArgs) -> Result<()> {
             b.set_prefix(e.label.clone());
             b
         });
-        let mut obs = Bar(bar);
+        stage(&format!("simulate {}", e.label));
+        let mut obs = Bar {
+            bar,
+            stage: a.on_stage.map(|f| (f, e.label.clone())),
+        };
         let r = crackle::sim::run_with(&mut e.sim, params, field.as_ref(), &mut obs)
             .map_err(|err| anyhow::anyhow!("{}: {}: {err}", a.input.display(), e.label))?;
-        if let Some(b) = obs.0 {
+        if let Some(b) = obs.bar {
             b.finish_and_clear();
         }
         if r.cg_unconverged > 0 {
@@ -393,11 +481,13 @@ pub fn run(mut a: CrackArgs) -> Result<()> {
         stages.push(json!({"name": "finish", "seconds": finish_seconds}));
     }
     let template = a.frames.as_ref().map(|_| scene.clone());
+    stage("post");
     let post = super::post::apply(&mut scene, &mut entries, &per_mesh, &pipe.post)?;
     for (name, seconds) in &post.stages {
         stages.push(json!({"name": name, "seconds": seconds}));
     }
     let t = Instant::now();
+    stage("write");
     let summary = super::write_output(&scene, a.output)?;
     stages.push(json!({"name": "write", "seconds": t.elapsed().as_secs_f64()}));
     let mut frames_report = serde_json::Value::Null;
@@ -426,6 +516,8 @@ pub fn run(mut a: CrackArgs) -> Result<()> {
         "input": a.input.display().to_string(),
         "output": a.output.display().to_string(),
         "files": summary.files,
+        "bytes": summary.bytes,
+        "sources": scene.referenced_files(),
         "cracks": total.cracks,
         "crack_length": total.crack_length,
         "triangles": {"before": total.triangles[0], "after": total.triangles[1]},
@@ -438,23 +530,7 @@ pub fn run(mut a: CrackArgs) -> Result<()> {
         "warnings": scene.warnings,
         "frames": frames_report,
     });
-    if let Some(p) = a.report {
-        std::fs::write(p, serde_json::to_vec_pretty(&report)?)
-            .map_err(|e| anyhow::anyhow!("{}: cannot write the report: {e}", p.display()))?;
-    }
-    if !a.quiet {
-        eprintln!(
-            "{} -> {}: {} cracks, crack length {:.3}, {} -> {} triangles, {} relaxation steps",
-            a.input.display(),
-            a.output.display(),
-            total.cracks,
-            total.crack_length,
-            total.triangles[0],
-            total.triangles[1],
-            total.relax_steps
-        );
-    }
-    Ok(())
+    Ok(report)
 }
 
 /// The stress field of simulation mesh `e` from the pipeline's terms:

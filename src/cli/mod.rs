@@ -1,7 +1,9 @@
 //! Commands of the `crackle` binary.
 
+mod batch;
 mod convert;
 mod crack;
+mod diff;
 mod frames;
 mod info;
 mod islands;
@@ -87,6 +89,65 @@ enum Command {
         /// Weld tolerance, relative to each mesh's bounding-box diagonal
         #[arg(long, value_name = "REL", default_value_t = crackle::mesh::WeldOptions::default().relative_tolerance)]
         weld_tolerance: f64,
+    },
+    /// Crack a whole asset library: files, folders (-r) or globs into a mirrored output tree, in parallel, redoing only what changed
+    ///
+    /// Exit codes: 0 every asset succeeded or was up to date, 1 an asset failed, 2 bad usage, 3 nothing to do.
+    Batch {
+        /// Input files, folders or quoted globs ('assets/**/*.obj')
+        #[arg(required = true)]
+        inputs: Vec<String>,
+        /// Output folder: the inputs' tree mirrored, each asset as <name>.glb (or .gltf)
+        #[arg(long, value_name = "DIR")]
+        out: PathBuf,
+        /// Go into sub-folders of folder inputs
+        #[arg(short, long)]
+        recursive: bool,
+        /// Output format of cracked assets
+        #[arg(long, value_enum, default_value = "glb")]
+        format: batch::OutFormat,
+        /// TOML file mapping globs to pipelines (first match wins); see the README
+        #[arg(long, value_name = "FILE")]
+        rules: Option<PathBuf>,
+        #[command(flatten)]
+        sim: crack::SimArgs,
+        /// Assets processed at once [default: all cores]
+        #[arg(short, long, default_value_t = 0, hide_default_value = true)]
+        jobs: usize,
+        /// Stop starting new assets after the first failure
+        #[arg(long)]
+        fail_fast: bool,
+        /// Rebuild every asset, even those up to date
+        #[arg(long)]
+        force: bool,
+        /// Write a JSON report (per asset: status, error, stages, cracks, sizes; totals)
+        #[arg(long, value_name = "FILE")]
+        report: Option<PathBuf>,
+        /// List what would be done and stop
+        #[arg(long)]
+        dry_run: bool,
+        /// Only shard K of N (1-based): each asset belongs to one shard, by a hash of its path
+        #[arg(long, value_name = "K/N")]
+        shard: Option<String>,
+        /// Print a build file with one edge per asset instead of running (ninja or make)
+        #[arg(long, value_enum, value_name = "KIND")]
+        emit: Option<batch::Emit>,
+        /// Weld tolerance, relative to each mesh's bounding-box diagonal
+        #[arg(long, value_name = "REL", default_value_t = crackle::mesh::WeldOptions::default().relative_tolerance)]
+        weld_tolerance: f64,
+    },
+    /// Compare two glTF (or OBJ) files structurally and geometrically; exit 0 when equivalent, 1 when not
+    Diff {
+        /// First file
+        a: PathBuf,
+        /// Second file
+        b: PathBuf,
+        /// Largest difference of positions and attributes still equal (relative to the attribute's size, at least 1)
+        #[arg(long, default_value_t = 1e-6)]
+        tolerance: f64,
+        /// Print the comparison as JSON on stdout
+        #[arg(long)]
+        json: bool,
     },
     /// Read, weld and write a mesh (.gltf or .glb output)
     Convert {
@@ -182,9 +243,68 @@ fn weld_options(rel: f64) -> anyhow::Result<crackle::mesh::WeldOptions> {
     })
 }
 
-/// Run the parsed command.
-pub fn run(cli: Cli) -> anyhow::Result<()> {
+/// Run the parsed command; returns the exit code.
+pub fn run(cli: Cli) -> anyhow::Result<u8> {
+    let quiet = cli.quiet;
     match cli.command {
+        Command::Batch {
+            inputs,
+            out,
+            recursive,
+            format,
+            rules,
+            sim,
+            jobs,
+            fail_fast,
+            force,
+            report,
+            dry_run,
+            shard,
+            emit,
+            weld_tolerance,
+        } => {
+            let weld = weld_options(weld_tolerance)?;
+            return batch::run(batch::BatchArgs {
+                inputs: &inputs,
+                out: &out,
+                recursive,
+                format,
+                sim: &sim,
+                rules: rules.as_deref(),
+                jobs,
+                fail_fast,
+                force,
+                report: report.as_deref(),
+                dry_run,
+                shard: shard.as_deref(),
+                emit,
+                weld_tolerance,
+                weld,
+                quiet,
+            });
+        }
+        Command::Diff {
+            a,
+            b,
+            tolerance,
+            json,
+        } => {
+            let same = diff::run(diff::DiffArgs {
+                a: &a,
+                b: &b,
+                tolerance,
+                json,
+            })?;
+            return Ok(if same { 0 } else { 1 });
+        }
+        _ => {}
+    }
+    run_other(cli.command, quiet).map(|()| 0)
+}
+
+fn run_other(command: Command, quiet: bool) -> anyhow::Result<()> {
+    match command {
+        Command::Batch { .. } | Command::Diff { .. } => unreachable!("handled by run"),
         Command::Info {
             input,
             json,
@@ -204,7 +324,8 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
             weld: weld_options(weld_tolerance)?,
             pipeline: sim.pipeline()?,
             pipeline_dir: sim.pipeline_dir(),
-            quiet: cli.quiet,
+            quiet,
+            on_stage: None,
             frames: frames
                 .map(|v| frames::FramesArgs::parse(&v))
                 .transpose()
@@ -234,12 +355,6 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
             output,
             weld_tolerance,
             json,
-        } => convert::run(
-            &input,
-            &output,
-            &weld_options(weld_tolerance)?,
-            json,
-            cli.quiet,
-        ),
+        } => convert::run(&input, &output, &weld_options(weld_tolerance)?, json, quiet),
     }
 }

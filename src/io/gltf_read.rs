@@ -100,7 +100,20 @@ pub fn read_gltf_bytes(bytes: &[u8], base_dir: &Path, path: &Path) -> Result<Sce
         scene: Scene::default(),
     };
     reader.read().map_err(err)?;
-    Ok(reader.scene)
+    let mut scene = reader.scene;
+    // External buffer files (their paths were checked by `load_buffers`).
+    for b in arr(&root, "buffers") {
+        if let Some(uri) = b.get("uri").and_then(Value::as_str) {
+            if !uri.starts_with("data:") {
+                if let Ok(p) = resolve_inside(base_dir, uri) {
+                    scene.sources.push(p);
+                }
+            }
+        }
+    }
+    scene.sources.sort();
+    scene.sources.dedup();
+    Ok(scene)
 }
 
 /// POSITION accessor indices must exist before the `gltf` crate's schema check

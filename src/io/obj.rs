@@ -167,8 +167,11 @@ fn read_impl(text: &str, base_dir: &Path, name: &str, path: &Path) -> Result<Sce
     let data = gather(&prep, &models)
         .map_err(|m| Error::input(path, format!("internal OBJ reader error: {m}")))?;
 
+    let mut sources: Vec<PathBuf> = mtl.loaded.iter().filter(|p| p.is_file()).cloned().collect();
+    sources.sort();
     let mut scene = Scene {
         warnings,
+        sources,
         ..Default::default()
     };
     let mut materials = MaterialBuilder {

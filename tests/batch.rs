@@ -1,0 +1,790 @@
+//! `crackle batch`: folders in, mirrored folders out, exit codes, the
+//! report, the incremental state, determinism across `--jobs`, a killed run,
+//! rules, shards and the emitted build files.
+
+mod common;
+
+use serde_json::Value;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn batch(args: &[&str]) -> Output {
+    Command::new(common::crackle_bin())
+        .arg("batch")
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+fn p(x: &Path) -> &str {
+    x.to_str().unwrap()
+}
+
+fn copy(from: &Path, to: &Path) {
+    std::fs::create_dir_all(to.parent().unwrap()).unwrap();
+    std::fs::copy(from, to).unwrap();
+}
+
+/// A small asset library: an OBJ plate, an OBJ cube with its MTL and a
+/// texture, a glTF with its .bin, a GLB with a hierarchy, a text file that
+/// is not an asset, and (when `bad`) a glTF whose .bin is missing.
+fn library(root: &Path, bad: bool) {
+    copy(
+        &common::fixture("plate_jittered.obj"),
+        &root.join("good/plate.obj"),
+    );
+    for f in ["cube.obj", "cube.mtl", "cube texture.png"] {
+        copy(&common::fixture(f), &root.join("good/cube").join(f));
+    }
+    for f in ["textured_quad.gltf", "textured_quad.bin", "checker.png"] {
+        copy(&common::fixture(f), &root.join("good/quad").join(f));
+    }
+    copy(
+        &common::fixture("hierarchy.glb"),
+        &root.join("props/hierarchy.glb"),
+    );
+    std::fs::write(root.join("props/readme.txt"), "not an asset").unwrap();
+    if bad {
+        let reject = common::eval_data("reject/MissingBin/BoxTextured.gltf")
+            .expect("eval-data reject/MissingBin (see SOURCES.md)");
+        copy(&reject, &root.join("bad/BoxTextured.gltf"));
+    }
+}
+
+fn report(path: &Path) -> Value {
+    serde_json::from_slice(&std::fs::read(path).unwrap()).unwrap()
+}
+
+/// status per input file name.
+fn statuses(r: &Value) -> Vec<(String, String)> {
+    let mut v: Vec<(String, String)> = r["assets"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|a| {
+            let name = Path::new(a["input"].as_str().unwrap())
+                .file_name()
+                .unwrap()
+                .to_string_lossy()
+                .into_owned();
+            (name, a["status"].as_str().unwrap().to_string())
+        })
+        .collect();
+    v.sort();
+    v
+}
+
+/// Every regular file under `dir` (relative, sorted), hidden ones included.
+fn files(dir: &Path) -> Vec<PathBuf> {
+    fn walk(root: &Path, d: &Path, out: &mut Vec<PathBuf>) {
+        for e in std::fs::read_dir(d).unwrap().flatten() {
+            let p = e.path();
+            if p.is_dir() {
+                walk(root, &p, out);
+            } else {
+                out.push(p.strip_prefix(root).unwrap().to_path_buf());
+            }
+        }
+    }
+    let mut out = Vec::new();
+    if dir.exists() {
+        walk(dir, dir, &mut out);
+    }
+    out.sort();
+    out
+}
+
+fn glb_is_complete(path: &Path) -> bool {
+    let b = std::fs::read(path).unwrap();
+    b.len() >= 12
+        && &b[0..4] == b"glTF"
+        && u32::from_le_bytes(b[8..12].try_into().unwrap()) as usize == b.len()
+}
+
+#[test]
+fn a_mixed_folder_reports_the_bad_asset_then_redoes_only_what_changed() {
+    let t = tempfile::tempdir().unwrap();
+    let (lib, out) = (t.path().join("lib"), t.path().join("out"));
+    library(&lib, true);
+    let rep = t.path().join("r.json");
+    let o = batch(&[
+        p(&lib),
+        "-r",
+        "--out",
+        p(&out),
+        "--preset",
+        "mud",
+        "-j",
+        "2",
+        "--report",
+        p(&rep),
+    ]);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{stderr}");
+    assert!(stderr.contains("BoxTextured.gltf"), "{stderr}");
+    let r = report(&rep);
+    assert_eq!(
+        statuses(&r),
+        [
+            ("BoxTextured.gltf", "failed"),
+            ("cube.obj", "cracked"),
+            ("hierarchy.glb", "cracked"),
+            ("plate.obj", "cracked"),
+            ("textured_quad.gltf", "cracked"),
+        ]
+        .map(|(a, b)| (a.to_string(), b.to_string()))
+    );
+    let bad = r["assets"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|a| a["status"] == "failed")
+        .unwrap();
+    assert!(
+        bad["error"].as_str().unwrap().contains("BoxTextured"),
+        "{bad}"
+    );
+    assert_eq!(r["totals"]["failed"], 1);
+    assert_eq!(r["totals"]["cracked"], 4);
+    for a in r["assets"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|a| a["status"] == "cracked")
+    {
+        assert!(
+            a["cracks"].as_u64().is_some() && a["output_bytes"].as_u64().unwrap() > 0,
+            "{a}"
+        );
+        assert!(
+            a["stages"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .any(|s| s["name"] == "simulate"),
+            "{a}"
+        );
+    }
+    // The tree is mirrored; nothing is written for the bad asset.
+    let written: Vec<PathBuf> = files(&out)
+        .into_iter()
+        .filter(|f| !f.to_string_lossy().starts_with('.'))
+        .collect();
+    assert_eq!(
+        written,
+        [
+            "good/cube/cube.glb",
+            "good/plate.glb",
+            "good/quad/textured_quad.glb",
+            "props/hierarchy.glb"
+        ]
+        .map(PathBuf::from)
+    );
+    for f in &written {
+        assert!(glb_is_complete(&out.join(f)), "{f:?}");
+    }
+    let before: Vec<Vec<u8>> = written
+        .iter()
+        .map(|f| std::fs::read(out.join(f)).unwrap())
+        .collect();
+    let mtimes = |w: &[PathBuf]| -> Vec<std::time::SystemTime> {
+        w.iter()
+            .map(|f| std::fs::metadata(out.join(f)).unwrap().modified().unwrap())
+            .collect()
+    };
+    let m0 = mtimes(&written);
+
+    // Second run: every good asset is up to date and untouched; the bad one
+    // fails again.
+    let o = batch(&[
+        p(&lib),
+        "-r",
+        "--out",
+        p(&out),
+        "--preset",
+        "mud",
+        "--report",
+        p(&rep),
+    ]);
+    assert_eq!(o.status.code(), Some(1));
+    let r = report(&rep);
+    let s = statuses(&r);
+    assert_eq!(
+        s.iter().filter(|(_, st)| st == "up-to-date").count(),
+        4,
+        "{s:?}"
+    );
+    assert_eq!(mtimes(&written), m0);
+
+    // A texture's bytes change: only its asset runs again.
+    let tex = lib.join("good/cube/cube texture.png");
+    let mut bytes = std::fs::read(&tex).unwrap();
+    bytes.extend_from_slice(b"\0\0\0\0");
+    std::fs::write(&tex, bytes).unwrap();
+    let o = batch(&[
+        p(&lib),
+        "-r",
+        "--out",
+        p(&out),
+        "--preset",
+        "mud",
+        "--report",
+        p(&rep),
+    ]);
+    assert_eq!(o.status.code(), Some(1));
+    let s = statuses(&report(&rep));
+    assert_eq!(
+        s.iter()
+            .filter(|(_, st)| st == "cracked")
+            .map(|(n, _)| n.as_str())
+            .collect::<Vec<_>>(),
+        ["cube.obj"],
+        "{s:?}"
+    );
+    // Another pipeline, or --force, reruns everything.
+    let o = batch(&[
+        p(&lib),
+        "-r",
+        "--out",
+        p(&out),
+        "--preset",
+        "glaze",
+        "--report",
+        p(&rep),
+    ]);
+    assert_eq!(o.status.code(), Some(1));
+    assert_eq!(report(&rep)["totals"]["cracked"], 4);
+    let o = batch(&[
+        p(&lib),
+        "-r",
+        "--out",
+        p(&out),
+        "--preset",
+        "mud",
+        "--force",
+        "--report",
+        p(&rep),
+    ]);
+    assert_eq!(o.status.code(), Some(1));
+    assert_eq!(report(&rep)["totals"]["cracked"], 4);
+    // Same inputs and pipeline again: the same bytes as the first run.
+    for (f, b) in written.iter().zip(&before) {
+        if !f.starts_with("good/cube") {
+            assert_eq!(&std::fs::read(out.join(f)).unwrap(), b, "{f:?}");
+        }
+    }
+    // --fail-fast stops at the failure (one job: nothing after it starts).
+    let out2 = t.path().join("out2");
+    let o = batch(&[
+        p(&lib),
+        "-r",
+        "--out",
+        p(&out2),
+        "--preset",
+        "mud",
+        "-j",
+        "1",
+        "--fail-fast",
+        "--report",
+        p(&rep),
+    ]);
+    assert_eq!(o.status.code(), Some(1));
+    let r = report(&rep);
+    assert_eq!(r["assets"][0]["status"], "failed", "{r}"); // bad/ sorts first
+    assert_eq!(r["totals"]["not_run"], 4, "{r}");
+}
+
+#[test]
+fn outputs_are_the_same_whatever_the_jobs() {
+    let t = tempfile::tempdir().unwrap();
+    let lib = t.path().join("lib");
+    library(&lib, false);
+    // Also glTF output (JSON, .bin and images beside it).
+    for fmt in ["glb", "gltf"] {
+        let (a, b) = (
+            t.path().join(format!("j1{fmt}")),
+            t.path().join(format!("j2{fmt}")),
+        );
+        for (dir, j) in [(&a, "1"), (&b, "2")] {
+            let o = batch(&[
+                p(&lib),
+                "-r",
+                "--out",
+                p(dir),
+                "--preset",
+                "glaze",
+                "-j",
+                j,
+                "--format",
+                fmt,
+                "-q",
+            ]);
+            assert_eq!(
+                o.status.code(),
+                Some(0),
+                "{}",
+                String::from_utf8_lossy(&o.stderr)
+            );
+        }
+        let (fa, fb) = (files(&a), files(&b));
+        assert_eq!(fa, fb);
+        assert!(
+            fa.iter().any(|f| f.extension().is_some_and(|e| e == fmt)),
+            "{fa:?}"
+        );
+        for f in fa
+            .iter()
+            .filter(|f| !f.to_string_lossy().starts_with(".crackle"))
+        {
+            assert_eq!(
+                std::fs::read(a.join(f)).unwrap(),
+                std::fs::read(b.join(f)).unwrap(),
+                "{f:?}"
+            );
+        }
+    }
+    // The outputs pass the Khronos validator.
+    if let Some(v) = common::validator() {
+        let out = t.path().join("j2glb");
+        for f in files(&out)
+            .iter()
+            .filter(|f| f.extension().is_some_and(|e| e == "glb"))
+        {
+            let r = v.validate(out.join(f));
+            assert_eq!(r.errors, 0, "{f:?}: {}", r.describe());
+        }
+    }
+}
+
+#[test]
+fn nothing_to_do_usage_errors_and_dry_runs() {
+    let t = tempfile::tempdir().unwrap();
+    let empty = t.path().join("empty");
+    std::fs::create_dir_all(&empty).unwrap();
+    std::fs::write(empty.join("notes.txt"), "x").unwrap();
+    let out = t.path().join("out");
+    let o = batch(&[p(&empty), "-r", "--out", p(&out)]);
+    assert_eq!(
+        o.status.code(),
+        Some(3),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    assert!(String::from_utf8_lossy(&o.stderr).contains("nothing to do"));
+    // A missing input, a bad shard, an output on top of its input: usage errors.
+    let o = batch(&[p(&t.path().join("nope")), "--out", p(&out)]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("nope"));
+    let lib = t.path().join("lib");
+    library(&lib, false);
+    for s in ["0/2", "3/2", "x"] {
+        let o = batch(&[p(&lib), "-r", "--out", p(&out), "--shard", s]);
+        assert_eq!(o.status.code(), Some(2), "{s}");
+    }
+    let props = lib.join("props");
+    let o = batch(&[p(&props), "--out", p(&props)]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        String::from_utf8_lossy(&o.stderr).contains("is an input"),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    // Two inputs writing one output.
+    let clash = t.path().join("clash");
+    copy(&common::fixture("plate_jittered.obj"), &clash.join("a.obj"));
+    copy(&common::fixture("hierarchy.glb"), &clash.join("a.glb"));
+    let o = batch(&[p(&clash), "--out", p(&out)]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("would both write"));
+    // A dry run lists every asset and writes nothing.
+    let o = batch(&[
+        p(&lib),
+        "-r",
+        "--out",
+        p(&out),
+        "--preset",
+        "mud",
+        "--dry-run",
+    ]);
+    assert_eq!(o.status.code(), Some(0));
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert_eq!(stdout.matches("crack (preset mud)").count(), 4, "{stdout}");
+    assert!(!out.exists());
+    // A quoted glob picks assets by pattern, relative to its folder.
+    let glob = format!("{}/**/*.obj", p(&lib));
+    let o = batch(&[&glob, "--out", p(&out), "--dry-run"]);
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        stdout.contains("good/plate.glb") && stdout.contains("good/cube/cube.glb"),
+        "{stdout}"
+    );
+    assert!(!stdout.contains("hierarchy"), "{stdout}");
+}
+
+#[test]
+fn rules_choose_pipelines_copy_and_skip() {
+    let t = tempfile::tempdir().unwrap();
+    let (lib, out) = (t.path().join("lib"), t.path().join("out"));
+    library(&lib, false);
+    let rules = t.path().join("rules.toml");
+    std::fs::write(
+        &rules,
+        r#"
+unmatched = "skip"
+
+[[rule]]
+glob = "plate.obj"        # no '/': the file name at any depth
+preset = "mud"
+set = ["simulation.seed=7"]
+
+[[rule]]
+glob = "good/cube/*"
+action = "copy"
+
+[[rule]]
+glob = "props/**"
+preset = "glaze"
+"#,
+    )
+    .unwrap();
+    let rep = t.path().join("r.json");
+    let o = batch(&[
+        p(&lib),
+        "-r",
+        "--out",
+        p(&out),
+        "--rules",
+        p(&rules),
+        "--report",
+        p(&rep),
+    ]);
+    assert_eq!(
+        o.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let r = report(&rep);
+    let by_name = |n: &str| {
+        r["assets"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|a| a["input"].as_str().unwrap().ends_with(n))
+            .unwrap()
+            .clone()
+    };
+    assert_eq!(by_name("plate.obj")["pipeline"], "preset mud");
+    assert_eq!(by_name("plate.obj")["rule"], 1);
+    assert_eq!(by_name("hierarchy.glb")["pipeline"], "preset glaze");
+    assert_eq!(by_name("cube.obj")["status"], "copied");
+    assert_eq!(by_name("textured_quad.gltf")["status"], "skipped");
+    // A copy brings the files the asset references, unchanged.
+    for f in ["cube.obj", "cube.mtl", "cube texture.png"] {
+        assert_eq!(
+            std::fs::read(out.join("good/cube").join(f)).unwrap(),
+            std::fs::read(lib.join("good/cube").join(f)).unwrap(),
+            "{f}"
+        );
+    }
+    assert!(!out.join("good/quad").exists());
+    // The rule's own set applies: seed 7 differs from the default seed.
+    let plain = t.path().join("plain.glb");
+    let o = Command::new(common::crackle_bin())
+        .args([
+            "crack",
+            p(&lib.join("good/plate.obj")),
+            p(&plain),
+            "--preset",
+            "mud",
+            "-q",
+        ])
+        .output()
+        .unwrap();
+    assert!(o.status.success());
+    assert_ne!(
+        std::fs::read(&plain).unwrap(),
+        std::fs::read(out.join("good/plate.glb")).unwrap()
+    );
+    // Rules and --preset together, or a bad rule, are usage errors.
+    let o = batch(&[
+        p(&lib),
+        "--out",
+        p(&out),
+        "--rules",
+        p(&rules),
+        "--preset",
+        "mud",
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    std::fs::write(&rules, "[[rule]]\nglob = \"*\"\naction = \"melt\"\n").unwrap();
+    let o = batch(&[p(&lib), "--out", p(&out), "--rules", p(&rules)]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("melt"));
+}
+
+#[test]
+fn shards_split_the_assets_between_them() {
+    let t = tempfile::tempdir().unwrap();
+    let lib = t.path().join("lib");
+    for i in 0..12 {
+        copy(
+            &common::fixture("cube.obj"),
+            &lib.join(format!("a{i:02}.obj")),
+        );
+    }
+    let mut seen: Vec<String> = Vec::new();
+    for k in 1..=3 {
+        let o = batch(&[
+            p(&lib),
+            "--out",
+            p(&t.path().join("o")),
+            "--shard",
+            &format!("{k}/3"),
+            "--dry-run",
+        ]);
+        assert!(matches!(o.status.code(), Some(0 | 3)));
+        let stdout = String::from_utf8_lossy(&o.stdout).into_owned();
+        let mine: Vec<String> = stdout
+            .lines()
+            .filter(|l| l.starts_with("crack"))
+            .map(|l| l.split_whitespace().last().unwrap().to_string())
+            .collect();
+        assert!(mine.len() < 12, "shard {k}/3 has every asset");
+        seen.extend(mine);
+    }
+    seen.sort();
+    let before = seen.len();
+    seen.dedup();
+    assert_eq!(before, seen.len(), "an asset is in two shards");
+    assert_eq!(seen.len(), 12, "every asset is in a shard: {seen:?}");
+}
+
+#[test]
+fn a_killed_batch_leaves_no_partial_output_and_a_rerun_completes() {
+    let t = tempfile::tempdir().unwrap();
+    let (lib, out) = (t.path().join("lib"), t.path().join("out"));
+    for i in 0..10 {
+        copy(
+            &common::fixture("bumps.obj"),
+            &lib.join(format!("b{i}.obj")),
+        );
+    }
+    let mut child = Command::new(common::crackle_bin())
+        .args([
+            "batch",
+            p(&lib),
+            "--out",
+            p(&out),
+            "--preset",
+            "mud",
+            "-j",
+            "2",
+            "-q",
+        ])
+        .spawn()
+        .unwrap();
+    // Kill it (SIGKILL) once the first output is there, mid-way.
+    let start = std::time::Instant::now();
+    loop {
+        let done = files(&out)
+            .iter()
+            .filter(|f| f.extension().is_some_and(|e| e == "glb"))
+            .count();
+        if done >= 1 || start.elapsed().as_secs() > 60 {
+            break;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    child.kill().unwrap();
+    child.wait().unwrap();
+    let left: Vec<PathBuf> = files(&out)
+        .into_iter()
+        .filter(|f| !f.to_string_lossy().starts_with('.'))
+        .collect();
+    assert!(
+        !left.is_empty() && left.len() < 10,
+        "killed mid-way: {left:?}"
+    );
+    for f in &left {
+        assert!(glb_is_complete(&out.join(f)), "{f:?} is partial");
+    }
+    // The rerun does the rest and leaves no temporary file behind.
+    let rep = t.path().join("r.json");
+    let o = batch(&[
+        p(&lib),
+        "--out",
+        p(&out),
+        "--preset",
+        "mud",
+        "-j",
+        "2",
+        "-q",
+        "--report",
+        p(&rep),
+    ]);
+    assert_eq!(
+        o.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let r = report(&rep);
+    let up = r["totals"]["up_to_date"].as_u64().unwrap();
+    assert!(up >= 1 && up as usize <= left.len(), "{}", r["totals"]);
+    assert_eq!(up + r["totals"]["cracked"].as_u64().unwrap(), 10);
+    let all = files(&out);
+    assert!(
+        all.iter()
+            .all(|f| !f.to_string_lossy().contains("crackle-tmp")),
+        "{all:?}"
+    );
+    let glbs: Vec<&PathBuf> = all
+        .iter()
+        .filter(|f| f.extension().is_some_and(|e| e == "glb"))
+        .collect();
+    assert_eq!(glbs.len(), 10);
+    // Every output is the same asset cracked the same way.
+    let first = std::fs::read(out.join(glbs[0])).unwrap();
+    for f in glbs {
+        assert_eq!(std::fs::read(out.join(f)).unwrap(), first, "{f:?}");
+    }
+}
+
+fn ninja() -> Option<PathBuf> {
+    let local = common::manifest_dir().join("tools/ninja/bin/ninja");
+    if local.exists() {
+        return Some(local);
+    }
+    if Command::new("ninja")
+        .arg("--version")
+        .output()
+        .is_ok_and(|o| o.status.success())
+    {
+        return Some(PathBuf::from("ninja"));
+    }
+    assert!(
+        !common::in_ci(),
+        "ninja is missing: run scripts/install-ninja.sh"
+    );
+    eprintln!("SKIP: ninja is not installed (scripts/install-ninja.sh)");
+    None
+}
+
+#[test]
+fn emitted_build_files_build_what_the_batch_builds() {
+    let t = tempfile::tempdir().unwrap();
+    let lib = t.path().join("lib");
+    library(&lib, false);
+    let reference = t.path().join("ref");
+    let o = batch(&[
+        p(&lib),
+        "-r",
+        "--out",
+        p(&reference),
+        "--preset",
+        "mud",
+        "-q",
+    ]);
+    assert_eq!(o.status.code(), Some(0));
+    let outputs: Vec<PathBuf> = files(&reference)
+        .into_iter()
+        .filter(|f| !f.to_string_lossy().starts_with('.'))
+        .collect();
+    assert_eq!(outputs.len(), 4);
+    let check = |out: &Path| {
+        for f in &outputs {
+            assert_eq!(
+                std::fs::read(out.join(f)).unwrap(),
+                std::fs::read(reference.join(f)).unwrap(),
+                "{f:?}"
+            );
+        }
+    };
+    // make
+    let out = t.path().join("make out");
+    let o = batch(&[
+        p(&lib),
+        "-r",
+        "--out",
+        p(&out),
+        "--preset",
+        "mud",
+        "--emit",
+        "make",
+    ]);
+    assert_eq!(o.status.code(), Some(0));
+    let makefile = t.path().join("Makefile");
+    std::fs::write(&makefile, &o.stdout).unwrap();
+    let m = Command::new("make")
+        .args(["-j2", "-s", "-f", p(&makefile)])
+        .output()
+        .unwrap();
+    assert!(m.status.success(), "{}", String::from_utf8_lossy(&m.stderr));
+    check(&out);
+    let m = Command::new("make")
+        .args(["-f", p(&makefile)])
+        .output()
+        .unwrap();
+    assert!(
+        String::from_utf8_lossy(&m.stdout).contains("Nothing to be done"),
+        "{}",
+        String::from_utf8_lossy(&m.stdout)
+    );
+    // ninja
+    if let Some(ninja) = ninja() {
+        let out = t.path().join("ninja out");
+        let o = batch(&[
+            p(&lib),
+            "-r",
+            "--out",
+            p(&out),
+            "--preset",
+            "mud",
+            "--emit",
+            "ninja",
+        ]);
+        assert_eq!(o.status.code(), Some(0));
+        let file = t.path().join("build.ninja");
+        std::fs::write(&file, &o.stdout).unwrap();
+        let n = Command::new(&ninja)
+            .current_dir(t.path())
+            .args(["-f", p(&file), "-j", "2"])
+            .output()
+            .unwrap();
+        assert!(
+            n.status.success(),
+            "{}{}",
+            String::from_utf8_lossy(&n.stdout),
+            String::from_utf8_lossy(&n.stderr)
+        );
+        check(&out);
+        let n = Command::new(&ninja)
+            .current_dir(t.path())
+            .args(["-f", p(&file)])
+            .output()
+            .unwrap();
+        assert!(
+            String::from_utf8_lossy(&n.stdout).contains("no work to do"),
+            "{}",
+            String::from_utf8_lossy(&n.stdout)
+        );
+        // A changed texture rebuilds its asset only.
+        let tex = lib.join("good/cube/cube texture.png");
+        let mut bytes = std::fs::read(&tex).unwrap();
+        bytes.push(0);
+        std::thread::sleep(std::time::Duration::from_millis(1100));
+        std::fs::write(&tex, bytes).unwrap();
+        let n = Command::new(&ninja)
+            .current_dir(t.path())
+            .args(["-f", p(&file), "-d", "explain", "-n"])
+            .output()
+            .unwrap();
+        let so = String::from_utf8_lossy(&n.stdout);
+        assert!(
+            so.contains("[1/1]"),
+            "{so}{}",
+            String::from_utf8_lossy(&n.stderr)
+        );
+    }
+}
