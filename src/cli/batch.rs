@@ -205,7 +205,10 @@ pub fn run(a: BatchArgs) -> anyhow::Result<u8> {
         print!("{}", emit_build_file(emit, &a, &found, &pipes)?);
         return Ok(0);
     }
-    // ---- up to date?
+    // ---- up to date? (First clear what a killed run left behind.)
+    if !a.dry_run {
+        remove_stale_temps(a.out);
+    }
     let state_path = a.out.join(STATE_FILE);
     let state = State::load(&state_path);
     let mut keys: Vec<Option<String>> = vec![None; found.len()];
@@ -274,7 +277,6 @@ pub fn run(a: BatchArgs) -> anyhow::Result<u8> {
     std::fs::create_dir_all(a.out).map_err(|e| {
         anyhow::anyhow!("{}: cannot create the output folder: {e}", a.out.display())
     })?;
-    remove_stale_temps(a.out);
     // ---- run
     let started = Instant::now();
     let jobs = if a.jobs == 0 {
