@@ -385,6 +385,14 @@ fn nothing_to_do_usage_errors_and_dry_runs() {
     let o = batch(&[p(&props), "--out", p(&props)]);
     assert_eq!(o.status.code(), Some(2));
     assert!(
+        String::from_utf8_lossy(&o.stderr).contains("is the input folder"),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let glb = props.join("hierarchy.glb");
+    let o = batch(&[p(&glb), "--out", p(&props)]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
         String::from_utf8_lossy(&o.stderr).contains("is an input"),
         "{}",
         String::from_utf8_lossy(&o.stderr)
@@ -558,6 +566,22 @@ fn shards_split_the_assets_between_them() {
     seen.dedup();
     assert_eq!(before, seen.len(), "an asset is in two shards");
     assert_eq!(seen.len(), 12, "every asset is in a shard: {seen:?}");
+    // Two shards running at once into one folder keep each other's state.
+    let out = t.path().join("shared");
+    let spawn = |k: &str| {
+        Command::new(common::crackle_bin())
+            .args(["batch", p(&lib), "--out", p(&out), "--shard", k, "-q"])
+            .spawn()
+            .unwrap()
+    };
+    let (mut a, mut b) = (spawn("1/2"), spawn("2/2"));
+    assert!(a.wait().unwrap().success() && b.wait().unwrap().success());
+    let o = batch(&[p(&lib), "--out", p(&out), "--dry-run"]);
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        stdout.contains("12 assets: 0 to do, 12 up to date"),
+        "{stdout}"
+    );
 }
 
 #[test]
@@ -584,14 +608,15 @@ fn a_killed_batch_leaves_no_partial_output_and_a_rerun_completes() {
         ])
         .spawn()
         .unwrap();
-    // Kill it (SIGKILL) once the first output is there, mid-way.
+    // Kill it (SIGKILL) once the first output and the state are there.
     let start = std::time::Instant::now();
     loop {
         let done = files(&out)
             .iter()
             .filter(|f| f.extension().is_some_and(|e| e == "glb"))
             .count();
-        if done >= 1 || start.elapsed().as_secs() > 60 {
+        let saved = out.join(".crackle-batch.json").exists();
+        if (done >= 1 && saved) || start.elapsed().as_secs() > 60 {
             break;
         }
         std::thread::sleep(std::time::Duration::from_millis(20));
@@ -785,6 +810,135 @@ fn emitted_build_files_build_what_the_batch_builds() {
             so.contains("[1/1]"),
             "{so}{}",
             String::from_utf8_lossy(&n.stderr)
+        );
+    }
+}
+
+#[test]
+fn assets_sharing_files_and_names_never_collide() {
+    // Sibling OBJs sharing one MTL and texture, written as glTF by many
+    // jobs at once: each output's image is its own file, none fails.
+    let t = tempfile::tempdir().unwrap();
+    let (lib, out) = (t.path().join("lib"), t.path().join("out"));
+    for f in ["cube.mtl", "cube texture.png"] {
+        copy(&common::fixture(f), &lib.join(f));
+    }
+    for i in 0..12 {
+        copy(
+            &common::fixture("cube.obj"),
+            &lib.join(format!("c{i:02}.obj")),
+        );
+    }
+    // Two folders whose textures share a name but not their bytes.
+    for (d, fill) in [("ta", 1u8), ("tb", 2u8)] {
+        copy(&common::fixture("cube.obj"), &lib.join(d).join("cube.obj"));
+        copy(&common::fixture("cube.mtl"), &lib.join(d).join("cube.mtl"));
+        let mut png = std::fs::read(common::fixture("cube texture.png")).unwrap();
+        png.extend(std::iter::repeat_n(fill, 8));
+        std::fs::write(lib.join(d).join("cube texture.png"), png).unwrap();
+    }
+    let rep = t.path().join("r.json");
+    let o = batch(&[
+        p(&lib),
+        "-r",
+        "--out",
+        p(&out),
+        "--format",
+        "gltf",
+        "-j",
+        "8",
+        "-q",
+        "--report",
+        p(&rep),
+    ]);
+    assert_eq!(
+        o.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    assert_eq!(report(&rep)["totals"]["cracked"], 14);
+    let names = files(&out);
+    assert!(
+        names
+            .iter()
+            .any(|f| f.to_string_lossy() == "c00_cube texture.png"),
+        "{names:?}"
+    );
+    // Each output's texture is its own asset's.
+    for d in ["ta", "tb"] {
+        assert_eq!(
+            std::fs::read(out.join(d).join("cube_cube texture.png")).unwrap(),
+            std::fs::read(lib.join(d).join("cube texture.png")).unwrap()
+        );
+    }
+    // The output folder may not be an input folder.
+    let o = batch(&[p(&lib), "-r", "--out", p(&lib)]);
+    assert_eq!(o.status.code(), Some(2));
+}
+
+#[test]
+fn a_reference_that_appears_later_rebuilds_and_copies_need_no_decoding() {
+    let t = tempfile::tempdir().unwrap();
+    let (lib, out) = (t.path().join("lib"), t.path().join("out"));
+    // An OBJ whose MTL is missing at first.
+    copy(&common::fixture("cube.obj"), &lib.join("cube.obj"));
+    let rep = t.path().join("r.json");
+    let run = || {
+        batch(&[
+            p(&lib),
+            "--out",
+            p(&out),
+            "--preset",
+            "mud",
+            "-q",
+            "--report",
+            p(&rep),
+        ])
+    };
+    assert_eq!(run().status.code(), Some(0));
+    assert_eq!(report(&rep)["totals"]["cracked"], 1);
+    assert_eq!(run().status.code(), Some(0));
+    assert_eq!(report(&rep)["totals"]["up_to_date"], 1);
+    for f in ["cube.mtl", "cube texture.png"] {
+        copy(&common::fixture(f), &lib.join(f));
+    }
+    assert_eq!(run().status.code(), Some(0));
+    assert_eq!(
+        report(&rep)["totals"]["cracked"],
+        1,
+        "the new MTL rebuilds the asset"
+    );
+    // A folder link that loops does not hang the walk.
+    #[cfg(unix)]
+    std::os::unix::fs::symlink(&lib, lib.join("loop")).unwrap();
+    let o = batch(&[
+        p(&lib),
+        "-r",
+        "--out",
+        p(&out),
+        "--preset",
+        "mud",
+        "--dry-run",
+    ]);
+    assert_eq!(o.status.code(), Some(0));
+    // A compressed glTF crackle cannot decode is still copied by a copy rule.
+    if let Some(draco) = common::eval_data("reject/compressed/Duck_draco.glb") {
+        let lib2 = t.path().join("lib2");
+        copy(&draco, &lib2.join("duck.glb"));
+        let rules = t.path().join("rules.toml");
+        std::fs::write(&rules, "unmatched = \"copy\"\n").unwrap();
+        let out2 = t.path().join("out2");
+        let o = batch(&[p(&lib2), "--out", p(&out2), "--rules", p(&rules), "-q"]);
+        assert_eq!(
+            o.status.code(),
+            Some(0),
+            "{}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+        assert_eq!(
+            std::fs::read(out2.join("duck.glb")).unwrap(),
+            std::fs::read(&draco).unwrap()
         );
     }
 }

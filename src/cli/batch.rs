@@ -147,6 +147,16 @@ pub fn run(a: BatchArgs) -> anyhow::Result<u8> {
         .into());
     }
     let out_canon = canonical_or_lexical(a.out);
+    for spec in a.inputs {
+        let p = Path::new(spec);
+        if p.is_dir() && canonical_or_lexical(p) == out_canon {
+            return Err(UsageError(format!(
+                "--out {} is the input folder {spec}: the outputs would be read as inputs next time; choose another folder (one inside it is fine)",
+                a.out.display()
+            ))
+            .into());
+        }
+    }
     // ---- the assets
     let mut found = collect_inputs(a.inputs, a.recursive, &out_canon)?;
     // ---- their actions
@@ -189,11 +199,12 @@ pub fn run(a: BatchArgs) -> anyhow::Result<u8> {
             Action::Skip => PathBuf::new(),
         };
     }
+    // Collisions are checked over every shard's assets.
+    check_outputs(&found)?;
     // ---- the shard
     if let Some((k, n)) = shard {
         found.retain(|x| fnv1a(x.rel.as_bytes()) % n as u64 == (k - 1) as u64);
     }
-    check_outputs(&found)?;
     let active: Vec<usize> = (0..found.len())
         .filter(|&i| found[i].action != Action::Skip)
         .collect();
@@ -202,7 +213,10 @@ pub fn run(a: BatchArgs) -> anyhow::Result<u8> {
             log::warn!("nothing to do: no asset selected");
             return Ok(3);
         }
-        print!("{}", emit_build_file(emit, &a, &found, &pipes)?);
+        let text = emit_build_file(emit, &a, &found, &pipes)?;
+        // A closed pipe (`| head`) is not an error.
+        use std::io::Write;
+        let _ = std::io::stdout().lock().write_all(text.as_bytes());
         return Ok(0);
     }
     // ---- up to date? (First clear what a killed run left behind.)
@@ -211,7 +225,6 @@ pub fn run(a: BatchArgs) -> anyhow::Result<u8> {
     }
     let state_path = a.out.join(STATE_FILE);
     let state = State::load(&state_path);
-    let mut keys: Vec<Option<String>> = vec![None; found.len()];
     let mut todo: Vec<usize> = Vec::new();
     let mut outcomes: Vec<Outcome> = vec![Outcome::default(); found.len()];
     for (i, asset) in found.iter().enumerate() {
@@ -228,7 +241,6 @@ pub fn run(a: BatchArgs) -> anyhow::Result<u8> {
                     && asset_key(&asset.input, &e.sources, &fp).as_deref() == Some(e.key.as_str())
             })
             .is_some();
-        keys[i] = Some(String::new());
         if fresh {
             outcomes[i].status = "up-to-date";
         } else {
@@ -236,6 +248,9 @@ pub fn run(a: BatchArgs) -> anyhow::Result<u8> {
         }
     }
     if a.dry_run {
+        // A closed pipe (`| head`) ends the listing quietly.
+        use std::io::Write;
+        let mut so = std::io::stdout().lock();
         for (i, asset) in found.iter().enumerate() {
             let what = match (&asset.action, outcomes[i].status) {
                 (Action::Skip, _) => "skip".to_string(),
@@ -244,16 +259,18 @@ pub fn run(a: BatchArgs) -> anyhow::Result<u8> {
                 (Action::Crack(k), _) => format!("crack ({})", pipes[*k].label),
             };
             if asset.action == Action::Skip {
-                println!("{what:<24} {}", asset.input.display());
+                let _ = writeln!(so, "{what:<24} {}", asset.input.display());
             } else {
-                println!(
+                let _ = writeln!(
+                    so,
                     "{what:<24} {} -> {}",
                     asset.input.display(),
                     asset.output.display()
                 );
             }
         }
-        println!(
+        let _ = writeln!(
+            so,
             "{} assets: {} to do, {} up to date, {} skipped",
             found.len(),
             todo.len(),
@@ -283,8 +300,7 @@ pub fn run(a: BatchArgs) -> anyhow::Result<u8> {
         std::thread::available_parallelism().map_or(1, |n| n.get())
     } else {
         a.jobs
-    }
-    .min(todo.len().max(1));
+    };
     let progress = Progress::new(todo.len(), jobs, a.quiet);
     let state = Mutex::new(state);
     let outcomes_m = Mutex::new(outcomes);
@@ -307,7 +323,18 @@ pub fn run(a: BatchArgs) -> anyhow::Result<u8> {
             progress.start(worker, &asset.rel);
             let t0 = Instant::now();
             let on_stage = |s: &str| progress.stage(worker, &asset.rel, s);
-            let result = run_asset(asset, &pipes, &a, &on_stage);
+            // A panic is a bug; it fails this asset, not the batch.
+            let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+                run_asset(asset, &pipes, &a, &on_stage)
+            }))
+            .unwrap_or_else(|p| {
+                let what = p
+                    .downcast_ref::<&str>()
+                    .map(|s| s.to_string())
+                    .or_else(|| p.downcast_ref::<String>().cloned())
+                    .unwrap_or_default();
+                Err(anyhow::anyhow!("internal error (please report it): {what}"))
+            });
             let seconds = t0.elapsed().as_secs_f64();
             let outcome = match result {
                 Ok((status, report, sources, outputs)) => {
@@ -319,7 +346,7 @@ pub fn run(a: BatchArgs) -> anyhow::Result<u8> {
                             .map(|o| out_rel(a.out, Path::new(o)))
                             .collect();
                         st.set(out_rel(a.out, &asset.output), key, sources, outputs);
-                        if let Err(e) = st.save(&state_path) {
+                        if let Err(e) = st.save_soon(&state_path) {
                             log::warn!("{e}");
                         }
                     }
@@ -347,6 +374,12 @@ pub fn run(a: BatchArgs) -> anyhow::Result<u8> {
         });
     });
     progress.finish();
+    let mut state = state.into_inner().unwrap_or_else(|p| p.into_inner());
+    if !state.updated.is_empty() {
+        if let Err(e) = state.save(&state_path) {
+            log::warn!("{e}");
+        }
+    }
     let mut outcomes = outcomes_m.into_inner().unwrap_or_else(|p| p.into_inner());
     for &i in &todo {
         if outcomes[i].status.is_empty() {
@@ -464,6 +497,20 @@ fn slash_path(p: &Path) -> String {
 /// Every file under `dir` (recursively when `recursive`), sorted, leaving
 /// out `skip` (the output folder) and hidden files.
 fn walk(dir: &Path, recursive: bool, skip: &Path, out: &mut Vec<PathBuf>) -> anyhow::Result<()> {
+    walk_seen(dir, recursive, skip, out, &mut BTreeSet::new())
+}
+
+/// [`walk`], entering each real folder once (folder links may loop).
+fn walk_seen(
+    dir: &Path,
+    recursive: bool,
+    skip: &Path,
+    out: &mut Vec<PathBuf>,
+    seen: &mut BTreeSet<PathBuf>,
+) -> anyhow::Result<()> {
+    if !seen.insert(canonical_or_lexical(dir)) {
+        return Ok(());
+    }
     let mut entries: Vec<PathBuf> = std::fs::read_dir(dir)
         .map_err(|e| anyhow::anyhow!("{}: cannot read the folder: {e}", dir.display()))?
         .filter_map(|e| e.ok().map(|e| e.path()))
@@ -479,7 +526,7 @@ fn walk(dir: &Path, recursive: bool, skip: &Path, out: &mut Vec<PathBuf>) -> any
         }
         if p.is_dir() {
             if recursive && canonical_or_lexical(&p) != skip {
-                walk(&p, recursive, skip, out)?;
+                walk_seen(&p, recursive, skip, out, seen)?;
             }
         } else if p.is_file() {
             out.push(p);
@@ -499,9 +546,11 @@ fn collect_inputs(
         return Err(UsageError("no input: give files, folders or globs".into()).into());
     }
     let mut assets: Vec<Asset> = Vec::new();
-    let mut seen: BTreeSet<PathBuf> = BTreeSet::new();
+    // The same file under the same relative path once (a link to a file
+    // elsewhere in the tree is an asset of its own).
+    let mut seen: BTreeSet<(PathBuf, String)> = BTreeSet::new();
     let mut push = |input: PathBuf, rel: String, assets: &mut Vec<Asset>| {
-        if seen.insert(canonical_or_lexical(&input)) {
+        if seen.insert((canonical_or_lexical(&input), rel.clone())) {
             assets.push(Asset {
                 input,
                 rel,
@@ -627,14 +676,15 @@ fn load_rules(path: &Path, sim: &SimArgs) -> anyhow::Result<Rules> {
                 r.glob
             ))
         };
-        let matcher = globset::GlobBuilder::new(&r.glob)
+        let pattern = r.glob.trim_start_matches("./");
+        let matcher = globset::GlobBuilder::new(pattern)
             .literal_separator(true)
             .build()
             .map_err(|e| at(format!("invalid glob: {e}")))?
             .compile_matcher();
         let glob = RuleGlob {
             matcher,
-            name_only: !r.glob.contains('/'),
+            name_only: !pattern.contains('/'),
         };
         let action = match r.action.as_deref().unwrap_or("crack") {
             "crack" => {
@@ -695,7 +745,10 @@ fn pipe_spec(
 ) -> anyhow::Result<PipeSpec> {
     // The parsed pipeline (every key, defaults filled in) and the bytes of
     // the mask images it reads.
-    let mut fingerprint = format!("{pipeline:?}").into_bytes();
+    let mut anonymous = pipeline.clone();
+    anonymous.source_name.clear();
+    anonymous.description.clear();
+    let mut fingerprint = format!("{anonymous:?}").into_bytes();
     for e in &pipeline.stress {
         if let Some(image) = e.mask.as_ref().and_then(|m| m.image.as_ref()) {
             if image.starts_with("builtin:") {
@@ -755,8 +808,9 @@ fn check_outputs(assets: &[Asset]) -> anyhow::Result<()> {
 /// What, besides the input files, decides the asset's output.
 fn action_fingerprint(asset: &Asset, pipes: &[PipeSpec], format: OutFormat, weld: f64) -> Vec<u8> {
     let mut fp = format!(
-        "crackle {} batch-state 1\nformat {format:?}\nweld {weld:?}\n",
-        env!("CARGO_PKG_VERSION")
+        "crackle {} {} batch-state 1\nformat {format:?}\nweld {weld:?}\n",
+        env!("CARGO_PKG_VERSION"),
+        tool_id()
     )
     .into_bytes();
     match &asset.action {
@@ -768,6 +822,18 @@ fn action_fingerprint(asset: &Asset, pipes: &[PipeSpec], format: OutFormat, weld
         Action::Skip => fp.extend_from_slice(b"skip\n"),
     }
     fp
+}
+
+/// A hash of this executable: a rebuilt tool (new code, same version
+/// number) does not take older outputs as its own.
+fn tool_id() -> &'static str {
+    static ID: std::sync::OnceLock<String> = std::sync::OnceLock::new();
+    ID.get_or_init(|| {
+        std::env::current_exe()
+            .and_then(std::fs::read)
+            .map(|b| format!("{:x}", Sha256::digest(&b)))
+            .unwrap_or_default()
+    })
 }
 
 /// Hash of the action, the input's bytes and each source's relative path
@@ -835,6 +901,7 @@ fn run_asset(
                 quiet: true,
                 frames: None,
                 on_stage: Some(on_stage),
+                prefix_images: a.format == OutFormat::Gltf,
             })?;
             let sources = report["sources"]
                 .as_array()
@@ -859,11 +926,11 @@ fn run_asset(
         Action::Copy => {
             on_stage("copy");
             // The asset and every file it references, to the same places
-            // relative to it.
-            let scene = crackle::io::read(&asset.input)?;
-            let sources: Vec<String> = scene
-                .referenced_files()
+            // relative to it (found without decoding the asset, so assets
+            // crackle cannot read, compressed ones say, are copied too).
+            let sources: Vec<String> = scan_references(&asset.input)
                 .iter()
+                .filter(|s| s.is_file())
                 .filter_map(|s| source_rel(&asset.input, s))
                 .collect();
             let out_dir = asset.output.parent().unwrap_or(Path::new("."));
@@ -887,14 +954,90 @@ fn run_asset(
     }
 }
 
+/// The files an asset refers to, found without decoding it: a glTF's
+/// external buffers and images, an OBJ's material libraries and their
+/// texture maps. Only references inside the asset's folder are returned.
+fn scan_references(input: &Path) -> Vec<PathBuf> {
+    use crackle::io::paths::resolve_inside;
+    let dir = input.parent().unwrap_or(Path::new("."));
+    let mut out = Vec::new();
+    let ext = input
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase)
+        .unwrap_or_default();
+    let Ok(bytes) = std::fs::read(input) else {
+        return out;
+    };
+    if ext == "obj" {
+        let text = String::from_utf8_lossy(&bytes);
+        // The whole rest of a line when that names a file (names may hold
+        // spaces), else its last word (options come first).
+        let named = |rest: &str, base: &Path| -> Option<PathBuf> {
+            let rest = rest.trim();
+            resolve_inside(base, rest)
+                .ok()
+                .filter(|p| p.is_file())
+                .or_else(|| resolve_inside(base, rest.split_whitespace().last()?).ok())
+        };
+        for line in text.lines() {
+            let Some(rest) = line.trim_start().strip_prefix("mtllib") else {
+                continue;
+            };
+            let Some(lib) = named(rest, dir) else {
+                continue;
+            };
+            if let Ok(mtl) = std::fs::read(&lib) {
+                for l in String::from_utf8_lossy(&mtl).lines() {
+                    let l = l.trim_start();
+                    let (key, rest) = l.split_once(char::is_whitespace).unwrap_or((l, ""));
+                    let key = key.to_ascii_lowercase();
+                    let is_map = key.starts_with("map_")
+                        || matches!(key.as_str(), "bump" | "disp" | "decal" | "refl" | "norm");
+                    if is_map {
+                        out.extend(named(rest, dir));
+                    }
+                }
+            }
+            out.push(lib);
+        }
+    } else {
+        let json: Option<Value> = if bytes.starts_with(b"glTF") {
+            gltf::binary::Glb::from_slice(&bytes)
+                .ok()
+                .and_then(|g| serde_json::from_slice(&g.json).ok())
+        } else {
+            serde_json::from_slice(&bytes).ok()
+        };
+        if let Some(json) = json {
+            for key in ["buffers", "images"] {
+                for item in json
+                    .get(key)
+                    .and_then(Value::as_array)
+                    .into_iter()
+                    .flatten()
+                {
+                    if let Some(uri) = item.get("uri").and_then(Value::as_str) {
+                        if !uri.starts_with("data:") {
+                            out.extend(resolve_inside(dir, uri).ok());
+                        }
+                    }
+                }
+            }
+        }
+    }
+    out.sort();
+    out.dedup();
+    out
+}
+
 /// Copy through a temporary file and a rename.
 fn copy_atomic(from: &Path, to: &Path) -> anyhow::Result<()> {
     if let Some(d) = to.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(d)
             .map_err(|e| anyhow::anyhow!("{}: cannot create the folder: {e}", d.display()))?;
     }
-    let name = to.file_name().and_then(|n| n.to_str()).unwrap_or("out");
-    let tmp = to.with_file_name(format!(".{name}.crackle-tmp-{}", std::process::id()));
+    let tmp = crackle::io::gltf_write::temp_path(to);
     std::fs::copy(from, &tmp).map_err(|e| {
         let _ = std::fs::remove_file(&tmp);
         anyhow::anyhow!("{}: cannot copy to {}: {e}", from.display(), to.display())
@@ -924,6 +1067,7 @@ fn remove_stale_temps(dir: &Path) {
         let Some((_, pid)) = name.rsplit_once(".crackle-tmp-") else {
             continue;
         };
+        let pid = pid.split('-').next().unwrap_or(pid);
         let alive = pid.parse::<u32>().is_ok_and(|pid| {
             pid == std::process::id() || Path::new(&format!("/proc/{pid}")).exists()
         });
@@ -947,6 +1091,13 @@ struct StateEntry {
 struct State {
     version: u32,
     assets: BTreeMap<String, StateEntry>,
+    /// Entries this run set (merged into the file as it is on disk, so
+    /// batches sharing an output folder keep each other's entries).
+    #[serde(skip)]
+    updated: BTreeSet<String>,
+    /// When this run last wrote the file.
+    #[serde(skip)]
+    saved: Option<Instant>,
 }
 
 impl State {
@@ -957,7 +1108,7 @@ impl State {
             .filter(|s| s.version == 1)
             .unwrap_or(State {
                 version: 1,
-                assets: BTreeMap::new(),
+                ..Default::default()
             })
     }
 
@@ -966,6 +1117,7 @@ impl State {
     }
 
     fn set(&mut self, output: String, key: String, sources: Vec<String>, outputs: Vec<String>) {
+        self.updated.insert(output.clone());
         self.assets.insert(
             output,
             StateEntry {
@@ -976,17 +1128,82 @@ impl State {
         );
     }
 
-    /// Write through a temporary file and a rename, so a killed batch
-    /// leaves the last complete state.
-    fn save(&self, path: &Path) -> anyhow::Result<()> {
-        let bytes = serde_json::to_vec_pretty(self)?;
-        let tmp = path.with_file_name(format!(
-            ".crackle-batch.json.crackle-tmp-{}",
-            std::process::id()
-        ));
-        std::fs::write(&tmp, bytes)
-            .and_then(|_| std::fs::rename(&tmp, path))
-            .map_err(|e| anyhow::anyhow!("{}: cannot write the batch state: {e}", path.display()))
+    /// [`State::save`] unless the last save was under a second ago (the
+    /// file is rewritten whole: saving after every one of many small assets
+    /// would cost more than the assets).
+    fn save_soon(&mut self, path: &Path) -> anyhow::Result<()> {
+        if self.saved.is_some_and(|t| t.elapsed().as_secs_f64() < 1.0) {
+            return Ok(());
+        }
+        self.save(path)
+    }
+
+    /// Merge this run's entries into the file on disk, under a lock, and
+    /// write it through a temporary file and a rename, so a killed batch
+    /// leaves the last complete state and concurrent batches (shards into
+    /// one folder) lose nothing.
+    fn save(&mut self, path: &Path) -> anyhow::Result<()> {
+        let err = |e: std::io::Error| {
+            anyhow::anyhow!("{}: cannot write the batch state: {e}", path.display())
+        };
+        let _lock = StateLock::acquire(path).map_err(err)?;
+        let mut merged = State::load(path);
+        for k in &self.updated {
+            if let Some(e) = self.assets.get(k) {
+                merged.assets.insert(k.clone(), e.clone());
+            }
+        }
+        let bytes = serde_json::to_vec_pretty(&merged)?;
+        let tmp = crackle::io::gltf_write::temp_path(path);
+        let result = std::fs::write(&tmp, bytes).and_then(|_| std::fs::rename(&tmp, path));
+        if result.is_err() {
+            let _ = std::fs::remove_file(&tmp);
+        }
+        result.map_err(err)?;
+        self.saved = Some(Instant::now());
+        Ok(())
+    }
+}
+
+/// An exclusive lock on a state file: a lock file created with
+/// `create_new` (atomic), removed when dropped. A lock older than a minute
+/// is taken to be left by a killed run and removed.
+struct StateLock(PathBuf);
+
+impl StateLock {
+    fn acquire(state: &Path) -> std::io::Result<StateLock> {
+        let path = state.with_file_name(".crackle-batch.lock");
+        let start = Instant::now();
+        loop {
+            match std::fs::OpenOptions::new()
+                .write(true)
+                .create_new(true)
+                .open(&path)
+            {
+                Ok(_) => return Ok(StateLock(path)),
+                Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {
+                    let stale = std::fs::metadata(&path)
+                        .and_then(|m| m.modified())
+                        .ok()
+                        .and_then(|t| t.elapsed().ok())
+                        .is_some_and(|age| age.as_secs() > 60);
+                    if stale {
+                        let _ = std::fs::remove_file(&path);
+                    } else if start.elapsed().as_secs() > 120 {
+                        return Err(e);
+                    } else {
+                        std::thread::sleep(std::time::Duration::from_millis(5));
+                    }
+                }
+                Err(e) => return Err(e),
+            }
+        }
+    }
+}
+
+impl Drop for StateLock {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_file(&self.0);
     }
 }
 
@@ -1195,7 +1412,20 @@ fn crack_args(a: &BatchArgs, spec: &PipeSpec) -> Vec<String> {
     args
 }
 
-/// The build file of `--emit`: one edge per asset.
+/// One edge of an emitted build file.
+struct Edge {
+    output: PathBuf,
+    input: PathBuf,
+    deps: Vec<PathBuf>,
+    cmd: Vec<String>,
+    desc: String,
+}
+
+/// Characters a Makefile cannot hold in a target or prerequisite path.
+const MAKE_UNSAFE: &[char] = &['#', '%', ';', '\n', '\t', '*', '?', '[', '|'];
+
+/// The build file of `--emit`: one edge per asset (and, for copies, one per
+/// file the asset references).
 fn emit_build_file(
     emit: Emit,
     a: &BatchArgs,
@@ -1205,100 +1435,164 @@ fn emit_build_file(
     let exe = std::env::current_exe()
         .map(|p| p.display().to_string())
         .unwrap_or_else(|_| "crackle".into());
-    let mut edges: Vec<(PathBuf, Vec<PathBuf>, Vec<String>, &Asset)> = Vec::new();
+    let mut edges: Vec<Edge> = Vec::new();
+    let mut by_output: BTreeMap<PathBuf, PathBuf> = BTreeMap::new();
+    let mut add = |e: Edge, edges: &mut Vec<Edge>| -> anyhow::Result<()> {
+        match by_output.get(&e.output) {
+            // The same file copied for two assets: one edge.
+            Some(src) if *src == e.input => Ok(()),
+            Some(src) => Err(UsageError(format!(
+                "{} and {} would both be copied to {}",
+                src.display(),
+                e.input.display(),
+                e.output.display()
+            ))
+            .into()),
+            None => {
+                by_output.insert(e.output.clone(), e.input.clone());
+                edges.push(e);
+                Ok(())
+            }
+        }
+    };
     for asset in assets.iter().filter(|x| x.action != Action::Skip) {
-        let mut deps: Vec<PathBuf> = match crackle::io::read(&asset.input) {
-            Ok(scene) => scene.referenced_files(),
-            Err(_) => Vec::new(),
-        };
-        let cmd = match &asset.action {
+        let refs: Vec<PathBuf> = scan_references(&asset.input)
+            .into_iter()
+            .filter(|d| d.is_file())
+            .collect();
+        match &asset.action {
             Action::Crack(k) => {
                 let spec = &pipes[*k];
+                let mut deps = refs;
                 if let Some(f) = &spec.file {
                     deps.push(f.clone());
                 }
-                let mut c = vec![exe.clone(), "crack".into()];
-                c.push(asset.input.display().to_string());
-                c.push(asset.output.display().to_string());
-                c.extend(crack_args(a, spec));
-                c
+                let mut cmd = vec![exe.clone(), "crack".into()];
+                cmd.push(asset.input.display().to_string());
+                cmd.push(asset.output.display().to_string());
+                cmd.extend(crack_args(a, spec));
+                add(
+                    Edge {
+                        output: asset.output.clone(),
+                        input: asset.input.clone(),
+                        deps,
+                        cmd,
+                        desc: format!("crack {}", asset.rel),
+                    },
+                    &mut edges,
+                )?;
             }
-            Action::Copy => vec![
-                "cp".into(),
-                asset.input.display().to_string(),
-                asset.output.display().to_string(),
-            ],
-            Action::Skip => continue,
-        };
-        edges.push((asset.output.clone(), deps, cmd, asset));
+            Action::Copy => {
+                let out_dir = asset.output.parent().unwrap_or(Path::new("."));
+                let mut files = vec![(asset.input.clone(), asset.output.clone())];
+                for r in &refs {
+                    if let Some(rel) = source_rel(&asset.input, r) {
+                        files.push((r.clone(), out_dir.join(rel)));
+                    }
+                }
+                for (from, to) in files {
+                    let cmd = vec![
+                        "cp".into(),
+                        from.display().to_string(),
+                        to.display().to_string(),
+                    ];
+                    let desc = format!("copy {}", from.display());
+                    add(
+                        Edge {
+                            output: to,
+                            input: from,
+                            deps: Vec::new(),
+                            cmd,
+                            desc,
+                        },
+                        &mut edges,
+                    )?;
+                }
+            }
+            Action::Skip => {}
+        }
     }
+    // Paths the build file cannot spell are refused, naming them.
+    for e in &edges {
+        for p in std::iter::once(&e.output)
+            .chain(std::iter::once(&e.input))
+            .chain(&e.deps)
+        {
+            let s = p.display().to_string();
+            let bad = match emit {
+                Emit::Ninja => s.contains('\n'),
+                Emit::Make => s.contains(MAKE_UNSAFE),
+            };
+            if bad {
+                return Err(UsageError(format!(
+                    "{s}: this path cannot be written in a {} file{}",
+                    if emit == Emit::Ninja { "Ninja" } else { "Make" },
+                    if emit == Emit::Make {
+                        " (it holds one of # % ; * ? [ | or a tab or newline); try --emit ninja"
+                    } else {
+                        ""
+                    }
+                ))
+                .into());
+            }
+        }
+    }
+    let mkdir = |output: &Path| {
+        output
+            .parent()
+            .filter(|d| !d.as_os_str().is_empty())
+            .map(|d| format!("mkdir -p {} && ", sh_quote(&d.display().to_string())))
+            .unwrap_or_default()
+    };
+    let command = |e: &Edge| {
+        let c: Vec<String> = e.cmd.iter().map(|s| sh_quote(s)).collect();
+        format!("{}{}", mkdir(&e.output), c.join(" "))
+    };
     let mut out = String::new();
     match emit {
         Emit::Ninja => {
             out += "# Generated by `crackle batch --emit ninja`: one edge per asset.\n";
             out += "rule crackle\n  command = $cmd\n  description = $desc\n\n";
-            for (output, deps, cmd, asset) in &edges {
-                let mut line = format!(
+            for e in &edges {
+                out += &format!(
                     "build {}: crackle {}",
-                    ninja_path(output),
-                    ninja_path(&asset.input)
+                    ninja_path(&e.output),
+                    ninja_path(&e.input)
                 );
-                if !deps.is_empty() {
-                    line += " |";
-                    for d in deps {
-                        line += " ";
-                        line += &ninja_path(d);
+                if !e.deps.is_empty() {
+                    out += " |";
+                    for d in &e.deps {
+                        out += " ";
+                        out += &ninja_path(d);
                     }
                 }
-                out += &line;
                 out += "\n";
-                let mkdir = output
-                    .parent()
-                    .filter(|d| !d.as_os_str().is_empty())
-                    .map(|d| format!("mkdir -p {} && ", sh_quote(&d.display().to_string())))
-                    .unwrap_or_default();
-                let c: Vec<String> = cmd.iter().map(|s| sh_quote(s)).collect();
-                out += &format!("  cmd = {}{}\n", mkdir, c.join(" ").replace('$', "$$"));
-                out += &format!(
-                    "  desc = {} {}\n\n",
-                    if matches!(asset.action, Action::Copy) {
-                        "copy"
-                    } else {
-                        "crack"
-                    },
-                    asset.rel.replace('$', "$$")
-                );
+                out += &format!("  cmd = {}\n", command(e).replace('$', "$$"));
+                out += &format!("  desc = {}\n\n", e.desc.replace('$', "$$"));
             }
             out += "default";
-            for (output, ..) in &edges {
+            for e in &edges {
                 out += " ";
-                out += &ninja_path(output);
+                out += &ninja_path(&e.output);
             }
             out += "\n";
         }
         Emit::Make => {
             out += "# Generated by `crackle batch --emit make`: one rule per asset.\n";
             out += ".PHONY: all\nall:";
-            for (output, ..) in &edges {
+            for e in &edges {
                 out += " ";
-                out += &make_path(output);
+                out += &make_path(&e.output);
             }
             out += "\n\n";
-            for (output, deps, cmd, asset) in &edges {
-                out += &format!("{}: {}", make_path(output), make_path(&asset.input));
-                for d in deps {
+            for e in &edges {
+                out += &format!("{}: {}", make_path(&e.output), make_path(&e.input));
+                for d in &e.deps {
                     out += " ";
                     out += &make_path(d);
                 }
                 out += "\n";
-                if let Some(d) = output.parent().filter(|d| !d.as_os_str().is_empty()) {
-                    out += &format!(
-                        "\t@mkdir -p {}\n",
-                        sh_quote(&d.display().to_string()).replace('$', "$$")
-                    );
-                }
-                let c: Vec<String> = cmd.iter().map(|s| sh_quote(s)).collect();
-                out += &format!("\t{}\n\n", c.join(" ").replace('$', "$$"));
+                out += &format!("\t@{}\n\n", command(e).replace('$', "$$"));
             }
         }
     }

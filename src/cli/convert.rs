@@ -61,7 +61,7 @@ pub fn run(
     }
     let t_weld = t1.elapsed();
     let t2 = Instant::now();
-    let summary = super::write_output(&scene, output)?;
+    let summary = super::write_output(&scene, output, false)?;
     let t_write = t2.elapsed();
     log::info!(
         "read {:.3} s, weld {:.3} s, write {:.3} s",

@@ -215,6 +215,9 @@ pub struct CrackArgs<'a> {
     /// Told what the run is doing (`read`, `weld`, `simulate <mesh> round
     /// 3/200`...), for a batch's progress display.
     pub on_stage: Option<&'a (dyn Fn(&str) + Sync)>,
+    /// Name a `.gltf` output's image files `<stem>_<name>` (a batch, where
+    /// outputs share folders).
+    pub prefix_images: bool,
 }
 
 /// Groups (primitive indices) of mesh `mesh_index` whose material or OBJ
@@ -488,7 +491,7 @@ pub fn process(mut a: CrackArgs) -> Result<serde_json::Value> {
     }
     let t = Instant::now();
     stage("write");
-    let summary = super::write_output(&scene, a.output)?;
+    let summary = super::write_output(&scene, a.output, a.prefix_images)?;
     stages.push(json!({"name": "write", "seconds": t.elapsed().as_secs_f64()}));
     let mut frames_report = serde_json::Value::Null;
     if let (Some(frames), Some(starts), Some(template)) = (&a.frames, starts, template) {
@@ -515,9 +518,9 @@ pub fn process(mut a: CrackArgs) -> Result<serde_json::Value> {
     let report = json!({
         "input": a.input.display().to_string(),
         "output": a.output.display().to_string(),
-        "files": summary.files,
+        "files": summary.files.iter().map(|f| f.display().to_string()).collect::<Vec<_>>(),
         "bytes": summary.bytes,
-        "sources": scene.referenced_files(),
+        "sources": scene.referenced_files().iter().map(|f| f.display().to_string()).collect::<Vec<_>>(),
         "cracks": total.cracks,
         "crack_length": total.crack_length,
         "triangles": {"before": total.triangles[0], "after": total.triangles[1]},

@@ -228,5 +228,5 @@ fn write_frame(
         entries.push(e);
     }
     super::post::apply(&mut scene_k, &mut entries, &reports, post)?;
-    super::write_output(&scene_k, path).map(|_| ())
+    super::write_output(&scene_k, path, false).map(|_| ())
 }

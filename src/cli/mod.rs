@@ -221,17 +221,23 @@ fn read_crackable(input: &std::path::Path) -> anyhow::Result<crackle::scene::Sce
     Ok(scene)
 }
 
-/// Write `scene` to `output`, creating the output folder first.
+/// Write `scene` to `output`, creating the output folder first (see
+/// [`crackle::io::gltf_write::write_scene_with`] for `prefix_images`).
 fn write_output(
     scene: &crackle::scene::Scene,
     output: &std::path::Path,
+    prefix_images: bool,
 ) -> anyhow::Result<crackle::io::gltf_write::WriteSummary> {
     if let Some(dir) = output.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).map_err(|e| {
             anyhow::anyhow!("{}: cannot create the output folder: {e}", dir.display())
         })?;
     }
-    Ok(crackle::io::gltf_write::write_scene(scene, output)?)
+    Ok(crackle::io::gltf_write::write_scene_with(
+        scene,
+        output,
+        prefix_images,
+    )?)
 }
 
 fn weld_options(rel: f64) -> anyhow::Result<crackle::mesh::WeldOptions> {
@@ -326,6 +332,7 @@ fn run_other(command: Command, quiet: bool) -> anyhow::Result<()> {
             pipeline_dir: sim.pipeline_dir(),
             quiet,
             on_stage: None,
+            prefix_images: false,
             frames: frames
                 .map(|v| frames::FramesArgs::parse(&v))
                 .transpose()

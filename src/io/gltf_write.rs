@@ -37,6 +37,24 @@ pub struct WriteSummary {
 /// an unknown type, or a file cannot be written. No output file is left
 /// behind on error.
 pub fn write_scene(scene: &Scene, path: &Path) -> Result<WriteSummary> {
+    write_scene_with(scene, path, false)
+}
+
+/// A unique temporary name beside `path`: `.NAME.crackle-tmp-PID-N`, N
+/// counting every temporary file of this process (so parallel writes of one
+/// file never share a temporary).
+pub fn temp_path(path: &Path) -> PathBuf {
+    use std::sync::atomic::{AtomicU64, Ordering};
+    static NEXT: AtomicU64 = AtomicU64::new(0);
+    let name = path.file_name().and_then(|n| n.to_str()).unwrap_or("out");
+    let n = NEXT.fetch_add(1, Ordering::Relaxed);
+    path.with_file_name(format!(".{name}.crackle-tmp-{}-{n}", std::process::id()))
+}
+
+/// [`write_scene`]; with `prefix_images`, a `.gltf` output's image files
+/// are named `<stem>_<name>` so that outputs sharing a folder never write
+/// the same side file (its `.bin` is `<stem>.bin` either way).
+pub fn write_scene_with(scene: &Scene, path: &Path, prefix_images: bool) -> Result<WriteSummary> {
     let format = Format::from_path(path)?;
     if format == Format::Obj {
         return Err(Error::Output {
@@ -51,7 +69,7 @@ pub fn write_scene(scene: &Scene, path: &Path) -> Result<WriteSummary> {
         .and_then(|s| s.to_str())
         .unwrap_or("scene")
         .to_string();
-    let doc = build_document(scene, glb, &stem).map_err(|m| Error::Output {
+    let doc = build_document(scene, glb, &stem, prefix_images).map_err(|m| Error::Output {
         path: path.into(),
         message: m,
     })?;
@@ -79,7 +97,9 @@ pub fn write_scene(scene: &Scene, path: &Path) -> Result<WriteSummary> {
     })
 }
 
-/// Write every file under a temporary name, then rename all into place.
+/// Write every file under a temporary name, then rename all into place,
+/// the main file (the first) last: a run killed in between leaves the old
+/// main file, never a new one beside old side files.
 fn commit_files(files: &[(PathBuf, Vec<u8>)]) -> Result<()> {
     let mut temps = Vec::new();
     let cleanup = |temps: &[PathBuf]| {
@@ -88,8 +108,7 @@ fn commit_files(files: &[(PathBuf, Vec<u8>)]) -> Result<()> {
         }
     };
     for (p, bytes) in files {
-        let name = p.file_name().and_then(|n| n.to_str()).unwrap_or("out");
-        let tmp = p.with_file_name(format!(".{name}.crackle-tmp-{}", std::process::id()));
+        let tmp = temp_path(p);
         if let Err(e) = std::fs::write(&tmp, bytes) {
             cleanup(&temps);
             let _ = std::fs::remove_file(&tmp);
@@ -97,7 +116,7 @@ fn commit_files(files: &[(PathBuf, Vec<u8>)]) -> Result<()> {
         }
         temps.push(tmp);
     }
-    for ((p, _), tmp) in files.iter().zip(&temps) {
+    for ((p, _), tmp) in files.iter().zip(&temps).rev() {
         if let Err(e) = std::fs::rename(tmp, p) {
             cleanup(&temps);
             return Err(Error::io(p, e));
@@ -298,7 +317,12 @@ fn tri_is_empty(p: &crate::scene::Primitive) -> bool {
     matches!(&p.geometry, Geometry::Triangles(t) if t.triangles.is_empty())
 }
 
-fn build_document(scene: &Scene, glb: bool, stem: &str) -> std::result::Result<Document, String> {
+fn build_document(
+    scene: &Scene,
+    glb: bool,
+    stem: &str,
+    prefix_images: bool,
+) -> std::result::Result<Document, String> {
     // ---- what is used
     let mesh_used: BTreeSet<usize> = scene
         .nodes
@@ -618,7 +642,13 @@ fn build_document(scene: &Scene, glb: bool, stem: &str) -> std::result::Result<D
             ij.insert("bufferView".into(), view.into());
             ij.insert("mimeType".into(), mime.into());
         } else {
-            let name = unique_name(&sanitize_file_name(&img.file_name), &mut taken_names);
+            let base = sanitize_file_name(&img.file_name);
+            let base = if prefix_images {
+                format!("{stem}_{base}")
+            } else {
+                base
+            };
+            let name = unique_name(&base, &mut taken_names);
             ij.insert("uri".into(), uri_encode(&name).into());
             image_files.push((name, bytes));
         }

@@ -167,7 +167,9 @@ fn read_impl(text: &str, base_dir: &Path, name: &str, path: &Path) -> Result<Sce
     let data = gather(&prep, &models)
         .map_err(|m| Error::input(path, format!("internal OBJ reader error: {m}")))?;
 
-    let mut sources: Vec<PathBuf> = mtl.loaded.iter().filter(|p| p.is_file()).cloned().collect();
+    // Every library the OBJ names, found or not (a batch rebuilds when a
+    // missing one appears).
+    let mut sources: Vec<PathBuf> = mtl.loaded.iter().cloned().collect();
     sources.sort();
     let mut scene = Scene {
         warnings,
@@ -255,6 +257,10 @@ fn read_impl(text: &str, base_dir: &Path, name: &str, path: &Path) -> Result<Sce
         rest: Map::new(),
     }];
     scene.default_scene = Some(0);
+    // And every texture the materials name, found or not.
+    scene.sources.extend(materials.textures.keys().cloned());
+    scene.sources.sort();
+    scene.sources.dedup();
     Ok(scene)
 }
 
