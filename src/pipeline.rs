@@ -299,6 +299,11 @@ pub const PRESETS: &[(&str, &str)] = &[
         "texture-mask",
         include_str!("../pipeline/texture-mask.toml"),
     ),
+    ("springs-mud", include_str!("../pipeline/springs-mud.toml")),
+    (
+        "springs-glaze",
+        include_str!("../pipeline/springs-glaze.toml"),
+    ),
 ];
 
 /// A pipeline error; the message names the file (or preset) and the key.

@@ -99,6 +99,23 @@ pub struct SimParams {
     /// Geometric cracking rules.
     #[serde(skip)]
     pub rules: CrackRules,
+    /// The crack model. Default `quasistatic` (Iben & O'Brien 2009).
+    pub model: Model,
+    /// Parameters of `model = "springs"` (`[simulation.springs]`).
+    pub springs: crate::sim::springs::SpringParams,
+}
+
+/// Crack models.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Deserialize, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Model {
+    /// The quasistatic surface-crack method: stress, separation tensors,
+    /// a failure queue and cracking with local remeshing.
+    #[default]
+    Quasistatic,
+    /// Mass-spring drying: every edge a spring that shrinks and breaks
+    /// (see [`crate::sim::springs`]).
+    Springs,
 }
 
 /// Time integrators of the relaxation, all approximating the same
@@ -212,6 +229,8 @@ impl Default for SimParams {
             tolerance: 1e-4,
             finish_rings: 8,
             finish: false,
+            model: Model::Quasistatic,
+            springs: Default::default(),
             rules: CrackRules::default(),
         }
     }
@@ -227,6 +246,9 @@ impl SimParams {
                 Err(format!("{name} must be a positive number, got {x}"))
             }
         };
+        if self.model == Model::Springs {
+            self.springs.validate()?;
+        }
         finite_pos("toughness", self.toughness)?;
         finite_pos("relax_time", self.relax_time)?;
         finite_pos("clamp_factor", self.clamp_factor)?;
@@ -547,6 +569,9 @@ pub fn run_with(
     field: Option<&StressField>,
     observer: &mut dyn Observer,
 ) -> Result<SimReport, SimError> {
+    if params.model == Model::Springs {
+        return crate::sim::springs::run(mesh, params, observer);
+    }
     let (mut st, mut report) = start(mesh, params, field)?;
     let per_round_cap = if params.max_cracks_per_round > 0 {
         params.max_cracks_per_round

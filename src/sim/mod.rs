@@ -8,6 +8,7 @@ pub mod forces;
 pub mod implicit;
 pub mod queue;
 pub mod relax;
+pub mod springs;
 
 pub use crack::{crack_node, CrackEvent, CrackRules};
 pub use driver::{

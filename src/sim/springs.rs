@@ -1,0 +1,716 @@
+//! The mass-spring drying model (the drying-cracks source text): every mesh
+//! edge is a spring whose rest length shrinks toward `alpha * L0`; nodes
+//! move by damped semi-implicit Euler; a spring whose strain reaches its
+//! breaking strain breaks, and the mesh opens there as in the main engine
+//! ([`SimMesh::open_edge`]: vertices are duplicated where a fan separates).
+//!
+//! Lengths are normalised by the mesh's mean edge length, like the main
+//! engine, so the same asset in any unit cracks the same way. Nodes move for
+//! real here: the report's `displacement` is each node's motion (scene
+//! units), which the width post-processing turns into gaps.
+
+use crate::mesh::{HalfedgeId, SimMesh};
+use crate::sim::driver::{hash_unit, Observer, SimError, SimParams, SimReport, Snapshot};
+use crate::stress::tensor::v3;
+
+/// How rest lengths shrink.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Deserialize, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum DryingLaw {
+    /// The text's law: `L -= (L - alpha L0) s dt` (fast at first, slowing
+    /// as the target nears).
+    #[default]
+    Relax,
+    /// At a constant rate, `L -= (1 - alpha) L0 s dt`, until `alpha L0`.
+    Linear,
+}
+
+/// Parameters of the spring model (`[simulation.springs]`).
+#[derive(Clone, Debug, PartialEq, serde::Deserialize, serde::Serialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct SpringParams {
+    /// Range of spring stiffness (per unit strain), drawn per spring with
+    /// the seed. Default [1, 1].
+    pub stiffness: [f64; 2],
+    /// Range of breaking strain, drawn per spring. Default [0.04, 0.08].
+    pub break_strain: [f64; 2],
+    /// Rest lengths shrink toward `alpha L0`. In (0, 1]; default 0.85.
+    pub alpha: f64,
+    /// Shrink rate `s` per unit time. Default 0.02.
+    pub rate: f64,
+    /// Drying law. Default `relax`.
+    pub law: DryingLaw,
+    /// Velocity damping per unit time. Default 0.5.
+    pub damping: f64,
+    /// Node mass. Default 1.
+    pub mass: f64,
+    /// Time step; 0 picks the stable step of the stiffest node. A larger
+    /// one is split into stable sub-steps (reported). Default 0.
+    pub dt: f64,
+    /// Keep nodes on their tangent planes (the surface keeps its shape).
+    /// Default true.
+    pub tangent: bool,
+    /// Simulated time. Default 200.
+    pub max_time: f64,
+}
+
+impl Default for SpringParams {
+    fn default() -> Self {
+        SpringParams {
+            stiffness: [1.0, 1.0],
+            break_strain: [0.04, 0.08],
+            alpha: 0.85,
+            rate: 0.02,
+            law: DryingLaw::Relax,
+            damping: 0.5,
+            mass: 1.0,
+            dt: 0.0,
+            tangent: true,
+            max_time: 200.0,
+        }
+    }
+}
+
+impl SpringParams {
+    /// Check every value, naming the key.
+    pub fn validate(&self) -> Result<(), String> {
+        let range = |name: &str, r: [f64; 2], lo_ok: f64| {
+            if r.iter().all(|x| x.is_finite()) && r[0] >= lo_ok && r[0] <= r[1] {
+                Ok(())
+            } else {
+                Err(format!(
+                    "springs.{name} must be [low, high] with {lo_ok} <= low <= high, got {r:?}"
+                ))
+            }
+        };
+        range("stiffness", self.stiffness, f64::MIN_POSITIVE)?;
+        range("break_strain", self.break_strain, 0.0)?;
+        if !(self.alpha > 0.0 && self.alpha <= 1.0) {
+            return Err(format!(
+                "springs.alpha must be in (0, 1], got {}",
+                self.alpha
+            ));
+        }
+        for (name, x) in [
+            ("rate", self.rate),
+            ("damping", self.damping),
+            ("dt", self.dt),
+        ] {
+            if !(x.is_finite() && x >= 0.0) {
+                return Err(format!("springs.{name} must be >= 0, got {x}"));
+            }
+        }
+        if !(self.mass.is_finite() && self.mass > 0.0) {
+            return Err(format!("springs.mass must be > 0, got {}", self.mass));
+        }
+        if !(self.max_time.is_finite() && self.max_time > 0.0) {
+            return Err(format!(
+                "springs.max_time must be > 0, got {}",
+                self.max_time
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// One spring: a mesh edge (one of its halfedges) with its properties.
+#[derive(Clone, Debug)]
+struct Spring {
+    h: HalfedgeId,
+    /// The halfedge's origin and destination (refreshed when the mesh
+    /// changes).
+    a: u32,
+    b: u32,
+    k: f64,
+    threshold: f64,
+    rest0: f64,
+    rest: f64,
+    broken: bool,
+}
+
+/// The state of a spring run (normalised units).
+struct Springs {
+    springs: Vec<Spring>,
+    x: Vec<[f64; 3]>,
+    x0: Vec<[f64; 3]>,
+    v: Vec<[f64; 3]>,
+    normals: Vec<[f64; 3]>,
+    fixed: Vec<bool>,
+    crack_time: Vec<f64>,
+    /// Per node: (spring, +1 or -1 for the force's sign at it), in spring order.
+    adjacency: Vec<Vec<(u32, f64)>>,
+}
+
+impl Springs {
+    /// Rebuild the node-to-spring lists (after the mesh changed).
+    fn rebuild_adjacency(&mut self, mesh: &SimMesh) {
+        for s in &mut self.springs {
+            s.a = mesh.origin(s.h).0;
+            s.b = mesh.dest(s.h).0;
+        }
+        self.rebuild_lists();
+    }
+
+    /// The node-to-spring lists from the springs' endpoints.
+    fn rebuild_lists(&mut self) {
+        self.adjacency = vec![Vec::new(); self.x.len()];
+        for (i, s) in self.springs.iter().enumerate() {
+            if s.broken {
+                continue;
+            }
+            self.adjacency[s.a as usize].push((i as u32, 1.0));
+            self.adjacency[s.b as usize].push((i as u32, -1.0));
+        }
+    }
+
+    /// Dry for `dt`, then one damped semi-implicit Euler step: velocities
+    /// from the forces, then positions from the new velocities.
+    fn advance(&mut self, sp: &SpringParams, dt: f64) {
+        for s in self.springs.iter_mut().filter(|s| !s.broken) {
+            let target = sp.alpha * s.rest0;
+            s.rest = match sp.law {
+                DryingLaw::Relax => s.rest - (s.rest - target) * sp.rate * dt,
+                DryingLaw::Linear => {
+                    (s.rest - (1.0 - sp.alpha) * s.rest0 * sp.rate * dt).max(target)
+                }
+            };
+        }
+        let forces = self.spring_forces();
+        for v in 0..self.x.len() {
+            if self.fixed[v] {
+                self.v[v] = [0.0; 3];
+                continue;
+            }
+            let mut f = [0.0; 3];
+            for &(i, sign) in &self.adjacency[v] {
+                f = v3::add(f, v3::scale(forces[i as usize].0, sign));
+            }
+            let mut vel = v3::add(
+                v3::scale(self.v[v], 1.0 - sp.damping * dt),
+                v3::scale(f, dt / sp.mass),
+            );
+            if sp.tangent {
+                let nrm = self.normals[v];
+                vel = v3::sub(vel, v3::scale(nrm, v3::dot(vel, nrm)));
+            }
+            self.v[v] = vel;
+            self.x[v] = v3::add(self.x[v], v3::scale(vel, dt));
+        }
+    }
+
+    /// Each spring's force on its halfedge's origin (the destination gets
+    /// the opposite) and its strain.
+    fn spring_forces(&self) -> Vec<([f64; 3], f64)> {
+        self.springs
+            .iter()
+            .map(|s| {
+                if s.broken {
+                    return ([0.0; 3], 0.0);
+                }
+                let d = v3::sub(self.x[s.b as usize], self.x[s.a as usize]);
+                let len = v3::norm(d);
+                let strain = (len - s.rest) / s.rest;
+                if len <= 0.0 {
+                    return ([0.0; 3], strain);
+                }
+                (v3::scale(d, s.k * strain / len), strain)
+            })
+            .collect()
+    }
+
+    /// Elastic energy `sum 1/2 k L strain^2` (per unit rest length) plus
+    /// kinetic energy.
+    fn energy(&self, mass: f64) -> (f64, f64) {
+        let mut elastic = 0.0;
+        for s in self.springs.iter().filter(|s| !s.broken) {
+            let d = v3::sub(self.x[s.b as usize], self.x[s.a as usize]);
+            let strain = (v3::norm(d) - s.rest) / s.rest;
+            elastic += 0.5 * s.k * s.rest * strain * strain;
+        }
+        let kinetic = self
+            .v
+            .iter()
+            .map(|v| 0.5 * mass * v3::dot(*v, *v))
+            .sum::<f64>();
+        (elastic, kinetic)
+    }
+}
+
+/// The stable step of damped semi-implicit Euler for the stiffest node:
+/// `1.8 / omega_max` with `omega_max^2 <= max_n 2 sum_e k_e / (L_e m)`
+/// (Gershgorin on the stiffness of the springs around each node).
+fn stable_dt(springs: &Springs, mass: f64) -> f64 {
+    let mut row = vec![0.0; springs.x.len()];
+    for s in springs.springs.iter().filter(|s| !s.broken) {
+        let k = s.k / s.rest.max(1e-12);
+        row[s.a as usize] += 2.0 * k;
+        row[s.b as usize] += 2.0 * k;
+    }
+    let w2 = row.iter().fold(0.0f64, |a, &b| a.max(b)) / mass;
+    if w2 > 0.0 {
+        1.8 / w2.sqrt()
+    } else {
+        f64::INFINITY
+    }
+}
+
+/// Run the spring model on `mesh` (opened in place where springs break).
+///
+/// # Errors
+/// An invalid parameter, or a broken mesh invariant.
+pub fn run(
+    mesh: &mut SimMesh,
+    params: &SimParams,
+    observer: &mut dyn Observer,
+) -> Result<SimReport, SimError> {
+    let sp = &params.springs;
+    sp.validate().map_err(SimError::Param)?;
+    let unit = mean_edge_length(mesh);
+    if !(unit > 0.0 && unit.is_finite()) {
+        return Err(SimError::Param(
+            "the mesh has no edge of positive length".into(),
+        ));
+    }
+    let x0: Vec<[f64; 3]> = mesh
+        .positions()
+        .iter()
+        .map(|p| v3::scale(*p, 1.0 / unit))
+        .collect();
+    let n = x0.len();
+    // Springs: one per edge, drawn from the seed by the edge's input
+    // vertices (so the draw does not depend on halfedge numbering).
+    let mut springs = Vec::new();
+    for h in mesh.halfedges() {
+        if mesh.twin(h).is_some_and(|t| t.0 < h.0) {
+            continue;
+        }
+        let (a, b) = (mesh.origin(h), mesh.dest(h));
+        let rest0 = v3::norm(v3::sub(x0[b.idx()], x0[a.idx()]));
+        if rest0 <= 0.0 {
+            continue;
+        }
+        let key = {
+            let (i, j) = (u64::from(a.0.min(b.0)), u64::from(a.0.max(b.0)));
+            i.wrapping_mul(0x1_0000_0001) ^ j.rotate_left(29)
+        };
+        let draw = |r: [f64; 2], salt: u64| {
+            let u = 0.5 * (hash_unit(params.seed ^ salt, key) + 1.0);
+            r[0] + (r[1] - r[0]) * u
+        };
+        springs.push(Spring {
+            h,
+            a: a.0,
+            b: b.0,
+            k: draw(sp.stiffness, 0x51),
+            threshold: draw(sp.break_strain, 0xB7),
+            rest0,
+            rest: rest0,
+            broken: false,
+        });
+    }
+    let fixed: Vec<bool> = mesh
+        .vertices()
+        .map(|v| {
+            (params.fixed_boundary && mesh.is_boundary_vertex(v))
+                || (!params.fixed_groups.is_empty()
+                    && mesh
+                        .vertex_faces(v)
+                        .any(|f| params.fixed_groups.contains(&mesh.face_group(f))))
+        })
+        .collect();
+    let normals: Vec<[f64; 3]> = mesh
+        .vertices()
+        .map(|v| {
+            let mut nrm = [0.0; 3];
+            for f in mesh.vertex_faces(v) {
+                let [a, b, c] = mesh.face_vertices(f).map(|u| x0[u.idx()]);
+                nrm = v3::add(nrm, v3::cross(v3::sub(b, a), v3::sub(c, a)));
+            }
+            let l = v3::norm(nrm);
+            if l > 0.0 {
+                v3::scale(nrm, 1.0 / l)
+            } else {
+                [0.0; 3]
+            }
+        })
+        .collect();
+    let mut st = Springs {
+        springs,
+        x: x0.clone(),
+        x0,
+        v: vec![[0.0; 3]; n],
+        normals,
+        fixed,
+        crack_time: vec![f64::NAN; n],
+        adjacency: Vec::new(),
+    };
+    st.rebuild_adjacency(mesh);
+    let stable = stable_dt(&st, sp.mass);
+    let (dt, substeps) = if sp.dt > 0.0 && sp.dt > stable {
+        let k = (sp.dt / stable).ceil();
+        (sp.dt / k, k as usize)
+    } else if sp.dt > 0.0 {
+        (sp.dt, 1)
+    } else {
+        (stable.min(sp.max_time), 1)
+    };
+    let mut report = SimReport {
+        triangles: [mesh.n_faces(), 0],
+        nodes: [mesh.n_vertices(), 0],
+        length_unit: unit,
+        stable_dt: stable,
+        integrator: "springs-semi-implicit-euler",
+        dt_limited_rounds: usize::from(substeps > 1),
+        ..Default::default()
+    };
+    let (e0, _) = st.energy(sp.mass);
+    report.energy[0] = e0;
+    let snapshot =
+        |mesh: &SimMesh, st: &Springs, report: &SimReport, observer: &mut dyn Observer| {
+            if observer.wants_state() {
+                let disp: Vec<[f64; 3]> =
+                    st.x.iter()
+                        .zip(&st.x0)
+                        .map(|(x, x0)| v3::scale(v3::sub(*x, *x0), unit))
+                        .collect();
+                let (e, k) = st.energy(sp.mass);
+                observer.state(&Snapshot {
+                    mesh,
+                    time: report.time,
+                    displacement: &disp,
+                    crack_time: &st.crack_time,
+                    segments: &report.segments,
+                    segment_times: &report.segment_times,
+                    energy: e + k,
+                });
+            }
+        };
+    snapshot(mesh, &st, &report, observer);
+    let steps = (sp.max_time / dt).ceil() as usize;
+    let per_round = ((1.0 / dt).ceil() as usize).max(1); // a "round" is one unit of time
+    let max_rounds = steps.div_ceil(per_round);
+    let mut quiet_since = 0.0;
+    report.stopped = format!("reached max_time ({})", sp.max_time);
+    for step in 0..steps {
+        let t = step as f64 * dt;
+        st.advance(sp, dt);
+        report.relax_steps += 1;
+        report.time = t + dt;
+        // Breaking: every spring at or over its strain breaks in this step,
+        // in spring order.
+        let breaking: Vec<usize> = st
+            .spring_forces()
+            .iter()
+            .zip(&st.springs)
+            .enumerate()
+            .filter(|(_, ((_, strain), s))| !s.broken && *strain >= s.threshold)
+            .map(|(i, _)| i)
+            .collect();
+        let mut broke = false;
+        for i in breaking {
+            st.springs[i].broken = true;
+            broke = true;
+            let h = st.springs[i].h;
+            let (a, b) = (mesh.origin(h), mesh.dest(h));
+            if mesh.twin(h).is_none() {
+                // A border edge (or a side of an earlier crack): nothing
+                // to open.
+                continue;
+            }
+            let opened = mesh.open_edge(h).map_err(SimError::Mesh)?;
+            for &(new, src) in &opened.new_vertices {
+                debug_assert_eq!(new.idx(), st.x.len());
+                let s = src.idx();
+                st.x.push(st.x[s]);
+                st.x0.push(st.x0[s]);
+                st.v.push(st.v[s]);
+                st.normals.push(st.normals[s]);
+                st.fixed.push(st.fixed[s]);
+                st.crack_time.push(st.crack_time[s]);
+            }
+            for u in [a, b] {
+                if st.crack_time[u.idx()].is_nan() {
+                    st.crack_time[u.idx()] = report.time;
+                }
+            }
+            for &(new, src) in &opened.new_vertices {
+                st.crack_time[new.idx()] = st.crack_time[src.idx()];
+            }
+            report.cracks += 1;
+            report.crack_length += st.springs[i].rest0 * unit;
+            report.first_crack_time.get_or_insert(report.time);
+            report.segments.push([
+                v3::scale(st.x0[a.idx()], unit),
+                v3::scale(st.x0[b.idx()], unit),
+            ]);
+            report.segment_times.push(report.time);
+        }
+        if broke {
+            st.rebuild_adjacency(mesh);
+            quiet_since = report.time;
+        }
+        if (step + 1) % per_round == 0 || step + 1 == steps {
+            report.rounds += 1;
+            observer.round(report.rounds, max_rounds, report.cracks);
+            snapshot(mesh, &st, &report, observer);
+            // Done when drying is over, nothing has broken for a while and
+            // the motion has died down.
+            let dried =
+                st.springs.iter().filter(|s| !s.broken).all(|s| {
+                    (s.rest - sp.alpha * s.rest0).abs() <= 1e-6 * s.rest0 || sp.rate == 0.0
+                });
+            let (_, kinetic) = st.energy(sp.mass);
+            if dried && report.time - quiet_since > 10.0 && kinetic < 1e-12 * n as f64 {
+                report.stopped = "dried and at rest".into();
+                break;
+            }
+        }
+        if !st.x.iter().flatten().all(|c| c.is_finite()) {
+            return Err(SimError::Diverged(format!(
+                "the spring model diverged at time {:.3} (step {dt:.3e}, stable step {stable:.3e})",
+                report.time
+            )));
+        }
+    }
+    let (e1, _) = st.energy(sp.mass);
+    report.energy[1] = e1;
+    report.triangles[1] = mesh.n_faces();
+    report.nodes[1] = mesh.n_vertices();
+    report.displacement =
+        st.x.iter()
+            .zip(&st.x0)
+            .map(|(x, x0)| v3::scale(v3::sub(*x, *x0), unit))
+            .collect();
+    report.crack_time = st.crack_time;
+    Ok(report)
+}
+
+/// Mean length of the mesh's edges (each counted once).
+fn mean_edge_length(mesh: &SimMesh) -> f64 {
+    let (mut sum, mut count) = (0.0, 0usize);
+    for h in mesh.halfedges() {
+        if mesh.twin(h).is_some_and(|t| t.0 < h.0) {
+            continue;
+        }
+        let (a, b) = (mesh.origin(h), mesh.dest(h));
+        sum += v3::norm(v3::sub(mesh.position(b), mesh.position(a)));
+        count += 1;
+    }
+    if count > 0 {
+        sum / count as f64
+    } else {
+        0.0
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sim::forces::tests::jittered_plate;
+
+    /// A spring state without a mesh: nodes, springs `(a, b, k, rest)`,
+    /// fixed flags, normal +z for every node.
+    fn bare(x: Vec<[f64; 3]>, springs: &[(u32, u32, f64, f64)], fixed: Vec<bool>) -> Springs {
+        let n = x.len();
+        let mut st = Springs {
+            springs: springs
+                .iter()
+                .map(|&(a, b, k, rest)| Spring {
+                    h: HalfedgeId(0),
+                    a,
+                    b,
+                    k,
+                    threshold: f64::INFINITY,
+                    rest0: rest,
+                    rest,
+                    broken: false,
+                })
+                .collect(),
+            x0: x.clone(),
+            x,
+            v: vec![[0.0; 3]; n],
+            normals: vec![[0.0, 0.0, 1.0]; n],
+            fixed,
+            crack_time: vec![f64::NAN; n],
+            adjacency: Vec::new(),
+        };
+        st.rebuild_lists();
+        st
+    }
+
+    #[test]
+    fn a_chain_settles_where_the_forces_balance() {
+        // Ends fixed 3 apart; springs (k 1, rest 1) and (k 4, rest 1): the
+        // middle node balances at 1 * (x - 1) / 1 = 4 * (3 - x - 1) / 1,
+        // x = 9 / 5.
+        let mut st = bare(
+            vec![[0.0; 3], [1.5, 0.0, 0.0], [3.0, 0.0, 0.0]],
+            &[(0, 1, 1.0, 1.0), (1, 2, 4.0, 1.0)],
+            vec![true, false, true],
+        );
+        let sp = SpringParams {
+            rate: 0.0,
+            damping: 1.0,
+            ..Default::default()
+        };
+        let dt = 0.5 * stable_dt(&st, sp.mass);
+        for _ in 0..5000 {
+            st.advance(&sp, dt);
+        }
+        assert!((st.x[1][0] - 1.8).abs() < 1e-9, "{:?}", st.x[1]);
+        assert_eq!(st.x[0], [0.0; 3]);
+        assert_eq!(st.x[2], [3.0, 0.0, 0.0]);
+    }
+
+    #[test]
+    fn a_free_triangle_shrinks_to_alpha_keeping_its_shape_and_centre() {
+        let p = [[0.0, 0.0, 0.0], [2.0, 0.0, 0.0], [0.5, 1.5, 0.0]];
+        let len = |a: [f64; 3], b: [f64; 3]| v3::norm(v3::sub(a, b));
+        let rests = [len(p[0], p[1]), len(p[1], p[2]), len(p[2], p[0])];
+        let mut st = bare(
+            p.to_vec(),
+            &[
+                (0, 1, 1.0, rests[0]),
+                (1, 2, 2.0, rests[1]),
+                (2, 0, 0.5, rests[2]),
+            ],
+            vec![false; 3],
+        );
+        let sp = SpringParams {
+            alpha: 0.7,
+            rate: 0.1,
+            damping: 1.0,
+            ..Default::default()
+        };
+        let dt = 0.5 * stable_dt(&st, sp.mass);
+        for _ in 0..40_000 {
+            st.advance(&sp, dt);
+        }
+        let centre = |x: &[[f64; 3]]| v3::scale(v3::add(v3::add(x[0], x[1]), x[2]), 1.0 / 3.0);
+        for (k, (a, b)) in [(0, 1), (1, 2), (2, 0)].into_iter().enumerate() {
+            let l = len(st.x[a], st.x[b]);
+            assert!(
+                (l - 0.7 * rests[k]).abs() < 1e-6,
+                "edge {k}: {l} vs {}",
+                0.7 * rests[k]
+            );
+        }
+        assert!(v3::norm(v3::sub(centre(&st.x), centre(&p))) < 1e-9);
+        assert!(st.x.iter().all(|x| x[2] == 0.0), "stays in its plane");
+    }
+
+    #[test]
+    fn without_drying_the_damped_energy_only_falls() {
+        // A jittered plate's nodes pushed off their rest places, then let go.
+        let mesh = jittered_plate(8, 0.3, 4);
+        let unit = mean_edge_length(&mesh);
+        let x: Vec<[f64; 3]> = mesh
+            .positions()
+            .iter()
+            .map(|p| v3::scale(*p, 1.0 / unit))
+            .collect();
+        let mut st = bare(x.clone(), &[], vec![false; x.len()]);
+        for h in mesh.halfedges() {
+            if mesh.twin(h).is_some_and(|t| t.0 < h.0) {
+                continue;
+            }
+            let (a, b) = (mesh.origin(h), mesh.dest(h));
+            let rest = v3::norm(v3::sub(x[b.idx()], x[a.idx()]));
+            st.springs.push(Spring {
+                h,
+                a: a.0,
+                b: b.0,
+                k: 1.0 + 0.5 * hash_unit(3, u64::from(h.0)),
+                threshold: f64::INFINITY,
+                rest0: rest,
+                rest,
+                broken: false,
+            });
+        }
+        st.rebuild_lists();
+        for (i, p) in st.x.iter_mut().enumerate() {
+            p[0] += 0.1 * hash_unit(7, i as u64);
+            p[1] += 0.1 * hash_unit(8, i as u64);
+        }
+        let sp = SpringParams {
+            rate: 0.0,
+            damping: 0.5,
+            ..Default::default()
+        };
+        let dt = stable_dt(&st, sp.mass);
+        let total = |st: &Springs| {
+            let (e, k) = st.energy(sp.mass);
+            e + k
+        };
+        let e0 = total(&st);
+        // Sampled every few steps (semi-implicit Euler trades a little
+        // between the two energies within a step).
+        let mut last = e0;
+        for _ in 0..60 {
+            for _ in 0..5 {
+                st.advance(&sp, dt);
+            }
+            let e = total(&st);
+            assert!(e <= last * (1.0 + 1e-9), "energy rose: {last} -> {e}");
+            last = e;
+        }
+        assert!(last < 0.2 * e0, "{e0} -> {last}");
+    }
+
+    fn grid_run(break_strain: [f64; 2], jitter: f64) -> (SimMesh, SimReport) {
+        let mut mesh = jittered_plate(12, jitter, 2);
+        let params = SimParams {
+            fixed_boundary: true,
+            seed: 3,
+            model: crate::sim::driver::Model::Springs,
+            springs: SpringParams {
+                break_strain,
+                max_time: 150.0,
+                ..Default::default()
+            },
+            ..Default::default()
+        };
+        let r = run(&mut mesh, &params, &mut ()).unwrap();
+        mesh.validate().unwrap();
+        (mesh, r)
+    }
+
+    #[test]
+    fn identical_thresholds_break_everything_at_once_and_noise_makes_cells() {
+        // A regular grid held at its border, every spring alike: strains
+        // stay equal, so every spring breaks in the same step.
+        let (mesh, r) = grid_run([0.05, 0.05], 0.0);
+        let springs = mesh
+            .halfedges()
+            .filter(|&h| mesh.twin(h).is_none_or(|t| t.0 > h.0))
+            .count();
+        assert!(r.cracks > 0);
+        let (t0, t1) = r
+            .segment_times
+            .iter()
+            .fold((f64::INFINITY, 0.0f64), |(a, b), &t| (a.min(t), b.max(t)));
+        assert!(
+            t1 - t0 <= r.stable_dt * 1.01,
+            "breaks spread over {t0}..{t1}"
+        );
+        let pieces = crate::post::islands::face_islands(&mesh).count;
+        assert_eq!(pieces, mesh.n_faces(), "every triangle on its own");
+        assert!(springs > 0);
+        // Spread thresholds: breaks spread over time and leave cells of
+        // several triangles.
+        let (mesh, r) = grid_run([0.03, 0.09], 0.3);
+        let (t0, t1) = r
+            .segment_times
+            .iter()
+            .fold((f64::INFINITY, 0.0f64), |(a, b), &t| (a.min(t), b.max(t)));
+        assert!(t1 - t0 > 20.0 * r.stable_dt, "{t0}..{t1}");
+        let pieces = crate::post::islands::face_islands(&mesh).count;
+        assert!(
+            pieces > 3 && pieces * 4 < mesh.n_faces(),
+            "{pieces} pieces of {} triangles",
+            mesh.n_faces()
+        );
+        assert_eq!(r.displacement.len(), mesh.n_vertices());
+        assert_eq!(r.crack_time.len(), mesh.n_vertices());
+    }
+}
