@@ -304,6 +304,10 @@ pub const PRESETS: &[(&str, &str)] = &[
         "springs-glaze",
         include_str!("../pipeline/springs-glaze.toml"),
     ),
+    (
+        "impact-snapped",
+        include_str!("../pipeline/impact-snapped.toml"),
+    ),
 ];
 
 /// A pipeline error; the message names the file (or preset) and the key.

@@ -1,4 +1,5 @@
-//! The mass-spring drying model through the CLI: both presets give valid
+//! The other models through the CLI (mass-spring drying, the snapped
+//! impact): their presets give valid
 //! glTF on their fixture and on the spot scan, the same bytes whatever the
 //! thread count, and cracks that open.
 
@@ -93,5 +94,23 @@ fn bad_spring_parameters_are_refused_by_name() {
             String::from_utf8_lossy(&o.stderr)
         );
         assert!(!out.exists(), "{set}: no output on error");
+    }
+}
+
+#[test]
+fn the_snapped_impact_preset_is_valid_and_deterministic() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = common::fixture("plate_jittered.obj");
+    let (one, two) = (dir.path().join("1.glb"), dir.path().join("2.glb"));
+    let r = crack(&input, &one, "impact-snapped", "1");
+    crack(&input, &two, "impact-snapped", "2");
+    assert_eq!(std::fs::read(&one).unwrap(), std::fs::read(&two).unwrap());
+    // Snapped: no triangle is split; tensor relaxation is off.
+    assert_eq!(r["triangles"]["before"], r["triangles"]["after"]);
+    assert_eq!(r["relaxation_steps"], 0);
+    assert!(r["cracks"].as_u64().unwrap() > 20, "{}", r["cracks"]);
+    if let Some(v) = common::validator() {
+        let rep = v.validate(&one);
+        assert_eq!(rep.errors + rep.warnings, 0, "{}", rep.describe());
     }
 }

@@ -101,8 +101,50 @@ pub struct SimParams {
     pub rules: CrackRules,
     /// The crack model. Default `quasistatic` (Iben & O'Brien 2009).
     pub model: Model,
+    /// Cracks may split triangles (the paper's local remeshing). `false`
+    /// snaps every crack to the existing edge nearest its plane (the
+    /// snapping variant). Default true.
+    pub remesh: bool,
+    /// Which failing node cracks next; see [`Propagation`]. Default `queue`.
+    pub propagation: Propagation,
+    /// How stress relaxes between crack checks; see [`Relaxation`].
+    /// Default `tensor`.
+    pub relaxation: Relaxation,
+    /// Eigen-diffusion passes after each crack (or each crack run with
+    /// `propagation = "to-end"`). Default 30.
+    pub diffusion_passes: usize,
+    /// Fraction of a node's largest separation eigenvalue shared with its
+    /// neighbours per pass, in [0, 1]. Default 0.05.
+    pub diffusion_fraction: f64,
     /// Parameters of `model = "springs"` (`[simulation.springs]`).
     pub springs: crate::sim::springs::SpringParams,
+}
+
+/// Which failing node cracks next.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Deserialize, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Propagation {
+    /// The node whose separation is largest (the paper's priority queue).
+    #[default]
+    Queue,
+    /// A crack runs on tip by tip while its tip's separation (with the
+    /// residual scaled by `alpha`, the text's tip factor) exceeds the
+    /// toughness, before the next crack starts (the snapping variant).
+    ToEnd,
+}
+
+/// How stress relaxes.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Deserialize, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Relaxation {
+    /// The paper's stress-tensor relaxation (by `integrator`).
+    #[default]
+    Tensor,
+    /// No tensor relaxation: after each crack (or crack run) every node
+    /// shares `diffusion_fraction` of its largest separation eigenvalue
+    /// equally with its neighbours, `diffusion_passes` times (the snapping
+    /// variant's mesh-based diffusion).
+    EigenDiffusion,
 }
 
 /// Crack models.
@@ -231,6 +273,11 @@ impl Default for SimParams {
             finish: false,
             model: Model::Quasistatic,
             springs: Default::default(),
+            remesh: true,
+            propagation: Propagation::Queue,
+            relaxation: Relaxation::Tensor,
+            diffusion_passes: 30,
+            diffusion_fraction: 0.05,
             rules: CrackRules::default(),
         }
     }
@@ -248,6 +295,12 @@ impl SimParams {
         };
         if self.model == Model::Springs {
             self.springs.validate()?;
+        }
+        if !(0.0..=1.0).contains(&self.diffusion_fraction) {
+            return Err(format!(
+                "diffusion_fraction must be in [0, 1], got {}",
+                self.diffusion_fraction
+            ));
         }
         finite_pos("toughness", self.toughness)?;
         finite_pos("relax_time", self.relax_time)?;
@@ -484,6 +537,10 @@ struct State {
     corner: Vec<[f64; 3]>,
     /// The last implicit solve's solution: the next solve starts from it.
     warm: Vec<[f64; 3]>,
+    /// With eigen-diffusion: every node's separation tensor, taken from
+    /// the stress once after the first round and then changed only by
+    /// cracking and diffusion (`None`: computed from the stress).
+    frozen: Option<Vec<Sym3>>,
 }
 
 impl State {
@@ -504,6 +561,18 @@ impl State {
     /// inserted vertices are settled by the caller.
     fn grow(&mut self, mesh: &SimMesh, params: &SimParams) {
         self.residual.resize(mesh.n_vertices(), Sym3::ZERO);
+        if let Some(fz) = &mut self.frozen {
+            while fz.len() < mesh.n_vertices() {
+                let v = VertexId(fz.len() as u32);
+                let parent = mesh.vertex_parent(v);
+                let s = if parent != v {
+                    fz.get(parent.idx()).copied()
+                } else {
+                    None
+                };
+                fz.push(s.unwrap_or(Sym3::ZERO));
+            }
+        }
         while self.displacement.len() < mesh.n_vertices() {
             let v = VertexId(self.displacement.len() as u32);
             let parent = mesh.vertex_parent(v);
@@ -584,6 +653,7 @@ pub fn run_with(
     let mut loaded = 0.0; // time the load has acted so far
     let mut hold = false; // hold the load this round (the last one hit the cap)
     let mut g: Vec<[f64; 3]> = Vec::new();
+    let rules = crack_rules(params);
     report.stopped = format!("reached max_rounds ({})", params.max_rounds);
     for round in 0..params.max_rounds {
         // ---- relax, with the load increasing unless held or complete
@@ -599,6 +669,13 @@ pub fn run_with(
             None,
         )?;
         report.rounds = round + 1;
+        if params.relaxation == Relaxation::EigenDiffusion && st.frozen.is_none() {
+            let fz: Vec<Sym3> = (0..mesh.n_vertices())
+                .into_par_iter()
+                .map(|v| separation_tensor(mesh, &st.els, &st.stress, VertexId(v as u32)))
+                .collect();
+            st.frozen = Some(fz);
+        }
         // ---- queue every failing node
         let sep = separations(mesh, &fans, &st, params.toughness);
         for (v, val) in sep.iter().enumerate() {
@@ -606,19 +683,59 @@ pub fn run_with(
         }
         // ---- crack while the top fails
         let mut cracked_this_round = 0;
-        while cracked_this_round < per_round_cap && report.cracks < params.max_cracks {
-            let Some((v, _)) = queue.pop() else { break };
-            let v = VertexId(v);
+        // With `to-end`, the tips of the crack being run come first.
+        let mut follow: Vec<VertexId> = Vec::new();
+        let mut chain = false;
+        loop {
+            if cracked_this_round >= per_round_cap || report.cracks >= params.max_cracks {
+                break;
+            }
+            let v = match follow.pop() {
+                Some(v) => v,
+                None => {
+                    // A crack run ended: diffuse before the next one.
+                    if chain && params.relaxation == Relaxation::EigenDiffusion {
+                        eigen_diffusion(mesh, &mut st, params);
+                        let sep = separations(mesh, &Fans::new(mesh), &st, params.toughness);
+                        for (u, val) in sep.iter().enumerate() {
+                            queue.set(u as u32, *val, params.toughness);
+                        }
+                    }
+                    chain = false;
+                    match queue.pop() {
+                        Some((v, _)) => VertexId(v),
+                        None => break,
+                    }
+                }
+            };
             let (val, dir) = node_separation(mesh, &st, v).max_eigen();
             if val.is_nan() || val <= params.toughness {
                 continue;
             }
-            let ev = crack_node(mesh, v, dir, &params.rules).map_err(SimError::Mesh)?;
+            let ev = crack_node(mesh, v, dir, &rules).map_err(SimError::Mesh)?;
             st.residual[v.idx()] = Sym3::ZERO;
+            if let Some(fz) = &mut st.frozen {
+                // The crack releases the node's failing component.
+                let raw = fz[v.idx()];
+                let (l, e) = raw.max_eigen();
+                if l > 0.0 {
+                    fz[v.idx()] = raw - Sym3::m(e) * l;
+                }
+            }
             if !apply_event(mesh, &mut st, params, &mut report, &ev) {
                 continue;
             }
             cracked_this_round += 1;
+            chain = true;
+            if params.propagation == Propagation::ToEnd {
+                follow.extend(ev.segments.iter().map(|&(_, tip)| tip).filter(|&tip| {
+                    !mesh.is_boundary_vertex(tip)
+                        || crate::sim::crack::crack_directions(mesh, tip).len() == 1
+                }));
+            } else if params.relaxation == Relaxation::EigenDiffusion {
+                // Each crack is its own run.
+                follow.clear();
+            }
             // Residual propagation to the new crack tips.
             let residual = val - params.toughness + params.residual_constant;
             for &(_, tip) in &ev.segments {
@@ -659,6 +776,70 @@ pub fn run_with(
     report.displacement = st.displacement;
     report.crack_time = st.crack_time;
     Ok(report)
+}
+
+/// The cracking rules: the pipeline's, or with `remesh = false` ones that
+/// always snap to the existing edge nearest the crack plane.
+fn crack_rules(params: &SimParams) -> CrackRules {
+    if params.remesh {
+        params.rules
+    } else {
+        CrackRules {
+            theta1: std::f64::consts::PI,
+            ..params.rules
+        }
+    }
+}
+
+/// Eigen-diffusion passes (see [`Relaxation::EigenDiffusion`]): each node
+/// keeps `1 - f` of its largest separation eigenvalue (when positive) and
+/// shares `f` equally among its neighbours; the change is added to the
+/// node's residual along its eigenvector, so the crack directions stay.
+fn eigen_diffusion(mesh: &SimMesh, st: &mut State, params: &SimParams) {
+    let f = params.diffusion_fraction;
+    if f <= 0.0 {
+        return;
+    }
+    let n = mesh.n_vertices();
+    let neighbours: Vec<Vec<u32>> = (0..n)
+        .map(|v| {
+            let mut nb: Vec<u32> = mesh
+                .vertex_faces(VertexId(v as u32))
+                .flat_map(|fc| mesh.face_vertices(fc))
+                .map(|u| u.0)
+                .filter(|&u| u != v as u32)
+                .collect();
+            nb.sort_unstable();
+            nb.dedup();
+            nb
+        })
+        .collect();
+    for _ in 0..params.diffusion_passes {
+        let eig: Vec<(f64, [f64; 3])> = (0..n)
+            .into_par_iter()
+            .map(|v| node_separation(mesh, st, VertexId(v as u32)).max_eigen())
+            .collect();
+        let mut next: Vec<f64> = eig.iter().map(|(l, _)| *l).collect();
+        for v in 0..n {
+            let (l, _) = eig[v];
+            if l.is_nan() || l <= 0.0 || neighbours[v].is_empty() {
+                continue;
+            }
+            let share = f * l;
+            next[v] -= share;
+            let each = share / neighbours[v].len() as f64;
+            for &u in &neighbours[v] {
+                next[u as usize] += each;
+            }
+        }
+        for v in 0..n {
+            let (l, dir) = eig[v];
+            let d = next[v] - l;
+            if d != 0.0 && l.is_finite() {
+                st.residual[v] += Sym3::m(dir) * d;
+            }
+        }
+    }
 }
 
 /// The start state of a run: parameters and field checked, elements
@@ -704,6 +885,7 @@ fn start(
         },
         stress: field.map(|f| f.init.clone()).unwrap_or_default(),
         residual: Vec::new(),
+        frozen: None,
         fixed: mesh
             .vertices()
             .map(|v| {
@@ -869,7 +1051,25 @@ fn relax_round(
     let mut step_mobility: Vec<f64> = Vec::new();
     // RKL: the round's step-doubling error estimate, when sampled.
     let mut rkl_estimate: Option<f64> = None;
-    if matches!(
+    if params.relaxation == Relaxation::EigenDiffusion {
+        // No tensor relaxation: the round only adds its load.
+        let load = load_for(loaded, params.relax_time);
+        if load.dt > 0.0 {
+            let (scale, evolve) = (&st.shrink_scale, &st.evolve);
+            st.stress
+                .par_iter_mut()
+                .zip(st.els.elements.par_iter())
+                .enumerate()
+                .for_each(|(f, (s, el))| {
+                    if let Some(el) = el {
+                        *s += load_increment(scale, evolve, f, el, load);
+                    }
+                });
+        }
+        corner_forces(&st.els, &st.stress, &mut st.corner);
+        report.time += params.relax_time;
+        step_dt = 0.0;
+    } else if matches!(
         params.integrator,
         Integrator::BackwardEuler | Integrator::Equilibrium
     ) {
@@ -1390,7 +1590,7 @@ fn finish_cracks(
             let Some(plane) = tip_plane(mesh, st, v) else {
                 continue;
             };
-            let ev = crack_node(mesh, v, plane, &params.rules).map_err(SimError::Mesh)?;
+            let ev = crack_node(mesh, v, plane, &crack_rules(params)).map_err(SimError::Mesh)?;
             let residual = st.residual[v.idx()];
             st.residual[v.idx()] = Sym3::ZERO;
             if apply_event(mesh, st, params, report, &ev) {
@@ -1433,7 +1633,10 @@ fn finish_cracks(
 /// node's residual, times the mean separation factor of the node's faces
 /// when the field scales it (a factor `f` acts as toughness `tau / f`).
 fn node_separation(mesh: &SimMesh, st: &State, v: VertexId) -> Sym3 {
-    let s = separation_tensor(mesh, &st.els, &st.stress, v);
+    let s = match &st.frozen {
+        Some(fz) => fz.get(v.idx()).copied().unwrap_or(Sym3::ZERO),
+        None => separation_tensor(mesh, &st.els, &st.stress, v),
+    };
     scaled_separation(mesh, st, v, s)
 }
 
@@ -1459,6 +1662,12 @@ fn scaled_separation(mesh: &SimMesh, st: &State, v: VertexId, s: Sym3) -> Sym3 {
 /// Largest separation eigenvalue and its direction at every node.
 /// `fans` must be those of `mesh` as it is.
 fn separations(mesh: &SimMesh, fans: &Fans, st: &State, threshold: f64) -> Vec<f64> {
+    if st.frozen.is_some() {
+        return (0..mesh.n_vertices())
+            .into_par_iter()
+            .map(|v| queue_value(node_separation(mesh, st, VertexId(v as u32)), threshold))
+            .collect();
+    }
     let splits = tensile_splits(&st.els, &st.stress);
     (0..mesh.n_vertices())
         .into_par_iter()
@@ -2136,6 +2345,131 @@ mod tests {
         );
     }
 
+    fn impact_params() -> (SimParams, Vec<crate::stress::Term>) {
+        let params = SimParams {
+            shrink_rate: 0.0,
+            alpha: 0.5,
+            residual_constant: 0.0,
+            fixed_boundary: true,
+            ..Default::default()
+        };
+        let terms = vec![crate::stress::Term {
+            kind: crate::stress::TermKind::Impact {
+                points: vec![[12.0, 12.0, 0.0]],
+                radius: 7.0,
+                concentric_factor: 1.25,
+            },
+            init: 3.0,
+            evolve: 0.0,
+            mask: None,
+        }];
+        (params, terms)
+    }
+
+    #[test]
+    fn without_remeshing_cracks_follow_existing_edges() {
+        let (base, terms) = impact_params();
+        let mut mesh = jittered_plate(24, 0.3, 5);
+        let original: Vec<[f64; 3]> = mesh.positions().to_vec();
+        let field = StressField::build(&mesh, &terms, 1).unwrap();
+        let params = SimParams {
+            remesh: false,
+            ..base
+        };
+        let r = run_with(&mut mesh, &params, Some(&field), &mut ()).unwrap();
+        mesh.validate().unwrap();
+        assert!(r.cracks > 5, "{}", r.cracks);
+        assert_eq!(r.triangles[0], r.triangles[1], "no triangle split");
+        // Every crack segment joins two input vertices.
+        let is_input = |p: [f64; 3]| original.contains(&p);
+        for s in &r.segments {
+            assert!(is_input(s[0]) && is_input(s[1]), "{s:?}");
+        }
+    }
+
+    #[test]
+    fn to_end_propagation_runs_each_crack_on_from_its_tip() {
+        let (base, terms) = impact_params();
+        let chained = |propagation| {
+            let mut mesh = jittered_plate(24, 0.3, 5);
+            let field = StressField::build(&mesh, &terms, 1).unwrap();
+            let params = SimParams {
+                propagation,
+                ..base.clone()
+            };
+            let r = run_with(&mut mesh, &params, Some(&field), &mut ()).unwrap();
+            mesh.validate().unwrap();
+            // Segments that start where the one before ended.
+            let follow = r
+                .segments
+                .windows(2)
+                .filter(|w| w[1][0] == w[0][1] || w[1][1] == w[0][1])
+                .count();
+            (follow as f64 / r.segments.len().max(1) as f64, r.cracks)
+        };
+        let (queue, n_queue) = chained(Propagation::Queue);
+        let (to_end, n_to_end) = chained(Propagation::ToEnd);
+        eprintln!("segments continuing the previous one: queue {queue:.2} ({n_queue} cracks), to-end {to_end:.2} ({n_to_end})");
+        assert!(n_to_end > 5);
+        assert!(to_end > 0.5 && to_end > queue + 0.1, "{to_end} vs {queue}");
+    }
+
+    #[test]
+    fn eigen_diffusion_spreads_and_conserves_the_eigenvalues() {
+        let (base, terms) = impact_params();
+        let mesh = jittered_plate(12, 0.3, 5);
+        let field = StressField::build(&mesh, &terms, 1).unwrap();
+        let params = SimParams {
+            relaxation: Relaxation::EigenDiffusion,
+            diffusion_passes: 1,
+            diffusion_fraction: 0.05,
+            ..base
+        };
+        let (mut st, _) = start(&mesh, &params, Some(&field)).unwrap();
+        // A peak on one node, a flat positive field elsewhere.
+        let mut fz = vec![Sym3::outer([1.0, 0.0, 0.0]) * 1.0; mesh.n_vertices()];
+        fz[60] = Sym3::outer([0.0, 1.0, 0.0]) * 10.0;
+        st.frozen = Some(fz);
+        let eig = |st: &State| -> Vec<f64> {
+            (0..mesh.n_vertices())
+                .map(|v| node_separation(&mesh, st, VertexId(v as u32)).max_eigen().0)
+                .collect()
+        };
+        let before = eig(&st);
+        eigen_diffusion(&mesh, &mut st, &params);
+        let after = eig(&st);
+        let (s0, s1): (f64, f64) = (before.iter().sum(), after.iter().sum());
+        assert!((s0 - s1).abs() < 1e-9 * s0, "{s0} -> {s1}");
+        // The peak gives 5% (0.5) and takes back its neighbours' small shares.
+        assert!(after[60] > 9.5 && after[60] < 9.6, "{}", after[60]);
+        let gained = (0..mesh.n_vertices())
+            .filter(|&v| after[v] > before[v] + 1e-3)
+            .count();
+        assert!(gained >= 4, "the peak's neighbours gain: {gained}");
+        // Its direction stays: the peak's largest eigenvector is still y.
+        let (_, dir) = node_separation(&mesh, &st, VertexId(60)).max_eigen();
+        assert!(dir[1].abs() > 0.999, "{dir:?}");
+        // The run with diffusion differs from the one without.
+        let run = |passes| {
+            let mut m = jittered_plate(24, 0.3, 5);
+            let f = StressField::build(&m, &terms, 1).unwrap();
+            let p = SimParams {
+                relaxation: Relaxation::EigenDiffusion,
+                remesh: false,
+                propagation: Propagation::ToEnd,
+                diffusion_passes: passes,
+                ..params.clone()
+            };
+            let r = run_with(&mut m, &p, Some(&f), &mut ()).unwrap();
+            m.validate().unwrap();
+            r
+        };
+        let (plain, diffused) = (run(0), run(30));
+        assert!(plain.cracks > 0 && diffused.cracks > 0);
+        assert_ne!(plain.segments, diffused.segments);
+        assert_eq!(plain.relax_steps, 0, "no tensor relaxation");
+    }
+
     #[test]
     fn equilibrium_leaves_no_residual_force() {
         let mesh = jittered_plate(12, 0.3, 2);
@@ -2378,6 +2712,7 @@ mod tests {
                 },
                 stress: Vec::new(),
                 residual: vec![Sym3::ZERO; mesh.n_vertices()],
+                frozen: None,
                 fixed: Vec::new(),
                 shrink_scale: Vec::new(),
                 evolve: Vec::new(),
