@@ -113,6 +113,10 @@ impl SpringParams {
     }
 }
 
+/// Most time steps a spring run takes (a stiffer spring range or a longer
+/// `max_time` is refused instead of running for hours).
+const MAX_STEPS: usize = 10_000_000;
+
 /// One spring: a mesh edge (one of its halfedges) with its properties.
 #[derive(Clone, Debug)]
 struct Spring {
@@ -386,7 +390,14 @@ pub fn run(
             }
         };
     snapshot(mesh, &st, &report, observer);
-    let steps = (sp.max_time / dt).ceil() as usize;
+    let steps_f = (sp.max_time / dt).ceil();
+    if !(steps_f.is_finite() && steps_f <= MAX_STEPS as f64) {
+        return Err(SimError::Param(format!(
+            "springs: max_time {} needs {steps_f:.3e} steps of {dt:.3e} (the stable step of the stiffest spring); at most {MAX_STEPS} are run: lower the stiffness range or max_time",
+            sp.max_time
+        )));
+    }
+    let steps = steps_f as usize;
     let per_round = ((1.0 / dt).ceil() as usize).max(1); // a "round" is one unit of time
     let max_rounds = steps.div_ceil(per_round);
     let mut quiet_since = 0.0;
