@@ -463,6 +463,16 @@ pub fn process(mut a: CrackArgs) -> Result<serde_json::Value> {
                 r.dt_limited_rounds
             );
         }
+        if r.substeps > 1 {
+            log::warn!(
+                "{}: {}: springs.dt {} is above the stable step ({:.3e}); each step was split into {} stable sub-steps",
+                a.input.display(),
+                e.label,
+                params.springs.dt,
+                r.stable_dt,
+                r.substeps
+            );
+        }
         total.cracks += r.cracks;
         total.crack_length += r.crack_length;
         total.rounds = total.rounds.max(r.rounds);

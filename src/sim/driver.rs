@@ -295,6 +295,9 @@ impl SimParams {
         };
         if self.model == Model::Springs {
             self.springs.validate()?;
+            if self.finish {
+                return Err("post.finish runs the quasistatic engine's tips on; it does not apply to model = \"springs\"".into());
+            }
         }
         if !(0.0..=1.0).contains(&self.diffusion_fraction) {
             return Err(format!(
@@ -385,6 +388,9 @@ pub struct SimReport {
     /// step: they ran the stable step instead (more, smaller steps over the
     /// same relaxation time).
     pub dt_limited_rounds: usize,
+    /// Spring model: sub-steps each requested `springs.dt` was split into
+    /// to stay stable (1: none).
+    pub substeps: usize,
     /// The smallest stable step of any round (for `local-euler` the median
     /// node bound's, for the others the largest bound's). Infinite without
     /// elements.
@@ -639,6 +645,11 @@ pub fn run_with(
     observer: &mut dyn Observer,
 ) -> Result<SimReport, SimError> {
     if params.model == Model::Springs {
+        if field.is_some() {
+            return Err(SimError::Param(
+                "stress terms do not apply to model = \"springs\" (its load is the drying of the springs)".into(),
+            ));
+        }
         return crate::sim::springs::run(mesh, params, observer);
     }
     let (mut st, mut report) = start(mesh, params, field)?;
@@ -687,26 +698,30 @@ pub fn run_with(
         let mut follow: Vec<VertexId> = Vec::new();
         let mut chain = false;
         loop {
-            if cracked_this_round >= per_round_cap || report.cracks >= params.max_cracks {
+            if follow.is_empty() {
+                // A crack run ended: diffuse before the next one.
+                if chain && params.relaxation == Relaxation::EigenDiffusion {
+                    eigen_diffusion(mesh, &mut st, params);
+                    let sep = separations(mesh, &Fans::new(mesh), &st, params.toughness);
+                    for (u, val) in sep.iter().enumerate() {
+                        queue.set(u as u32, *val, params.toughness);
+                    }
+                }
+                chain = false;
+            }
+            // The round's cap ends a round between crack runs, never
+            // inside one.
+            if report.cracks >= params.max_cracks
+                || (follow.is_empty() && cracked_this_round >= per_round_cap)
+            {
                 break;
             }
             let v = match follow.pop() {
                 Some(v) => v,
-                None => {
-                    // A crack run ended: diffuse before the next one.
-                    if chain && params.relaxation == Relaxation::EigenDiffusion {
-                        eigen_diffusion(mesh, &mut st, params);
-                        let sep = separations(mesh, &Fans::new(mesh), &st, params.toughness);
-                        for (u, val) in sep.iter().enumerate() {
-                            queue.set(u as u32, *val, params.toughness);
-                        }
-                    }
-                    chain = false;
-                    match queue.pop() {
-                        Some((v, _)) => VertexId(v),
-                        None => break,
-                    }
-                }
+                None => match queue.pop() {
+                    Some((v, _)) => VertexId(v),
+                    None => break,
+                },
             };
             let (val, dir) = node_separation(mesh, &st, v).max_eigen();
             if val.is_nan() || val <= params.toughness {
@@ -1052,8 +1067,15 @@ fn relax_round(
     // RKL: the round's step-doubling error estimate, when sampled.
     let mut rkl_estimate: Option<f64> = None;
     if params.relaxation == Relaxation::EigenDiffusion {
-        // No tensor relaxation: the round only adds its load.
+        // No tensor relaxation: the round only adds its load, and the
+        // separation it adds goes into the frozen tensors.
         let load = load_for(loaded, params.relax_time);
+        let frozen_before: Option<Vec<Sym3>> = (load.dt > 0.0 && st.frozen.is_some()).then(|| {
+            (0..mesh.n_vertices())
+                .into_par_iter()
+                .map(|v| separation_tensor(mesh, &st.els, &st.stress, VertexId(v as u32)))
+                .collect()
+        });
         if load.dt > 0.0 {
             let (scale, evolve) = (&st.shrink_scale, &st.evolve);
             st.stress
@@ -1065,6 +1087,16 @@ fn relax_round(
                         *s += load_increment(scale, evolve, f, el, load);
                     }
                 });
+        }
+        if let (Some(before), Some(fz)) = (frozen_before, st.frozen.as_mut()) {
+            let (els, stress) = (&st.els, &st.stress);
+            let after: Vec<Sym3> = (0..mesh.n_vertices())
+                .into_par_iter()
+                .map(|v| separation_tensor(mesh, els, stress, VertexId(v as u32)))
+                .collect();
+            for ((f, a), b) in fz.iter_mut().zip(&after).zip(&before) {
+                *f += *a - *b;
+            }
         }
         corner_forces(&st.els, &st.stress, &mut st.corner);
         report.time += params.relax_time;
@@ -1432,6 +1464,9 @@ fn apply_event(
         };
         let (da, db) = (st.displacement[a.idx()], st.displacement[b.idx()]);
         st.displacement[q.idx()] = v3::add(v3::scale(da, 1.0 - t), v3::scale(db, t));
+        if let Some(fz) = &mut st.frozen {
+            fz[q.idx()] = fz[a.idx()] * (1.0 - t) + fz[b.idx()] * t;
+        }
     }
     if ev.segments.is_empty() {
         return false;
@@ -2468,6 +2503,17 @@ mod tests {
         assert!(plain.cracks > 0 && diffused.cracks > 0);
         assert_ne!(plain.segments, diffused.segments);
         assert_eq!(plain.relax_steps, 0, "no tensor relaxation");
+        // A load that builds up over the rounds (shrinkage, no starting
+        // stress) reaches the frozen separations too.
+        let mut m = jittered_plate(16, 0.3, 5);
+        let p = SimParams {
+            relaxation: Relaxation::EigenDiffusion,
+            max_rounds: 60,
+            ..Default::default()
+        };
+        let r = run_with(&mut m, &p, None, &mut ()).unwrap();
+        m.validate().unwrap();
+        assert!(r.cracks > 0, "shrinkage cracks under eigen-diffusion too");
     }
 
     #[test]
