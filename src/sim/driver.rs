@@ -1076,18 +1076,7 @@ fn relax_round(
                 .map(|v| separation_tensor(mesh, &st.els, &st.stress, VertexId(v as u32)))
                 .collect()
         });
-        if load.dt > 0.0 {
-            let (scale, evolve) = (&st.shrink_scale, &st.evolve);
-            st.stress
-                .par_iter_mut()
-                .zip(st.els.elements.par_iter())
-                .enumerate()
-                .for_each(|(f, (s, el))| {
-                    if let Some(el) = el {
-                        *s += load_increment(scale, evolve, f, el, load);
-                    }
-                });
-        }
+        add_load(&mut st.stress, &st.els, &st.shrink_scale, &st.evolve, load);
         if let (Some(before), Some(fz)) = (frozen_before, st.frozen.as_mut()) {
             let (els, stress) = (&st.els, &st.stress);
             let after: Vec<Sym3> = (0..mesh.n_vertices())
@@ -1146,18 +1135,7 @@ fn relax_round(
         let mut stress = std::mem::take(&mut st.stress);
         for _ in 0..steps {
             let load = load_for(loaded, dt);
-            if load.dt > 0.0 {
-                let (scale, evolve) = (&st.shrink_scale, &st.evolve);
-                stress
-                    .par_iter_mut()
-                    .zip(st.els.elements.par_iter())
-                    .enumerate()
-                    .for_each(|(f, (s, el))| {
-                        if let Some(el) = el {
-                            *s += load_increment(scale, evolve, f, el, load);
-                        }
-                    });
-            }
+            add_load(&mut stress, &st.els, &st.shrink_scale, &st.evolve, load);
             corner_forces(&st.els, &stress, &mut corner);
             let rhs: Vec<[f64; 3]> = (0..fans.n_vertices())
                 .into_par_iter()
@@ -1421,6 +1399,23 @@ fn relax_round(
         )));
     }
     Ok(fans)
+}
+
+/// Add the stress `load` adds in its step to every face (nothing when the
+/// load does not act).
+fn add_load(stress: &mut [Sym3], els: &Elements, scale: &[f64], evolve: &[Sym3], load: Load) {
+    if load.dt <= 0.0 {
+        return;
+    }
+    stress
+        .par_iter_mut()
+        .zip(els.elements.par_iter())
+        .enumerate()
+        .for_each(|(f, (s, el))| {
+            if let Some(el) = el {
+                *s += load_increment(scale, evolve, f, el, load);
+            }
+        });
 }
 
 /// The stress the load adds to face `f` during one step.
@@ -1761,6 +1756,23 @@ struct Load {
     shrink_rate: f64,
 }
 
+/// Node `v`'s velocity in an explicit step: its net force from the corner
+/// forces, without its normal part on a bonded surface, times its mobility.
+#[inline]
+fn node_velocity(
+    fans: &Fans,
+    corner: &[[f64; 3]],
+    normals: &[[f64; 3]],
+    mobility: &[f64],
+    v: usize,
+) -> [f64; 3] {
+    let mut f = gather(fans, corner, v);
+    if let Some(n) = normals.get(v) {
+        f = v3::sub(f, v3::scale(*n, v3::dot(f, *n)));
+    }
+    v3::scale(f, mobility[v])
+}
+
 /// One forward-Euler relaxation step plus the load: in each face,
 /// `load.dt * shrink_scale[f] * (shrink_rate (I - n n^T) + evolve[f])`,
 /// in two parallel passes (nodes, then faces). Node `n` moves
@@ -1785,14 +1797,11 @@ fn relax_and_evolve(
         .enumerate()
         .with_min_len(512)
         .for_each(|(v, (gn, d))| {
-            let mut f_net = [0.0; 3];
-            if !fixed[v] {
-                f_net = gather(fans, corner, v);
-                if let Some(n) = normals.get(v) {
-                    f_net = v3::sub(f_net, v3::scale(*n, v3::dot(f_net, *n)));
-                }
-                f_net = v3::scale(f_net, mobility[v]);
-            }
+            let f_net = if fixed[v] {
+                [0.0; 3]
+            } else {
+                node_velocity(fans, corner, normals, mobility, v)
+            };
             *gn = f_net;
             *d = v3::add(*d, v3::scale(f_net, dt * unit));
         });
@@ -1897,14 +1906,11 @@ fn relax_region(
             if !region.inside[v] {
                 return;
             }
-            let mut f_net = [0.0; 3];
-            if !fixed[v] {
-                f_net = gather(fans, corner, v);
-                if let Some(n) = normals.get(v) {
-                    f_net = v3::sub(f_net, v3::scale(*n, v3::dot(f_net, *n)));
-                }
-                f_net = v3::scale(f_net, mobility[v]);
-            }
+            let f_net = if fixed[v] {
+                [0.0; 3]
+            } else {
+                node_velocity(fans, corner, normals, mobility, v)
+            };
             *gn = f_net;
             *d = v3::add(*d, v3::scale(f_net, dt * unit));
         });
@@ -1976,11 +1982,7 @@ fn rkl_super_step(
                     if fixed[v] || !node_in(v) {
                         return;
                     }
-                    let mut f = gather(fans, corner, v);
-                    if let Some(n) = normals.get(v) {
-                        f = v3::sub(f, v3::scale(*n, v3::dot(f, *n)));
-                    }
-                    *o = v3::scale(f, mobility[v]);
+                    *o = node_velocity(fans, corner, normals, mobility, v);
                     *d = v3::add(*d, v3::scale(*o, w * tau * unit));
                 });
         };

@@ -275,7 +275,7 @@ pub fn run(
 ) -> Result<SimReport, SimError> {
     let sp = &params.springs;
     params.validate().map_err(SimError::Param)?;
-    let unit = mean_edge_length(mesh);
+    let unit = mesh.mean_edge_length();
     if !(unit > 0.0 && unit.is_finite()) {
         return Err(SimError::Param(
             "the mesh has no edge of positive length".into(),
@@ -514,24 +514,6 @@ pub fn run(
     Ok(report)
 }
 
-/// Mean length of the mesh's edges (each counted once).
-fn mean_edge_length(mesh: &SimMesh) -> f64 {
-    let (mut sum, mut count) = (0.0, 0usize);
-    for h in mesh.halfedges() {
-        if mesh.twin(h).is_some_and(|t| t.0 < h.0) {
-            continue;
-        }
-        let (a, b) = (mesh.origin(h), mesh.dest(h));
-        sum += v3::norm(v3::sub(mesh.position(b), mesh.position(a)));
-        count += 1;
-    }
-    if count > 0 {
-        sum / count as f64
-    } else {
-        0.0
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -632,7 +614,7 @@ mod tests {
     fn without_drying_the_damped_energy_only_falls() {
         // A jittered plate's nodes pushed off their rest places, then let go.
         let mesh = jittered_plate(8, 0.3, 4);
-        let unit = mean_edge_length(&mesh);
+        let unit = mesh.mean_edge_length();
         let x: Vec<[f64; 3]> = mesh
             .positions()
             .iter()
