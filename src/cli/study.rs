@@ -56,6 +56,9 @@ struct Row {
     extra: Value,
 }
 
+/// The relative stress error the summary times each scheme to.
+const TARGET_ERROR: f64 = 1e-3;
+
 /// The relaxation of `rounds` rounds and its time: the least of `repeat`
 /// runs (the runs are identical; the least is the least disturbed by
 /// whatever else the machine does).
@@ -311,7 +314,7 @@ pub fn run(mut a: StudyArgs) -> anyhow::Result<()> {
     }
     // One implicit step per round with loose tolerances: the cheapest
     // implicit setting, for the time it takes to reach a given error.
-    for tol in [1e-1, 1e-2] {
+    for tol in [1e-1, 5e-2, 3e-2, 2e-2, 1e-2] {
         let (r, s) = relaxed(
             mesh,
             &with(Integrator::BackwardEuler, rt, tol),
@@ -441,6 +444,43 @@ pub fn run(mut a: StudyArgs) -> anyhow::Result<()> {
             r.cg_iterations
         );
     }
+    // The time each scheme needs to reach the target error: the paper's
+    // forward Euler (its largest stable step is the `euler` row) against
+    // backward Euler.
+    let fastest = |names: &[&str]| {
+        rows.iter()
+            .filter(|r| r.kind == "relaxation" && names.contains(&r.integrator))
+            .filter(|r| r.error <= TARGET_ERROR)
+            .min_by(|a, b| a.seconds.total_cmp(&b.seconds))
+    };
+    let explicit = fastest(&["paper-euler", "euler"]);
+    let implicit = fastest(&["backward-euler"]);
+    let describe = |r: Option<&Row>| match r {
+        Some(r) => format!(
+            "{:.3} s ({} dt {:.3e} tol {:.0e}: error {:.2e})",
+            r.seconds, r.integrator, r.dt, r.tolerance, r.error
+        ),
+        None => "not reached".into(),
+    };
+    println!(
+        "to error {TARGET_ERROR:.0e}: the paper's forward Euler {}; backward Euler {}",
+        describe(explicit),
+        describe(implicit)
+    );
+    let speedup = match (explicit, implicit) {
+        (Some(e), Some(i)) if i.seconds > 0.0 => {
+            let x = e.seconds / i.seconds;
+            println!("backward Euler is {x:.1}x faster to error {TARGET_ERROR:.0e}");
+            Some(x)
+        }
+        _ => None,
+    };
+    let target_json = |r: Option<&Row>| {
+        r.map(|r| {
+            json!({"integrator": r.integrator, "dt": r.dt, "tolerance": r.tolerance,
+                   "seconds": r.seconds, "error": r.error})
+        })
+    };
     if let Some(dir) = a.out {
         std::fs::create_dir_all(dir)
             .map_err(|e| anyhow::anyhow!("{}: cannot create the folder: {e}", dir.display()))?;
@@ -471,6 +511,12 @@ pub fn run(mut a: StudyArgs) -> anyhow::Result<()> {
             "stable_dt": h,
             "reference": "paper-euler at stable_dt/2 and /4, Richardson-extrapolated",
             "reference_change": change,
+            "target": {
+                "error": TARGET_ERROR,
+                "paper_forward_euler": target_json(explicit),
+                "backward_euler": target_json(implicit),
+                "speedup": speedup,
+            },
             "rows": rows.iter().map(|r| json!({
                 "kind": r.kind, "integrator": r.integrator, "dt": r.dt, "tolerance": r.tolerance,
                 "seconds": r.seconds, "error": r.error, "change_error": r.change_error, "steps": r.steps,

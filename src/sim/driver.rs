@@ -19,6 +19,7 @@ use crate::sim::relax::{apply_virtual_displacement_with_forces, energy, node_bou
 use crate::stress::field::StressField;
 use crate::stress::tensor::{v3, Sym3};
 use rayon::prelude::*;
+use std::sync::Arc;
 
 /// Parameters of a run (all lengths in mean-edge-length units). A
 /// pipeline's `[simulation]` table deserialises into it; the fixed
@@ -543,10 +544,74 @@ struct State {
     corner: Vec<[f64; 3]>,
     /// The last implicit solve's solution: the next solve starts from it.
     warm: Vec<[f64; 3]>,
+    /// What relaxation rounds reuse while the mesh does not change.
+    cache: RoundCache,
     /// With eigen-diffusion: every node's separation tensor, taken from
     /// the stress once after the first round and then changed only by
     /// cracking and diffusion (`None`: computed from the stress).
     frozen: Option<Vec<Sym3>>,
+}
+
+/// Earlier implicit solutions kept for the next solve's start.
+const HISTORY: usize = 3;
+
+/// What relaxation rounds reuse while the mesh does not change: built from
+/// the mesh and the elements, and rebuilt when
+/// [`SimMesh::generation`] moves on (a crack changes the mesh, its
+/// elements and its fixed nodes together).
+#[derive(Default)]
+struct RoundCache {
+    /// The mesh generation the cache was built for.
+    generation: Option<u64>,
+    fans: Option<Arc<Fans>>,
+    /// Node normals when bonded (empty otherwise).
+    normals: Vec<[f64; 3]>,
+    /// Per-node stiffness bounds (explicit integrators).
+    bounds: Option<Vec<f64>>,
+    /// Implicit: the stiffness's diagonal blocks (fixed nodes held).
+    blocks: Option<Vec<Sym3>>,
+    /// Implicit: the preconditioner for the step it was built for.
+    pre: Option<(f64, Vec<Sym3>)>,
+    /// Implicit: the projected node force of one unit of load time.
+    load_force: Option<Vec<[f64; 3]>>,
+    /// Implicit: earlier solutions of the system with the given step, and
+    /// their products.
+    history: Option<(f64, crate::sim::implicit::History)>,
+    /// The projected node force at the current stress, when a
+    /// backward-Euler round left it (its solve gives it for free: the
+    /// force after a step is `(x + r) / dt`).
+    force: Option<Vec<[f64; 3]>>,
+}
+
+impl RoundCache {
+    /// Make the cache that of `mesh` as it is now.
+    fn refresh(&mut self, mesh: &SimMesh, els: &Elements, bonded: bool) {
+        let generation = mesh.generation();
+        if self.generation == Some(generation)
+            && self
+                .fans
+                .as_ref()
+                .is_some_and(|f| f.n_vertices() == mesh.n_vertices())
+        {
+            return;
+        }
+        let fans = Fans::new(mesh);
+        let normals = if bonded {
+            node_normals(&fans, els)
+        } else {
+            Vec::new()
+        };
+        *self = RoundCache {
+            generation: Some(generation),
+            fans: Some(Arc::new(fans)),
+            normals,
+            ..RoundCache::default()
+        };
+    }
+
+    fn fans(&self) -> Arc<Fans> {
+        Arc::clone(self.fans.as_ref().expect("refreshed"))
+    }
 }
 
 impl State {
@@ -918,6 +983,7 @@ fn start(
         unit,
         corner: Vec::new(),
         warm: Vec::new(),
+        cache: RoundCache::default(),
     };
     st.els.elements = (0..mesh.n_faces())
         .into_par_iter()
@@ -1020,8 +1086,10 @@ fn relax_round(
     loaded: &mut f64,
     report: &mut SimReport,
     seeds: Option<&[VertexId]>,
-) -> Result<Fans, SimError> {
-    let fans = Fans::new(mesh);
+) -> Result<Arc<Fans>, SimError> {
+    let mut cache = std::mem::take(&mut st.cache);
+    cache.refresh(mesh, &st.els, params.bonded);
+    let fans = cache.fans();
     // Local relaxation (no load): only the region around `seeds` moves.
     let region = match seeds {
         Some(seeds) if !loading && params.finish_rings > 0 => {
@@ -1029,11 +1097,12 @@ fn relax_round(
         }
         _ => None,
     };
-    let normals = if params.bonded {
-        node_normals(&fans, &st.els)
-    } else {
-        Vec::new()
-    };
+    // The force at the current stress is known only after a global
+    // backward-Euler round, for the next one.
+    let mut known_force = cache.force.take();
+    // The force at the end of the round, when the round's scheme gives it.
+    let mut end_force: Option<Vec<[f64; 3]>> = None;
+    let normals = std::mem::take(&mut cache.normals);
     // Only the paper's scheme is checked for divergence against it.
     let energy_before = if params.integrator == Integrator::PaperEuler {
         energy(&st.els, &st.stress)
@@ -1128,33 +1197,124 @@ fn relax_round(
             normals: &normals,
             fixed,
         };
-        let diag = op.diagonal();
-        // Start each solve from the last one's solution (new nodes at 0).
-        let mut x = std::mem::take(&mut st.warm);
+        // The preconditioner, kept for the whole mesh's system.
+        let local_pre: Vec<Sym3>;
+        let pre: &[Sym3] = if region.is_some() {
+            local_pre = crate::sim::implicit::preconditioner(&op.blocks(), solve_dt);
+            &local_pre
+        } else {
+            if cache.pre.as_ref().is_none_or(|(d, _)| *d != solve_dt) {
+                let blocks = cache.blocks.get_or_insert_with(|| op.blocks());
+                cache.pre = Some((
+                    solve_dt,
+                    crate::sim::implicit::preconditioner(blocks, solve_dt),
+                ));
+            }
+            &cache.pre.as_ref().expect("set").1
+        };
+        let shifted = crate::sim::implicit::Shifted {
+            op: &op,
+            dt: solve_dt,
+            pre,
+            tol: params.tolerance,
+            max_iter: 10_000,
+        };
+        // A global backward-Euler round carries the force from step to step
+        // and round to round (after a step it is `(x + r) / dt`), builds
+        // each right-hand side from it and the force of a unit of load, and
+        // starts each solve from the best combination of the last
+        // solutions: no product beyond the solver's own.
+        let carry = region.is_none() && params.integrator == Integrator::BackwardEuler;
         let mut corner = Vec::new();
         let mut stress = std::mem::take(&mut st.stress);
+        let mut force = if carry {
+            Some(
+                known_force
+                    .take()
+                    .unwrap_or_else(|| op.forces(&stress, &mut corner)),
+            )
+        } else {
+            None
+        };
+        let load_force: Option<&[[f64; 3]]> = if carry && loading && params.load_time > *loaded {
+            let scale = &st.shrink_scale;
+            let evolve = &st.evolve;
+            Some(cache.load_force.get_or_insert_with(|| {
+                let unit = Load {
+                    dt: 1.0,
+                    shrink_rate: params.shrink_rate,
+                };
+                let ds: Vec<Sym3> = op
+                    .els
+                    .elements
+                    .par_iter()
+                    .enumerate()
+                    .map(|(f, el)| {
+                        el.as_ref()
+                            .map_or(Sym3::ZERO, |el| load_increment(scale, evolve, f, el, unit))
+                    })
+                    .collect();
+                op.forces(&ds, &mut corner)
+            }))
+        } else {
+            None
+        };
+        if carry && cache.history.as_ref().is_none_or(|(d, _)| *d != solve_dt) {
+            cache.history = Some((solve_dt, Vec::new()));
+        }
+        // Start each solve from the last one's solution (new nodes at 0).
+        let mut x = std::mem::take(&mut st.warm);
+        let mut r = Vec::new();
         for _ in 0..steps {
             let load = load_for(loaded, dt);
             add_load(&mut stress, &st.els, &st.shrink_scale, &st.evolve, load);
-            corner_forces(&st.els, &stress, &mut corner);
-            let rhs: Vec<[f64; 3]> = (0..fans.n_vertices())
-                .into_par_iter()
-                .map(|n| v3::scale(op.project(n, gather(&fans, &corner, n)), solve_dt))
-                .collect();
-            let cg = crate::sim::implicit::solve_shifted(
-                &op,
-                solve_dt,
-                &rhs,
-                &diag,
-                params.tolerance,
-                10_000,
-                &mut x,
-            );
+            let rhs: Vec<[f64; 3]> = match (&force, load_force) {
+                (Some(f), Some(lf)) if load.dt > 0.0 => f
+                    .par_iter()
+                    .zip(lf.par_iter())
+                    .map(|(f, l)| v3::scale(v3::add(*f, v3::scale(*l, load.dt)), solve_dt))
+                    .collect(),
+                (Some(f), _) => f.par_iter().map(|f| v3::scale(*f, solve_dt)).collect(),
+                (None, _) => op
+                    .forces(&stress, &mut corner)
+                    .into_iter()
+                    .map(|f| v3::scale(f, solve_dt))
+                    .collect(),
+            };
+            let history = cache.history.as_mut().filter(|_| carry).map(|h| &mut h.1);
+            let start = history
+                .as_deref()
+                .and_then(|h| crate::sim::implicit::subspace_start(h, &rhs));
+            let cg = match start {
+                Some((x0, ax0)) => {
+                    x = x0;
+                    shifted.solve(&rhs, &mut x, Some(&ax0), &mut r)
+                }
+                None => shifted.solve(&rhs, &mut x, None, &mut r),
+            };
             phase.cg_iterations += cg.iterations;
             if !cg.converged {
                 report.cg_unconverged += 1;
             }
             phase.cg_residual = phase.cg_residual.max(cg.relative_residual);
+            if let Some(history) = history {
+                // (x, A x = rhs - r), the oldest dropped.
+                let ax: Vec<[f64; 3]> = rhs
+                    .par_iter()
+                    .zip(r.par_iter())
+                    .map(|(b, r)| v3::sub(*b, *r))
+                    .collect();
+                if history.len() == HISTORY {
+                    history.remove(0);
+                }
+                history.push((x.clone(), ax));
+            }
+            if let Some(f) = &mut force {
+                let inv = 1.0 / solve_dt;
+                f.par_iter_mut()
+                    .zip(x.par_iter().zip(r.par_iter()))
+                    .for_each(|(f, (x, r))| *f = v3::scale(v3::add(*x, *r), inv));
+            }
             crate::sim::relax::apply_virtual_displacement(
                 &fans,
                 &st.els,
@@ -1171,7 +1331,13 @@ fn relax_round(
         }
         st.stress = stress;
         st.warm = x;
-        corner_forces(&st.els, &st.stress, &mut st.corner);
+        if carry {
+            // `st.corner` is not kept up to date by these rounds: every
+            // round that reads it first computes it.
+            end_force = force;
+        } else {
+            corner_forces(&st.els, &st.stress, &mut st.corner);
+        }
         step_dt = if params.integrator == Integrator::Equilibrium {
             0.0
         } else {
@@ -1181,7 +1347,10 @@ fn relax_round(
         report.relax_steps += steps;
         phase.steps = steps;
     } else if params.integrator == Integrator::Rkl {
-        let bounds = node_bounds(&fans, &st.els);
+        let bounds = cache
+            .bounds
+            .take()
+            .unwrap_or_else(|| node_bounds(&fans, &st.els));
         let stiffest = bounds.iter().copied().fold(0.0, f64::max);
         let dt_fe = if stiffest > 0.0 {
             1.9 / stiffest
@@ -1266,7 +1435,10 @@ fn relax_round(
         phase.steps = supers * stages;
         step_dt = tau;
     } else {
-        let bounds = node_bounds(&fans, &st.els);
+        let bounds = cache
+            .bounds
+            .take()
+            .unwrap_or_else(|| node_bounds(&fans, &st.els));
         let stable = |b: f64| if b > 0.0 { 1.9 / b } else { f64::INFINITY };
         let mut dt_max = match params.integrator {
             Integrator::LocalEuler => {
@@ -1334,18 +1506,22 @@ fn relax_round(
     }
     // The round's phase: energy and residual force at its end (`st.corner`
     // holds the corner forces at the final stress: the explicit steps'
-    // fused update leaves them there, the implicit branch computes them).
+    // fused update leaves them there, the implicit branch computes them;
+    // a global backward-Euler round has the force from its solves).
     let op = crate::sim::implicit::Operator {
         fans: &fans,
         els: &st.els,
         normals: &normals,
         fixed: &st.fixed,
     };
-    let corner = &st.corner;
-    let force: Vec<[f64; 3]> = (0..fans.n_vertices())
-        .into_par_iter()
-        .map(|n| op.project(n, gather(&fans, corner, n)))
-        .collect();
+    let carried = end_force.is_some();
+    let force: Vec<[f64; 3]> = end_force.unwrap_or_else(|| {
+        let corner = &st.corner;
+        (0..fans.n_vertices())
+            .into_par_iter()
+            .map(|n| op.project(n, gather(&fans, corner, n)))
+            .collect()
+    });
     phase.residual = crate::sim::implicit::dot(&force, &force).sqrt();
     phase.energy = energy(&st.els, &st.stress);
     // Error estimate of the round (relative, like the study's error): a
@@ -1384,6 +1560,9 @@ fn relax_round(
     };
     phase.time = report.time;
     report.phases.push(phase);
+    cache.force = carried.then_some(force);
+    cache.normals = normals;
+    st.cache = cache;
     if !phase.energy.is_finite()
         || (params.integrator == Integrator::PaperEuler
             && !loading
@@ -2259,6 +2438,97 @@ mod tests {
         assert!(one.is_finite() && stable < one, "{stable} vs {one}");
     }
 
+    /// Backward-Euler rounds carry the force from solve to solve (`(x + r)
+    /// / dt`, plus the force of the round's load): after rounds with load,
+    /// bonding and a fixed border it equals the force computed afresh from
+    /// the stress, and the stress equals that of rounds that compute
+    /// everything afresh (cache dropped before every round).
+    #[test]
+    fn carried_implicit_forces_match_fresh_ones() {
+        let mesh = jittered_plate(14, 0.3, 6);
+        let terms = [crate::stress::Term {
+            kind: crate::stress::TermKind::Uniform,
+            init: 0.5,
+            evolve: 0.1,
+            mask: None,
+        }];
+        let field = StressField::build(&mesh, &terms, 1).unwrap();
+        let params = SimParams {
+            integrator: Integrator::BackwardEuler,
+            relax_dt: 0.5,
+            tolerance: 1e-12,
+            bonded: true,
+            fixed_boundary: true,
+            shrink_rate: 0.1,
+            load_time: 3.0,
+            relax_time: 1.0,
+            ..Default::default()
+        };
+        let run = |fresh: bool| {
+            let (mut st, mut report) = start(&mesh, &params, Some(&field)).unwrap();
+            let (mut loaded, mut g) = (0.0, Vec::new());
+            for _ in 0..5 {
+                if fresh {
+                    st.cache = RoundCache::default();
+                }
+                relax_round(
+                    &mesh,
+                    &mut st,
+                    &params,
+                    &mut g,
+                    true,
+                    &mut loaded,
+                    &mut report,
+                    None,
+                )
+                .unwrap();
+            }
+            (st, report)
+        };
+        let (st, report) = run(false);
+        assert!(report.phases.iter().all(|p| p.cg_iterations > 0));
+        let carried = st.cache.force.clone().expect("a carried force");
+        let fans = st.cache.fans();
+        let op = crate::sim::implicit::Operator {
+            fans: &fans,
+            els: &st.els,
+            normals: &st.cache.normals,
+            fixed: &st.fixed,
+        };
+        assert!(!st.cache.normals.is_empty() && st.fixed.iter().any(|&f| f));
+        let fresh = op.forces(&st.stress, &mut Vec::new());
+        let norm = crate::sim::implicit::dot(&fresh, &fresh).sqrt();
+        assert!(norm > 1e-6, "{norm}");
+        let diff: Vec<[f64; 3]> = carried
+            .iter()
+            .zip(&fresh)
+            .map(|(a, b)| v3::sub(*a, *b))
+            .collect();
+        let off = crate::sim::implicit::dot(&diff, &diff).sqrt();
+        assert!(
+            off < 1e-8 * norm,
+            "carried force off by {off} (norm {norm})"
+        );
+        let last = report.phases.last().unwrap().residual;
+        assert!((last - norm).abs() < 1e-8 * norm, "{last} vs {norm}");
+        // The same stress as rounds that compute everything afresh.
+        let (st2, _) = run(true);
+        let scale = st2
+            .stress
+            .iter()
+            .map(|s| s.frobenius_sq())
+            .sum::<f64>()
+            .sqrt();
+        let gap = st
+            .stress
+            .iter()
+            .zip(&st2.stress)
+            .map(|(a, b)| (*a - *b).frobenius_sq())
+            .sum::<f64>()
+            .sqrt();
+        assert!(gap < 1e-8 * scale, "stress differs by {gap} (norm {scale})");
+    }
+
     /// An equilibrium round leaves (almost) no residual force, and no
     /// finite backward-Euler step relaxes further.
     #[test]
@@ -2770,6 +3040,7 @@ mod tests {
                 unit: r.length_unit,
                 corner: Vec::new(),
                 warm: Vec::new(),
+                cache: RoundCache::default(),
             };
             finish_tips(mesh, &st).len()
         };

@@ -104,20 +104,41 @@ pub struct Fans {
 }
 
 impl Fans {
-    /// Fans of every node of `mesh`.
+    /// Fans of every node of `mesh`. Blocks of nodes are walked in
+    /// parallel and joined in node order, so the result is the sequential
+    /// walk's whatever the thread count.
     pub fn new(mesh: &SimMesh) -> Fans {
-        let mut offsets = Vec::with_capacity(mesh.n_vertices() + 1);
-        let mut entries = Vec::with_capacity(mesh.n_faces() * 3);
+        const BLOCK: usize = 2048;
+        let nv = mesh.n_vertices();
+        // Per block: each node's end offset within the block, the entries.
+        type Part = (Vec<u32>, Vec<(u32, u8)>);
+        let parts: Vec<Part> = (0..nv.div_ceil(BLOCK))
+            .into_par_iter()
+            .map(|b| {
+                let range = b * BLOCK..((b + 1) * BLOCK).min(nv);
+                let mut ends = Vec::with_capacity(range.len());
+                let mut entries = Vec::with_capacity(range.len() * 7);
+                for v in range {
+                    let v = VertexId(v as u32);
+                    for f in mesh.vertex_faces(v) {
+                        entries.push((f.0, corner_of(mesh, f, v) as u8));
+                    }
+                    ends.push(entries.len() as u32);
+                }
+                (ends, entries)
+            })
+            .collect();
+        let mut offsets = Vec::with_capacity(nv + 1);
+        let mut entries = Vec::with_capacity(parts.iter().map(|p| p.1.len()).sum());
         offsets.push(0);
-        for v in mesh.vertices() {
-            for f in mesh.vertex_faces(v) {
-                entries.push((f.0, corner_of(mesh, f, v) as u8));
-            }
-            offsets.push(entries.len() as u32);
+        for (ends, part) in parts {
+            let base = entries.len() as u32;
+            offsets.extend(ends.iter().map(|e| base + e));
+            entries.extend_from_slice(&part);
         }
-        let corners = mesh
-            .faces()
-            .map(|f| mesh.face_vertices(f).map(|v| v.0))
+        let corners = (0..mesh.n_faces())
+            .into_par_iter()
+            .map(|f| mesh.face_vertices(FaceId(f as u32)).map(|v| v.0))
             .collect();
         Fans {
             offsets,

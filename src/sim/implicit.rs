@@ -13,9 +13,13 @@
 //! with `L` the load added per unit time. It is stable for every `dt`; the
 //! energy never rises when nothing loads. The system is solved matrix-free
 //! (`K v` costs one pass over the elements and one over the nodes, as an
-//! explicit step) by conjugate gradients with the Jacobi preconditioner
-//! `1 + dt d_n`, `d_n = sum_e A_e |g_n^e|^2`. Every dot product sums fixed
-//! chunks in order, so results do not depend on the thread count.
+//! explicit step) by conjugate gradients with the block-Jacobi
+//! preconditioner `(I + dt K_nn)^-1` (each node's own 3x3 block). A solve
+//! can start from the best combination of earlier solutions of the same
+//! system ([`subspace_start`]), and leaves its residual `r`, from which the
+//! force after the step is `(x + r) / dt` without another product. Every
+//! dot product sums fixed chunks in order, so results do not depend on the
+//! thread count.
 
 use crate::sim::forces::{element_corner_forces, element_strain, gather, Elements, Fans};
 use crate::stress::tensor::{v3, Sym3};
@@ -60,6 +64,16 @@ impl Operator<'_> {
         }
     }
 
+    /// The projected node forces of `stress`; `corner` is scratch.
+    pub fn forces(&self, stress: &[Sym3], corner: &mut Vec<[f64; 3]>) -> Vec<[f64; 3]> {
+        crate::sim::forces::corner_forces(self.els, stress, corner);
+        let corner = &*corner;
+        (0..self.fans.n_vertices())
+            .into_par_iter()
+            .map(|n| self.project(n, gather(self.fans, corner, n)))
+            .collect()
+    }
+
     /// `out = K v`; `corner` is scratch (3 per face).
     pub fn apply(&self, v: &[[f64; 3]], corner: &mut Vec<[f64; 3]>, out: &mut [[f64; 3]]) {
         corner.resize(3 * self.els.elements.len(), [0.0; 3]);
@@ -86,20 +100,81 @@ impl Operator<'_> {
             .for_each(|(n, o)| *o = self.project(n, v3::scale(gather(fans, corner, n), -1.0)));
     }
 
-    /// The Jacobi scale `d_n = sum_e A_e |g_n^e|^2` of every node.
-    pub fn diagonal(&self) -> Vec<f64> {
+    /// The 3x3 diagonal blocks `K_nn = P_n (sum_e A_e / 2 (|g|^2 T_e +
+    /// g g^T)) P_n` of the stiffness (`g` node `n`'s gradient in face `e`,
+    /// `T_e` the face's tangent projector): node `n`'s own stiffness with
+    /// every other node held. Zero at fixed nodes.
+    pub fn blocks(&self) -> Vec<Sym3> {
         (0..self.fans.n_vertices())
             .into_par_iter()
             .map(|n| {
-                let mut d = 0.0;
+                if self.fixed[n] {
+                    return Sym3::ZERO;
+                }
+                let mut b = Sym3::ZERO;
                 for &(f, k) in self.fans.fan(n) {
                     if let Some(Some(el)) = self.els.elements.get(f as usize) {
-                        d += el.area * v3::dot(el.grads[k as usize], el.grads[k as usize]);
+                        let g = el.grads[k as usize];
+                        let t = Sym3::tangent_identity(el.normal, v3::dot(g, g));
+                        b += (t + Sym3::outer(g)) * (0.5 * el.area);
                     }
                 }
-                d
+                match self.normals.get(n) {
+                    Some(&nrm) => {
+                        // P B P with P = I - n n^T.
+                        let p = Sym3::tangent_identity(nrm, 1.0);
+                        let bp = [
+                            b.mul_vec([p.xx, p.xy, p.xz]),
+                            b.mul_vec([p.xy, p.yy, p.yz]),
+                            b.mul_vec([p.xz, p.yz, p.zz]),
+                        ];
+                        let col = |j: usize| p.mul_vec(bp[j]);
+                        let (c0, c1, c2) = (col(0), col(1), col(2));
+                        Sym3 {
+                            xx: c0[0],
+                            yy: c1[1],
+                            zz: c2[2],
+                            xy: 0.5 * (c1[0] + c0[1]),
+                            xz: 0.5 * (c2[0] + c0[2]),
+                            yz: 0.5 * (c2[1] + c1[2]),
+                        }
+                    }
+                    None => b,
+                }
             })
             .collect()
+    }
+}
+
+/// The block-Jacobi preconditioner of `I + dt K`: the inverse of
+/// `I + dt K_nn` per node (`blocks` from [`Operator::blocks`]). It maps
+/// each node's tangent plane to itself, so preconditioned residuals keep to
+/// the allowed motion.
+pub fn preconditioner(blocks: &[Sym3], dt: f64) -> Vec<Sym3> {
+    blocks
+        .par_iter()
+        .map(|b| sym_inverse(Sym3::IDENTITY + *b * dt))
+        .collect()
+}
+
+/// The inverse of a symmetric positive definite 3x3 matrix (by cofactors;
+/// the identity when it is not invertible).
+fn sym_inverse(m: Sym3) -> Sym3 {
+    let c_xx = m.yy * m.zz - m.yz * m.yz;
+    let c_xy = m.xz * m.yz - m.xy * m.zz;
+    let c_xz = m.xy * m.yz - m.xz * m.yy;
+    let det = m.xx * c_xx + m.xy * c_xy + m.xz * c_xz;
+    if !(det > 0.0 && det.is_finite()) {
+        return Sym3::IDENTITY;
+    }
+    let inv = 1.0 / det;
+    Sym3 {
+        xx: c_xx * inv,
+        xy: c_xy * inv,
+        xz: c_xz * inv,
+        yy: (m.xx * m.zz - m.xz * m.xz) * inv,
+        yz: (m.xy * m.xz - m.xx * m.yz) * inv,
+        zz: (m.xx * m.yy - m.xy * m.xy) * inv,
     }
 }
 
@@ -114,120 +189,248 @@ pub struct CgReport {
     pub converged: bool,
 }
 
-/// Solve `(I + dt K) x = rhs` to relative residual `tol` (at most
-/// `max_iter` iterations) by Jacobi-preconditioned conjugate gradients,
-/// starting from `x` as given (projected onto the allowed motion, and
-/// padded with zeros to the system's size): pass an empty vector for a
-/// cold start, or the last solution of a similar system to save
-/// iterations. `diag` is [`Operator::diagonal`].
-pub fn solve_shifted(
-    op: &Operator,
-    dt: f64,
-    rhs: &[[f64; 3]],
-    diag: &[f64],
-    tol: f64,
-    max_iter: usize,
-    x: &mut Vec<[f64; 3]>,
-) -> CgReport {
-    let n = rhs.len();
-    x.resize(n, [0.0; 3]);
-    let warm = x.iter().any(|v| *v != [0.0; 3]);
-    if warm {
-        x.par_iter_mut()
-            .enumerate()
-            .for_each(|(i, v)| *v = op.project(i, *v));
+/// A shifted system `(I + dt K) x = rhs` and how to solve it: conjugate
+/// gradients preconditioned by `pre` ([`preconditioner`]), to relative
+/// residual `tol`, in at most `max_iter` iterations.
+pub struct Shifted<'a> {
+    /// The stiffness.
+    pub op: &'a Operator<'a>,
+    /// The step.
+    pub dt: f64,
+    /// Per-node inverse blocks from [`preconditioner`] for this `dt`.
+    pub pre: &'a [Sym3],
+    /// Relative residual to reach.
+    pub tol: f64,
+    /// Iteration limit.
+    pub max_iter: usize,
+}
+
+impl Shifted<'_> {
+    /// `out = (I + dt K) v`; `corner` is scratch.
+    pub fn apply(&self, v: &[[f64; 3]], corner: &mut Vec<[f64; 3]>, out: &mut [[f64; 3]]) {
+        self.op.apply(v, corner, out);
+        out.par_iter_mut()
+            .zip(v.par_iter())
+            .for_each(|(o, v)| *o = v3::add(*v, v3::scale(*o, self.dt)));
     }
-    let norm_b = dot(rhs, rhs).sqrt();
-    if !(norm_b > 0.0 && norm_b.is_finite()) {
-        return CgReport {
-            iterations: 0,
-            relative_residual: 0.0,
-            converged: norm_b == 0.0,
-        };
-    }
-    // Every pass below works on fixed chunks and sums each chunk's part of
-    // a dot product in order, so the sums are those of [`dot`].
-    let inv: Vec<f64> = diag.par_iter().map(|d| 1.0 / (1.0 + dt * d)).collect();
-    let mut corner = Vec::new();
-    let mut r: Vec<[f64; 3]> = rhs.to_vec();
-    if warm {
-        // r = rhs - (I + dt K) x.
-        let mut kx = vec![[0.0; 3]; n];
-        op.apply(x, &mut corner, &mut kx);
-        r.par_iter_mut()
-            .zip(x.par_iter().zip(kx.par_iter()))
-            .for_each(|(r, (x, kx))| *r = v3::sub(*r, v3::add(*x, v3::scale(*kx, dt))));
-    }
-    let mut z: Vec<[f64; 3]> = r.iter().zip(&inv).map(|(r, i)| v3::scale(*r, *i)).collect();
-    let mut p = z.clone();
-    let mut rz = dot(&r, &z);
-    let mut kp = vec![[0.0; 3]; n];
-    let mut report = CgReport::default();
-    if warm {
-        // The start may already be good enough.
-        let rel = dot(&r, &r).sqrt() / norm_b;
+
+    /// Solve from `x` as given (projected onto the allowed motion and
+    /// padded with zeros to the system's size; empty for a cold start).
+    /// `ax`, when known, is `(I + dt K) x` for that start (it saves a
+    /// product); otherwise a non-zero start costs one. On return `r` holds
+    /// the residual `rhs - (I + dt K) x` as the iteration updated it.
+    pub fn solve(
+        &self,
+        rhs: &[[f64; 3]],
+        x: &mut Vec<[f64; 3]>,
+        ax: Option<&[[f64; 3]]>,
+        r: &mut Vec<[f64; 3]>,
+    ) -> CgReport {
+        let (op, dt, tol) = (self.op, self.dt, self.tol);
+        let n = rhs.len();
+        x.resize(n, [0.0; 3]);
+        r.clear();
+        r.extend_from_slice(rhs);
+        let mut corner = Vec::new();
+        let mut report = CgReport::default();
+        let norm_b = dot(rhs, rhs).sqrt();
+        match ax {
+            Some(ax) => r
+                .par_iter_mut()
+                .zip(ax.par_iter())
+                .for_each(|(r, ax)| *r = v3::sub(*r, *ax)),
+            None => {
+                if x.iter().any(|v| *v != [0.0; 3]) {
+                    x.par_iter_mut()
+                        .enumerate()
+                        .for_each(|(i, v)| *v = op.project(i, *v));
+                    let mut kx = vec![[0.0; 3]; n];
+                    self.apply(x, &mut corner, &mut kx);
+                    r.par_iter_mut()
+                        .zip(kx.par_iter())
+                        .for_each(|(r, kx)| *r = v3::sub(*r, *kx));
+                }
+            }
+        }
+        if !(norm_b > 0.0 && norm_b.is_finite()) {
+            report.converged = norm_b == 0.0;
+            if report.converged {
+                x.iter_mut().for_each(|v| *v = [0.0; 3]);
+                r.iter_mut().for_each(|v| *v = [0.0; 3]);
+            }
+            return report;
+        }
+        let rel = dot(r, r).sqrt() / norm_b;
         report.relative_residual = rel;
         if rel <= tol {
+            // The start is good enough.
             report.converged = true;
             return report;
         }
-    }
-    let sum = |parts: Vec<f64>| parts.iter().sum::<f64>();
-    for it in 0..max_iter {
-        op.apply(&p, &mut corner, &mut kp);
-        // kp = (I + dt K) p, and p . kp.
-        let pap = sum(kp
-            .par_chunks_mut(CHUNK)
-            .zip(p.par_chunks(CHUNK))
-            .map(|(a, p)| {
-                let mut s = 0.0;
-                for (a, p) in a.iter_mut().zip(p) {
-                    *a = v3::add(*p, v3::scale(*a, dt));
-                    s += v3::dot(*p, *a);
-                }
-                s
-            })
-            .collect());
-        if !(pap > 0.0 && pap.is_finite()) {
-            report.iterations = it;
-            break;
-        }
-        let alpha = rz / pap;
-        // x += alpha p, r -= alpha kp, z = M^-1 r; r . r and r . z.
-        let parts: Vec<(f64, f64)> = x
-            .par_chunks_mut(CHUNK)
-            .zip(r.par_chunks_mut(CHUNK))
-            .zip(z.par_chunks_mut(CHUNK))
-            .zip(p.par_chunks(CHUNK).zip(kp.par_chunks(CHUNK)))
-            .zip(inv.par_chunks(CHUNK))
-            .map(|((((x, r), z), (p, kp)), inv)| {
-                let (mut rr, mut rz) = (0.0, 0.0);
-                for i in 0..x.len() {
-                    x[i] = v3::add(x[i], v3::scale(p[i], alpha));
-                    r[i] = v3::sub(r[i], v3::scale(kp[i], alpha));
-                    z[i] = v3::scale(r[i], inv[i]);
-                    rr += v3::dot(r[i], r[i]);
-                    rz += v3::dot(r[i], z[i]);
-                }
-                (rr, rz)
-            })
+        // Every pass below works on fixed chunks and sums each chunk's part
+        // of a dot product in order, so the sums are those of [`dot`].
+        let pre = self.pre;
+        let mut z: Vec<[f64; 3]> = r
+            .par_iter()
+            .zip(pre.par_iter())
+            .map(|(r, m)| m.mul_vec(*r))
             .collect();
-        let rr: f64 = parts.iter().map(|x| x.0).sum();
-        let rel = rr.sqrt() / norm_b;
-        report.iterations = it + 1;
-        report.relative_residual = rel;
-        if rel <= tol {
-            report.converged = true;
-            break;
+        let mut p = z.clone();
+        let mut rz = dot(r, &z);
+        let mut kp = vec![[0.0; 3]; n];
+        let sum = |parts: Vec<f64>| parts.iter().sum::<f64>();
+        for it in 0..self.max_iter {
+            op.apply(&p, &mut corner, &mut kp);
+            // kp = (I + dt K) p, and p . kp.
+            let pap = sum(kp
+                .par_chunks_mut(CHUNK)
+                .zip(p.par_chunks(CHUNK))
+                .map(|(a, p)| {
+                    let mut s = 0.0;
+                    for (a, p) in a.iter_mut().zip(p) {
+                        *a = v3::add(*p, v3::scale(*a, dt));
+                        s += v3::dot(*p, *a);
+                    }
+                    s
+                })
+                .collect());
+            if !(pap > 0.0 && pap.is_finite()) {
+                report.iterations = it;
+                break;
+            }
+            let alpha = rz / pap;
+            // x += alpha p, r -= alpha kp, z = M^-1 r; r . r and r . z.
+            let parts: Vec<(f64, f64)> = x
+                .par_chunks_mut(CHUNK)
+                .zip(r.par_chunks_mut(CHUNK))
+                .zip(z.par_chunks_mut(CHUNK))
+                .zip(p.par_chunks(CHUNK).zip(kp.par_chunks(CHUNK)))
+                .zip(pre.par_chunks(CHUNK))
+                .map(|((((x, r), z), (p, kp)), pre)| {
+                    let (mut rr, mut rz) = (0.0, 0.0);
+                    for i in 0..x.len() {
+                        x[i] = v3::add(x[i], v3::scale(p[i], alpha));
+                        r[i] = v3::sub(r[i], v3::scale(kp[i], alpha));
+                        z[i] = pre[i].mul_vec(r[i]);
+                        rr += v3::dot(r[i], r[i]);
+                        rz += v3::dot(r[i], z[i]);
+                    }
+                    (rr, rz)
+                })
+                .collect();
+            let rr: f64 = parts.iter().map(|x| x.0).sum();
+            let rel = rr.sqrt() / norm_b;
+            report.iterations = it + 1;
+            report.relative_residual = rel;
+            if rel <= tol {
+                report.converged = true;
+                break;
+            }
+            let rz_new: f64 = parts.iter().map(|x| x.1).sum();
+            let beta = rz_new / rz;
+            rz = rz_new;
+            p.par_iter_mut()
+                .zip(z.par_iter())
+                .for_each(|(p, z)| *p = v3::add(*z, v3::scale(*p, beta)));
         }
-        let rz_new: f64 = parts.iter().map(|x| x.1).sum();
-        let beta = rz_new / rz;
-        rz = rz_new;
-        p.par_iter_mut()
-            .zip(z.par_iter())
-            .for_each(|(p, z)| *p = v3::add(*z, v3::scale(*p, beta)));
+        report
     }
-    report
+}
+
+/// A solution `x` of a system with its product `A x`.
+pub type Solution = (Vec<[f64; 3]>, Vec<[f64; 3]>);
+
+/// Earlier solutions `x_i` of one system with their products `A x_i`.
+pub type History = Vec<Solution>;
+
+/// The best start for `A x = rhs` in the span of earlier solutions of the
+/// same system (the Galerkin projection: the smallest error in the energy
+/// norm over that span), with its product; `None` when the span gives
+/// nothing. It costs dot products only, since every `A x_i` is known.
+/// Directions that are (nearly) dependent on earlier ones are dropped.
+pub fn subspace_start(history: &History, rhs: &[[f64; 3]]) -> Option<Solution> {
+    let m = history.len();
+    if m == 0 {
+        return None;
+    }
+    // G_ij = x_i . A x_j (symmetrised), c_i = x_i . rhs.
+    let mut g = vec![vec![0.0; m]; m];
+    for i in 0..m {
+        for j in 0..=i {
+            let v = 0.5 * (dot(&history[i].0, &history[j].1) + dot(&history[j].0, &history[i].1));
+            g[i][j] = v;
+            g[j][i] = v;
+        }
+    }
+    let c: Vec<f64> = history.iter().map(|(x, _)| dot(x, rhs)).collect();
+    // Cholesky with dropped pivots: G = L L^T over the kept directions.
+    let mut l = vec![vec![0.0; m]; m];
+    let mut keep = vec![false; m];
+    for j in 0..m {
+        let mut d = g[j][j];
+        for k in 0..j {
+            if keep[k] {
+                d -= l[j][k] * l[j][k];
+            }
+        }
+        if !(d > 1e-10 * g[j][j] && d.is_finite()) {
+            continue;
+        }
+        keep[j] = true;
+        let dj = d.sqrt();
+        l[j][j] = dj;
+        for i in j + 1..m {
+            let mut v = g[i][j];
+            for k in 0..j {
+                if keep[k] {
+                    v -= l[i][k] * l[j][k];
+                }
+            }
+            l[i][j] = v / dj;
+        }
+    }
+    if !keep.iter().any(|&k| k) {
+        return None;
+    }
+    // Solve L L^T y = c over the kept directions.
+    let mut w = vec![0.0; m];
+    for i in 0..m {
+        if keep[i] {
+            let mut v = c[i];
+            for k in 0..i {
+                if keep[k] {
+                    v -= l[i][k] * w[k];
+                }
+            }
+            w[i] = v / l[i][i];
+        }
+    }
+    let mut y = vec![0.0; m];
+    for i in (0..m).rev() {
+        if keep[i] {
+            let mut v = w[i];
+            for k in i + 1..m {
+                if keep[k] {
+                    v -= l[k][i] * y[k];
+                }
+            }
+            y[i] = v / l[i][i];
+        }
+    }
+    let n = rhs.len();
+    let combine = |product: bool| {
+        let mut out = vec![[0.0; 3]; n];
+        for (h, &yi) in history.iter().zip(&y) {
+            if yi != 0.0 {
+                let v = if product { &h.1 } else { &h.0 };
+                out.par_iter_mut()
+                    .zip(v.par_iter())
+                    .for_each(|(o, v)| *o = v3::add(*o, v3::scale(*v, yi)));
+            }
+        }
+        out
+    };
+    Some((combine(false), combine(true)))
 }
 
 #[cfg(test)]
@@ -237,6 +440,25 @@ mod tests {
     use crate::sim::forces::tests::jittered_plate;
     use crate::sim::relax::{apply_virtual_displacement, energy};
     use crate::stress::Sym2;
+
+    /// Solve `(I + dt K) x = rhs` with the block-Jacobi preconditioner.
+    fn solve(
+        op: &Operator,
+        dt: f64,
+        rhs: &[[f64; 3]],
+        tol: f64,
+        x: &mut Vec<[f64; 3]>,
+    ) -> CgReport {
+        let pre = preconditioner(&op.blocks(), dt);
+        let shifted = Shifted {
+            op,
+            dt,
+            pre: &pre,
+            tol,
+            max_iter: 2000,
+        };
+        shifted.solve(rhs, x, None, &mut Vec::new())
+    }
 
     /// A plate with random in-plane stress.
     fn stressed() -> (crate::mesh::SimMesh, Elements, Vec<Sym3>) {
@@ -311,13 +533,12 @@ mod tests {
             normals: &[],
             fixed: &fixed,
         };
-        let diag = op.diagonal();
         let f0 = node_forces_fans(&fans, &els, &stress0);
         let e0 = energy(&els, &stress0);
         for dt in [1e-4, 1e-1, 10.0, 1e4] {
             let rhs: Vec<[f64; 3]> = f0.iter().map(|f| v3::scale(*f, dt)).collect();
             let mut x = Vec::new();
-            let rep = solve_shifted(&op, dt, &rhs, &diag, 1e-10, 2000, &mut x);
+            let rep = solve(&op, dt, &rhs, 1e-10, &mut x);
             assert!(rep.converged, "dt {dt}: {rep:?}");
             let mut s = stress0.clone();
             apply_virtual_displacement(&fans, &els, &mut s, &x, 1.0, |_, _| Sym3::ZERO);
@@ -345,26 +566,25 @@ mod tests {
             normals: &[],
             fixed: &fixed,
         };
-        let diag = op.diagonal();
         let dt = 10.0;
         let rhs: Vec<[f64; 3]> = node_forces_fans(&fans, &els, &stress0)
             .iter()
             .map(|f| v3::scale(*f, dt))
             .collect();
         let mut cold = Vec::new();
-        let c = solve_shifted(&op, dt, &rhs, &diag, 1e-10, 2000, &mut cold);
+        let c = solve(&op, dt, &rhs, 1e-10, &mut cold);
         assert!(c.converged && c.iterations > 5, "{c:?}");
         // From the solution itself: nothing to do.
         let mut same = cold.clone();
-        let s = solve_shifted(&op, dt, &rhs, &diag, 1e-8, 2000, &mut same);
+        let s = solve(&op, dt, &rhs, 1e-8, &mut same);
         assert!(s.converged && s.iterations == 0, "{s:?}");
         // From a nearby start (a slightly different right-hand side's
         // solution): fewer iterations, the same solution.
         let rhs2: Vec<[f64; 3]> = rhs.iter().map(|r| v3::scale(*r, 1.05)).collect();
         let mut warm = cold.clone();
-        let w = solve_shifted(&op, dt, &rhs2, &diag, 1e-10, 2000, &mut warm);
+        let w = solve(&op, dt, &rhs2, 1e-10, &mut warm);
         let mut fresh = Vec::new();
-        let f = solve_shifted(&op, dt, &rhs2, &diag, 1e-10, 2000, &mut fresh);
+        let f = solve(&op, dt, &rhs2, 1e-10, &mut fresh);
         assert!(w.converged && w.iterations < f.iterations, "{w:?} vs {f:?}");
         let diff: Vec<[f64; 3]> = warm
             .iter()
@@ -372,6 +592,214 @@ mod tests {
             .map(|(a, b)| v3::sub(*a, *b))
             .collect();
         assert!(dot(&diff, &diff).sqrt() < 1e-8 * dot(&fresh, &fresh).sqrt());
+    }
+
+    /// A curved, partly fixed, bonded setting: unit normals tilted from
+    /// the plate's, every seventh node fixed.
+    fn bonded(mesh: &crate::mesh::SimMesh) -> (Vec<[f64; 3]>, Vec<bool>) {
+        let normals = (0..mesh.n_vertices())
+            .map(|n| {
+                let a = 0.3 * (n as f64).sin();
+                let b = 0.2 * (n as f64 * 0.7).cos();
+                let v = [a, b, 1.0];
+                v3::scale(v, 1.0 / v3::norm(v))
+            })
+            .collect();
+        let fixed = (0..mesh.n_vertices()).map(|n| n % 7 == 3).collect();
+        (normals, fixed)
+    }
+
+    /// `blocks` are the operator's own 3x3 diagonal blocks: `K` applied to
+    /// an allowed unit motion of one node, read at that node.
+    #[test]
+    fn blocks_are_the_diagonal_blocks_of_the_operator() {
+        let (mesh, els, _) = stressed();
+        let fans = Fans::new(&mesh);
+        let (normals, fixed) = bonded(&mesh);
+        let op = Operator {
+            fans: &fans,
+            els: &els,
+            normals: &normals,
+            fixed: &fixed,
+        };
+        let blocks = op.blocks();
+        let mut scratch = Vec::new();
+        let mut checked = 0;
+        for n in (0..mesh.n_vertices()).step_by(5) {
+            for j in 0..3 {
+                let mut e = [0.0; 3];
+                e[j] = 1.0;
+                let mut v = vec![[0.0; 3]; mesh.n_vertices()];
+                v[n] = op.project(n, e);
+                let mut kv = vec![[0.0; 3]; v.len()];
+                op.apply(&v, &mut scratch, &mut kv);
+                let want = blocks[n].mul_vec(e);
+                for c in 0..3 {
+                    assert!(
+                        (kv[n][c] - want[c]).abs() < 1e-12 * (1.0 + want[c].abs()),
+                        "node {n} e{j}: {:?} vs {want:?}",
+                        kv[n]
+                    );
+                }
+                checked += 1;
+            }
+            if fixed[n] {
+                assert_eq!(blocks[n], Sym3::ZERO);
+            }
+        }
+        assert!(checked > 30);
+        // The preconditioner inverts I + dt K_nn.
+        let pre = preconditioner(&blocks, 2.5);
+        for (b, p) in blocks.iter().zip(&pre) {
+            let m = Sym3::IDENTITY + *b * 2.5;
+            for e in [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]] {
+                let back = m.mul_vec(p.mul_vec(e));
+                for c in 0..3 {
+                    assert!((back[c] - e[c]).abs() < 1e-12, "{back:?} vs {e:?}");
+                }
+            }
+        }
+    }
+
+    /// The block-Jacobi preconditioner needs fewer iterations than none on
+    /// a bonded, partly fixed system, and both reach the same solution.
+    #[test]
+    fn block_jacobi_saves_iterations() {
+        let (mesh, els, stress) = stressed();
+        let fans = Fans::new(&mesh);
+        let (normals, fixed) = bonded(&mesh);
+        let op = Operator {
+            fans: &fans,
+            els: &els,
+            normals: &normals,
+            fixed: &fixed,
+        };
+        let dt = 20.0;
+        let rhs: Vec<[f64; 3]> = op
+            .forces(&stress, &mut Vec::new())
+            .iter()
+            .map(|f| v3::scale(*f, dt))
+            .collect();
+        let identity = vec![Sym3::IDENTITY; rhs.len()];
+        let plain = Shifted {
+            op: &op,
+            dt,
+            pre: &identity,
+            tol: 1e-10,
+            max_iter: 2000,
+        };
+        let (mut a, mut b) = (Vec::new(), Vec::new());
+        let p = plain.solve(&rhs, &mut a, None, &mut Vec::new());
+        let j = solve(&op, dt, &rhs, 1e-10, &mut b);
+        assert!(p.converged && j.converged, "{p:?} {j:?}");
+        assert!(j.iterations < p.iterations, "{j:?} vs {p:?}");
+        let diff: Vec<[f64; 3]> = a.iter().zip(&b).map(|(a, b)| v3::sub(*a, *b)).collect();
+        assert!(dot(&diff, &diff).sqrt() < 1e-8 * dot(&b, &b).sqrt());
+        // Fixed nodes do not move; the others move in their tangent plane.
+        for (n, x) in b.iter().enumerate() {
+            if fixed[n] {
+                assert_eq!(*x, [0.0; 3]);
+            } else {
+                assert!(v3::dot(*x, normals[n]).abs() < 1e-12 * (1.0 + v3::norm(*x)));
+            }
+        }
+    }
+
+    /// The subspace start is exact for a right-hand side in the span of
+    /// earlier ones, beats the last solution as a start otherwise, ignores
+    /// repeated directions, and its product is `A x0`.
+    #[test]
+    fn subspace_start_is_the_best_combination_of_earlier_solutions() {
+        let (mesh, els, stress) = stressed();
+        let fans = Fans::new(&mesh);
+        let (normals, fixed) = bonded(&mesh);
+        let op = Operator {
+            fans: &fans,
+            els: &els,
+            normals: &normals,
+            fixed: &fixed,
+        };
+        let dt = 5.0;
+        let pre = preconditioner(&op.blocks(), dt);
+        let sys = Shifted {
+            op: &op,
+            dt,
+            pre: &pre,
+            tol: 1e-12,
+            max_iter: 2000,
+        };
+        let f = op.forces(&stress, &mut Vec::new());
+        let mut rng = crate::mesh::test_util::Lcg(11);
+        let mut rhs_k = |k: f64| -> Vec<[f64; 3]> {
+            f.iter()
+                .enumerate()
+                .map(|(n, f)| {
+                    let w = [
+                        rng.next_f64() - 0.5,
+                        rng.next_f64() - 0.5,
+                        rng.next_f64() - 0.5,
+                    ];
+                    op.project(n, v3::add(v3::scale(*f, dt), v3::scale(w, k)))
+                })
+                .collect()
+        };
+        let bs: Vec<Vec<[f64; 3]>> = (0..3).map(|_| rhs_k(0.3)).collect();
+        let mut history: History = Vec::new();
+        let mut corner = Vec::new();
+        for b in &bs {
+            let mut x = Vec::new();
+            let mut r = Vec::new();
+            assert!(sys.solve(b, &mut x, None, &mut r).converged);
+            let ax: Vec<[f64; 3]> = b.iter().zip(&r).map(|(b, r)| v3::sub(*b, *r)).collect();
+            history.push((x, ax));
+        }
+        // A repeated direction changes nothing and breaks nothing.
+        history.push(history[1].clone());
+        // In the span: the start is the solution.
+        let mix: Vec<[f64; 3]> = (0..bs[0].len())
+            .map(|n| v3::add(v3::scale(bs[0][n], 0.5), v3::scale(bs[2][n], -1.5)))
+            .collect();
+        let (x0, ax0) = subspace_start(&history, &mix).expect("a start");
+        let mut check = vec![[0.0; 3]; x0.len()];
+        sys.apply(&x0, &mut corner, &mut check);
+        for (a, b) in check.iter().zip(&ax0) {
+            for c in 0..3 {
+                assert!((a[c] - b[c]).abs() < 1e-9 * (1.0 + b[c].abs()));
+            }
+        }
+        let res = |x: &[[f64; 3]], ax: &[[f64; 3]], b: &[[f64; 3]]| {
+            let _ = x;
+            let r: Vec<[f64; 3]> = b.iter().zip(ax).map(|(b, a)| v3::sub(*b, *a)).collect();
+            dot(&r, &r).sqrt() / dot(b, b).sqrt()
+        };
+        assert!(res(&x0, &ax0, &mix) < 1e-9, "{}", res(&x0, &ax0, &mix));
+        // Out of the span: never worse (in the energy norm of the error)
+        // than the last solution, and fewer iterations from it.
+        let fresh = rhs_k(0.3);
+        let (x1, ax1) = subspace_start(&history, &fresh).expect("a start");
+        let mut exact = Vec::new();
+        sys.solve(&fresh, &mut exact, None, &mut Vec::new());
+        let err_a = |x: &[[f64; 3]]| {
+            let e: Vec<[f64; 3]> = x.iter().zip(&exact).map(|(a, b)| v3::sub(*a, *b)).collect();
+            let mut ae = vec![[0.0; 3]; e.len()];
+            sys.apply(&e, &mut Vec::new(), &mut ae);
+            dot(&e, &ae)
+        };
+        let last = &history[2].0;
+        assert!(
+            err_a(&x1) <= err_a(last) * (1.0 + 1e-9),
+            "{} vs {}",
+            err_a(&x1),
+            err_a(last)
+        );
+        let loose = Shifted { tol: 1e-6, ..sys };
+        let mut from_sub = x1.clone();
+        let s = loose.solve(&fresh, &mut from_sub, Some(&ax1), &mut Vec::new());
+        let mut from_last = last.clone();
+        let l = loose.solve(&fresh, &mut from_last, None, &mut Vec::new());
+        assert!(s.converged && l.converged);
+        assert!(s.iterations <= l.iterations, "{s:?} vs {l:?}");
+        assert!(subspace_start(&Vec::new(), &fresh).is_none());
     }
 
     #[test]
