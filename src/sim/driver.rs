@@ -1227,35 +1227,41 @@ fn relax_round(
         let carry = region.is_none() && params.integrator == Integrator::BackwardEuler;
         let mut corner = Vec::new();
         let mut stress = std::mem::take(&mut st.stress);
-        let mut force = if carry {
-            Some(
-                known_force
-                    .take()
-                    .unwrap_or_else(|| op.forces(&stress, &mut corner)),
-            )
-        } else {
-            None
+        // The force at the current stress, and the force of a unit of
+        // load time (both in one pass when neither is known).
+        let wants_load = carry && loading && params.load_time > *loaded;
+        let unit_load = || -> Vec<Sym3> {
+            let unit = Load {
+                dt: 1.0,
+                shrink_rate: params.shrink_rate,
+            };
+            let (scale, evolve) = (&st.shrink_scale, &st.evolve);
+            op.els
+                .elements
+                .par_iter()
+                .enumerate()
+                .map(|(f, el)| {
+                    el.as_ref()
+                        .map_or(Sym3::ZERO, |el| load_increment(scale, evolve, f, el, unit))
+                })
+                .collect()
         };
-        let load_force: Option<&[[f64; 3]]> = if carry && loading && params.load_time > *loaded {
-            let scale = &st.shrink_scale;
-            let evolve = &st.evolve;
-            Some(cache.load_force.get_or_insert_with(|| {
-                let unit = Load {
-                    dt: 1.0,
-                    shrink_rate: params.shrink_rate,
-                };
-                let ds: Vec<Sym3> = op
-                    .els
-                    .elements
-                    .par_iter()
-                    .enumerate()
-                    .map(|(f, el)| {
-                        el.as_ref()
-                            .map_or(Sym3::ZERO, |el| load_increment(scale, evolve, f, el, unit))
-                    })
-                    .collect();
-                op.forces(&ds, &mut corner)
-            }))
+        let mut force = None;
+        if carry {
+            force = known_force.take();
+            match (&force, wants_load && cache.load_force.is_none()) {
+                (None, true) => {
+                    let (f, l) = op.forces_of_two(&stress, &unit_load(), &mut corner);
+                    force = Some(f);
+                    cache.load_force = Some(l);
+                }
+                (None, false) => force = Some(op.forces(&stress, &mut corner)),
+                (Some(_), true) => cache.load_force = Some(op.forces(&unit_load(), &mut corner)),
+                (Some(_), false) => {}
+            }
+        }
+        let load_force: Option<&[[f64; 3]]> = if wants_load {
+            cache.load_force.as_deref()
         } else {
             None
         };
@@ -1297,24 +1303,6 @@ fn relax_round(
                 report.cg_unconverged += 1;
             }
             phase.cg_residual = phase.cg_residual.max(cg.relative_residual);
-            if let Some(history) = history {
-                // (x, A x = rhs - r), the oldest dropped.
-                let ax: Vec<[f64; 3]> = rhs
-                    .par_iter()
-                    .zip(r.par_iter())
-                    .map(|(b, r)| v3::sub(*b, *r))
-                    .collect();
-                if history.len() == HISTORY {
-                    history.remove(0);
-                }
-                history.push((x.clone(), ax));
-            }
-            if let Some(f) = &mut force {
-                let inv = 1.0 / solve_dt;
-                f.par_iter_mut()
-                    .zip(x.par_iter().zip(r.par_iter()))
-                    .for_each(|(f, (x, r))| *f = v3::scale(v3::add(*x, *r), inv));
-            }
             crate::sim::relax::apply_virtual_displacement(
                 &fans,
                 &st.els,
@@ -1324,10 +1312,38 @@ fn relax_round(
                 |_, _| Sym3::ZERO,
             );
             let unit = st.unit;
-            st.displacement
-                .par_iter_mut()
-                .zip(x.par_iter())
-                .for_each(|(d, x)| *d = v3::add(*d, v3::scale(*x, unit)));
+            match (history, &mut force) {
+                (Some(history), Some(f)) => {
+                    // One pass: the displacement, the force after the step
+                    // `(x + r) / dt`, and `(x, A x = rhs - r)` for the
+                    // history (the oldest's storage reused when it is full).
+                    let (mut hx, mut hax) = if history.len() == HISTORY {
+                        history.remove(0)
+                    } else {
+                        (Vec::new(), Vec::new())
+                    };
+                    hx.resize(x.len(), [0.0; 3]);
+                    hax.resize(x.len(), [0.0; 3]);
+                    let inv = 1.0 / solve_dt;
+                    st.displacement
+                        .par_iter_mut()
+                        .zip(f.par_iter_mut())
+                        .zip(hx.par_iter_mut().zip(hax.par_iter_mut()))
+                        .zip(x.par_iter().zip(r.par_iter()).zip(rhs.par_iter()))
+                        .for_each(|(((d, f), (hx, hax)), ((x, r), b))| {
+                            *d = v3::add(*d, v3::scale(*x, unit));
+                            *f = v3::scale(v3::add(*x, *r), inv);
+                            *hx = *x;
+                            *hax = v3::sub(*b, *r);
+                        });
+                    history.push((hx, hax));
+                }
+                _ => st
+                    .displacement
+                    .par_iter_mut()
+                    .zip(x.par_iter())
+                    .for_each(|(d, x)| *d = v3::add(*d, v3::scale(*x, unit))),
+            }
         }
         st.stress = stress;
         st.warm = x;

@@ -74,8 +74,56 @@ impl Operator<'_> {
             .collect()
     }
 
+    /// [`forces`](Self::forces) of two stress fields in one pass over the
+    /// elements and one over the nodes (the same values).
+    pub fn forces_of_two(
+        &self,
+        a: &[Sym3],
+        b: &[Sym3],
+        corner: &mut Vec<[f64; 3]>,
+    ) -> (Vec<[f64; 3]>, Vec<[f64; 3]>) {
+        corner.resize(6 * self.els.elements.len(), [0.0; 3]);
+        corner
+            .par_chunks_mut(6)
+            .zip(self.els.elements.par_iter())
+            .enumerate()
+            .with_min_len(1024)
+            .for_each(|(f, (c, el))| match el {
+                Some(el) => {
+                    let (ca, cb) = c.split_at_mut(3);
+                    element_corner_forces(el, &a[f], ca);
+                    element_corner_forces(el, &b[f], cb);
+                }
+                None => c.fill([0.0; 3]),
+            });
+        let corner = &*corner;
+        (0..self.fans.n_vertices())
+            .into_par_iter()
+            .map(|n| {
+                let (mut ga, mut gb) = ([0.0; 3], [0.0; 3]);
+                for &(f, k) in self.fans.fan(n) {
+                    let i = 6 * f as usize + k as usize;
+                    ga = v3::add(ga, corner[i]);
+                    gb = v3::add(gb, corner[i + 3]);
+                }
+                (self.project(n, ga), self.project(n, gb))
+            })
+            .unzip()
+    }
+
     /// `out = K v`; `corner` is scratch (3 per face).
     pub fn apply(&self, v: &[[f64; 3]], corner: &mut Vec<[f64; 3]>, out: &mut [[f64; 3]]) {
+        self.strain_forces(v, corner);
+        // K v = B^T A (B v): the force of the strain B v, negated.
+        let corner = &*corner;
+        out.par_iter_mut()
+            .enumerate()
+            .with_min_len(512)
+            .for_each(|(n, o)| *o = self.project(n, v3::scale(gather(self.fans, corner, n), -1.0)));
+    }
+
+    /// The corner forces of the strain `B v` (from zero stress).
+    fn strain_forces(&self, v: &[[f64; 3]], corner: &mut Vec<[f64; 3]>) {
         corner.resize(3 * self.els.elements.len(), [0.0; 3]);
         let fans = self.fans;
         corner
@@ -92,12 +140,6 @@ impl Operator<'_> {
                 let s = element_strain(el, fans.corners(f), v, 1.0, Sym3::ZERO);
                 element_corner_forces(el, &s, c);
             });
-        // K v = B^T A (B v): the force of the strain B v, negated.
-        let corner = &*corner;
-        out.par_iter_mut()
-            .enumerate()
-            .with_min_len(512)
-            .for_each(|(n, o)| *o = self.project(n, v3::scale(gather(fans, corner, n), -1.0)));
     }
 
     /// The 3x3 diagonal blocks `K_nn = P_n (sum_e A_e / 2 (|g|^2 T_e +
@@ -280,15 +322,20 @@ impl Shifted<'_> {
         let mut kp = vec![[0.0; 3]; n];
         let sum = |parts: Vec<f64>| parts.iter().sum::<f64>();
         for it in 0..self.max_iter {
-            op.apply(&p, &mut corner, &mut kp);
-            // kp = (I + dt K) p, and p . kp.
+            // kp = (I + dt K) p, and p . kp, in one pass over the nodes
+            // after the elements'.
+            op.strain_forces(&p, &mut corner);
+            let cf = &corner;
             let pap = sum(kp
                 .par_chunks_mut(CHUNK)
                 .zip(p.par_chunks(CHUNK))
-                .map(|(a, p)| {
+                .enumerate()
+                .map(|(c, (a, p))| {
                     let mut s = 0.0;
-                    for (a, p) in a.iter_mut().zip(p) {
-                        *a = v3::add(*p, v3::scale(*a, dt));
+                    for (i, (a, p)) in a.iter_mut().zip(p).enumerate() {
+                        let n = c * CHUNK + i;
+                        let k = op.project(n, v3::scale(gather(op.fans, cf, n), -1.0));
+                        *a = v3::add(*p, v3::scale(k, dt));
                         s += v3::dot(*p, *a);
                     }
                     s
