@@ -546,10 +546,22 @@ struct State {
     warm: Vec<[f64; 3]>,
     /// What relaxation rounds reuse while the mesh does not change.
     cache: RoundCache,
+    /// Working memory of the implicit rounds, kept so that fresh memory is
+    /// not paged in every round.
+    implicit: ImplicitScratch,
     /// With eigen-diffusion: every node's separation tensor, taken from
     /// the stress once after the first round and then changed only by
     /// cracking and diffusion (`None`: computed from the stress).
     frozen: Option<Vec<Sym3>>,
+}
+
+/// Working memory of the implicit rounds.
+#[derive(Default)]
+struct ImplicitScratch {
+    cg: crate::sim::implicit::CgScratch,
+    rhs: Vec<[f64; 3]>,
+    r: Vec<[f64; 3]>,
+    ax: Vec<[f64; 3]>,
 }
 
 /// Earlier implicit solutions kept for the next solve's start.
@@ -595,6 +607,8 @@ impl RoundCache {
         {
             return;
         }
+        // The old cache goes first (it is as large as the new one).
+        *self = RoundCache::default();
         let fans = Fans::new(mesh);
         let normals = if bonded {
             node_normals(&fans, els)
@@ -984,6 +998,7 @@ fn start(
         corner: Vec::new(),
         warm: Vec::new(),
         cache: RoundCache::default(),
+        implicit: ImplicitScratch::default(),
     };
     st.els.elements = (0..mesh.n_faces())
         .into_par_iter()
@@ -1225,39 +1240,28 @@ fn relax_round(
         // starts each solve from the best combination of the last
         // solutions: no product beyond the solver's own.
         let carry = region.is_none() && params.integrator == Integrator::BackwardEuler;
-        let mut corner = Vec::new();
+        let mut bufs = std::mem::take(&mut st.implicit);
         let mut stress = std::mem::take(&mut st.stress);
         // The force at the current stress, and the force of a unit of
-        // load time (both in one pass when neither is known).
+        // load time.
         let wants_load = carry && loading && params.load_time > *loaded;
-        let unit_load = || -> Vec<Sym3> {
-            let unit = Load {
-                dt: 1.0,
-                shrink_rate: params.shrink_rate,
-            };
-            let (scale, evolve) = (&st.shrink_scale, &st.evolve);
-            op.els
-                .elements
-                .par_iter()
-                .enumerate()
-                .map(|(f, el)| {
-                    el.as_ref()
-                        .map_or(Sym3::ZERO, |el| load_increment(scale, evolve, f, el, unit))
-                })
-                .collect()
-        };
         let mut force = None;
         if carry {
-            force = known_force.take();
-            match (&force, wants_load && cache.load_force.is_none()) {
-                (None, true) => {
-                    let (f, l) = op.forces_of_two(&stress, &unit_load(), &mut corner);
-                    force = Some(f);
-                    cache.load_force = Some(l);
-                }
-                (None, false) => force = Some(op.forces(&stress, &mut corner)),
-                (Some(_), true) => cache.load_force = Some(op.forces(&unit_load(), &mut corner)),
-                (Some(_), false) => {}
+            force = Some(
+                known_force
+                    .take()
+                    .unwrap_or_else(|| op.forces(&stress, &mut bufs.cg.corner)),
+            );
+            if wants_load && cache.load_force.is_none() {
+                let unit = Load {
+                    dt: 1.0,
+                    shrink_rate: params.shrink_rate,
+                };
+                let (scale, evolve) = (&st.shrink_scale, &st.evolve);
+                cache.load_force = Some(op.forces_with(
+                    |f, el| load_increment(scale, evolve, f, el, unit),
+                    &mut bufs.cg.corner,
+                ));
             }
         }
         let load_force: Option<&[[f64; 3]]> = if wants_load {
@@ -1270,34 +1274,39 @@ fn relax_round(
         }
         // Start each solve from the last one's solution (new nodes at 0).
         let mut x = std::mem::take(&mut st.warm);
-        let mut r = Vec::new();
         for _ in 0..steps {
             let load = load_for(loaded, dt);
             add_load(&mut stress, &st.els, &st.shrink_scale, &st.evolve, load);
-            let rhs: Vec<[f64; 3]> = match (&force, load_force) {
-                (Some(f), Some(lf)) if load.dt > 0.0 => f
-                    .par_iter()
-                    .zip(lf.par_iter())
-                    .map(|(f, l)| v3::scale(v3::add(*f, v3::scale(*l, load.dt)), solve_dt))
-                    .collect(),
-                (Some(f), _) => f.par_iter().map(|f| v3::scale(*f, solve_dt)).collect(),
-                (None, _) => op
-                    .forces(&stress, &mut corner)
-                    .into_iter()
-                    .map(|f| v3::scale(f, solve_dt))
-                    .collect(),
-            };
-            let history = cache.history.as_mut().filter(|_| carry).map(|h| &mut h.1);
-            let start = history
-                .as_deref()
-                .and_then(|h| crate::sim::implicit::subspace_start(h, &rhs));
-            let cg = match start {
-                Some((x0, ax0)) => {
-                    x = x0;
-                    shifted.solve(&rhs, &mut x, Some(&ax0), &mut r)
+            let rhs = &mut bufs.rhs;
+            match (&force, load_force) {
+                (Some(f), Some(lf)) if load.dt > 0.0 => {
+                    rhs.resize(f.len(), [0.0; 3]);
+                    rhs.par_iter_mut()
+                        .zip(f.par_iter().zip(lf.par_iter()))
+                        .for_each(|(b, (f, l))| {
+                            *b = v3::scale(v3::add(*f, v3::scale(*l, load.dt)), solve_dt)
+                        });
                 }
-                None => shifted.solve(&rhs, &mut x, None, &mut r),
-            };
+                (Some(f), _) => {
+                    rhs.resize(f.len(), [0.0; 3]);
+                    rhs.par_iter_mut()
+                        .zip(f.par_iter())
+                        .for_each(|(b, f)| *b = v3::scale(*f, solve_dt));
+                }
+                (None, _) => {
+                    *rhs = op.forces(&stress, &mut bufs.cg.corner);
+                    rhs.par_iter_mut()
+                        .for_each(|b| *b = v3::scale(*b, solve_dt));
+                }
+            }
+            let rhs = &bufs.rhs;
+            let history = cache.history.as_mut().filter(|_| carry).map(|h| &mut h.1);
+            let started = history.as_deref().is_some_and(|h| {
+                crate::sim::implicit::subspace_start(h, rhs, &mut x, &mut bufs.ax)
+            });
+            let ax = started.then_some(&bufs.ax[..]);
+            let cg = shifted.solve(rhs, &mut x, ax, &mut bufs.r, &mut bufs.cg);
+            let r = &bufs.r;
             phase.cg_iterations += cg.iterations;
             if !cg.converged {
                 report.cg_unconverged += 1;
@@ -1347,6 +1356,7 @@ fn relax_round(
         }
         st.stress = stress;
         st.warm = x;
+        st.implicit = bufs;
         if carry {
             // `st.corner` is not kept up to date by these rounds: every
             // round that reads it first computes it.
@@ -1554,22 +1564,31 @@ fn relax_round(
         f64::NAN
     } else if step_dt > 0.0 && phase.energy > 0.0 {
         let mob = |n: usize| step_mobility.get(n).copied().unwrap_or(1.0);
-        let mf: Vec<[f64; 3]> = force
-            .iter()
+        // The implicit rounds' working memory (kept only by them).
+        let mut bufs = std::mem::take(&mut st.implicit);
+        let ImplicitScratch {
+            cg,
+            rhs: mf,
+            r: w,
+            ax: kw,
+        } = &mut bufs;
+        let n = force.len();
+        mf.clear();
+        mf.extend(force.iter().enumerate().map(|(n, f)| v3::scale(*f, mob(n))));
+        w.resize(n, [0.0; 3]);
+        op.apply(mf, &mut cg.corner, w);
+        w.iter_mut()
             .enumerate()
-            .map(|(n, f)| v3::scale(*f, mob(n)))
-            .collect();
-        let mut scratch = Vec::new();
-        let mut kmf = vec![[0.0; 3]; mf.len()];
-        op.apply(&mf, &mut scratch, &mut kmf);
-        let w: Vec<[f64; 3]> = kmf
-            .iter()
-            .enumerate()
-            .map(|(n, x)| v3::scale(*x, mob(n)))
-            .collect();
-        let mut kw = vec![[0.0; 3]; w.len()];
-        op.apply(&w, &mut scratch, &mut kw);
-        let stress_norm = crate::sim::implicit::dot(&w, &kw).max(0.0).sqrt();
+            .for_each(|(n, x)| *x = v3::scale(*x, mob(n)));
+        kw.resize(n, [0.0; 3]);
+        op.apply(w, &mut cg.corner, kw);
+        let stress_norm = crate::sim::implicit::dot(w, kw).max(0.0).sqrt();
+        if matches!(
+            params.integrator,
+            Integrator::BackwardEuler | Integrator::Equilibrium
+        ) {
+            st.implicit = bufs;
+        }
         phase.steps as f64 * 0.5 * step_dt * step_dt * stress_norm / (2.0 * phase.energy).sqrt()
     } else {
         phase.cg_residual
@@ -3057,6 +3076,7 @@ mod tests {
                 corner: Vec::new(),
                 warm: Vec::new(),
                 cache: RoundCache::default(),
+                implicit: ImplicitScratch::default(),
             };
             finish_tips(mesh, &st).len()
         };

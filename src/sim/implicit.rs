@@ -21,6 +21,7 @@
 //! dot product sums fixed chunks in order, so results do not depend on the
 //! thread count.
 
+use crate::geometry::element::Element;
 use crate::sim::forces::{element_corner_forces, element_strain, gather, Elements, Fans};
 use crate::stress::tensor::{v3, Sym3};
 use rayon::prelude::*;
@@ -66,49 +67,31 @@ impl Operator<'_> {
 
     /// The projected node forces of `stress`; `corner` is scratch.
     pub fn forces(&self, stress: &[Sym3], corner: &mut Vec<[f64; 3]>) -> Vec<[f64; 3]> {
-        crate::sim::forces::corner_forces(self.els, stress, corner);
-        let corner = &*corner;
-        (0..self.fans.n_vertices())
-            .into_par_iter()
-            .map(|n| self.project(n, gather(self.fans, corner, n)))
-            .collect()
+        self.forces_with(|f, _| stress[f], corner)
     }
 
-    /// [`forces`](Self::forces) of two stress fields in one pass over the
-    /// elements and one over the nodes (the same values).
-    pub fn forces_of_two(
+    /// The projected node forces of the stress `stress(f, element)` of
+    /// every face with an element; `corner` is scratch.
+    pub fn forces_with(
         &self,
-        a: &[Sym3],
-        b: &[Sym3],
+        stress: impl Fn(usize, &Element) -> Sym3 + Sync,
         corner: &mut Vec<[f64; 3]>,
-    ) -> (Vec<[f64; 3]>, Vec<[f64; 3]>) {
-        corner.resize(6 * self.els.elements.len(), [0.0; 3]);
+    ) -> Vec<[f64; 3]> {
+        corner.resize(3 * self.els.elements.len(), [0.0; 3]);
         corner
-            .par_chunks_mut(6)
+            .par_chunks_mut(3)
             .zip(self.els.elements.par_iter())
             .enumerate()
             .with_min_len(1024)
             .for_each(|(f, (c, el))| match el {
-                Some(el) => {
-                    let (ca, cb) = c.split_at_mut(3);
-                    element_corner_forces(el, &a[f], ca);
-                    element_corner_forces(el, &b[f], cb);
-                }
+                Some(el) => element_corner_forces(el, &stress(f, el), c),
                 None => c.fill([0.0; 3]),
             });
         let corner = &*corner;
         (0..self.fans.n_vertices())
             .into_par_iter()
-            .map(|n| {
-                let (mut ga, mut gb) = ([0.0; 3], [0.0; 3]);
-                for &(f, k) in self.fans.fan(n) {
-                    let i = 6 * f as usize + k as usize;
-                    ga = v3::add(ga, corner[i]);
-                    gb = v3::add(gb, corner[i + 3]);
-                }
-                (self.project(n, ga), self.project(n, gb))
-            })
-            .unzip()
+            .map(|n| self.project(n, gather(self.fans, corner, n)))
+            .collect()
     }
 
     /// `out = K v`; `corner` is scratch (3 per face).
@@ -261,19 +244,25 @@ impl Shifted<'_> {
     /// `ax`, when known, is `(I + dt K) x` for that start (it saves a
     /// product); otherwise a non-zero start costs one. On return `r` holds
     /// the residual `rhs - (I + dt K) x` as the iteration updated it.
+    /// `scratch` is working memory (kept between solves, so fresh memory
+    /// is not paged in for every solve).
     pub fn solve(
         &self,
         rhs: &[[f64; 3]],
         x: &mut Vec<[f64; 3]>,
         ax: Option<&[[f64; 3]]>,
         r: &mut Vec<[f64; 3]>,
+        scratch: &mut CgScratch,
     ) -> CgReport {
         let (op, dt, tol) = (self.op, self.dt, self.tol);
         let n = rhs.len();
         x.resize(n, [0.0; 3]);
         r.clear();
         r.extend_from_slice(rhs);
-        let mut corner = Vec::new();
+        let CgScratch { corner, z, p, kp } = scratch;
+        for v in [&mut *z, &mut *p, &mut *kp] {
+            v.resize(n, [0.0; 3]);
+        }
         let mut report = CgReport::default();
         let norm_b = dot(rhs, rhs).sqrt();
         match ax {
@@ -286,10 +275,9 @@ impl Shifted<'_> {
                     x.par_iter_mut()
                         .enumerate()
                         .for_each(|(i, v)| *v = op.project(i, *v));
-                    let mut kx = vec![[0.0; 3]; n];
-                    self.apply(x, &mut corner, &mut kx);
+                    self.apply(x, corner, kp);
                     r.par_iter_mut()
-                        .zip(kx.par_iter())
+                        .zip(kp.par_iter())
                         .for_each(|(r, kx)| *r = v3::sub(*r, *kx));
                 }
             }
@@ -312,20 +300,17 @@ impl Shifted<'_> {
         // Every pass below works on fixed chunks and sums each chunk's part
         // of a dot product in order, so the sums are those of [`dot`].
         let pre = self.pre;
-        let mut z: Vec<[f64; 3]> = r
-            .par_iter()
-            .zip(pre.par_iter())
-            .map(|(r, m)| m.mul_vec(*r))
-            .collect();
-        let mut p = z.clone();
-        let mut rz = dot(r, &z);
-        let mut kp = vec![[0.0; 3]; n];
+        z.par_iter_mut()
+            .zip(r.par_iter().zip(pre.par_iter()))
+            .for_each(|(z, (r, m))| *z = m.mul_vec(*r));
+        p.copy_from_slice(z);
+        let mut rz = dot(r, z);
         let sum = |parts: Vec<f64>| parts.iter().sum::<f64>();
         for it in 0..self.max_iter {
             // kp = (I + dt K) p, and p . kp, in one pass over the nodes
             // after the elements'.
-            op.strain_forces(&p, &mut corner);
-            let cf = &corner;
+            op.strain_forces(p, corner);
+            let cf = &*corner;
             let pap = sum(kp
                 .par_chunks_mut(CHUNK)
                 .zip(p.par_chunks(CHUNK))
@@ -387,18 +372,34 @@ impl Shifted<'_> {
 /// A solution `x` of a system with its product `A x`.
 pub type Solution = (Vec<[f64; 3]>, Vec<[f64; 3]>);
 
+/// Working memory of [`Shifted::solve`].
+#[derive(Default)]
+pub struct CgScratch {
+    /// Per-corner forces (3 per face).
+    pub corner: Vec<[f64; 3]>,
+    z: Vec<[f64; 3]>,
+    p: Vec<[f64; 3]>,
+    kp: Vec<[f64; 3]>,
+}
+
 /// Earlier solutions `x_i` of one system with their products `A x_i`.
 pub type History = Vec<Solution>;
 
 /// The best start for `A x = rhs` in the span of earlier solutions of the
 /// same system (the Galerkin projection: the smallest error in the energy
-/// norm over that span), with its product; `None` when the span gives
-/// nothing. It costs dot products only, since every `A x_i` is known.
-/// Directions that are (nearly) dependent on earlier ones are dropped.
-pub fn subspace_start(history: &History, rhs: &[[f64; 3]]) -> Option<Solution> {
+/// norm over that span), into `x` with its product into `ax`; `false`
+/// (both untouched) when the span gives nothing. It costs dot products
+/// only, since every `A x_i` is known. Directions that are (nearly)
+/// dependent on earlier ones are dropped.
+pub fn subspace_start(
+    history: &History,
+    rhs: &[[f64; 3]],
+    x: &mut Vec<[f64; 3]>,
+    ax: &mut Vec<[f64; 3]>,
+) -> bool {
     let m = history.len();
     if m == 0 {
-        return None;
+        return false;
     }
     // G_ij = x_i . A x_j (symmetrised), c_i = x_i . rhs.
     let mut g = vec![vec![0.0; m]; m];
@@ -437,7 +438,7 @@ pub fn subspace_start(history: &History, rhs: &[[f64; 3]]) -> Option<Solution> {
         }
     }
     if !keep.iter().any(|&k| k) {
-        return None;
+        return false;
     }
     // Solve L L^T y = c over the kept directions.
     let mut w = vec![0.0; m];
@@ -465,8 +466,9 @@ pub fn subspace_start(history: &History, rhs: &[[f64; 3]]) -> Option<Solution> {
         }
     }
     let n = rhs.len();
-    let combine = |product: bool| {
-        let mut out = vec![[0.0; 3]; n];
+    for (out, product) in [(x, false), (ax, true)] {
+        out.clear();
+        out.resize(n, [0.0; 3]);
         for (h, &yi) in history.iter().zip(&y) {
             if yi != 0.0 {
                 let v = if product { &h.1 } else { &h.0 };
@@ -475,9 +477,8 @@ pub fn subspace_start(history: &History, rhs: &[[f64; 3]]) -> Option<Solution> {
                     .for_each(|(o, v)| *o = v3::add(*o, v3::scale(*v, yi)));
             }
         }
-        out
-    };
-    Some((combine(false), combine(true)))
+    }
+    true
 }
 
 #[cfg(test)]
@@ -504,7 +505,7 @@ mod tests {
             tol,
             max_iter: 2000,
         };
-        shifted.solve(rhs, x, None, &mut Vec::new())
+        shifted.solve(rhs, x, None, &mut Vec::new(), &mut CgScratch::default())
     }
 
     /// A plate with random in-plane stress.
@@ -736,7 +737,7 @@ mod tests {
             max_iter: 2000,
         };
         let (mut a, mut b) = (Vec::new(), Vec::new());
-        let p = plain.solve(&rhs, &mut a, None, &mut Vec::new());
+        let p = plain.solve(&rhs, &mut a, None, &mut Vec::new(), &mut CgScratch::default());
         let j = solve(&op, dt, &rhs, 1e-10, &mut b);
         assert!(p.converged && j.converged, "{p:?} {j:?}");
         assert!(j.iterations < p.iterations, "{j:?} vs {p:?}");
@@ -796,7 +797,9 @@ mod tests {
         for b in &bs {
             let mut x = Vec::new();
             let mut r = Vec::new();
-            assert!(sys.solve(b, &mut x, None, &mut r).converged);
+            assert!(sys
+                .solve(b, &mut x, None, &mut r, &mut CgScratch::default())
+                .converged);
             let ax: Vec<[f64; 3]> = b.iter().zip(&r).map(|(b, r)| v3::sub(*b, *r)).collect();
             history.push((x, ax));
         }
@@ -806,7 +809,8 @@ mod tests {
         let mix: Vec<[f64; 3]> = (0..bs[0].len())
             .map(|n| v3::add(v3::scale(bs[0][n], 0.5), v3::scale(bs[2][n], -1.5)))
             .collect();
-        let (x0, ax0) = subspace_start(&history, &mix).expect("a start");
+        let (mut x0, mut ax0) = (Vec::new(), Vec::new());
+        assert!(subspace_start(&history, &mix, &mut x0, &mut ax0));
         let mut check = vec![[0.0; 3]; x0.len()];
         sys.apply(&x0, &mut corner, &mut check);
         for (a, b) in check.iter().zip(&ax0) {
@@ -823,9 +827,11 @@ mod tests {
         // Out of the span: never worse (in the energy norm of the error)
         // than the last solution, and fewer iterations from it.
         let fresh = rhs_k(0.3);
-        let (x1, ax1) = subspace_start(&history, &fresh).expect("a start");
+        let (mut x1, mut ax1) = (Vec::new(), Vec::new());
+        assert!(subspace_start(&history, &fresh, &mut x1, &mut ax1));
         let mut exact = Vec::new();
-        sys.solve(&fresh, &mut exact, None, &mut Vec::new());
+        let mut scratch = CgScratch::default();
+        sys.solve(&fresh, &mut exact, None, &mut Vec::new(), &mut scratch);
         let err_a = |x: &[[f64; 3]]| {
             let e: Vec<[f64; 3]> = x.iter().zip(&exact).map(|(a, b)| v3::sub(*a, *b)).collect();
             let mut ae = vec![[0.0; 3]; e.len()];
@@ -841,12 +847,12 @@ mod tests {
         );
         let loose = Shifted { tol: 1e-6, ..sys };
         let mut from_sub = x1.clone();
-        let s = loose.solve(&fresh, &mut from_sub, Some(&ax1), &mut Vec::new());
+        let s = loose.solve(&fresh, &mut from_sub, Some(&ax1), &mut Vec::new(), &mut scratch);
         let mut from_last = last.clone();
-        let l = loose.solve(&fresh, &mut from_last, None, &mut Vec::new());
+        let l = loose.solve(&fresh, &mut from_last, None, &mut Vec::new(), &mut scratch);
         assert!(s.converged && l.converged);
         assert!(s.iterations <= l.iterations, "{s:?} vs {l:?}");
-        assert!(subspace_start(&Vec::new(), &fresh).is_none());
+        assert!(!subspace_start(&Vec::new(), &fresh, &mut x1, &mut ax1));
     }
 
     #[test]
