@@ -1117,6 +1117,8 @@ fn relax_round(
     let mut known_force = cache.force.take();
     // The force at the end of the round, when the round's scheme gives it.
     let mut end_force: Option<Vec<[f64; 3]>> = None;
+    // The energy at the end of the round, when the round's last pass gave it.
+    let mut end_energy: Option<f64> = None;
     let normals = std::mem::take(&mut cache.normals);
     // Only the paper's scheme is checked for divergence against it.
     let energy_before = if params.integrator == Integrator::PaperEuler {
@@ -1312,14 +1314,12 @@ fn relax_round(
                 report.cg_unconverged += 1;
             }
             phase.cg_residual = phase.cg_residual.max(cg.relative_residual);
-            crate::sim::relax::apply_virtual_displacement(
+            end_energy = Some(crate::sim::relax::apply_virtual_displacement_energy(
                 &fans,
                 &st.els,
                 &mut stress,
                 &x,
-                1.0,
-                |_, _| Sym3::ZERO,
-            );
+            ));
             let unit = st.unit;
             match (history, &mut force) {
                 (Some(history), Some(f)) => {
@@ -1549,7 +1549,7 @@ fn relax_round(
             .collect()
     });
     phase.residual = crate::sim::implicit::dot(&force, &force).sqrt();
-    phase.energy = energy(&st.els, &st.stress);
+    phase.energy = end_energy.unwrap_or_else(|| energy(&st.els, &st.stress));
     // Error estimate of the round (relative, like the study's error): a
     // first-order step of `dt` errs by `dt^2 / 2 |u''|` with `u'' = M K M f`
     // (M the mobility), which moves the stress by `B u''`; the round's

@@ -401,16 +401,41 @@ pub fn subspace_start(
     if m == 0 {
         return false;
     }
-    // G_ij = x_i . A x_j (symmetrised), c_i = x_i . rhs.
-    let mut g = vec![vec![0.0; m]; m];
-    for i in 0..m {
-        for j in 0..=i {
-            let v = 0.5 * (dot(&history[i].0, &history[j].1) + dot(&history[j].0, &history[i].1));
-            g[i][j] = v;
-            g[j][i] = v;
+    // G_ij = x_i . A x_j (symmetrised), c_i = x_i . rhs: every product in
+    // one pass over fixed chunks, the chunks' parts summed in order.
+    let parts: Vec<Vec<f64>> = (0..rhs.len().div_ceil(CHUNK))
+        .into_par_iter()
+        .map(|c| {
+            let range = c * CHUNK..((c + 1) * CHUNK).min(rhs.len());
+            let mut out = vec![0.0; m * m + m];
+            for i in 0..m {
+                let xi = &history[i].0[range.clone()];
+                for j in 0..m {
+                    let axj = &history[j].1[range.clone()];
+                    out[i * m + j] = xi.iter().zip(axj).map(|(p, q)| v3::dot(*p, *q)).sum();
+                }
+                out[m * m + i] = xi
+                    .iter()
+                    .zip(&rhs[range.clone()])
+                    .map(|(p, q)| v3::dot(*p, *q))
+                    .sum();
+            }
+            out
+        })
+        .collect();
+    let mut sums = vec![0.0; m * m + m];
+    for part in &parts {
+        for (s, p) in sums.iter_mut().zip(part) {
+            *s += p;
         }
     }
-    let c: Vec<f64> = history.iter().map(|(x, _)| dot(x, rhs)).collect();
+    let mut g = vec![vec![0.0; m]; m];
+    for i in 0..m {
+        for j in 0..m {
+            g[i][j] = 0.5 * (sums[i * m + j] + sums[j * m + i]);
+        }
+    }
+    let c: Vec<f64> = sums[m * m..].to_vec();
     // Cholesky with dropped pivots: G = L L^T over the kept directions.
     let mut l = vec![vec![0.0; m]; m];
     let mut keep = vec![false; m];
@@ -466,18 +491,22 @@ pub fn subspace_start(
         }
     }
     let n = rhs.len();
-    for (out, product) in [(x, false), (ax, true)] {
-        out.clear();
-        out.resize(n, [0.0; 3]);
-        for (h, &yi) in history.iter().zip(&y) {
-            if yi != 0.0 {
-                let v = if product { &h.1 } else { &h.0 };
-                out.par_iter_mut()
-                    .zip(v.par_iter())
-                    .for_each(|(o, v)| *o = v3::add(*o, v3::scale(*v, yi)));
+    x.clear();
+    x.resize(n, [0.0; 3]);
+    ax.clear();
+    ax.resize(n, [0.0; 3]);
+    x.par_iter_mut()
+        .zip(ax.par_iter_mut())
+        .enumerate()
+        .with_min_len(1024)
+        .for_each(|(k, (x, ax))| {
+            for (h, &yi) in history.iter().zip(&y) {
+                if yi != 0.0 {
+                    *x = v3::add(*x, v3::scale(h.0[k], yi));
+                    *ax = v3::add(*ax, v3::scale(h.1[k], yi));
+                }
             }
-        }
-    }
+        });
     true
 }
 
@@ -737,7 +766,13 @@ mod tests {
             max_iter: 2000,
         };
         let (mut a, mut b) = (Vec::new(), Vec::new());
-        let p = plain.solve(&rhs, &mut a, None, &mut Vec::new(), &mut CgScratch::default());
+        let p = plain.solve(
+            &rhs,
+            &mut a,
+            None,
+            &mut Vec::new(),
+            &mut CgScratch::default(),
+        );
         let j = solve(&op, dt, &rhs, 1e-10, &mut b);
         assert!(p.converged && j.converged, "{p:?} {j:?}");
         assert!(j.iterations < p.iterations, "{j:?} vs {p:?}");
@@ -797,9 +832,10 @@ mod tests {
         for b in &bs {
             let mut x = Vec::new();
             let mut r = Vec::new();
-            assert!(sys
-                .solve(b, &mut x, None, &mut r, &mut CgScratch::default())
-                .converged);
+            assert!(
+                sys.solve(b, &mut x, None, &mut r, &mut CgScratch::default())
+                    .converged
+            );
             let ax: Vec<[f64; 3]> = b.iter().zip(&r).map(|(b, r)| v3::sub(*b, *r)).collect();
             history.push((x, ax));
         }
@@ -847,7 +883,13 @@ mod tests {
         );
         let loose = Shifted { tol: 1e-6, ..sys };
         let mut from_sub = x1.clone();
-        let s = loose.solve(&fresh, &mut from_sub, Some(&ax1), &mut Vec::new(), &mut scratch);
+        let s = loose.solve(
+            &fresh,
+            &mut from_sub,
+            Some(&ax1),
+            &mut Vec::new(),
+            &mut scratch,
+        );
         let mut from_last = last.clone();
         let l = loose.solve(&fresh, &mut from_last, None, &mut Vec::new(), &mut scratch);
         assert!(s.converged && l.converged);

@@ -27,8 +27,23 @@ pub struct RelaxStep {
 
 /// Area-weighted stress energy `1/2 sum_e A_e |S_e|_F^2`, summed in face order.
 pub fn energy(els: &Elements, stress: &[Sym3]) -> f64 {
+    let parts: Vec<f64> = els
+        .elements
+        .par_chunks(ENERGY_CHUNK)
+        .zip(stress.par_chunks(ENERGY_CHUNK))
+        .map(|(els, stress)| chunk_energy(els, stress))
+        .collect();
+    parts.iter().sum()
+}
+
+/// Faces per part of [`energy`]'s sum (parts summed in order, so the value
+/// does not depend on the thread count).
+const ENERGY_CHUNK: usize = 4096;
+
+#[inline]
+fn chunk_energy(els: &[Option<Element>], stress: &[Sym3]) -> f64 {
     let mut e = 0.0;
-    for (el, s) in els.elements.iter().zip(stress) {
+    for (el, s) in els.iter().zip(stress) {
         if let Some(el) = el {
             e += 0.5 * el.area * s.frobenius_sq();
         }
@@ -126,6 +141,34 @@ pub fn apply_virtual_displacement(
             };
             *s += element_strain(el, fans.corners(f), g, dt, load(f, el));
         });
+}
+
+/// [`apply_virtual_displacement`] (no load), returning the energy of the
+/// new stress: the same value as [`energy`] after it, in the same pass.
+pub fn apply_virtual_displacement_energy(
+    fans: &Fans,
+    els: &Elements,
+    stress: &mut [Sym3],
+    g: &[[f64; 3]],
+) -> f64 {
+    let parts: Vec<f64> = stress
+        .par_chunks_mut(ENERGY_CHUNK)
+        .zip(els.elements.par_chunks(ENERGY_CHUNK))
+        .enumerate()
+        .map(|(c, (stress, chunk))| {
+            // The sum as `chunk_energy`'s, in the same order.
+            let mut e = 0.0;
+            for (i, (s, el)) in stress.iter_mut().zip(chunk).enumerate() {
+                if let Some(el) = el {
+                    let f = c * ENERGY_CHUNK + i;
+                    *s += element_strain(el, fans.corners(f), g, 1.0, Sym3::ZERO);
+                    e += 0.5 * el.area * s.frobenius_sq();
+                }
+            }
+            e
+        })
+        .collect();
+    parts.iter().sum()
 }
 
 /// [`apply_virtual_displacement`], then each element's corner forces at its
@@ -350,6 +393,42 @@ mod tests {
                 Sym3::from_frame(&s, el.e1, el.e2)
             })
             .collect()
+    }
+
+    /// The fused displacement-and-energy pass equals the two calls bit for
+    /// bit, and the energy does not depend on the thread count.
+    #[test]
+    fn fused_energy_is_the_energy_of_the_displaced_stress() {
+        // Enough faces for several chunks of the sum.
+        let mesh = jittered_plate(70, 0.3, 8);
+        assert!(mesh.n_faces() > 2 * ENERGY_CHUNK);
+        let els = Elements::new(&mesh, f64::INFINITY);
+        let fans = Fans::new(&mesh);
+        let mut rng = Lcg(5);
+        let stress = random_tension(&mesh, &els, &mut rng);
+        let g: Vec<[f64; 3]> = (0..mesh.n_vertices())
+            .map(|_| [rng.next_f64() - 0.5, rng.next_f64() - 0.5, 0.0])
+            .collect();
+        let mut a = stress.clone();
+        apply_virtual_displacement(&fans, &els, &mut a, &g, 1.0, |_, _| Sym3::ZERO);
+        let mut b = stress.clone();
+        let e = apply_virtual_displacement_energy(&fans, &els, &mut b, &g);
+        assert_eq!(a, b);
+        assert_eq!(e.to_bits(), energy(&els, &a).to_bits());
+        assert!(e != energy(&els, &stress));
+        let one = rayon::ThreadPoolBuilder::new()
+            .num_threads(1)
+            .build()
+            .unwrap()
+            .install(|| energy(&els, &a));
+        assert_eq!(one.to_bits(), e.to_bits());
+        let sequential: f64 = els
+            .elements
+            .iter()
+            .zip(&a)
+            .filter_map(|(el, s)| el.as_ref().map(|el| 0.5 * el.area * s.frobenius_sq()))
+            .sum();
+        assert!((sequential - e).abs() < 1e-12 * e, "{sequential} vs {e}");
     }
 
     #[test]
