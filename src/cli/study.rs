@@ -18,11 +18,9 @@
 //! the plot as `study.svg` and `study.png`.
 
 use crackle::bridge::build_sim_meshes;
-use crackle::mesh::SimMesh;
 use crackle::post::islands::face_islands;
 use crackle::sim::{relax_only, Integrator, Relaxed, SimParams};
 use crackle::stress::tensor::v3;
-use crackle::stress::StressField;
 use serde_json::{json, Value};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -58,24 +56,6 @@ struct Row {
 
 /// The relative stress error the summary times each scheme to.
 const TARGET_ERROR: f64 = 1e-3;
-
-/// The relaxation of `rounds` rounds and its time: the least of `repeat`
-/// runs (the runs are identical; the least is the least disturbed by
-/// whatever else the machine does).
-fn relaxed(
-    mesh: &SimMesh,
-    params: &SimParams,
-    field: Option<&StressField>,
-    rounds: usize,
-    repeat: usize,
-) -> anyhow::Result<(Relaxed, f64)> {
-    let r = relax_only(mesh, params, field, rounds)?;
-    let mut seconds = r.seconds;
-    for _ in 1..repeat {
-        seconds = seconds.min(relax_only(mesh, params, field, rounds)?.seconds);
-    }
-    Ok((r, seconds))
-}
 
 /// Angles (degrees) between angularly adjacent crack edges at every crack
 /// junction (a rest position where three or more crack segments meet), as
@@ -213,13 +193,7 @@ pub fn run(mut a: StudyArgs) -> anyhow::Result<()> {
     );
 
     // The stable step, from a stable-step Euler run (also a study row).
-    let (euler, euler_s) = relaxed(
-        mesh,
-        &with(Integrator::Euler, 0.0, 1e-4),
-        field,
-        rounds,
-        repeat,
-    )?;
+    let euler = relax_only(mesh, &with(Integrator::Euler, 0.0, 1e-4), field, rounds)?;
     let h = euler.report.stable_dt;
     if !(h.is_finite() && h > 0.0) {
         anyhow::bail!(
@@ -228,36 +202,72 @@ pub fn run(mut a: StudyArgs) -> anyhow::Result<()> {
             e.label
         );
     }
-    let (half, half_s) = relaxed(
-        mesh,
-        &with(Integrator::PaperEuler, h / 2.0, 1e-4),
-        field,
-        rounds,
-        repeat,
-    )?;
-    let (quarter, quarter_s) = relaxed(
-        mesh,
-        &with(Integrator::PaperEuler, h / 4.0, 1e-4),
-        field,
-        rounds,
-        repeat,
-    )?;
+    let rt = base.relax_time;
+    // Every relaxation row: (integrator, dt, tolerance). The first two are
+    // the reference's.
+    let mut configs: Vec<(Integrator, f64, f64)> = vec![
+        (Integrator::PaperEuler, h / 2.0, 0.0),
+        (Integrator::PaperEuler, h / 4.0, 0.0),
+        (Integrator::Euler, 0.0, 0.0),
+        (Integrator::LocalEuler, 0.0, 0.0),
+    ];
+    for k in [1.0, 2.0, 4.0, 8.0, 16.0, 32.0] {
+        configs.push((Integrator::BackwardEuler, rt / k, 1e-4));
+    }
+    // RKL super-steps: one per round, then shorter ones (relax_dt).
+    for k in [1.0, 2.0, 4.0, 8.0] {
+        configs.push((Integrator::Rkl, rt / k, 0.0));
+    }
+    // One implicit step per round with loose tolerances: the cheapest
+    // implicit settings, for the time it takes to reach a given error.
+    for tol in [1e-1, 5e-2, 3e-2, 2e-2, 1e-2] {
+        configs.push((Integrator::BackwardEuler, rt, tol));
+    }
+    for tol in [1e-2, 1e-6] {
+        configs.push((Integrator::BackwardEuler, rt / 8.0, tol));
+    }
+    let params_of = |&(i, dt, tol): &(Integrator, f64, f64)| {
+        with(i, dt, if tol > 0.0 { tol } else { 1e-4 })
+    };
+    // The repeats are interleaved (every row once, then every row again,
+    // ...), so a slow spell of a shared machine hits every row alike; each
+    // row's time is its least.
+    let mut runs: Vec<Relaxed> = Vec::with_capacity(configs.len());
+    for c in &configs {
+        runs.push(if c.0 == Integrator::Euler && c.1 == 0.0 {
+            euler.clone()
+        } else {
+            relax_only(mesh, &params_of(c), field, rounds)?
+        });
+    }
+    let mut seconds: Vec<f64> = runs.iter().map(|r| r.seconds).collect();
+    for _ in 1..repeat {
+        for (c, s) in configs.iter().zip(&mut seconds) {
+            *s = s.min(relax_only(mesh, &params_of(c), field, rounds)?.seconds);
+        }
+    }
     let reference = Relaxed {
-        stress: half
+        stress: runs[0]
             .stress
             .iter()
-            .zip(&quarter.stress)
+            .zip(&runs[1].stress)
             .map(|(s2, s4)| *s4 * 2.0 - *s2)
             .collect(),
-        areas: quarter.areas.clone(),
-        report: quarter.report.clone(),
+        areas: runs[1].areas.clone(),
+        report: runs[1].report.clone(),
         seconds: 0.0,
     };
     // The start state (no round run): how much the reference changed.
     let initial = relax_only(mesh, &with(Integrator::Euler, 0.0, 1e-4), field, 0)?;
     let change = initial.error_against(&reference);
     let mut rows: Vec<Row> = Vec::new();
-    let mut push = |kind, r: &Relaxed, dt: f64, tolerance: f64, seconds: f64| {
+    for ((c, r), &secs) in configs.iter().zip(&runs).zip(&seconds) {
+        let (integrator, dt, tolerance) = *c;
+        let dt = match integrator {
+            // The step these schemes took.
+            Integrator::Euler | Integrator::LocalEuler => r.report.stable_dt,
+            _ => dt,
+        };
         let error = r.error_against(&reference);
         rows.push(Row {
             change_error: if change > 0.0 {
@@ -265,75 +275,16 @@ pub fn run(mut a: StudyArgs) -> anyhow::Result<()> {
             } else {
                 f64::NAN
             },
-            kind,
+            kind: "relaxation",
             integrator: r.report.integrator,
             dt,
             tolerance,
-            seconds,
+            seconds: secs,
             error,
             steps: r.report.relax_steps,
             cg_iterations: r.report.phases.iter().map(|p| p.cg_iterations).sum(),
             extra: Value::Null,
-        })
-    };
-    push("relaxation", &half, h / 2.0, 0.0, half_s);
-    push("relaxation", &quarter, h / 4.0, 0.0, quarter_s);
-    push("relaxation", &euler, h, 0.0, euler_s);
-    let (local, local_s) = relaxed(
-        mesh,
-        &with(Integrator::LocalEuler, 0.0, 1e-4),
-        field,
-        rounds,
-        repeat,
-    )?;
-    let local_dt = local.report.stable_dt;
-    push("relaxation", &local, local_dt, 0.0, local_s);
-    let rt = base.relax_time;
-    for k in [1.0, 2.0, 4.0, 8.0, 16.0, 32.0] {
-        let dt = rt / k;
-        let (r, s) = relaxed(
-            mesh,
-            &with(Integrator::BackwardEuler, dt, 1e-4),
-            field,
-            rounds,
-            repeat,
-        )?;
-        push("relaxation", &r, dt, 1e-4, s);
-    }
-    // RKL super-steps: one per round, then shorter ones (relax_dt).
-    for k in [1.0, 2.0, 4.0, 8.0] {
-        let dt = rt / k;
-        let (r, s) = relaxed(
-            mesh,
-            &with(Integrator::Rkl, dt, 1e-4),
-            field,
-            rounds,
-            repeat,
-        )?;
-        push("relaxation", &r, dt, 0.0, s);
-    }
-    // One implicit step per round with loose tolerances: the cheapest
-    // implicit setting, for the time it takes to reach a given error.
-    for tol in [1e-1, 5e-2, 3e-2, 2e-2, 1e-2] {
-        let (r, s) = relaxed(
-            mesh,
-            &with(Integrator::BackwardEuler, rt, tol),
-            field,
-            rounds,
-            repeat,
-        )?;
-        push("relaxation", &r, rt, tol, s);
-    }
-    for tol in [1e-2, 1e-6] {
-        let dt = rt / 8.0;
-        let (r, s) = relaxed(
-            mesh,
-            &with(Integrator::BackwardEuler, dt, tol),
-            field,
-            rounds,
-            repeat,
-        )?;
-        push("relaxation", &r, dt, tol, s);
+        });
     }
 
     // Full runs with cracking against the paper's scheme at h / 2.

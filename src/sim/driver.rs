@@ -580,8 +580,6 @@ struct RoundCache {
     normals: Vec<[f64; 3]>,
     /// Per-node stiffness bounds (explicit integrators).
     bounds: Option<Vec<f64>>,
-    /// Implicit: the stiffness's diagonal blocks (fixed nodes held).
-    blocks: Option<Vec<Sym3>>,
     /// Implicit: the preconditioner for the step it was built for.
     pre: Option<(f64, Vec<Sym3>)>,
     /// Implicit: the projected node force of one unit of load time.
@@ -1217,15 +1215,11 @@ fn relax_round(
         // The preconditioner, kept for the whole mesh's system.
         let local_pre: Vec<Sym3>;
         let pre: &[Sym3] = if region.is_some() {
-            local_pre = crate::sim::implicit::preconditioner(&op.blocks(), solve_dt);
+            local_pre = op.block_preconditioner(solve_dt);
             &local_pre
         } else {
             if cache.pre.as_ref().is_none_or(|(d, _)| *d != solve_dt) {
-                let blocks = cache.blocks.get_or_insert_with(|| op.blocks());
-                cache.pre = Some((
-                    solve_dt,
-                    crate::sim::implicit::preconditioner(blocks, solve_dt),
-                ));
+                cache.pre = Some((solve_dt, op.block_preconditioner(solve_dt)));
             }
             &cache.pre.as_ref().expect("set").1
         };
