@@ -226,9 +226,8 @@ pub fn run(mut a: StudyArgs) -> anyhow::Result<()> {
     for tol in [1e-2, 1e-6] {
         configs.push((Integrator::BackwardEuler, rt / 8.0, tol));
     }
-    let params_of = |&(i, dt, tol): &(Integrator, f64, f64)| {
-        with(i, dt, if tol > 0.0 { tol } else { 1e-4 })
-    };
+    let params_of =
+        |&(i, dt, tol): &(Integrator, f64, f64)| with(i, dt, if tol > 0.0 { tol } else { 1e-4 });
     // The repeats are interleaved (every row once, then every row again,
     // ...), so a slow spell of a shared machine hits every row alike; each
     // row's time is its least.

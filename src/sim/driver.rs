@@ -1003,6 +1003,21 @@ fn start(
         .map(|f| st.element(mesh, FaceId(f as u32)))
         .collect();
     st.grow(mesh, params);
+    // The rounds' working memory, paged in with the rest of the state (it
+    // lives as long as the state; a fresh allocation would otherwise be
+    // paged in during the first round).
+    let (nf, nv) = (mesh.n_faces(), mesh.n_vertices());
+    crate::sim::implicit::touch(&mut st.corner, 3 * nf);
+    if matches!(
+        params.integrator,
+        Integrator::BackwardEuler | Integrator::Equilibrium
+    ) {
+        let b = &mut st.implicit;
+        b.cg.reserve(nf, nv);
+        for v in [&mut b.rhs, &mut b.r, &mut b.ax] {
+            crate::sim::implicit::touch(v, nv);
+        }
+    }
     report.energy[0] = energy(&st.els, &st.stress);
     Ok((st, report))
 }
@@ -1056,6 +1071,7 @@ pub fn relax_only(
     let (mut st, mut report) = start(mesh, params, field)?;
     let mut loaded = 0.0;
     let mut g = Vec::new();
+    crate::sim::implicit::touch(&mut g, mesh.n_vertices());
     let clock = std::time::Instant::now();
     for round in 0..rounds {
         relax_round(

@@ -394,6 +394,24 @@ pub struct CgScratch {
     kp: Vec<[f64; 3]>,
 }
 
+impl CgScratch {
+    /// Size (and page in) the memory for a mesh of `n_faces` faces and
+    /// `n_nodes` nodes.
+    pub fn reserve(&mut self, n_faces: usize, n_nodes: usize) {
+        touch(&mut self.corner, 3 * n_faces);
+        for v in [&mut self.z, &mut self.p, &mut self.kp] {
+            touch(v, n_nodes);
+        }
+    }
+}
+
+/// Resize `v` to `n` zeros, writing every element (so its memory is paged
+/// in now rather than at first use).
+pub fn touch(v: &mut Vec<[f64; 3]>, n: usize) {
+    v.clear();
+    v.resize(n, [0.0; 3]);
+}
+
 /// Earlier solutions `x_i` of one system with their products `A x_i`.
 pub type History = Vec<Solution>;
 
