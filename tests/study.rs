@@ -48,6 +48,60 @@ fn study_writes_a_work_precision_table_and_plot() {
         let ratio = w[0].1 / w[1].1;
         assert!((1.5..2.6).contains(&ratio), "{be:?}");
     }
+    // The summary: the fastest rows of the paper's forward Euler and of
+    // backward Euler under the target error, and their ratio.
+    let target = &doc["target"];
+    let goal = target["error"].as_f64().unwrap();
+    let fastest = |names: &[&str]| {
+        rows.iter()
+            .filter(|r| {
+                r["kind"] == "relaxation"
+                    && names.contains(&r["integrator"].as_str().unwrap())
+                    && r["error"].as_f64().unwrap() <= goal
+            })
+            .map(|r| r["seconds"].as_f64().unwrap())
+            .fold(f64::INFINITY, f64::min)
+    };
+    let (e, i) = (
+        fastest(&["paper-euler", "euler"]),
+        fastest(&["backward-euler"]),
+    );
+    // (On this small, strongly relaxing plate the paper's scheme reaches
+    // it and one backward-Euler step per round does not.)
+    assert_eq!(
+        target["paper_forward_euler"]["seconds"].as_f64().unwrap(),
+        e
+    );
+    if i.is_finite() {
+        assert_eq!(target["backward_euler"]["seconds"].as_f64().unwrap(), i);
+        assert!(target["backward_euler"]["error"].as_f64().unwrap() <= goal);
+        let speedup = target["speedup"].as_f64().unwrap();
+        assert!((speedup - e / i).abs() <= 1e-9 * speedup, "{target}");
+        assert!(stdout.contains("faster to error 1e-3"), "{stdout}");
+    } else {
+        assert!(target["backward_euler"].is_null() && target["speedup"].is_null());
+        assert!(stdout.contains("backward Euler not reached"), "{stdout}");
+    }
+    // One backward-Euler step per round at loose tolerances: the error
+    // grows as the tolerance loosens.
+    let mut loose: Vec<(f64, f64)> = rows
+        .iter()
+        .filter(|r| {
+            r["kind"] == "relaxation"
+                && r["integrator"] == "backward-euler"
+                && r["dt"].as_f64() == doc["relax_time"].as_f64()
+                && r["tolerance"].as_f64().unwrap() >= 1e-2
+        })
+        .map(|r| {
+            (
+                r["tolerance"].as_f64().unwrap(),
+                r["error"].as_f64().unwrap(),
+            )
+        })
+        .collect();
+    loose.sort_by(|a, b| a.0.total_cmp(&b.0));
+    assert_eq!(loose.len(), 5, "{loose:?}");
+    assert!(loose[0].1 < loose[4].1, "{loose:?}");
     // The reference's own ingredients are close to it.
     let paper: Vec<f64> = rows
         .iter()
@@ -105,4 +159,57 @@ fn study_refuses_a_bad_input_and_a_bad_integrator() {
         .unwrap();
     assert_eq!(o.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&o.stderr).contains("rk4"));
+}
+
+/// On the armadillo (the mesh of the speed target) one backward-Euler step
+/// per round reaches the target error, and the summary names the fastest
+/// row of each scheme under it. (How much faster is a measurement for the
+/// benchmark notes, not a test: `crackle study armadillo.obj --preset
+/// glaze --repeat 5`.)
+#[test]
+fn the_armadillo_study_times_both_schemes_to_the_target_error() {
+    let Some(input) = common::eval_data("obj/armadillo/armadillo.obj") else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let o = Command::new(common::crackle_bin())
+        .args(["study".as_ref(), input.as_os_str()])
+        .args(["--preset", "glaze", "--out"])
+        .arg(dir.path())
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let doc: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.path().join("study.json")).unwrap()).unwrap();
+    let target = &doc["target"];
+    let be = &target["backward_euler"];
+    let fe = &target["paper_forward_euler"];
+    assert_eq!(be["integrator"], "backward-euler", "{target}");
+    // One step per round (dt = the round's relaxation time) at a loose
+    // tolerance.
+    assert_eq!(be["dt"], doc["relax_time"], "{target}");
+    assert!(be["tolerance"].as_f64().unwrap() >= 1e-2, "{target}");
+    assert!(be["error"].as_f64().unwrap() <= 1e-3, "{target}");
+    assert!(fe["error"].as_f64().unwrap() <= 1e-3, "{target}");
+    assert!(["paper-euler", "euler"].contains(&fe["integrator"].as_str().unwrap()));
+    let s = target["speedup"].as_f64().unwrap();
+    let ratio = fe["seconds"].as_f64().unwrap() / be["seconds"].as_f64().unwrap();
+    assert!((s - ratio).abs() <= 1e-9 * s, "{target}");
+    // Its cheapest setting needs few conjugate-gradient iterations: at most
+    // a few per round.
+    let row = doc["rows"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|r| {
+            r["integrator"] == "backward-euler"
+                && r["dt"] == be["dt"]
+                && r["tolerance"] == be["tolerance"]
+        })
+        .unwrap();
+    let rounds = doc["rounds"].as_u64().unwrap();
+    assert!(
+        row["cg_iterations"].as_u64().unwrap() <= 5 * rounds,
+        "{row}"
+    );
 }
