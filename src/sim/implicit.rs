@@ -16,8 +16,9 @@
 //! explicit step) by conjugate gradients with the block-Jacobi
 //! preconditioner `(I + dt K_nn)^-1` (each node's own 3x3 block). A solve
 //! can start from the best combination of earlier solutions of the same
-//! system ([`subspace_start`]), and leaves its residual `r`, from which the
-//! force after the step is `(x + r) / dt` without another product. Every
+//! system ([`subspace_start`]), and leaves its residual `r` (as the
+//! iteration updated it: it drifts from `rhs - A x` by rounding, so callers
+//! that keep products for later starts compute them exactly). Every
 //! dot product sums fixed chunks in order, so results do not depend on the
 //! thread count.
 
@@ -36,7 +37,7 @@ pub fn dot(a: &[[f64; 3]], b: &[[f64; 3]]) -> f64 {
         .zip(b.par_chunks(CHUNK))
         .map(|(x, y)| x.iter().zip(y).map(|(p, q)| v3::dot(*p, *q)).sum::<f64>())
         .collect();
-    parts.iter().sum()
+    parts.iter().fold(0.0, |a, b| a + b)
 }
 
 /// The projected stiffness `K = P B^T A B P` of a mesh state.

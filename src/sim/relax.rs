@@ -33,7 +33,7 @@ pub fn energy(els: &Elements, stress: &[Sym3]) -> f64 {
         .zip(stress.par_chunks(ENERGY_CHUNK))
         .map(|(els, stress)| chunk_energy(els, stress))
         .collect();
-    parts.iter().sum()
+    parts.iter().fold(0.0, |a, b| a + b)
 }
 
 /// Faces per part of [`energy`]'s sum (parts summed in order, so the value
@@ -143,32 +143,47 @@ pub fn apply_virtual_displacement(
         });
 }
 
-/// [`apply_virtual_displacement`] (no load), returning the energy of the
-/// new stress: the same value as [`energy`] after it, in the same pass.
+/// [`apply_virtual_displacement`] (no load), then each element's corner
+/// forces at its new stress into `corner` (as
+/// [`crate::sim::forces::corner_forces`]), returning the energy of the new
+/// stress (the value of [`energy`]), all in one pass over the elements.
 pub fn apply_virtual_displacement_energy(
     fans: &Fans,
     els: &Elements,
     stress: &mut [Sym3],
+    corner: &mut Vec<[f64; 3]>,
     g: &[[f64; 3]],
 ) -> f64 {
+    corner.resize(3 * els.elements.len(), [0.0; 3]);
     let parts: Vec<f64> = stress
         .par_chunks_mut(ENERGY_CHUNK)
+        .zip(corner.par_chunks_mut(3 * ENERGY_CHUNK))
         .zip(els.elements.par_chunks(ENERGY_CHUNK))
         .enumerate()
-        .map(|(c, (stress, chunk))| {
+        .map(|(c, ((stress, corner), chunk))| {
             // The sum as `chunk_energy`'s, in the same order.
             let mut e = 0.0;
-            for (i, (s, el)) in stress.iter_mut().zip(chunk).enumerate() {
-                if let Some(el) = el {
-                    let f = c * ENERGY_CHUNK + i;
-                    *s += element_strain(el, fans.corners(f), g, 1.0, Sym3::ZERO);
-                    e += 0.5 * el.area * s.frobenius_sq();
+            for (i, ((s, el), cf)) in stress
+                .iter_mut()
+                .zip(chunk)
+                .zip(corner.chunks_mut(3))
+                .enumerate()
+            {
+                let f = c * ENERGY_CHUNK + i;
+                prefetch_corners(fans, g, f + PREFETCH_AHEAD);
+                match el {
+                    Some(el) => {
+                        *s += element_strain(el, fans.corners(f), g, 1.0, Sym3::ZERO);
+                        element_corner_forces(el, s, cf);
+                        e += 0.5 * el.area * s.frobenius_sq();
+                    }
+                    None => cf.fill([0.0; 3]),
                 }
             }
             e
         })
         .collect();
-    parts.iter().sum()
+    parts.iter().fold(0.0, |a, b| a + b)
 }
 
 /// [`apply_virtual_displacement`], then each element's corner forces at its
@@ -395,10 +410,11 @@ mod tests {
             .collect()
     }
 
-    /// The fused displacement-and-energy pass equals the two calls bit for
-    /// bit, and the energy does not depend on the thread count.
+    /// The fused displacement, forces and energy pass equals the separate
+    /// calls bit for bit, and the energy does not depend on the thread
+    /// count.
     #[test]
-    fn fused_energy_is_the_energy_of_the_displaced_stress() {
+    fn fused_pass_gives_the_energy_and_forces_of_the_displaced_stress() {
         // Enough faces for several chunks of the sum.
         let mesh = jittered_plate(70, 0.3, 8);
         assert!(mesh.n_faces() > 2 * ENERGY_CHUNK);
@@ -412,8 +428,12 @@ mod tests {
         let mut a = stress.clone();
         apply_virtual_displacement(&fans, &els, &mut a, &g, 1.0, |_, _| Sym3::ZERO);
         let mut b = stress.clone();
-        let e = apply_virtual_displacement_energy(&fans, &els, &mut b, &g);
+        let mut corner = Vec::new();
+        let e = apply_virtual_displacement_energy(&fans, &els, &mut b, &mut corner, &g);
         assert_eq!(a, b);
+        let mut want = Vec::new();
+        crate::sim::forces::corner_forces(&els, &a, &mut want);
+        assert_eq!(corner, want);
         assert_eq!(e.to_bits(), energy(&els, &a).to_bits());
         assert!(e != energy(&els, &stress));
         let one = rayon::ThreadPoolBuilder::new()
