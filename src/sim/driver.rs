@@ -1586,10 +1586,7 @@ fn relax_round(
         // The implicit rounds' working memory (kept only by them).
         let mut bufs = std::mem::take(&mut st.implicit);
         let ImplicitScratch {
-            cg,
-            rhs: mf,
-            r: w,
-            ax: kw,
+            cg, rhs: mf, r: w, ..
         } = &mut bufs;
         let n = force.len();
         mf.clear();
@@ -1599,9 +1596,8 @@ fn relax_round(
         w.iter_mut()
             .enumerate()
             .for_each(|(n, x)| *x = v3::scale(*x, mob(n)));
-        kw.resize(n, [0.0; 3]);
-        op.apply(w, &mut cg.corner, kw);
-        let stress_norm = crate::sim::implicit::dot(w, kw).max(0.0).sqrt();
+        // `w . K w` from the strain of `w`: no second product.
+        let stress_norm = op.energy_norm_sq(w).max(0.0).sqrt();
         if matches!(
             params.integrator,
             Integrator::BackwardEuler | Integrator::Equilibrium

@@ -95,6 +95,31 @@ impl Operator<'_> {
             .collect()
     }
 
+    /// `v . K v` for an allowed motion `v` (projected, as `apply`'s
+    /// output), as the area-weighted squared norm of its strain: one pass
+    /// over the elements, no node pass. Summed in fixed chunks.
+    pub fn energy_norm_sq(&self, v: &[[f64; 3]]) -> f64 {
+        let fans = self.fans;
+        let parts: Vec<f64> = self
+            .els
+            .elements
+            .par_chunks(CHUNK)
+            .enumerate()
+            .map(|(c, chunk)| {
+                let mut sum = 0.0;
+                for (i, el) in chunk.iter().enumerate() {
+                    if let Some(el) = el {
+                        let f = c * CHUNK + i;
+                        let s = element_strain(el, fans.corners(f), v, 1.0, Sym3::ZERO);
+                        sum += el.area * s.frobenius_sq();
+                    }
+                }
+                sum
+            })
+            .collect();
+        parts.iter().fold(0.0, |a, b| a + b)
+    }
+
     /// `out = K v`; `corner` is scratch (3 per face).
     pub fn apply(&self, v: &[[f64; 3]], corner: &mut Vec<[f64; 3]>, out: &mut [[f64; 3]]) {
         self.strain_forces(v, corner);
@@ -614,6 +639,8 @@ mod tests {
         op.apply(&u, &mut scratch, &mut ku);
         op.apply(&v, &mut scratch, &mut kv);
         let (a, b) = (dot(&v, &ku), dot(&u, &kv));
+        let (uku, norm) = (dot(&u, &ku), op.energy_norm_sq(&u));
+        assert!((uku - norm).abs() <= 1e-10 * norm, "{uku} vs {norm}");
         assert!((a - b).abs() <= 1e-10 * a.abs().max(1.0), "{a} vs {b}");
         assert!(dot(&u, &ku) >= 0.0);
         // Against the explicit machinery: strain of u from zero stress.
