@@ -2488,9 +2488,73 @@ mod tests {
         assert!(one.is_finite() && stable < one, "{stable} vs {one}");
     }
 
+    /// `rounds` relaxation rounds from the start state (`fresh`: the
+    /// round cache dropped before each).
+    fn implicit_rounds(
+        mesh: &SimMesh,
+        field: &StressField,
+        params: &SimParams,
+        rounds: usize,
+        fresh: bool,
+    ) -> (State, SimReport) {
+        let (mut st, mut report) = start(mesh, params, Some(field)).unwrap();
+        let (mut loaded, mut g) = (0.0, Vec::new());
+        for _ in 0..rounds {
+            if fresh {
+                st.cache = RoundCache::default();
+            }
+            relax_round(
+                mesh,
+                &mut st,
+                params,
+                &mut g,
+                true,
+                &mut loaded,
+                &mut report,
+                None,
+            )
+            .unwrap();
+        }
+        (st, report)
+    }
+
+    /// How far the force a backward-Euler round carried is from the force
+    /// of the state's stress, and that force's norm.
+    fn carried_force_error(st: &State) -> (f64, f64) {
+        let fans = st.cache.fans();
+        let op = crate::sim::implicit::Operator {
+            fans: &fans,
+            els: &st.els,
+            normals: &st.cache.normals,
+            fixed: &st.fixed,
+        };
+        let fresh = op.forces(&st.stress, &mut Vec::new());
+        let carried = st.cache.force.clone().expect("a carried force");
+        let diff: Vec<[f64; 3]> = carried
+            .iter()
+            .zip(&fresh)
+            .map(|(a, b)| v3::sub(*a, *b))
+            .collect();
+        (
+            crate::sim::implicit::dot(&diff, &diff).sqrt(),
+            crate::sim::implicit::dot(&fresh, &fresh).sqrt(),
+        )
+    }
+
+    /// The area-free L2 distance of two stress fields, and the second's norm.
+    fn stress_gap(a: &[Sym3], b: &[Sym3]) -> (f64, f64) {
+        let gap = a
+            .iter()
+            .zip(b)
+            .map(|(a, b)| (*a - *b).frobenius_sq())
+            .sum::<f64>();
+        let scale = b.iter().map(|s| s.frobenius_sq()).sum::<f64>();
+        (gap.sqrt(), scale.sqrt())
+    }
+
     /// Backward-Euler rounds carry the force from solve to solve (gathered
-    /// after each stress update, plus the force of the round's load): after rounds with load,
-    /// bonding and a fixed border it equals the force computed afresh from
+    /// after each stress update, plus the force of the round's load): after
+    /// rounds with load, bonding and a fixed border it equals the force computed afresh from
     /// the stress, and the stress equals that of rounds that compute
     /// everything afresh (cache dropped before every round).
     #[test]
@@ -2514,47 +2578,11 @@ mod tests {
             relax_time: 1.0,
             ..Default::default()
         };
-        let run = |fresh: bool| {
-            let (mut st, mut report) = start(&mesh, &params, Some(&field)).unwrap();
-            let (mut loaded, mut g) = (0.0, Vec::new());
-            for _ in 0..5 {
-                if fresh {
-                    st.cache = RoundCache::default();
-                }
-                relax_round(
-                    &mesh,
-                    &mut st,
-                    &params,
-                    &mut g,
-                    true,
-                    &mut loaded,
-                    &mut report,
-                    None,
-                )
-                .unwrap();
-            }
-            (st, report)
-        };
-        let (st, report) = run(false);
+        let (st, report) = implicit_rounds(&mesh, &field, &params, 5, false);
         assert!(report.phases.iter().all(|p| p.cg_iterations > 0));
-        let carried = st.cache.force.clone().expect("a carried force");
-        let fans = st.cache.fans();
-        let op = crate::sim::implicit::Operator {
-            fans: &fans,
-            els: &st.els,
-            normals: &st.cache.normals,
-            fixed: &st.fixed,
-        };
         assert!(!st.cache.normals.is_empty() && st.fixed.iter().any(|&f| f));
-        let fresh = op.forces(&st.stress, &mut Vec::new());
-        let norm = crate::sim::implicit::dot(&fresh, &fresh).sqrt();
+        let (off, norm) = carried_force_error(&st);
         assert!(norm > 1e-6, "{norm}");
-        let diff: Vec<[f64; 3]> = carried
-            .iter()
-            .zip(&fresh)
-            .map(|(a, b)| v3::sub(*a, *b))
-            .collect();
-        let off = crate::sim::implicit::dot(&diff, &diff).sqrt();
         assert!(
             off < 1e-8 * norm,
             "carried force off by {off} (norm {norm})"
@@ -2562,20 +2590,8 @@ mod tests {
         let last = report.phases.last().unwrap().residual;
         assert!((last - norm).abs() < 1e-8 * norm, "{last} vs {norm}");
         // The same stress as rounds that compute everything afresh.
-        let (st2, _) = run(true);
-        let scale = st2
-            .stress
-            .iter()
-            .map(|s| s.frobenius_sq())
-            .sum::<f64>()
-            .sqrt();
-        let gap = st
-            .stress
-            .iter()
-            .zip(&st2.stress)
-            .map(|(a, b)| (*a - *b).frobenius_sq())
-            .sum::<f64>()
-            .sqrt();
+        let (st2, _) = implicit_rounds(&mesh, &field, &params, 5, true);
+        let (gap, scale) = stress_gap(&st.stress, &st2.stress);
         assert!(gap < 1e-8 * scale, "stress differs by {gap} (norm {scale})");
     }
 
@@ -2612,28 +2628,7 @@ mod tests {
             ..Default::default()
         };
         let rounds = 150;
-        let run = |fresh: bool| {
-            let (mut st, mut report) = start(&mesh, &params, Some(&field)).unwrap();
-            let (mut loaded, mut g) = (0.0, Vec::new());
-            for _ in 0..rounds {
-                if fresh {
-                    st.cache = RoundCache::default();
-                }
-                relax_round(
-                    &mesh,
-                    &mut st,
-                    &params,
-                    &mut g,
-                    true,
-                    &mut loaded,
-                    &mut report,
-                    None,
-                )
-                .unwrap();
-            }
-            (st, report)
-        };
-        let (st, report) = run(false);
+        let (st, report) = implicit_rounds(&mesh, &field, &params, rounds, false);
         assert_eq!(report.cg_unconverged, 0);
         let energies: Vec<f64> = report.phases.iter().map(|p| p.energy).collect();
         for (k, w) in energies.windows(2).enumerate().skip(3) {
@@ -2644,45 +2639,16 @@ mod tests {
                 w[1]
             );
         }
-        let fans = st.cache.fans();
-        let op = crate::sim::implicit::Operator {
-            fans: &fans,
-            els: &st.els,
-            normals: &st.cache.normals,
-            fixed: &st.fixed,
-        };
-        let fresh = op.forces(&st.stress, &mut Vec::new());
-        let carried = st.cache.force.clone().expect("a carried force");
-        let norm = crate::sim::implicit::dot(&fresh, &fresh).sqrt();
-        let diff: Vec<[f64; 3]> = carried
-            .iter()
-            .zip(&fresh)
-            .map(|(a, b)| v3::sub(*a, *b))
-            .collect();
-        let off = crate::sim::implicit::dot(&diff, &diff).sqrt();
+        let (off, norm) = carried_force_error(&st);
         assert!(
             off <= 1e-9 * norm.max(1e-300),
             "carried force off by {off} (norm {norm})"
         );
-        let (st2, _) = run(true);
-        let scale = st2
-            .stress
-            .iter()
-            .map(|s| s.frobenius_sq())
-            .sum::<f64>()
-            .sqrt();
-        let gap = st
-            .stress
-            .iter()
-            .zip(&st2.stress)
-            .map(|(a, b)| (*a - *b).frobenius_sq())
-            .sum::<f64>()
-            .sqrt();
+        let (st2, _) = implicit_rounds(&mesh, &field, &params, rounds, true);
+        let (gap, scale) = stress_gap(&st.stress, &st2.stress);
         assert!(gap < 1e-5 * scale, "stress differs by {gap} (norm {scale})");
     }
 
-    /// An equilibrium round leaves (almost) no residual force, and no
-    /// finite backward-Euler step relaxes further.
     #[test]
     fn rkl_is_second_order_and_estimates_its_error() {
         let mesh = jittered_plate(12, 0.3, 2);
@@ -2940,6 +2906,8 @@ mod tests {
         assert!(r.cracks > 0, "shrinkage cracks under eigen-diffusion too");
     }
 
+    /// An equilibrium round leaves (almost) no residual force, and no
+    /// finite backward-Euler step relaxes further.
     #[test]
     fn equilibrium_leaves_no_residual_force() {
         let mesh = jittered_plate(12, 0.3, 2);
