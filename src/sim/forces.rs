@@ -187,12 +187,23 @@ pub fn node_force(fans: &Fans, els: &Elements, stress: &[Sym3], v: usize) -> [f6
 /// [`node_force`]; computing them face by face first reads the elements
 /// and stresses in order instead of once per corner at random.
 pub fn corner_forces(els: &Elements, stress: &[Sym3], out: &mut Vec<[f64; 3]>) {
+    corner_forces_with(els, |f, _| stress[f], out);
+}
+
+/// [`corner_forces`] of the stress `stress(f, element)` of every face with
+/// an element.
+pub fn corner_forces_with(
+    els: &Elements,
+    stress: impl Fn(usize, &Element) -> Sym3 + Sync,
+    out: &mut Vec<[f64; 3]>,
+) {
     out.resize(3 * els.elements.len(), [0.0; 3]);
     out.par_chunks_mut(3)
-        .zip(els.elements.par_iter().zip(stress.par_iter()))
+        .zip(els.elements.par_iter())
+        .enumerate()
         .with_min_len(1024)
-        .for_each(|(c, (el, s))| match el {
-            Some(el) => element_corner_forces(el, s, c),
+        .for_each(|(f, (c, el))| match el {
+            Some(el) => element_corner_forces(el, &stress(f, el), c),
             None => c.fill([0.0; 3]),
         });
 }

@@ -78,16 +78,7 @@ impl Operator<'_> {
         stress: impl Fn(usize, &Element) -> Sym3 + Sync,
         corner: &mut Vec<[f64; 3]>,
     ) -> Vec<[f64; 3]> {
-        corner.resize(3 * self.els.elements.len(), [0.0; 3]);
-        corner
-            .par_chunks_mut(3)
-            .zip(self.els.elements.par_iter())
-            .enumerate()
-            .with_min_len(1024)
-            .for_each(|(f, (c, el))| match el {
-                Some(el) => element_corner_forces(el, &stress(f, el), c),
-                None => c.fill([0.0; 3]),
-            });
+        crate::sim::forces::corner_forces_with(self.els, stress, corner);
         let corner = &*corner;
         (0..self.fans.n_vertices())
             .into_par_iter()
