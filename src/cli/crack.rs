@@ -59,7 +59,7 @@ pub struct SimArgs {
     /// Relaxation steps per round; 0: as many as --relax-time needs [default: 0]
     #[arg(long)]
     relax_steps: Option<usize>,
-    /// Relaxation integrator: local-euler, euler, paper-euler (needs --relax-dt), backward-euler, equilibrium or rkl [default: local-euler]
+    /// Relaxation integrator: local-euler, euler, paper-euler (needs --relax-dt), backward-euler, equilibrium, rkl, or auto (local-euler unless the mesh is stiff, then backward-euler) [default: auto]
     #[arg(long, value_name = "NAME")]
     integrator: Option<String>,
     /// Relative residual of each backward-Euler solve [default: 1e-4]

@@ -58,7 +58,7 @@ pub struct SimParams {
     pub relax_steps: usize,
     /// Most relaxation rounds. Default 200.
     pub max_rounds: usize,
-    /// Most crack events in the whole run. Default 100,000.
+    /// Most crack events in the whole run. Default 1,000,000.
     pub max_cracks: usize,
     /// Most crack events per round; when a round reaches it the load is held
     /// (no shrinkage) for the next round, so stress can redistribute around
@@ -119,6 +119,25 @@ pub struct SimParams {
     pub diffusion_fraction: f64,
     /// Parameters of `model = "springs"` (`[simulation.springs]`).
     pub springs: crate::sim::springs::SpringParams,
+    /// The pattern's cell size in scene units: the surface is a film bonded
+    /// to its body ([`crate::sim::film`]) whose cells come out near this
+    /// diameter, whatever the triangles. Give this or
+    /// `cell_size_relative`, not both; with neither, lengths are the
+    /// mesh's (the mean edge length) and cells follow the triangles.
+    pub cell_size: Option<f64>,
+    /// The cell size as a fraction of each simulated mesh's bounding-box
+    /// diagonal (every preset sets one).
+    pub cell_size_relative: Option<f64>,
+    /// With a cell size: remesh each simulated surface isotropically to
+    /// `cell size / 9` edges before cracking, refining coarse inputs (finer
+    /// ones are left as they are). Default true.
+    pub isotropic_remesh: bool,
+    /// With `isotropic_remesh`: also coarsen surfaces finer than needed.
+    /// Default false.
+    pub coarsen: bool,
+    /// Most triangles the remeshed surface may have: a request above it is
+    /// refused with the numbers before any work. Default 2,000,000.
+    pub max_triangles: usize,
 }
 
 /// Which failing node cracks next.
@@ -166,10 +185,15 @@ pub enum Model {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Deserialize, serde::Serialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum Integrator {
+    /// `local-euler`, unless the mesh is so stiff (sliver triangles) that a
+    /// round would need more than [`AUTO_STEP_LIMIT`] of its steps; then
+    /// `backward-euler`, whose cost does not grow with stiffness. The
+    /// report names the scheme that ran and why.
+    #[default]
+    Auto,
     /// Forward Euler with the stable step of a typical node (the median of
     /// the per-node bounds); stiffer nodes move more slowly, each within
     /// its own stable limit. Fast, but stiff regions relax late.
-    #[default]
     LocalEuler,
     /// Forward Euler with one step for every node: the largest step the
     /// Gershgorin bound of the stiffness allows (`1.9 / max_n b_n`), or
@@ -196,6 +220,38 @@ pub enum Integrator {
     /// slowed to fit, as in `local-euler`. Energy never rises over a
     /// super-step without load.
     Rkl,
+}
+
+/// With `integrator = "auto"`: the most local-euler steps a round may
+/// take before the run uses backward Euler instead.
+pub const AUTO_STEP_LIMIT: f64 = 2000.0;
+
+/// The integrator `auto` stands for on this state, and why.
+fn resolve_integrator(mesh: &SimMesh, st: &State, params: &SimParams) -> (Integrator, String) {
+    if params.integrator != Integrator::Auto {
+        return (params.integrator, "asked for".into());
+    }
+    let bounds = node_bounds(&Fans::new(mesh), &st.els);
+    let mut positive: Vec<f64> = bounds.into_iter().filter(|b| *b > 0.0).collect();
+    if positive.is_empty() {
+        return (Integrator::LocalEuler, "nothing to relax".into());
+    }
+    let mid = positive.len() / 2;
+    let median = *positive.select_nth_unstable_by(mid, f64::total_cmp).1;
+    let steps = params.relax_time * median / 1.9;
+    if steps > AUTO_STEP_LIMIT {
+        (
+            Integrator::BackwardEuler,
+            format!(
+                "auto: the mesh is stiff (a local-euler round would take {steps:.0} steps, above {AUTO_STEP_LIMIT:.0})"
+            ),
+        )
+    } else {
+        (
+            Integrator::LocalEuler,
+            format!("auto: {steps:.0} local-euler steps a round"),
+        )
+    }
 }
 
 /// Most stages of an RKL super-step; stiffer nodes than this covers are
@@ -238,6 +294,7 @@ impl Integrator {
     /// The pipeline name.
     pub fn name(self) -> &'static str {
         match self {
+            Integrator::Auto => "auto",
             Integrator::LocalEuler => "local-euler",
             Integrator::Euler => "euler",
             Integrator::PaperEuler => "paper-euler",
@@ -262,13 +319,13 @@ impl Default for SimParams {
             relax_dt: 0.0,
             relax_steps: 0,
             max_rounds: 200,
-            max_cracks: 100_000,
+            max_cracks: 1_000_000,
             max_cracks_per_round: 0,
             clamp_factor: 4.0,
             fixed_boundary: false,
             fixed_groups: Vec::new(),
             bonded: true,
-            integrator: Integrator::LocalEuler,
+            integrator: Integrator::Auto,
             tolerance: 1e-4,
             finish_rings: 8,
             finish: false,
@@ -280,11 +337,37 @@ impl Default for SimParams {
             diffusion_passes: 30,
             diffusion_fraction: 0.05,
             rules: CrackRules::default(),
+            cell_size: None,
+            cell_size_relative: None,
+            isotropic_remesh: true,
+            coarsen: false,
+            max_triangles: 2_000_000,
         }
     }
 }
 
 impl SimParams {
+    /// The cell size for `mesh` in scene units, when one is asked for
+    /// (relative sizes scale with the mesh's bounding-box diagonal).
+    pub fn cell_size_for(&self, mesh: &SimMesh) -> Option<f64> {
+        match (self.cell_size, self.cell_size_relative) {
+            (Some(c), _) => Some(c),
+            (None, Some(r)) => {
+                let (lo, hi) = mesh.bounding_box();
+                Some(r * v3::norm(v3::sub(hi, lo)))
+            }
+            (None, None) => None,
+        }
+    }
+
+    /// Whether a run on this mesh is a bonded film (the quasistatic model
+    /// with tensor relaxation and a cell size).
+    pub fn is_film(&self) -> bool {
+        self.model == Model::Quasistatic
+            && self.relaxation == Relaxation::Tensor
+            && (self.cell_size.is_some() || self.cell_size_relative.is_some())
+    }
+
     /// Check every value, naming the parameter that is wrong.
     pub fn validate(&self) -> Result<(), String> {
         let finite_pos = |name: &str, x: f64| {
@@ -342,6 +425,26 @@ impl SimParams {
         if !(0.0..=1.0).contains(&self.noise) {
             return Err(format!("noise must be in [0, 1], got {}", self.noise));
         }
+        match (self.cell_size, self.cell_size_relative) {
+            (Some(_), Some(_)) => {
+                return Err(
+                    "give simulation.cell_size or simulation.cell_size_relative, not both".into(),
+                )
+            }
+            (Some(c), None) => finite_pos("cell_size", c)?,
+            (None, Some(r)) => {
+                finite_pos("cell_size_relative", r)?;
+                if r > 1.0 {
+                    return Err(format!(
+                        "cell_size_relative is a fraction of the bounding-box diagonal, at most 1; got {r}"
+                    ));
+                }
+            }
+            (None, None) => {}
+        }
+        if self.max_triangles == 0 {
+            return Err("max_triangles must be at least 1".into());
+        }
         if !(self.residual_constant.is_finite() && self.residual_constant >= 0.0) {
             return Err(format!(
                 "residual_constant must be >= 0, got {}",
@@ -369,8 +472,11 @@ pub struct SimReport {
     pub nodes: [usize; 2],
     /// Stress energy at the start of the first round and at the end.
     pub energy: [f64; 2],
-    /// The mean edge length used as the length unit.
+    /// The length unit of the run in scene units: the mean edge length,
+    /// or for a film the shear-lag length (`cell_size / 2`).
     pub length_unit: f64,
+    /// The cell size of a film run, in scene units (none: mesh-scale run).
+    pub cell_size: Option<f64>,
     /// Why the run stopped.
     pub stopped: String,
     /// Simulation time (relaxation-time units) at the end of the run.
@@ -398,6 +504,8 @@ pub struct SimReport {
     pub stable_dt: f64,
     /// The integrator used.
     pub integrator: &'static str,
+    /// Why that integrator ran (`auto` chooses by the mesh's stiffness).
+    pub integrator_reason: String,
     /// Implicit solves that stopped before reaching `tolerance` (iteration
     /// cap, or a breakdown); their step was still taken.
     pub cg_unconverged: usize,
@@ -553,6 +661,8 @@ struct State {
     /// the stress once after the first round and then changed only by
     /// cracking and diffusion (`None`: computed from the stress).
     frozen: Option<Vec<Sym3>>,
+    /// A bonded film's state, when the run has a cell size.
+    film: Option<crate::sim::film::Film>,
 }
 
 /// Working memory of the implicit rounds.
@@ -689,8 +799,21 @@ impl State {
         }
         while self.shrink_scale.len() < mesh.n_faces() {
             let f = FaceId(self.shrink_scale.len() as u32);
-            self.shrink_scale
-                .push(1.0 + params.noise * hash_unit(params.seed, u64::from(mesh.face_source(f))));
+            let u = match &self.film {
+                // A world-space field: the same wherever the triangles are.
+                Some(film) => {
+                    let c = face_points(mesh, f)
+                        .iter()
+                        .fold([0.0; 3], |a, p| v3::add(a, *p));
+                    let spacing = crate::sim::film::NOISE_SPACING * film.cell;
+                    crate::sim::film::value_noise(params.seed, v3::scale(c, 1.0 / (3.0 * spacing)))
+                }
+                None => hash_unit(params.seed, u64::from(mesh.face_source(f))),
+            };
+            self.shrink_scale.push(1.0 + params.noise * u);
+        }
+        if let Some(film) = &mut self.film {
+            film.grow(mesh.n_vertices());
         }
     }
 }
@@ -730,6 +853,24 @@ pub fn run_with(
         return crate::sim::springs::run(mesh, params, observer);
     }
     let (mut st, mut report) = start(mesh, params, field)?;
+    let resolved;
+    let params = if st.film.is_none() && params.integrator == Integrator::Auto {
+        let (integrator, why) = resolve_integrator(mesh, &st, params);
+        report.integrator = integrator.name();
+        report.integrator_reason = why;
+        resolved = SimParams {
+            integrator,
+            ..params.clone()
+        };
+        &resolved
+    } else {
+        report.integrator_reason = if st.film.is_some() {
+            "a film (cell size) is always solved for equilibrium".into()
+        } else {
+            "asked for".into()
+        };
+        params
+    };
     let per_round_cap = if params.max_cracks_per_round > 0 {
         params.max_cracks_per_round
     } else {
@@ -757,6 +898,9 @@ pub fn run_with(
             None,
         )?;
         report.rounds = round + 1;
+        if let Some(film) = &mut st.film {
+            film.new_round();
+        }
         if params.relaxation == Relaxation::EigenDiffusion && st.frozen.is_none() {
             let fz: Vec<Sym3> = (0..mesh.n_vertices())
                 .into_par_iter()
@@ -816,6 +960,10 @@ pub fn run_with(
             }
             if !apply_event(mesh, &mut st, params, &mut report, &ev) {
                 continue;
+            }
+            if let Some(film) = &mut st.film {
+                let ends: Vec<VertexId> = ev.segments.iter().flat_map(|&(a, b)| [a, b]).collect();
+                film.mark_around(mesh, &ends);
             }
             cracked_this_round += 1;
             chain = true;
@@ -954,7 +1102,15 @@ fn start(
             )));
         }
     }
-    let unit = mesh.mean_edge_length();
+    let film = params
+        .is_film()
+        .then(|| params.cell_size_for(mesh))
+        .flatten()
+        .map(crate::sim::film::Film::new);
+    let unit = match &film {
+        Some(f) => f.length,
+        None => mesh.mean_edge_length(),
+    };
     if !(unit.is_finite() && unit > 0.0) {
         return Err(SimError::Param(
             "the mesh has no edge of positive length".into(),
@@ -964,8 +1120,13 @@ fn start(
         triangles: [mesh.n_faces(), 0],
         nodes: [mesh.n_vertices(), 0],
         length_unit: unit,
+        cell_size: film.as_ref().map(|f| f.cell),
         stable_dt: f64::INFINITY,
-        integrator: params.integrator.name(),
+        integrator: if film.is_some() {
+            "film-equilibrium"
+        } else {
+            params.integrator.name()
+        },
         ..Default::default()
     };
     // Elements in normalised units.
@@ -997,6 +1158,7 @@ fn start(
         warm: Vec::new(),
         cache: RoundCache::default(),
         implicit: ImplicitScratch::default(),
+        film,
     };
     st.els.elements = (0..mesh.n_faces())
         .into_par_iter()
@@ -1008,10 +1170,12 @@ fn start(
     // paged in during the first round).
     let (nf, nv) = (mesh.n_faces(), mesh.n_vertices());
     crate::sim::implicit::touch(&mut st.corner, 3 * nf);
-    if matches!(
-        params.integrator,
-        Integrator::BackwardEuler | Integrator::Equilibrium
-    ) {
+    if st.film.is_some()
+        || matches!(
+            params.integrator,
+            Integrator::BackwardEuler | Integrator::Equilibrium
+        )
+    {
         let b = &mut st.implicit;
         b.cg.reserve(nf, nv);
         for v in [&mut b.rhs, &mut b.r, &mut b.ax] {
@@ -1069,6 +1233,13 @@ pub fn relax_only(
     rounds: usize,
 ) -> Result<Relaxed, SimError> {
     let (mut st, mut report) = start(mesh, params, field)?;
+    let (integrator, why) = resolve_integrator(mesh, &st, params);
+    report.integrator = integrator.name();
+    report.integrator_reason = why;
+    let params = &SimParams {
+        integrator,
+        ..params.clone()
+    };
     let mut loaded = 0.0;
     let mut g = Vec::new();
     crate::sim::implicit::touch(&mut g, mesh.n_vertices());
@@ -1166,7 +1337,27 @@ fn relax_round(
     let mut step_mobility: Vec<f64> = Vec::new();
     // RKL: the round's step-doubling error estimate, when sampled.
     let mut rkl_estimate: Option<f64> = None;
-    if params.relaxation == Relaxation::EigenDiffusion {
+    if st.film.is_some() {
+        let load = load_for(loaded, params.relax_time);
+        let (energy, force) = relax_film_round(
+            mesh,
+            st,
+            params,
+            &mut cache,
+            &fans,
+            &normals,
+            region.as_ref(),
+            load,
+            report,
+            &mut phase,
+        );
+        end_energy = Some(energy);
+        end_force = Some(force);
+        report.time += params.relax_time;
+        report.relax_steps += 1;
+        phase.steps = 1;
+        step_dt = 0.0;
+    } else if params.relaxation == Relaxation::EigenDiffusion {
         // No tensor relaxation: the round only adds its load, and the
         // separation it adds goes into the frozen tensors.
         let load = load_for(loaded, params.relax_time);
@@ -1227,6 +1418,7 @@ fn relax_round(
             els: &st.els,
             normals: &normals,
             fixed,
+            interface: &[],
         };
         // The preconditioner, kept for the whole mesh's system.
         let local_pre: Vec<Sym3>;
@@ -1558,6 +1750,7 @@ fn relax_round(
         els: &st.els,
         normals: &normals,
         fixed: &st.fixed,
+        interface: &[],
     };
     let carried = end_force.is_some();
     let force: Vec<[f64; 3]> = end_force.unwrap_or_else(|| {
@@ -1628,6 +1821,112 @@ fn relax_round(
         )));
     }
     Ok(fans)
+}
+
+/// One relaxation round of a bonded film ([`crate::sim::film`]): the
+/// round's load, then the equilibrium `(K + k M) du = f - k M u` of the
+/// film tied to its rest position, by conjugate gradients (the interface
+/// term makes the system positive definite, so the solve converges in few
+/// iterations whatever the triangles' shapes). Only the nodes of `region`
+/// move when given. Returns the stress energy and the residual node force
+/// (elastic plus interface) at the end.
+#[allow(clippy::too_many_arguments)]
+fn relax_film_round(
+    mesh: &SimMesh,
+    st: &mut State,
+    params: &SimParams,
+    cache: &mut RoundCache,
+    fans: &Fans,
+    normals: &[[f64; 3]],
+    region: Option<&Region>,
+    load: Load,
+    report: &mut SimReport,
+    phase: &mut Phase,
+) -> (f64, Vec<[f64; 3]>) {
+    let mut film = st.film.take().expect("a film run");
+    film.refresh(mesh.generation(), fans, &st.els);
+    add_load(&mut st.stress, &st.els, &st.shrink_scale, &st.evolve, load);
+    let held: Vec<bool>;
+    let fixed: &[bool] = match region {
+        Some(r) => {
+            held = st
+                .fixed
+                .iter()
+                .zip(&r.inside)
+                .map(|(&f, &i)| f || !i)
+                .collect();
+            &held
+        }
+        None => &st.fixed,
+    };
+    let op = crate::sim::implicit::Operator {
+        fans,
+        els: &st.els,
+        normals,
+        fixed,
+        interface: &film.interface,
+    };
+    let local_pre: Vec<Sym3>;
+    let pre: &[Sym3] = if region.is_some() {
+        local_pre = op.block_preconditioner(EQUILIBRIUM_DT);
+        &local_pre
+    } else {
+        if cache.pre.as_ref().is_none_or(|(d, _)| *d != EQUILIBRIUM_DT) {
+            cache.pre = Some((EQUILIBRIUM_DT, op.block_preconditioner(EQUILIBRIUM_DT)));
+        }
+        &cache.pre.as_ref().expect("set").1
+    };
+    let shifted = crate::sim::implicit::Shifted {
+        op: &op,
+        dt: EQUILIBRIUM_DT,
+        pre,
+        tol: params.tolerance,
+        max_iter: 10_000,
+    };
+    let unit = st.unit;
+    let mut bufs = std::mem::take(&mut st.implicit);
+    // The out-of-balance force: the stress's and the interface's pull
+    // back toward the rest position.
+    let residual = |op: &crate::sim::implicit::Operator,
+                    stress: &[Sym3],
+                    displacement: &[[f64; 3]],
+                    corner: &mut Vec<[f64; 3]>| {
+        let mut f = op.forces(stress, corner);
+        f.par_iter_mut().enumerate().for_each(|(n, f)| {
+            let tie = v3::scale(displacement[n], op.interface[n] / unit);
+            *f = v3::sub(*f, op.project(n, tie));
+        });
+        f
+    };
+    let mut rhs = residual(&op, &st.stress, &st.displacement, &mut bufs.cg.corner);
+    rhs.par_iter_mut()
+        .for_each(|b| *b = v3::scale(*b, EQUILIBRIUM_DT));
+    // The last round's solution starts the solve: a round whose cracks
+    // changed little has nearly the same increment (exactly, when nothing
+    // cracked and only the load grew).
+    let mut x = std::mem::take(&mut st.warm);
+    let cg = shifted.solve(&rhs, &mut x, None, &mut bufs.r, &mut bufs.cg);
+    phase.cg_iterations += cg.iterations;
+    if !cg.converged {
+        report.cg_unconverged += 1;
+    }
+    phase.cg_residual = phase.cg_residual.max(cg.relative_residual);
+    let energy = crate::sim::relax::apply_virtual_displacement_energy(
+        fans,
+        &st.els,
+        &mut st.stress,
+        &mut st.corner,
+        &x,
+    );
+    st.displacement
+        .par_iter_mut()
+        .zip(x.par_iter())
+        .for_each(|(d, x)| *d = v3::add(*d, v3::scale(*x, unit)));
+    let force = residual(&op, &st.stress, &st.displacement, &mut bufs.cg.corner);
+    st.warm = x;
+    st.implicit = bufs;
+    st.film = Some(film);
+    (energy, force)
 }
 
 /// Add the stress `load` adds in its step to every face (nothing when the
@@ -1892,10 +2191,36 @@ fn finish_cracks(
 /// node's residual, times the mean separation factor of the node's faces
 /// when the field scales it (a factor `f` acts as toughness `tau / f`).
 fn node_separation(mesh: &SimMesh, st: &State, v: VertexId) -> Sym3 {
+    if let Some(film) = &st.film {
+        return film_separation(mesh, st, film, v);
+    }
     let s = match &st.frozen {
         Some(fz) => fz.get(v.idx()).copied().unwrap_or(Sym3::ZERO),
         None => separation_tensor(mesh, &st.els, &st.stress, v),
     };
+    scaled_separation(mesh, st, v, s)
+}
+
+/// A film's failure tensor at node `v`: the stress averaged over a disc of
+/// world radius (see [`crate::sim::film`]) plus the node's residual, scaled
+/// as [`scaled_separation`] does; zero for a node off the cracks that may
+/// not start one (near a crack, or shadowed this round).
+fn film_separation(mesh: &SimMesh, st: &State, film: &crate::sim::film::Film, v: VertexId) -> Sym3 {
+    // Only a crack's open end runs on; anywhere else (a node beside a
+    // crack included) a crack would be a new one.
+    let tip = !st.crack_time[v.idx()].is_nan()
+        && !mesh.is_boundary_vertex(v) | (crate::sim::crack::crack_directions(mesh, v).len() == 1);
+    if !tip && !film.may_start(v) {
+        return Sym3::ZERO;
+    }
+    let s = crate::sim::film::averaged_stress(
+        mesh,
+        &st.els,
+        &st.stress,
+        st.unit,
+        film.average_radius(),
+        v,
+    );
     scaled_separation(mesh, st, v, s)
 }
 
@@ -1921,7 +2246,7 @@ fn scaled_separation(mesh: &SimMesh, st: &State, v: VertexId, s: Sym3) -> Sym3 {
 /// Largest separation eigenvalue and its direction at every node.
 /// `fans` must be those of `mesh` as it is.
 fn separations(mesh: &SimMesh, fans: &Fans, st: &State, threshold: f64) -> Vec<f64> {
-    if st.frozen.is_some() {
+    if st.frozen.is_some() || st.film.is_some() {
         return (0..mesh.n_vertices())
             .into_par_iter()
             .map(|v| queue_value(node_separation(mesh, st, VertexId(v as u32)), threshold))
@@ -2527,6 +2852,7 @@ mod tests {
             els: &st.els,
             normals: &st.cache.normals,
             fixed: &st.fixed,
+            interface: &[],
         };
         let fresh = op.forces(&st.stress, &mut Vec::new());
         let carried = st.cache.force.clone().expect("a carried force");

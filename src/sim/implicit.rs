@@ -50,6 +50,10 @@ pub struct Operator<'a> {
     pub normals: &'a [[f64; 3]],
     /// Fixed nodes.
     pub fixed: &'a [bool],
+    /// Per-node interface stiffness times the node's area (a bonded film's
+    /// tie to its rest position, [`crate::sim::film`]); empty: none. It adds
+    /// `k_n P v_n` to `K v`, which makes the system positive definite.
+    pub interface: &'a [f64],
 }
 
 impl Operator<'_> {
@@ -63,6 +67,17 @@ impl Operator<'_> {
         match self.normals.get(n) {
             Some(&nrm) => v3::sub(x, v3::scale(nrm, v3::dot(x, nrm))),
             None => x,
+        }
+    }
+
+    /// Node `n`'s row of `K v` from the gathered corner forces of the strain
+    /// `B v` (`gathered`) and `v`'s own value there.
+    #[inline]
+    fn node_product(&self, n: usize, gathered: [f64; 3], v_n: [f64; 3]) -> [f64; 3] {
+        let k = v3::scale(gathered, -1.0);
+        match self.interface.get(n) {
+            Some(&a) => self.project(n, v3::add(k, v3::scale(v_n, a))),
+            None => self.project(n, k),
         }
     }
 
@@ -108,7 +123,16 @@ impl Operator<'_> {
                 sum
             })
             .collect();
-        parts.iter().fold(0.0, |a, b| a + b)
+        let elastic = parts.iter().fold(0.0, |a, b| a + b);
+        if self.interface.is_empty() {
+            return elastic;
+        }
+        let tie: Vec<f64> = v
+            .par_chunks(CHUNK)
+            .zip(self.interface.par_chunks(CHUNK))
+            .map(|(v, k)| v.iter().zip(k).map(|(v, k)| k * v3::dot(*v, *v)).sum::<f64>())
+            .collect();
+        elastic + tie.iter().fold(0.0, |a, b| a + b)
     }
 
     /// `out = K v`; `corner` is scratch (3 per face).
@@ -119,7 +143,7 @@ impl Operator<'_> {
         out.par_iter_mut()
             .enumerate()
             .with_min_len(512)
-            .for_each(|(n, o)| *o = self.project(n, v3::scale(gather(self.fans, corner, n), -1.0)));
+            .for_each(|(n, o)| *o = self.node_product(n, gather(self.fans, corner, n), v[n]));
     }
 
     /// The corner forces of the strain `B v` (from zero stress).
@@ -174,6 +198,9 @@ impl Operator<'_> {
                 let t = Sym3::tangent_identity(el.normal, v3::dot(g, g));
                 b += (t + Sym3::outer(g)) * (0.5 * el.area);
             }
+        }
+        if let Some(&a) = self.interface.get(n) {
+            b += Sym3::IDENTITY * a;
         }
         match self.normals.get(n) {
             Some(&nrm) => {
@@ -348,7 +375,7 @@ impl Shifted<'_> {
                     let mut s = 0.0;
                     for (i, (a, p)) in a.iter_mut().zip(p).enumerate() {
                         let n = c * CHUNK + i;
-                        let k = op.project(n, v3::scale(gather(op.fans, cf, n), -1.0));
+                        let k = op.node_product(n, gather(op.fans, cf, n), *p);
                         *a = v3::add(*p, v3::scale(k, dt));
                         s += v3::dot(*p, *a);
                     }
@@ -616,6 +643,7 @@ mod tests {
             els: &els,
             normals: &[],
             fixed: &fixed,
+            interface: &[],
         };
         let mut rng = crate::mesh::test_util::Lcg(4);
         let mut rand = || -> Vec<[f64; 3]> {
@@ -658,6 +686,7 @@ mod tests {
             els: &els,
             normals: &[],
             fixed: &fixed,
+            interface: &[],
         };
         let f0 = node_forces_fans(&fans, &els, &stress0);
         let e0 = energy(&els, &stress0);
@@ -691,6 +720,7 @@ mod tests {
             els: &els,
             normals: &[],
             fixed: &fixed,
+            interface: &[],
         };
         let dt = 10.0;
         let rhs: Vec<[f64; 3]> = node_forces_fans(&fans, &els, &stress0)
@@ -747,6 +777,7 @@ mod tests {
             els: &els,
             normals: &normals,
             fixed: &fixed,
+            interface: &[],
         };
         let blocks = op.blocks();
         let mut scratch = Vec::new();
@@ -800,6 +831,7 @@ mod tests {
             els: &els,
             normals: &normals,
             fixed: &fixed,
+            interface: &[],
         };
         let dt = 20.0;
         let rhs: Vec<[f64; 3]> = op
@@ -851,6 +883,7 @@ mod tests {
             els: &els,
             normals: &normals,
             fixed: &fixed,
+            interface: &[],
         };
         let dt = 5.0;
         let pre = preconditioner(&op.blocks(), dt);

@@ -4,6 +4,7 @@
 
 pub mod crack;
 pub mod driver;
+pub mod film;
 pub mod forces;
 pub mod implicit;
 pub mod queue;
