@@ -4,7 +4,7 @@
 use anyhow::Result;
 use crackle::bridge::build_sim_meshes;
 use crackle::geometry::curvature::{self, CurvatureField};
-use crackle::mesh::WeldOptions;
+use crackle::mesh::{remesh, WeldOptions};
 use crackle::pipeline::{Bounds, Pipeline, Placement};
 use crackle::scene::{Geometry, Scene};
 use crackle::sim::SimReport;
@@ -29,6 +29,15 @@ pub struct SimArgs {
     /// Override a pipeline key, e.g. --set simulation.toughness=3 --set stress.0.radius=0.5 (repeatable)
     #[arg(long = "set", value_name = "KEY=VALUE")]
     sets: Vec<String>,
+    /// Cell size of the pattern in scene units (replaces the pipeline's cell size)
+    #[arg(long, value_name = "SIZE")]
+    cell_size: Option<f64>,
+    /// Cell size as a fraction of each mesh's bounding-box diagonal (replaces the pipeline's cell size)
+    #[arg(long, value_name = "FRACTION")]
+    cell_size_relative: Option<f64>,
+    /// Most triangles of the remeshed simulation surface [default: 2000000]
+    #[arg(long, value_name = "N")]
+    max_triangles: Option<usize>,
     /// Toughness: a node fails when its separation eigenvalue exceeds it [default: 2]
     #[arg(long)]
     toughness: Option<f64>,
@@ -165,6 +174,12 @@ impl SimArgs {
                 sets.push(format!("simulation.{k}={v}"));
             }
         };
+        set("cell_size", self.cell_size.map(|x| format!("{x:?}")));
+        set(
+            "cell_size_relative",
+            self.cell_size_relative.map(|x| format!("{x:?}")),
+        );
+        set("max_triangles", self.max_triangles.map(|x| x.to_string()));
         set("toughness", self.toughness.map(|x| format!("{x:?}")));
         set("alpha", self.alpha.map(|x| format!("{x:?}")));
         set(
@@ -392,6 +407,56 @@ pub fn process(mut a: CrackArgs) -> Result<serde_json::Value> {
             all_names(&scene).join(", ")
         ))
         .into());
+    }
+    // Isotropic remeshing to the cell size: a stage only when a pipeline
+    // asks for a cell size. Every budget is checked before any work.
+    if entries
+        .iter()
+        .zip(&params_of)
+        .any(|(e, p)| p.isotropic_remesh && p.cell_size_for(&e.sim).is_some())
+    {
+        let t = Instant::now();
+        stage("remesh");
+        let mut plans = Vec::new();
+        for (e, p) in entries.iter().zip(&params_of) {
+            let plan = p
+                .cell_size_for(&e.sim)
+                .filter(|_| p.isotropic_remesh)
+                .map(|cell| cell / crackle::sim::film::EDGES_PER_CELL);
+            if let Some(target) = plan {
+                let estimate = remesh::estimate_triangles(&e.sim, target);
+                if estimate > p.max_triangles {
+                    return Err(super::UsageError(format!(
+                        "{}: {}: a cell size of {:.6} (edges of {:.6}) needs about {} triangles, above simulation.max_triangles = {}; ask for a larger cell size or raise max_triangles",
+                        a.input.display(),
+                        e.label,
+                        target * crackle::sim::film::EDGES_PER_CELL,
+                        target,
+                        estimate,
+                        p.max_triangles
+                    ))
+                    .into());
+                }
+            }
+            plans.push(plan);
+        }
+        let mut meshes = Vec::new();
+        for ((e, p), plan) in entries.iter_mut().zip(&params_of).zip(plans) {
+            let Some(target) = plan else { continue };
+            let options = remesh::RemeshOptions {
+                target_edge: target,
+                coarsen: p.coarsen,
+                ..Default::default()
+            };
+            let (sim, r) = remesh::remesh(&e.sim, &options).map_err(|err| {
+                anyhow::anyhow!("{}: {}: remeshing: {err}", a.input.display(), e.label)
+            })?;
+            e.sim = sim;
+            meshes.push(json!({"mesh": e.label, "target_edge": target, "report": r}));
+        }
+        stages.push(
+            json!({"name": "remesh", "seconds": t.elapsed().as_secs_f64(), "meshes": meshes}),
+        );
     }
     // Curvature: a stage only when a stress term uses it.
     let mut curvatures: Vec<Option<CurvatureField>> = vec![None; entries.len()];

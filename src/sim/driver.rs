@@ -1901,10 +1901,11 @@ fn relax_film_round(
     let mut rhs = residual(&op, &st.stress, &st.displacement, &mut bufs.cg.corner);
     rhs.par_iter_mut()
         .for_each(|b| *b = v3::scale(*b, EQUILIBRIUM_DT));
-    // The last round's solution starts the solve: a round whose cracks
-    // changed little has nearly the same increment (exactly, when nothing
-    // cracked and only the load grew).
+    // Each solve starts from rest: a start from the last round's solution
+    // is often already at the tolerance's rounding floor, where conjugate
+    // gradients stall.
     let mut x = std::mem::take(&mut st.warm);
+    x.clear();
     let cg = shifted.solve(&rhs, &mut x, None, &mut bufs.r, &mut bufs.cg);
     phase.cg_iterations += cg.iterations;
     if !cg.converged {
@@ -3488,6 +3489,7 @@ mod tests {
                 warm: Vec::new(),
                 cache: RoundCache::default(),
                 implicit: ImplicitScratch::default(),
+                film: None,
             };
             finish_tips(mesh, &st).len()
         };

@@ -282,7 +282,17 @@ mod tests {
         }
         assert!((-1.0..=1.0).contains(&lo) && (-1.0..=1.0).contains(&hi));
         assert!(hi - lo > 0.5, "varies: {lo} .. {hi}");
-        assert_ne!(value_noise(7, [0.3, 0.2, 0.1]), value_noise(8, [0.3, 0.2, 0.1]));
-        assert_eq!(value_noise(7, [0.3, 0.2, 0.1]), value_noise(7, [0.3, 0.2, 0.1]));
+        assert_ne!(
+            value_noise(7, [0.3, 0.2, 0.1]),
+            value_noise(8, [0.3, 0.2, 0.1])
+        );
+        assert_eq!(
+            value_noise(7, [0.3, 0.2, 0.1]),
+            value_noise(7, [0.3, 0.2, 0.1])
+        );
     }
 }
+
+#[cfg(test)]
+#[path = "film_tests.rs"]
+mod run_tests;

@@ -130,7 +130,12 @@ impl Operator<'_> {
         let tie: Vec<f64> = v
             .par_chunks(CHUNK)
             .zip(self.interface.par_chunks(CHUNK))
-            .map(|(v, k)| v.iter().zip(k).map(|(v, k)| k * v3::dot(*v, *v)).sum::<f64>())
+            .map(|(v, k)| {
+                v.iter()
+                    .zip(k)
+                    .map(|(v, k)| k * v3::dot(*v, *v))
+                    .sum::<f64>()
+            })
             .collect();
         elastic + tie.iter().fold(0.0, |a, b| a + b)
     }

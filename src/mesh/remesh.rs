@@ -1,0 +1,1059 @@
+//! Isotropic remeshing of a simulation mesh to a target edge length
+//! (Botsch & Kobbelt 2004): split long edges, collapse short ones, flip
+//! toward valence 6 (4 on feature lines), smooth tangentially and project
+//! back onto the input surface, a few times over.
+//!
+//! Feature lines are kept as constrained edges: open boundaries, UV and
+//! normal seams (edges whose two sides have different corner values),
+//! material borders (different face groups) and sharp creases (dihedral
+//! angle above [`RemeshOptions::crease_angle_deg`]). Feature edges are split
+//! but never flipped; feature vertices move only along their line and are
+//! projected onto the input's feature edges; vertices where features meet
+//! or end never move.
+//!
+//! Every corner attribute is carried by projection: an output corner takes
+//! the values of the input surface at its position, interpolated in the
+//! input triangle found, on its own side of any seam (an output face lies
+//! in one *chart*, a region of input faces joined across non-feature
+//! edges, and its corners are evaluated there). The face group is the
+//! chart's.
+//!
+//! The work is about linear in the output's size: each pass visits every
+//! edge or vertex once, and projection uses a uniform grid over the input.
+
+use super::attributes::Channel;
+use super::build::{MeshInput, WeldOptions};
+use super::error::MeshError;
+use super::halfedge::SimMesh;
+use super::ids::{FaceId, VertexId};
+use std::collections::{HashMap, HashSet};
+
+/// Options of [`remesh`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct RemeshOptions {
+    /// Target edge length in scene units.
+    pub target_edge: f64,
+    /// Split / collapse / flip / smooth iterations after the first
+    /// refinement. Default 5.
+    pub iterations: usize,
+    /// Edges whose faces meet at a dihedral angle above this (degrees) are
+    /// sharp creases, kept as feature lines. Default 40.
+    pub crease_angle_deg: f64,
+    /// Also remesh surfaces whose mean edge is already below the target
+    /// (coarsening them). Default false: such a surface is left as it is.
+    pub coarsen: bool,
+}
+
+impl Default for RemeshOptions {
+    fn default() -> Self {
+        RemeshOptions {
+            target_edge: 1.0,
+            iterations: 5,
+            crease_angle_deg: 40.0,
+            coarsen: false,
+        }
+    }
+}
+
+/// What [`remesh`] did.
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
+pub struct RemeshReport {
+    /// Whether the surface was remeshed (false: it was already fine enough).
+    pub remeshed: bool,
+    /// Triangles before and after.
+    pub triangles: [usize; 2],
+    /// Vertices before and after (welded positions).
+    pub vertices: [usize; 2],
+    /// Input edges kept as feature lines.
+    pub feature_edges: usize,
+    /// Mean edge length before and after.
+    pub mean_edge: [f64; 2],
+}
+
+/// About how many triangles a remesh of `mesh` to `target_edge` makes: the
+/// area over that of an equilateral triangle of that edge.
+pub fn estimate_triangles(mesh: &SimMesh, target_edge: f64) -> usize {
+    let tri = 3f64.sqrt() / 4.0 * target_edge * target_edge;
+    if !(tri > 0.0) {
+        return usize::MAX;
+    }
+    let n = mesh.total_area() / tri;
+    if n.is_finite() {
+        n.ceil() as usize
+    } else {
+        usize::MAX
+    }
+}
+
+/// Remesh `mesh` isotropically to `options.target_edge`; see the module
+/// documentation. A surface whose mean edge is already at most the target
+/// is returned as it is unless `options.coarsen`.
+///
+/// # Errors
+/// A target that is not a positive number, or a result that cannot be
+/// built (it names the cause).
+pub fn remesh(
+    mesh: &SimMesh,
+    options: &RemeshOptions,
+) -> Result<(SimMesh, RemeshReport), MeshError> {
+    let target = options.target_edge;
+    if !(target.is_finite() && target > 0.0) {
+        return Err(MeshError::InvalidOption(format!(
+            "remeshing needs a positive target edge length, got {target}"
+        )));
+    }
+    let mean = mesh.mean_edge_length();
+    let mut report = RemeshReport {
+        triangles: [mesh.n_faces(), mesh.n_faces()],
+        vertices: [mesh.n_vertices(), mesh.n_vertices()],
+        mean_edge: [mean, mean],
+        ..Default::default()
+    };
+    if mean <= target && !options.coarsen {
+        return Ok((mesh.clone(), report));
+    }
+    let input = Input::new(mesh, options.crease_angle_deg);
+    report.feature_edges = input.n_features;
+    let mut w = Work::from_input(mesh, &input);
+    let (hi, lo) = (4.0 / 3.0 * target, 4.0 / 5.0 * target);
+    // Refine first: a coarse input needs several rounds of splits.
+    for _ in 0..64 {
+        if w.split_long(hi) == 0 {
+            break;
+        }
+    }
+    for _ in 0..options.iterations {
+        w.split_long(hi);
+        w.collapse_short(lo, hi);
+        w.flip_to_valence();
+        w.smooth(&input);
+    }
+    let out = w.to_input(mesh, &input);
+    let (sim, _) = SimMesh::build(
+        &out,
+        &WeldOptions {
+            relative_tolerance: 0.0,
+        },
+    )?;
+    report.remeshed = true;
+    report.triangles[1] = sim.n_faces();
+    report.vertices[1] = sim.n_vertices();
+    report.mean_edge[1] = sim.mean_edge_length();
+    Ok((sim, report))
+}
+
+// ---------------------------------------------------------------- input
+
+/// The input surface: features, charts and spatial grids for projection.
+struct Input {
+    /// Vertex positions (welded ids of the input mesh).
+    pos: Vec<[f64; 3]>,
+    /// Faces as vertex ids (dead input faces none).
+    faces: Vec<[u32; 3]>,
+    /// Chart of every face.
+    chart: Vec<u32>,
+    /// Feature edges as vertex pairs (sorted).
+    features: HashSet<(u32, u32)>,
+    n_features: usize,
+    /// Cosine of the crease angle.
+    cos_crease: f64,
+    face_grid: Grid,
+    edge_grid: Grid,
+    feature_list: Vec<(u32, u32)>,
+}
+
+fn key(a: u32, b: u32) -> (u32, u32) {
+    if a < b {
+        (a, b)
+    } else {
+        (b, a)
+    }
+}
+
+impl Input {
+    fn new(mesh: &SimMesh, crease_deg: f64) -> Input {
+        let pos = mesh.positions().to_vec();
+        let faces: Vec<[u32; 3]> = mesh
+            .faces()
+            .map(|f| mesh.face_vertices(f).map(|v| v.0))
+            .collect();
+        let cos_crease = crease_deg.to_radians().cos();
+        let wedges = mesh.wedges();
+        let same_corner = |fa: FaceId, fb: FaceId, v: VertexId| {
+            let wa = corner_wedge(mesh, fa, v);
+            let wb = corner_wedge(mesh, fb, v);
+            wa == wb || wedges.channels().iter().all(|c| c.get(wa) == c.get(wb))
+        };
+        let mut features = HashSet::new();
+        // Union-find over faces across non-feature edges.
+        let mut parent: Vec<u32> = (0..faces.len() as u32).collect();
+        fn find(p: &mut [u32], mut x: u32) -> u32 {
+            while p[x as usize] != x {
+                p[x as usize] = p[p[x as usize] as usize];
+                x = p[x as usize];
+            }
+            x
+        }
+        for h in mesh.halfedges() {
+            let (a, b) = (mesh.origin(h), mesh.dest(h));
+            match mesh.twin(h) {
+                None => {
+                    features.insert(key(a.0, b.0));
+                }
+                Some(t) => {
+                    if t.0 < h.0 {
+                        continue;
+                    }
+                    let (fa, fb) = (mesh.face(h), mesh.face(t));
+                    let feature = mesh.face_group(fa) != mesh.face_group(fb)
+                        || !same_corner(fa, fb, a)
+                        || !same_corner(fa, fb, b)
+                        || dot(mesh.face_normal(fa), mesh.face_normal(fb)) < cos_crease;
+                    if feature {
+                        features.insert(key(a.0, b.0));
+                    } else {
+                        let (ra, rb) = (find(&mut parent, fa.0), find(&mut parent, fb.0));
+                        if ra != rb {
+                            parent[ra.max(rb) as usize] = ra.min(rb);
+                        }
+                    }
+                }
+            }
+        }
+        let chart: Vec<u32> = (0..faces.len() as u32)
+            .map(|f| find(&mut parent, f))
+            .collect();
+        let mut feature_list: Vec<(u32, u32)> = features.iter().copied().collect();
+        feature_list.sort_unstable();
+        let mean = mesh.mean_edge_length().max(1e-300);
+        let face_grid = Grid::new(
+            faces.iter().map(|t| bbox(&t.map(|v| pos[v as usize]))),
+            mean,
+        );
+        let edge_grid = Grid::new(
+            feature_list
+                .iter()
+                .map(|&(a, b)| bbox(&[pos[a as usize], pos[b as usize]])),
+            mean,
+        );
+        Input {
+            n_features: feature_list.len(),
+            cos_crease,
+            pos,
+            faces,
+            chart,
+            features,
+            face_grid,
+            edge_grid,
+            feature_list,
+        }
+    }
+
+    /// The closest point of the input faces of `chart` (any chart when
+    /// `None`) to `p`: (face, barycentric coordinates, point).
+    fn closest_face(&self, p: [f64; 3], chart: Option<u32>) -> Option<(u32, [f64; 3], [f64; 3])> {
+        let mut best: Option<(f64, u32, [f64; 3], [f64; 3])> = None;
+        self.face_grid.search(p, |f| {
+            let f = f as u32;
+            if chart.is_some_and(|c| self.chart[f as usize] != c) {
+                return None;
+            }
+            let t = self.faces[f as usize].map(|v| self.pos[v as usize]);
+            let (q, bary) = closest_on_triangle(p, t);
+            let d = dist2(p, q);
+            if best.is_none_or(|b| d < b.0) {
+                best = Some((d, f, bary, q));
+            }
+            best.map(|b| b.0)
+        });
+        best.map(|(_, f, b, q)| (f, b, q))
+    }
+
+    /// The closest point on the input's feature edges to `p`.
+    fn closest_feature(&self, p: [f64; 3]) -> Option<[f64; 3]> {
+        let mut best: Option<(f64, [f64; 3])> = None;
+        self.edge_grid.search(p, |e| {
+            let (a, b) = self.feature_list[e];
+            let q = closest_on_segment(p, self.pos[a as usize], self.pos[b as usize]);
+            let d = dist2(p, q);
+            if best.is_none_or(|x| d < x.0) {
+                best = Some((d, q));
+            }
+            best.map(|x| x.0)
+        });
+        best.map(|b| b.1)
+    }
+}
+
+fn corner_wedge(mesh: &SimMesh, f: FaceId, v: VertexId) -> super::ids::WedgeId {
+    let vs = mesh.face_vertices(f);
+    let ws = mesh.face_wedges(f);
+    let k = vs.iter().position(|&x| x == v).unwrap_or(0);
+    ws[k]
+}
+
+/// A uniform grid of items' bounding boxes, stored flat (each cell's items
+/// as a range of one array).
+struct Grid {
+    origin: [f64; 3],
+    cell: f64,
+    dims: [usize; 3],
+    start: Vec<u32>,
+    items: Vec<u32>,
+    n: usize,
+}
+
+impl Grid {
+    fn new(items: impl Iterator<Item = ([f64; 3], [f64; 3])>, size: f64) -> Grid {
+        let boxes: Vec<([f64; 3], [f64; 3])> = items.collect();
+        let mut lo = [f64::INFINITY; 3];
+        let mut hi = [f64::NEG_INFINITY; 3];
+        for (a, b) in &boxes {
+            for k in 0..3 {
+                lo[k] = lo[k].min(a[k]);
+                hi[k] = hi[k].max(b[k]);
+            }
+        }
+        if boxes.is_empty() {
+            lo = [0.0; 3];
+            hi = [0.0; 3];
+        }
+        // About two items a cell, never more cells than a few per item.
+        let ext = [hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]];
+        let mut cell = (2.0 * size).max(1e-300);
+        let budget = 4.0 * boxes.len() as f64 + 64.0;
+        while (ext[0] / cell + 1.0) * (ext[1] / cell + 1.0) * (ext[2] / cell + 1.0) > budget {
+            cell *= 1.5;
+        }
+        let dims = ext.map(|e| (e / cell).floor() as usize + 1);
+        let g = Grid {
+            origin: lo,
+            cell,
+            dims,
+            start: Vec::new(),
+            items: Vec::new(),
+            n: boxes.len(),
+        };
+        let ranges: Vec<([usize; 3], [usize; 3])> =
+            boxes.iter().map(|(a, b)| (g.at(*a), g.at(*b))).collect();
+        let n_cells = dims[0] * dims[1] * dims[2];
+        let mut count = vec![0u32; n_cells + 1];
+        let each = |r: &([usize; 3], [usize; 3]), f: &mut dyn FnMut(usize)| {
+            for z in r.0[2]..=r.1[2] {
+                for y in r.0[1]..=r.1[1] {
+                    for x in r.0[0]..=r.1[0] {
+                        f(x + dims[0] * (y + dims[1] * z));
+                    }
+                }
+            }
+        };
+        for r in &ranges {
+            each(r, &mut |c| count[c + 1] += 1);
+        }
+        for c in 0..n_cells {
+            count[c + 1] += count[c];
+        }
+        let mut fill = count.clone();
+        let mut items = vec![0u32; count[n_cells] as usize];
+        for (i, r) in ranges.iter().enumerate() {
+            each(r, &mut |c| {
+                items[fill[c] as usize] = i as u32;
+                fill[c] += 1;
+            });
+        }
+        Grid {
+            start: count,
+            items,
+            ..g
+        }
+    }
+
+    fn at(&self, p: [f64; 3]) -> [usize; 3] {
+        [0, 1, 2].map(|k| {
+            (((p[k] - self.origin[k]) / self.cell).floor().max(0.0) as usize).min(self.dims[k] - 1)
+        })
+    }
+
+    /// Visit the items near `p` in growing shells of cells (an item may be
+    /// visited more than once); `visit` returns the best squared distance
+    /// so far, and the search stops once a shell lies farther than it.
+    fn search(&self, p: [f64; 3], mut visit: impl FnMut(usize) -> Option<f64>) {
+        if self.n == 0 {
+            return;
+        }
+        let c = self.at(p).map(|x| x as i64);
+        let dims = self.dims.map(|d| d as i64);
+        let max_r = *dims.iter().max().unwrap_or(&1);
+        let mut best: Option<f64> = None;
+        for r in 0..=max_r {
+            if let Some(b) = best {
+                // An item first seen in shell r lies outside the block of
+                // cells within r - 1 of the centre: at least this far.
+                let reach = (0..3)
+                    .map(|k| {
+                        let lo = self.origin[k] + (c[k] - (r - 1)) as f64 * self.cell;
+                        let hi = self.origin[k] + (c[k] + r) as f64 * self.cell;
+                        (p[k] - lo).min(hi - p[k]).max(0.0)
+                    })
+                    .fold(f64::INFINITY, f64::min);
+                if reach * reach > b {
+                    break;
+                }
+            }
+            let (z0, z1) = ((c[2] - r).max(0), (c[2] + r).min(dims[2] - 1));
+            let (y0, y1) = ((c[1] - r).max(0), (c[1] + r).min(dims[1] - 1));
+            let (x0, x1) = ((c[0] - r).max(0), (c[0] + r).min(dims[0] - 1));
+            for z in z0..=z1 {
+                for y in y0..=y1 {
+                    let inner = (z - c[2]).abs() < r && (y - c[1]).abs() < r;
+                    let mut x = x0;
+                    while x <= x1 {
+                        if inner && (x - c[0]).abs() < r {
+                            // Skip the inside of the shell.
+                            x = c[0] + r;
+                            continue;
+                        }
+                        let cell = (x + dims[0] * (y + dims[1] * z)) as usize;
+                        let (s, e) = (self.start[cell] as usize, self.start[cell + 1] as usize);
+                        for &i in &self.items[s..e] {
+                            if let Some(d) = visit(i as usize) {
+                                best = Some(best.map_or(d, |b: f64| b.min(d)));
+                            }
+                        }
+                        x += 1;
+                    }
+                }
+            }
+        }
+    }
+}
+
+// ---------------------------------------------------------------- work mesh
+
+/// The mesh being remeshed: positions, faces with vertex-face incidence,
+/// feature edges and each face's chart.
+struct Work {
+    pos: Vec<[f64; 3]>,
+    faces: Vec<[u32; 3]>,
+    alive: Vec<bool>,
+    chart: Vec<u32>,
+    vf: Vec<Vec<u32>>,
+    features: HashSet<(u32, u32)>,
+    /// Feature edges at each vertex.
+    nfeat: Vec<u8>,
+    /// Vertices that never move (feature corners and ends).
+    corner: Vec<bool>,
+    dead_vertex: Vec<bool>,
+}
+
+impl Work {
+    fn from_input(mesh: &SimMesh, input: &Input) -> Work {
+        let n = mesh.n_vertices();
+        let mut vf = vec![Vec::new(); n];
+        for (f, t) in input.faces.iter().enumerate() {
+            for &v in t {
+                vf[v as usize].push(f as u32);
+            }
+        }
+        let mut w = Work {
+            pos: input.pos.clone(),
+            faces: input.faces.clone(),
+            alive: vec![true; input.faces.len()],
+            chart: input.chart.clone(),
+            vf,
+            features: input.features.clone(),
+            nfeat: vec![0; n],
+            corner: vec![false; n],
+            dead_vertex: vec![false; n],
+        };
+        for &(a, b) in &input.feature_list {
+            w.nfeat[a as usize] = w.nfeat[a as usize].saturating_add(1);
+            w.nfeat[b as usize] = w.nfeat[b as usize].saturating_add(1);
+        }
+        // Feature lines end, branch or turn sharply at corners.
+        let mut ends: Vec<Vec<u32>> = vec![Vec::new(); n];
+        for &(a, b) in &input.feature_list {
+            ends[a as usize].push(b);
+            ends[b as usize].push(a);
+        }
+        let cos_turn = -(input.cos_crease);
+        for v in 0..n {
+            w.corner[v] = w.nfeat[v] != 0 && w.nfeat[v] != 2;
+            if w.nfeat[v] == 2 {
+                let p = w.pos[v];
+                let d1 = sub(w.pos[ends[v][0] as usize], p);
+                let d2 = sub(w.pos[ends[v][1] as usize], p);
+                let (l1, l2) = (norm(d1), norm(d2));
+                // Straight on: the directions are opposite.
+                if l1 > 0.0 && l2 > 0.0 && dot(d1, d2) > cos_turn * l1 * l2 {
+                    w.corner[v] = true;
+                }
+            }
+        }
+        w
+    }
+
+    fn edge_faces(&self, a: u32, b: u32) -> Vec<u32> {
+        self.vf[a as usize]
+            .iter()
+            .copied()
+            .filter(|&f| self.faces[f as usize].contains(&b))
+            .collect()
+    }
+
+    /// Every live edge once, in a fixed order.
+    fn edges(&self) -> Vec<(u32, u32)> {
+        let mut e: Vec<(u32, u32)> = Vec::with_capacity(self.faces.len() * 3 / 2 + 8);
+        for (f, t) in self.faces.iter().enumerate() {
+            if !self.alive[f] {
+                continue;
+            }
+            for k in 0..3 {
+                let (a, b) = (t[k], t[(k + 1) % 3]);
+                if a < b || self.edge_faces(a, b).len() == 1 {
+                    e.push(key(a, b));
+                }
+            }
+        }
+        e.sort_unstable();
+        e.dedup();
+        e
+    }
+
+    fn len(&self, a: u32, b: u32) -> f64 {
+        dist2(self.pos[a as usize], self.pos[b as usize]).sqrt()
+    }
+
+    fn is_feature(&self, a: u32, b: u32) -> bool {
+        self.features.contains(&key(a, b))
+    }
+
+    /// Split every edge longer than `hi` at its midpoint; returns how many.
+    fn split_long(&mut self, hi: f64) -> usize {
+        let mut long: Vec<(u32, u32)> = self
+            .edges()
+            .into_iter()
+            .filter(|&(a, b)| self.len(a, b) > hi)
+            .collect();
+        // Longest first, ties by id: a fixed order.
+        long.sort_by(|x, y| {
+            self.len(y.0, y.1)
+                .total_cmp(&self.len(x.0, x.1))
+                .then(x.cmp(y))
+        });
+        let mut n = 0;
+        for (a, b) in long {
+            let fs = self.edge_faces(a, b);
+            if fs.is_empty() || self.len(a, b) <= hi {
+                continue;
+            }
+            self.split(a, b, &fs);
+            n += 1;
+        }
+        n
+    }
+
+    fn split(&mut self, a: u32, b: u32, fs: &[u32]) {
+        let m = self.pos.len() as u32;
+        let (pa, pb) = (self.pos[a as usize], self.pos[b as usize]);
+        self.pos.push([0, 1, 2].map(|k| 0.5 * (pa[k] + pb[k])));
+        self.vf.push(Vec::new());
+        let feature = self.features.remove(&key(a, b));
+        self.nfeat.push(if feature { 2 } else { 0 });
+        self.corner.push(false);
+        self.dead_vertex.push(false);
+        if feature {
+            self.features.insert(key(a, m));
+            self.features.insert(key(m, b));
+        }
+        for &f in fs {
+            let t = self.faces[f as usize];
+            let i = (0..3)
+                .find(|&i| {
+                    let (x, y) = (t[i], t[(i + 1) % 3]);
+                    (x == a && y == b) || (x == b && y == a)
+                })
+                .expect("edge in face");
+            let (u, w, c) = (t[i], t[(i + 1) % 3], t[(i + 2) % 3]);
+            self.faces[f as usize] = [u, m, c];
+            let g = self.faces.len() as u32;
+            self.faces.push([m, w, c]);
+            self.alive.push(true);
+            self.chart.push(self.chart[f as usize]);
+            let wf = &mut self.vf[w as usize];
+            if let Some(x) = wf.iter_mut().find(|x| **x == f) {
+                *x = g;
+            }
+            self.vf[c as usize].push(g);
+            self.vf[m as usize].push(f);
+            self.vf[m as usize].push(g);
+        }
+    }
+
+    fn neighbours(&self, v: u32) -> Vec<u32> {
+        let mut n: Vec<u32> = self.vf[v as usize]
+            .iter()
+            .flat_map(|&f| self.faces[f as usize])
+            .filter(|&u| u != v)
+            .collect();
+        n.sort_unstable();
+        n.dedup();
+        n
+    }
+
+    fn face_normal(&self, t: [u32; 3]) -> [f64; 3] {
+        let p = t.map(|v| self.pos[v as usize]);
+        cross(sub(p[1], p[0]), sub(p[2], p[0]))
+    }
+
+    /// Collapse edges shorter than `lo` where the rules allow.
+    fn collapse_short(&mut self, lo: f64, hi: f64) {
+        let short: Vec<(u32, u32)> = self
+            .edges()
+            .into_iter()
+            .filter(|&(a, b)| self.len(a, b) < lo)
+            .collect();
+        for (a, b) in short {
+            if self.dead_vertex[a as usize] || self.dead_vertex[b as usize] {
+                continue;
+            }
+            let fs = self.edge_faces(a, b);
+            if fs.is_empty() || self.len(a, b) >= lo {
+                continue;
+            }
+            // Which end goes, and where the kept one ends up.
+            let plan = self
+                .collapse_plan(a, b)
+                .or_else(|| self.collapse_plan(b, a));
+            let Some((keep, gone, p)) = plan else {
+                continue;
+            };
+            if self.collapse_ok(keep, gone, p, &fs, hi) {
+                self.collapse(keep, gone, p, &fs);
+            }
+        }
+    }
+
+    /// Collapsing `gone` into `keep`: allowed by the feature rules? Where
+    /// does `keep` go?
+    fn collapse_plan(&self, keep: u32, gone: u32) -> Option<(u32, u32, [f64; 3])> {
+        let (k, g) = (keep as usize, gone as usize);
+        if self.corner[g] {
+            return None;
+        }
+        let feature_edge = self.is_feature(keep, gone);
+        if self.nfeat[g] > 0 {
+            // A feature vertex slides along its own line only.
+            if !feature_edge {
+                return None;
+            }
+            return Some((keep, gone, self.pos[k]));
+        }
+        if self.nfeat[k] > 0 || self.corner[k] {
+            return Some((keep, gone, self.pos[k]));
+        }
+        let (pa, pb) = (self.pos[k], self.pos[g]);
+        Some((keep, gone, [0, 1, 2].map(|i| 0.5 * (pa[i] + pb[i]))))
+    }
+
+    fn collapse_ok(&self, keep: u32, gone: u32, p: [f64; 3], fs: &[u32], hi: f64) -> bool {
+        // Link condition: the common neighbours are the opposite corners.
+        let nk = self.neighbours(keep);
+        let ng = self.neighbours(gone);
+        let common = nk.iter().filter(|x| ng.binary_search(x).is_ok()).count();
+        if common != fs.len() {
+            return false;
+        }
+        // Two feature vertices joined by a non-feature edge, or a
+        // boundary-only configuration, are refused by the plan already.
+        for &u in ng.iter().chain(&nk) {
+            if u != keep && u != gone && dist2(p, self.pos[u as usize]).sqrt() > hi {
+                return false;
+            }
+        }
+        // No face turns over.
+        for &v in &[keep, gone] {
+            for &f in &self.vf[v as usize] {
+                if fs.contains(&f) {
+                    continue;
+                }
+                let t = self.faces[f as usize];
+                let before = self.face_normal(t);
+                let moved = t.map(|x| if x == keep || x == gone { u32::MAX } else { x });
+                let pts = [0, 1, 2].map(|i| {
+                    if moved[i] == u32::MAX {
+                        p
+                    } else {
+                        self.pos[t[i] as usize]
+                    }
+                });
+                let after = cross(sub(pts[1], pts[0]), sub(pts[2], pts[0]));
+                let (lb, la) = (norm(before), norm(after));
+                if la <= 1e-12 * lb.max(1e-300) || dot(before, after) < 0.5 * lb * la {
+                    return false;
+                }
+            }
+        }
+        // Keeps the mesh a surface: do not remove a vertex with too few faces.
+        self.vf[gone as usize].len() > fs.len()
+    }
+
+    fn collapse(&mut self, keep: u32, gone: u32, p: [f64; 3], fs: &[u32]) {
+        for &f in fs {
+            self.alive[f as usize] = false;
+            for &v in &self.faces[f as usize] {
+                let list = &mut self.vf[v as usize];
+                list.retain(|&x| x != f);
+            }
+        }
+        let moved: Vec<u32> = std::mem::take(&mut self.vf[gone as usize]);
+        for &f in &moved {
+            for v in self.faces[f as usize].iter_mut() {
+                if *v == gone {
+                    *v = keep;
+                }
+            }
+            self.vf[keep as usize].push(f);
+        }
+        // Feature edges of the removed vertex move to the kept one.
+        if self.nfeat[gone as usize] > 0 {
+            let joined = self.features.remove(&key(keep, gone));
+            let gone_edges: Vec<(u32, u32)> = self
+                .neighbours(keep)
+                .into_iter()
+                .filter(|&u| self.features.contains(&key(gone, u)))
+                .map(|u| key(gone, u))
+                .collect();
+            for (a, b) in gone_edges {
+                self.features.remove(&(a, b));
+                let other = if a == gone { b } else { a };
+                self.features.insert(key(keep, other));
+            }
+            if !joined {
+                self.nfeat[keep as usize] += self.nfeat[gone as usize];
+            }
+        }
+        self.pos[keep as usize] = p;
+        self.dead_vertex[gone as usize] = true;
+        self.nfeat[gone as usize] = 0;
+    }
+
+    /// Flip interior non-feature edges where that brings the four
+    /// vertices' valences closer to their targets.
+    fn flip_to_valence(&mut self) {
+        let target = |w: &Work, v: u32| if w.nfeat[v as usize] > 0 { 4 } else { 6 };
+        for (a, b) in self.edges() {
+            if self.dead_vertex[a as usize] || self.dead_vertex[b as usize] || self.is_feature(a, b)
+            {
+                continue;
+            }
+            let fs = self.edge_faces(a, b);
+            if fs.len() != 2 {
+                continue;
+            }
+            let (f1, f2) = (fs[0], fs[1]);
+            let opp = |t: [u32; 3]| t.into_iter().find(|&x| x != a && x != b).expect("triangle");
+            let (t1, t2) = (self.faces[f1 as usize], self.faces[f2 as usize]);
+            let (c, d) = (opp(t1), opp(t2));
+            if c == d
+                || self.vf[c as usize]
+                    .iter()
+                    .any(|&f| self.faces[f as usize].contains(&d))
+            {
+                continue;
+            }
+            let val =
+                |v: u32| self.vf[v as usize].len() as i64 + i64::from(self.nfeat[v as usize] > 0);
+            let dev = |va: i64, vb: i64, vc: i64, vd: i64| {
+                (va - target(self, a)).abs()
+                    + (vb - target(self, b)).abs()
+                    + (vc - target(self, c)).abs()
+                    + (vd - target(self, d)).abs()
+            };
+            let (va, vb, vc, vd) = (val(a), val(b), val(c), val(d));
+            if dev(va - 1, vb - 1, vc + 1, vd + 1) >= dev(va, vb, vc, vd) {
+                continue;
+            }
+            // Orient: t1 runs a -> b.
+            let (f1, f2, c, d) = if (0..3).any(|i| t1[i] == a && t1[(i + 1) % 3] == b) {
+                (f1, f2, c, d)
+            } else {
+                (f2, f1, d, c)
+            };
+            let n1 = [c, a, d];
+            let n2 = [d, b, c];
+            let old = add(self.face_normal(t1), self.face_normal(t2));
+            let (m1, m2) = (self.face_normal(n1), self.face_normal(n2));
+            let ok = |m: [f64; 3]| {
+                let (lm, lo) = (norm(m), norm(old));
+                lm > 1e-12 * lo && dot(m, old) > 0.5 * lm * lo
+            };
+            if !(ok(m1) && ok(m2)) {
+                continue;
+            }
+            self.faces[f1 as usize] = n1;
+            self.faces[f2 as usize] = n2;
+            self.vf[a as usize].retain(|&x| x != f2);
+            self.vf[b as usize].retain(|&x| x != f1);
+            self.vf[c as usize].push(f2);
+            self.vf[d as usize].push(f1);
+        }
+    }
+
+    /// Tangential smoothing toward the neighbours' centroid, then
+    /// projection onto the input (feature vertices along their lines).
+    fn smooth(&mut self, input: &Input) {
+        let n = self.pos.len();
+        let mut next = self.pos.clone();
+        for v in 0..n {
+            if self.dead_vertex[v] || self.corner[v] || self.vf[v].is_empty() {
+                continue;
+            }
+            let vv = v as u32;
+            let nb: Vec<u32> = if self.nfeat[v] > 0 {
+                self.neighbours(vv)
+                    .into_iter()
+                    .filter(|&u| self.is_feature(vv, u))
+                    .collect()
+            } else {
+                self.neighbours(vv)
+            };
+            if nb.is_empty() {
+                continue;
+            }
+            let mut c = [0.0; 3];
+            for &u in &nb {
+                c = add(c, self.pos[u as usize]);
+            }
+            c = scale(c, 1.0 / nb.len() as f64);
+            let p = self.pos[v];
+            let mut d = sub(c, p);
+            if self.nfeat[v] == 0 {
+                let mut nrm = [0.0; 3];
+                for &f in &self.vf[v] {
+                    nrm = add(nrm, self.face_normal(self.faces[f as usize]));
+                }
+                let l = norm(nrm);
+                if l > 0.0 {
+                    let nn = scale(nrm, 1.0 / l);
+                    d = sub(d, scale(nn, dot(d, nn)));
+                }
+            }
+            let q = add(p, d);
+            next[v] = if self.nfeat[v] > 0 {
+                input.closest_feature(q).unwrap_or(q)
+            } else {
+                let chart = self.chart[self.vf[v][0] as usize];
+                input.closest_face(q, Some(chart)).map_or(q, |x| x.2)
+            };
+        }
+        // Keep a move only where no incident face turns over.
+        for v in 0..n {
+            if next[v] == self.pos[v] {
+                continue;
+            }
+            let ok = self.vf[v].iter().all(|&f| {
+                let t = self.faces[f as usize];
+                let before = self.face_normal(t);
+                let pts = t.map(|x| {
+                    if x as usize == v {
+                        next[v]
+                    } else {
+                        self.pos[x as usize]
+                    }
+                });
+                let after = cross(sub(pts[1], pts[0]), sub(pts[2], pts[0]));
+                dot(before, after) > 0.2 * norm(before) * norm(after)
+            });
+            if ok {
+                self.pos[v] = next[v];
+            }
+        }
+    }
+
+    /// The result as a mesh input: every output vertex once per distinct
+    /// set of corner values (evaluated on the input in each face's chart).
+    fn to_input(&self, mesh: &SimMesh, input: &Input) -> MeshInput {
+        let wedges = mesh.wedges();
+        let channels = wedges.channels();
+        let width: usize = channels.iter().map(|c| c.components).sum();
+        let mut positions = Vec::new();
+        let mut values: Vec<f64> = Vec::new();
+        let mut triangles = Vec::new();
+        let mut groups = Vec::new();
+        let mut slot: HashMap<(u32, Vec<u64>), u32> = HashMap::new();
+        for (f, t) in self.faces.iter().enumerate() {
+            if !self.alive[f] {
+                continue;
+            }
+            let chart = self.chart[f];
+            let mut tri = [0u32; 3];
+            let mut group = 0;
+            for k in 0..3 {
+                let v = t[k];
+                let p = self.pos[v as usize];
+                let mut vals = vec![0.0; width];
+                if let Some((inf, bary, _)) = input.closest_face(p, Some(chart)) {
+                    group = mesh.face_group(FaceId(inf));
+                    if width > 0 {
+                        let ws = mesh.face_wedges(FaceId(inf));
+                        let mut off = 0;
+                        for (ci, ch) in channels.iter().enumerate() {
+                            let _ = ci;
+                            for j in 0..ch.components {
+                                vals[off + j] = (0..3)
+                                    .map(|i| bary[i] * ch.data[ws[i].idx() * ch.components + j])
+                                    .sum();
+                            }
+                            if ch.kind == super::attributes::ChannelKind::UnitVector {
+                                let l = vals[off..off + ch.components]
+                                    .iter()
+                                    .map(|x| x * x)
+                                    .sum::<f64>()
+                                    .sqrt();
+                                if l > 0.0 {
+                                    vals[off..off + ch.components]
+                                        .iter_mut()
+                                        .for_each(|x| *x /= l);
+                                }
+                            }
+                            off += ch.components;
+                        }
+                    }
+                }
+                let k2 = (v, vals.iter().map(|x| x.to_bits()).collect::<Vec<u64>>());
+                let id = *slot.entry(k2).or_insert_with(|| {
+                    positions.push(p);
+                    values.extend_from_slice(&vals);
+                    (positions.len() - 1) as u32
+                });
+                tri[k] = id;
+            }
+            triangles.push(tri);
+            groups.push(group);
+        }
+        let n = positions.len();
+        let mut off = 0;
+        let wedge_channels: Vec<Channel> = channels
+            .iter()
+            .map(|ch| {
+                let mut vals = Vec::with_capacity(n * ch.components);
+                for i in 0..n {
+                    vals.extend_from_slice(
+                        &values[i * width + off..i * width + off + ch.components],
+                    );
+                }
+                off += ch.components;
+                Channel::new(&ch.name, ch.components, ch.kind, vals)
+            })
+            .collect();
+        MeshInput {
+            positions,
+            triangles,
+            face_groups: groups,
+            wedge_channels,
+        }
+    }
+}
+
+// ---------------------------------------------------------------- geometry
+
+fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+fn add(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
+}
+fn scale(a: [f64; 3], s: f64) -> [f64; 3] {
+    [a[0] * s, a[1] * s, a[2] * s]
+}
+fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+fn norm(a: [f64; 3]) -> f64 {
+    dot(a, a).sqrt()
+}
+fn dist2(a: [f64; 3], b: [f64; 3]) -> f64 {
+    let d = sub(a, b);
+    dot(d, d)
+}
+fn bbox(p: &[[f64; 3]]) -> ([f64; 3], [f64; 3]) {
+    let mut lo = [f64::INFINITY; 3];
+    let mut hi = [f64::NEG_INFINITY; 3];
+    for q in p {
+        for k in 0..3 {
+            lo[k] = lo[k].min(q[k]);
+            hi[k] = hi[k].max(q[k]);
+        }
+    }
+    (lo, hi)
+}
+
+fn closest_on_segment(p: [f64; 3], a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    let ab = sub(b, a);
+    let l = dot(ab, ab);
+    if l <= 0.0 {
+        return a;
+    }
+    let t = (dot(sub(p, a), ab) / l).clamp(0.0, 1.0);
+    add(a, scale(ab, t))
+}
+
+/// The closest point of triangle `t` to `p`, and its barycentric
+/// coordinates (Ericson, Real-Time Collision Detection 5.1.5).
+fn closest_on_triangle(p: [f64; 3], t: [[f64; 3]; 3]) -> ([f64; 3], [f64; 3]) {
+    let (a, b, c) = (t[0], t[1], t[2]);
+    let ab = sub(b, a);
+    let ac = sub(c, a);
+    let ap = sub(p, a);
+    let d1 = dot(ab, ap);
+    let d2 = dot(ac, ap);
+    if d1 <= 0.0 && d2 <= 0.0 {
+        return (a, [1.0, 0.0, 0.0]);
+    }
+    let bp = sub(p, b);
+    let d3 = dot(ab, bp);
+    let d4 = dot(ac, bp);
+    if d3 >= 0.0 && d4 <= d3 {
+        return (b, [0.0, 1.0, 0.0]);
+    }
+    let vc = d1 * d4 - d3 * d2;
+    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
+        let v = d1 / (d1 - d3);
+        return (add(a, scale(ab, v)), [1.0 - v, v, 0.0]);
+    }
+    let cp = sub(p, c);
+    let d5 = dot(ab, cp);
+    let d6 = dot(ac, cp);
+    if d6 >= 0.0 && d5 <= d6 {
+        return (c, [0.0, 0.0, 1.0]);
+    }
+    let vb = d5 * d2 - d1 * d6;
+    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
+        let w = d2 / (d2 - d6);
+        return (add(a, scale(ac, w)), [1.0 - w, 0.0, w]);
+    }
+    let va = d3 * d6 - d5 * d4;
+    if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
+        let w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+        return (add(b, scale(sub(c, b), w)), [0.0, 1.0 - w, w]);
+    }
+    let denom = va + vb + vc;
+    if !(denom.abs() > 0.0) {
+        return (a, [1.0, 0.0, 0.0]);
+    }
+    let v = vb / denom;
+    let w = vc / denom;
+    (add(a, add(scale(ab, v), scale(ac, w))), [1.0 - v - w, v, w])
+}
+
+#[cfg(test)]
+#[path = "remesh_tests.rs"]
+mod tests;

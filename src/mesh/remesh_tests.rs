@@ -1,0 +1,230 @@
+//! Tests of the isotropic remesher.
+
+use super::*;
+use crate::mesh::attributes::ChannelKind;
+use crate::mesh::test_util::{build, grid_input, icosphere_input};
+
+fn edge_lengths(m: &SimMesh) -> Vec<f64> {
+    m.halfedges()
+        .filter(|&h| m.twin(h).is_none_or(|t| t.0 > h.0))
+        .map(|h| m.edge_length(h))
+        .collect()
+}
+
+fn valence6_fraction(m: &SimMesh) -> f64 {
+    let mut inner = 0;
+    let mut six = 0;
+    for v in m.vertices() {
+        if m.is_boundary_vertex(v) {
+            continue;
+        }
+        inner += 1;
+        if m.vertex_outgoing(v).count() == 6 {
+            six += 1;
+        }
+    }
+    six as f64 / inner.max(1) as f64
+}
+
+/// A 10 x 10 plate of coarse triangles with uv = (x, y) refines to
+/// near-equilateral triangles of the target size with exact UVs, the same
+/// boundary and the same area.
+#[test]
+fn a_plate_refines_isotropically_with_exact_uvs() {
+    let (m, _) = build(&grid_input(10, 10));
+    let target = 0.25;
+    let est = estimate_triangles(&m, target);
+    let (r, rep) = remesh(
+        &m,
+        &RemeshOptions {
+            target_edge: target,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    r.validate().unwrap();
+    assert!(rep.remeshed);
+    let n = r.n_faces() as f64;
+    assert!(
+        (0.75..1.25).contains(&(n / est as f64)),
+        "{n} faces, estimate {est}"
+    );
+    let lengths = edge_lengths(&r);
+    let mean = lengths.iter().sum::<f64>() / lengths.len() as f64;
+    assert!((mean / target - 1.0).abs() < 0.15, "mean edge {mean}");
+    let within = lengths
+        .iter()
+        .filter(|&&l| (0.5 * target..=1.6 * target).contains(&l))
+        .count();
+    assert!(
+        within as f64 > 0.95 * lengths.len() as f64,
+        "{within} of {}",
+        lengths.len()
+    );
+    assert!(
+        valence6_fraction(&r) > 0.6,
+        "valence 6: {}",
+        valence6_fraction(&r)
+    );
+    assert!((r.total_area() - 100.0).abs() < 1e-9);
+    // UVs equal the position everywhere.
+    let uv = r.wedges().channel("uv").unwrap();
+    for f in r.faces() {
+        for (v, w) in r.face_vertices(f).into_iter().zip(r.face_wedges(f)) {
+            let p = r.position(v);
+            let t = &uv.data[w.idx() * 2..w.idx() * 2 + 2];
+            assert!(
+                (t[0] - p[0]).abs() < 1e-9 && (t[1] - p[1]).abs() < 1e-9,
+                "{p:?} {t:?}"
+            );
+        }
+    }
+    // The boundary stays the square's.
+    for v in r.vertices().filter(|&v| r.is_boundary_vertex(v)) {
+        let p = r.position(v);
+        let on = [p[0], p[1]]
+            .iter()
+            .any(|&x| x.abs() < 1e-9 || (x - 10.0).abs() < 1e-9);
+        assert!(on, "boundary vertex off the border: {p:?}");
+    }
+}
+
+/// A UV seam stays a seam: both sides keep their own values.
+#[test]
+fn a_uv_seam_keeps_both_sides() {
+    // Two halves of a plate whose UVs jump at x = 5.
+    let mut input = grid_input(10, 4);
+    let n = input.positions.len();
+    let mut pos = input.positions.clone();
+    let mut uv: Vec<f64> = Vec::new();
+    for p in &input.positions {
+        uv.extend_from_slice(&[p[0], p[1]]);
+    }
+    // Duplicate the vertices at x = 5 for the right half (u + 100).
+    let mut remap = vec![u32::MAX; n];
+    for (i, p) in input.positions.iter().enumerate() {
+        if (p[0] - 5.0).abs() < 1e-12 {
+            remap[i] = pos.len() as u32;
+            pos.push(*p);
+            uv.extend_from_slice(&[p[0] + 100.0, p[1]]);
+        }
+    }
+    for (i, p) in input.positions.iter().enumerate() {
+        if p[0] > 5.0 + 1e-12 {
+            uv[2 * i] += 100.0;
+        }
+    }
+    for t in input.triangles.iter_mut() {
+        let right = t
+            .iter()
+            .any(|&v| input.positions[v as usize][0] > 5.0 + 1e-12);
+        if right {
+            for v in t.iter_mut() {
+                if remap[*v as usize] != u32::MAX {
+                    *v = remap[*v as usize];
+                }
+            }
+        }
+    }
+    input.positions = pos;
+    input.wedge_channels = vec![Channel::new("uv", 2, ChannelKind::Linear, uv)];
+    let (m, _) = build(&input);
+    let (r, rep) = remesh(
+        &m,
+        &RemeshOptions {
+            target_edge: 0.3,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    assert!(
+        rep.feature_edges >= 4 + 2 * 14,
+        "seam and border kept: {}",
+        rep.feature_edges
+    );
+    let uv = r.wedges().channel("uv").unwrap();
+    for f in r.faces() {
+        let c = r
+            .face_vertices(f)
+            .iter()
+            .fold(0.0, |a, &v| a + r.position(v)[0])
+            / 3.0;
+        for (v, w) in r.face_vertices(f).into_iter().zip(r.face_wedges(f)) {
+            let p = r.position(v);
+            let u = uv.data[w.idx() * 2];
+            let want = if c > 5.0 { p[0] + 100.0 } else { p[0] };
+            assert!(
+                (u - want).abs() < 1e-9,
+                "face centre x {c}: u {u} at x {}",
+                p[0]
+            );
+        }
+    }
+}
+
+/// A sphere (no features) refines onto its own surface with unit normals
+/// carried; a cube keeps its 12 sharp edges.
+#[test]
+fn curved_and_sharp_surfaces_stay_on_the_input() {
+    let (m, _) = build(&icosphere_input(2));
+    let (r, _) = remesh(
+        &m,
+        &RemeshOptions {
+            target_edge: 0.08,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    r.validate().unwrap();
+    assert!(r.n_faces() > 4 * m.n_faces());
+    // Every vertex lies on the input polyhedron (within rounding): its
+    // radius is between the faces' inradius and 1.
+    for v in r.vertices() {
+        let p = r.position(v);
+        let rad = (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt();
+        assert!((0.95..=1.0 + 1e-9).contains(&rad), "radius {rad}");
+    }
+    assert!(valence6_fraction(&r) > 0.6);
+    // The cube.
+    let (c, _) = build(&crate::mesh::test_util::cube24_input());
+    let (rc, rep) = remesh(
+        &c,
+        &RemeshOptions {
+            target_edge: 0.1,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    assert!(rep.feature_edges >= 12);
+    let (lo, hi) = c.bounding_box();
+    for v in rc.vertices() {
+        let p = rc.position(v);
+        let on_face = (0..3).any(|k| (p[k] - lo[k]).abs() < 1e-9 || (p[k] - hi[k]).abs() < 1e-9);
+        assert!(on_face, "off the cube: {p:?}");
+    }
+    assert!((rc.total_area() - c.total_area()).abs() < 1e-9 * c.total_area());
+}
+
+/// A surface already finer than the target is left as it is.
+#[test]
+fn fine_surfaces_are_left_alone() {
+    let (m, _) = build(&grid_input(10, 10));
+    let (r, rep) = remesh(
+        &m,
+        &RemeshOptions {
+            target_edge: 3.0,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    assert!(!rep.remeshed);
+    assert_eq!(r.n_faces(), m.n_faces());
+    assert!(remesh(
+        &m,
+        &RemeshOptions {
+            target_edge: 0.0,
+            ..Default::default()
+        }
+    )
+    .is_err());
+}
