@@ -15,6 +15,7 @@ pub mod pipeline;
 pub mod post;
 pub mod scene;
 pub mod sim;
+pub mod stats;
 pub mod stress;
 
 pub use error::{Error, Result};

@@ -9,6 +9,7 @@ mod info;
 mod islands;
 pub mod logger;
 mod post;
+mod stats;
 mod study;
 
 use clap::{Parser, Subcommand};
@@ -135,6 +136,17 @@ enum Command {
         /// Weld tolerance, relative to each mesh's bounding-box diagonal
         #[arg(long, value_name = "REL", default_value_t = crackle::mesh::WeldOptions::default().relative_tolerance)]
         weld_tolerance: f64,
+    },
+    /// Statistics of a crack pattern in an output file: cells, cell size, crack density, junctions, open tips, orientations
+    Stats {
+        /// A crackle output (.glb, .gltf)
+        file: PathBuf,
+        /// The input the output was made from: also measure the share of crack length along its edges
+        #[arg(long, value_name = "FILE")]
+        input: Option<PathBuf>,
+        /// Print the statistics as JSON on stdout
+        #[arg(long)]
+        json: bool,
     },
     /// Compare two glTF (or OBJ) files structurally and geometrically; exit 0 when equivalent, 1 when not
     Diff {
@@ -316,6 +328,7 @@ fn run_other(command: Command, quiet: bool) -> anyhow::Result<()> {
             json,
             weld_tolerance,
         } => info::run(&input, json, &weld_options(weld_tolerance)?),
+        Command::Stats { file, input, json } => stats::run(&file, input.as_deref(), json),
         Command::Crack {
             input,
             output,

@@ -403,6 +403,48 @@ impl<'a> AccessorReader<'a> {
     }
 }
 
+/// An accessor's values as f64 (normalized integers mapped like glTF says);
+/// None for matrices or malformed data.
+pub fn decode_raw(acc: &crate::scene::RawAccessor) -> Option<(usize, Vec<f64>)> {
+    if acc.kind.starts_with("MAT") {
+        return None;
+    }
+    let comps = type_components(&acc.kind)?;
+    let size = component_size(acc.component_type)?;
+    let n = acc.count.checked_mul(comps)?;
+    let bytes = acc.data.get(..n.checked_mul(size)?)?;
+    let norm = acc.normalized;
+    let values = bytes
+        .chunks_exact(size)
+        .map(|c| match acc.component_type {
+            5126 => f64::from(f32::from_le_bytes([c[0], c[1], c[2], c[3]])),
+            5120 => {
+                let v = f64::from(c[0] as i8);
+                if norm {
+                    (v / 127.0).max(-1.0)
+                } else {
+                    v
+                }
+            }
+            5121 => f64::from(c[0]) / if norm { 255.0 } else { 1.0 },
+            5122 => {
+                let v = f64::from(i16::from_le_bytes([c[0], c[1]]));
+                if norm {
+                    (v / 32767.0).max(-1.0)
+                } else {
+                    v
+                }
+            }
+            5123 => f64::from(u16::from_le_bytes([c[0], c[1]])) / if norm { 65535.0 } else { 1.0 },
+            _ => {
+                f64::from(u32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+                    / if norm { 4294967295.0 } else { 1.0 }
+            }
+        })
+        .collect();
+    Some((comps, values))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

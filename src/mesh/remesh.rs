@@ -294,7 +294,7 @@ fn corner_wedge(mesh: &SimMesh, f: FaceId, v: VertexId) -> super::ids::WedgeId {
 
 /// A uniform grid of items' bounding boxes, stored flat (each cell's items
 /// as a range of one array).
-struct Grid {
+pub(crate) struct Grid {
     origin: [f64; 3],
     cell: f64,
     dims: [usize; 3],
@@ -304,7 +304,7 @@ struct Grid {
 }
 
 impl Grid {
-    fn new(items: impl Iterator<Item = ([f64; 3], [f64; 3])>, size: f64) -> Grid {
+    pub(crate) fn new(items: impl Iterator<Item = ([f64; 3], [f64; 3])>, size: f64) -> Grid {
         let boxes: Vec<([f64; 3], [f64; 3])> = items.collect();
         let mut lo = [f64::INFINITY; 3];
         let mut hi = [f64::NEG_INFINITY; 3];
@@ -377,7 +377,7 @@ impl Grid {
     /// Visit the items near `p` in growing shells of cells (an item may be
     /// visited more than once); `visit` returns the best squared distance
     /// so far, and the search stops once a shell lies farther than it.
-    fn search(&self, p: [f64; 3], mut visit: impl FnMut(usize) -> Option<f64>) {
+    pub(crate) fn search(&self, p: [f64; 3], mut visit: impl FnMut(usize) -> Option<f64>) {
         if self.n == 0 {
             return;
         }
@@ -996,7 +996,7 @@ fn bbox(p: &[[f64; 3]]) -> ([f64; 3], [f64; 3]) {
     (lo, hi)
 }
 
-fn closest_on_segment(p: [f64; 3], a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+pub(crate) fn closest_on_segment(p: [f64; 3], a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
     let ab = sub(b, a);
     let l = dot(ab, ab);
     if l <= 0.0 {

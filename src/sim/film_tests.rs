@@ -90,8 +90,8 @@ fn crack_density_does_not_follow_the_triangles() {
 /// Halving the cell size about doubles the crack length per area.
 #[test]
 fn the_cell_size_sets_the_crack_spacing() {
-    let (big, _) = crack_density(&mut plate(24.0, 48, 7), &film(6.0));
-    let (small, _) = crack_density(&mut plate(24.0, 48, 7), &film(3.0));
+    let (big, _) = crack_density(&mut plate(24.0, 72, 7), &film(6.0));
+    let (small, _) = crack_density(&mut plate(24.0, 72, 7), &film(3.0));
     let ratio = small / big;
     assert!(
         (1.6..2.5).contains(&ratio),

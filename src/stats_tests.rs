@@ -1,0 +1,159 @@
+//! Pattern statistics on patterns whose answers are known.
+
+use super::*;
+
+/// An n x n grid of unit squares (two triangles each) and a vertex id.
+fn grid(n: u32) -> (Vec<[f64; 3]>, Vec<[u32; 3]>, impl Fn(u32, u32) -> u32) {
+    let id = move |i: u32, j: u32| j * (n + 1) + i;
+    let mut p = Vec::new();
+    for j in 0..=n {
+        for i in 0..=n {
+            p.push([f64::from(i), f64::from(j), 0.0]);
+        }
+    }
+    let mut t = Vec::new();
+    for j in 0..n {
+        for i in 0..n {
+            t.push([id(i, j), id(i + 1, j), id(i + 1, j + 1)]);
+            t.push([id(i, j), id(i + 1, j + 1), id(i, j + 1)]);
+        }
+    }
+    (p, t, id)
+}
+
+fn vertical(id: &impl Fn(u32, u32) -> u32, x: u32, j0: u32, j1: u32) -> Vec<[u32; 2]> {
+    (j0..j1)
+        .map(|j| {
+            let (a, b) = (id(x, j), id(x, j + 1));
+            [a.min(b), a.max(b)]
+        })
+        .collect()
+}
+
+fn horizontal(id: &impl Fn(u32, u32) -> u32, y: u32, i0: u32, i1: u32) -> Vec<[u32; 2]> {
+    (i0..i1)
+        .map(|i| {
+            let (a, b) = (id(i, y), id(i + 1, y));
+            [a.min(b), a.max(b)]
+        })
+        .collect()
+}
+
+#[test]
+fn a_cross_makes_four_cells_and_one_junction_of_four() {
+    let (positions, triangles, id) = grid(4);
+    let mut cracks = vertical(&id, 2, 0, 4);
+    cracks.extend(horizontal(&id, 2, 0, 4));
+    let s = pattern_stats(
+        &PatternInput {
+            positions,
+            triangles,
+            cracks,
+        },
+        None,
+    );
+    assert_eq!(s.cells, 4);
+    assert_eq!(s.cell_area_quantiles, [4.0; 5]);
+    assert!((s.crack_length - 8.0).abs() < 1e-12);
+    assert!((s.crack_length_per_area - 0.5).abs() < 1e-12);
+    assert!((s.spacing - 4.0).abs() < 1e-12);
+    assert!((s.mean_cell_diameter - (16.0 / std::f64::consts::PI).sqrt()).abs() < 1e-12);
+    assert_eq!(s.degree[3], 1, "one junction of four: {:?}", s.degree);
+    assert_eq!(s.max_degree, 4);
+    assert_eq!(s.dangling_tips, 0, "the ends are on the border");
+    assert!(
+        (s.orientation[0] - 0.5).abs() < 1e-12 && (s.orientation[3] - 0.5).abs() < 1e-12,
+        "{:?}",
+        s.orientation
+    );
+}
+
+#[test]
+fn a_crack_ending_on_another_is_a_t_junction() {
+    let (positions, triangles, id) = grid(4);
+    let mut cracks = vertical(&id, 2, 0, 4);
+    cracks.extend(horizontal(&id, 2, 0, 2));
+    let s = pattern_stats(
+        &PatternInput {
+            positions,
+            triangles,
+            cracks,
+        },
+        None,
+    );
+    assert_eq!(s.cells, 3);
+    assert_eq!((s.t_junctions, s.y_junctions), (1, 0));
+    assert_eq!(
+        s.junction_angles[6], 2,
+        "two right angles: {:?}",
+        s.junction_angles
+    );
+    assert_eq!(s.junction_angles[11], 1, "one straight angle");
+    assert_eq!(s.dangling_tips, 0);
+}
+
+#[test]
+fn an_open_crack_has_two_dangling_tips_and_cuts_nothing() {
+    let (positions, triangles, id) = grid(4);
+    let cracks = horizontal(&id, 2, 1, 3);
+    let s = pattern_stats(
+        &PatternInput {
+            positions,
+            triangles,
+            cracks,
+        },
+        None,
+    );
+    assert_eq!(s.cells, 1);
+    assert_eq!(s.dangling_tips, 2);
+}
+
+#[test]
+fn close_parallel_cracks_are_paired_far_ones_are_not() {
+    let (positions, triangles, id) = grid(8);
+    let close: Vec<[u32; 2]> = [vertical(&id, 3, 0, 8), vertical(&id, 4, 0, 8)].concat();
+    let s = pattern_stats(
+        &PatternInput {
+            positions: positions.clone(),
+            triangles: triangles.clone(),
+            cracks: close,
+        },
+        None,
+    );
+    // spacing 2 * 64 / 16 = 8, paired below 2: the cracks are 1 apart.
+    assert!((s.paired_distance - 2.0).abs() < 1e-12);
+    assert!((s.paired - 1.0).abs() < 1e-12, "{}", s.paired);
+    let far: Vec<[u32; 2]> = [vertical(&id, 1, 0, 8), vertical(&id, 6, 0, 8)].concat();
+    let s = pattern_stats(
+        &PatternInput {
+            positions,
+            triangles,
+            cracks: far,
+        },
+        None,
+    );
+    assert_eq!(s.paired, 0.0);
+    assert_eq!(s.cells, 3);
+}
+
+#[test]
+fn cracks_along_the_input_edges_are_counted() {
+    let (positions, triangles, id) = grid(4);
+    let cracks = vertical(&id, 2, 0, 4);
+    let same = ReferenceEdges::new(&positions, &triangles);
+    let shifted: Vec<[f64; 3]> = positions.iter().map(|p| [p[0] + 0.5, p[1], p[2]]).collect();
+    let other = ReferenceEdges::new(&shifted, &triangles);
+    let input = PatternInput {
+        positions,
+        triangles,
+        cracks,
+    };
+    assert_eq!(
+        pattern_stats(&input, Some(&same)).along_reference_edges,
+        Some(1.0)
+    );
+    assert_eq!(
+        pattern_stats(&input, Some(&other)).along_reference_edges,
+        Some(0.0)
+    );
+}
