@@ -676,8 +676,20 @@ fn apply_set(root: &mut toml::Table, set: &str) -> Result<(), String> {
         cur = match cur {
             toml::Value::Table(t) => {
                 if last {
+                    // A key replaces its alternative (radius and
+                    // radius_relative, cell_size and cell_size_relative).
+                    match part.strip_suffix("_relative") {
+                        Some(base) => t.remove(base),
+                        None => t.remove(&format!("{part}_relative")),
+                    };
                     t.insert(part.to_string(), value);
                     return Ok(());
+                }
+                if part.parse::<usize>().is_ok() && !t.contains_key(*part) {
+                    return Err(format!(
+                        "'{}' has no entry {part} (the pipeline has none; its entries come from --preset or --pipeline)",
+                        parts[..i].join(".")
+                    ));
                 }
                 t.entry(part.to_string())
                     .or_insert_with(|| toml::Value::Table(Default::default()))

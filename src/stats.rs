@@ -354,7 +354,20 @@ pub fn pattern_stats(input: &PatternInput, reference: Option<&ReferenceEdges>) -
             s.dangling_tips += 1;
         }
         if d == 3 {
-            let nv = normal[v];
+            let mut nv = normal[v];
+            if norm(nv) == 0.0 {
+                // A crack vertex off the triangles (an opened crack's line):
+                // the plane of its crack directions.
+                let d: Vec<[f64; 3]> = adj[v]
+                    .iter()
+                    .map(|&u| sub(pos[u as usize], pos[v]))
+                    .collect();
+                nv = [(0, 1), (1, 2), (0, 2)]
+                    .map(|(i, j)| cross(d[i], d[j]))
+                    .into_iter()
+                    .max_by(|a, b| norm(*a).total_cmp(&norm(*b)))
+                    .unwrap_or([0.0; 3]);
+            }
             let ln = norm(nv);
             if ln == 0.0 {
                 continue;

@@ -3,6 +3,7 @@
 use super::*;
 
 /// An n x n grid of unit squares (two triangles each) and a vertex id.
+#[allow(clippy::type_complexity)]
 fn grid(n: u32) -> (Vec<[f64; 3]>, Vec<[u32; 3]>, impl Fn(u32, u32) -> u32) {
     let id = move |i: u32, j: u32| j * (n + 1) + i;
     let mut p = Vec::new();

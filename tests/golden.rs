@@ -1,5 +1,6 @@
 //! Golden files: every built-in preset run on the fixture its description
-//! names must give what `fixtures/golden/<preset>.glb` holds, up to
+//! names (at a coarse cell size, [`GOLDEN_CELL`]) must give what
+//! `fixtures/golden/<preset>.glb` holds, up to
 //! `crackle diff --tolerance 1e-5`. `CRACKLE_UPDATE_GOLDEN=1 cargo test
 //! --release --test golden` rewrites the golden files instead.
 //!
@@ -54,15 +55,26 @@ fn assert_differ(o: &Output, what: &str) -> String {
 
 /// `crackle crack FIXTURE OUT --preset PRESET -q`, which must succeed.
 fn crack_preset(preset: &str, fixture: &Path, out: &Path) {
-    common::run_ok([
+    crack_preset_with(preset, fixture, out, &[]);
+}
+
+/// [`crack_preset`] with extra arguments.
+fn crack_preset_with(preset: &str, fixture: &Path, out: &Path, extra: &[&str]) {
+    let mut args: Vec<&std::ffi::OsStr> = vec![
         "crack".as_ref(),
         fixture.as_os_str(),
         out.as_os_str(),
         "--preset".as_ref(),
         preset.as_ref(),
         "-q".as_ref(),
-    ]);
+    ];
+    args.extend(extra.iter().map(std::ffi::OsStr::new));
+    common::run_ok(args);
 }
+
+/// The golden runs ask for a coarse cell size (15% of the diagonal), so
+/// that the remeshed fixtures, and the golden files, stay small.
+const GOLDEN_CELL: [&str; 2] = ["--cell-size-relative", "0.15"];
 
 /// Every built-in preset with the fixture its description names ("try it
 /// on fixtures/NAME").
@@ -98,7 +110,7 @@ fn presets_match_golden_files() {
     for (preset, fixture) in presets() {
         let golden = golden_dir.join(format!("{preset}.glb"));
         let out = dir.path().join(format!("{preset}.glb"));
-        crack_preset(&preset, &fixture, &out);
+        crack_preset_with(&preset, &fixture, &out, &GOLDEN_CELL);
         if update {
             std::fs::create_dir_all(&golden_dir).unwrap();
             std::fs::copy(&out, &golden).unwrap();

@@ -248,7 +248,7 @@ fn masks_from_a_pipeline_file_and_from_a_material() {
     let pipe = dir.path().join("stains.toml");
     std::fs::write(
         &pipe,
-        "[simulation]\nshrink_rate = 0.0\n[[stress]]\nkind = \"uniform\"\nevolve = 0.05\n\
+        "[simulation]\ncell_size_relative = 0.05\nshrink_rate = 0.0\n[[stress]]\nkind = \"uniform\"\nevolve = 0.05\n\
          mask = { image = \"stains.png\", confine = true }\n",
     )
     .unwrap();

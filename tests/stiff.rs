@@ -404,3 +404,69 @@ fn every_integrator_stays_stable_on_slivers_and_mixed_sizes() {
         );
     }
 }
+
+/// A plate of `nx` x `ny` cells, each `aspect` times wider than high:
+/// every triangle a sliver (a strip when `ny` is 1).
+fn all_slivers(nx: usize, ny: usize, aspect: f64) -> MeshInput {
+    let mut positions = Vec::new();
+    for j in 0..=ny {
+        for i in 0..=nx {
+            positions.push([i as f64, j as f64 / aspect, 0.0]);
+        }
+    }
+    MeshInput {
+        positions,
+        triangles: grid_triangles(nx, ny),
+        ..Default::default()
+    }
+}
+
+/// With the default settings (integrator `auto`), no mesh of slivers makes
+/// a round take more than the auto limit of steps: strips and plates of
+/// aspect 1e2 to 1e6 at three sizes all finish, with finite values, under a
+/// shrinkage load, and the report says which scheme ran and why.
+#[test]
+fn default_runs_on_slivers_take_a_bounded_number_of_steps() {
+    for aspect in [1e2, 1e3, 1e4, 1e5, 1e6] {
+        for (nx, ny) in [(40, 1), (10, 10), (20, 20), (40, 40)] {
+            let input = all_slivers(nx, ny, aspect);
+            // Weld only identical positions: the slivers are thinner than
+            // the default weld tolerance.
+            let (mut mesh, _) = SimMesh::build(
+                &input,
+                &crackle::mesh::WeldOptions {
+                    relative_tolerance: 0.0,
+                },
+            )
+            .unwrap();
+            let params = SimParams {
+                max_rounds: 30,
+                ..Default::default()
+            };
+            let r = crackle::sim::run(&mut mesh, &params, &mut ()).unwrap();
+            let name = format!("aspect {aspect:e}, {nx} x {ny}");
+            assert!(r.rounds > 0, "{name}");
+            let per_round = r.relax_steps as f64 / r.rounds as f64;
+            assert!(
+                per_round <= crackle::sim::driver::AUTO_STEP_LIMIT,
+                "{name}: {per_round} steps a round with {} ({})",
+                r.integrator,
+                r.integrator_reason
+            );
+            assert!(
+                r.integrator_reason.starts_with("auto"),
+                "{name}: {}",
+                r.integrator_reason
+            );
+            if aspect >= 1e4 {
+                assert_eq!(
+                    r.integrator, "backward-euler",
+                    "{name}: {}",
+                    r.integrator_reason
+                );
+            }
+            assert!(r.energy[1].is_finite(), "{name}");
+            mesh.validate().unwrap();
+        }
+    }
+}

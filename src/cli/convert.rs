@@ -15,15 +15,7 @@ pub fn run(
     as_json: bool,
     quiet: bool,
 ) -> Result<()> {
-    crackle::io::Format::from_path(output)
-        .ok()
-        .filter(|f| *f != crackle::io::Format::Obj)
-        .ok_or_else(|| {
-            super::UsageError(format!(
-                "{}: output must be .gltf or .glb",
-                output.display()
-            ))
-        })?;
+    super::check_output_format(output)?;
     let t0 = Instant::now();
     let mut scene = super::read_crackable(input)?;
     let t_read = t0.elapsed();

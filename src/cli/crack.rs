@@ -80,7 +80,7 @@ pub struct SimArgs {
     /// Most relaxation rounds [default: 200]
     #[arg(long)]
     max_rounds: Option<usize>,
-    /// Most crack events per mesh [default: 100000]
+    /// Most crack events per mesh [default: 1000000]
     #[arg(long)]
     max_cracks: Option<usize>,
     /// Most crack events per round before the load is held; 0: 1% of the nodes [default: 0]

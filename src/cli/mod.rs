@@ -336,21 +336,24 @@ fn run_other(command: Command, quiet: bool) -> anyhow::Result<()> {
             sim,
             weld_tolerance,
             frames,
-        } => crack::run(crack::CrackArgs {
-            input: &input,
-            output: &output,
-            report: report.as_deref(),
-            weld: weld_options(weld_tolerance)?,
-            pipeline: sim.pipeline()?,
-            pipeline_dir: sim.pipeline_dir(),
-            quiet,
-            on_stage: None,
-            prefix_images: false,
-            frames: frames
-                .map(|v| frames::FramesArgs::parse(&v))
-                .transpose()
-                .map_err(UsageError)?,
-        }),
+        } => {
+            check_output_format(&output)?;
+            crack::run(crack::CrackArgs {
+                input: &input,
+                output: &output,
+                report: report.as_deref(),
+                weld: weld_options(weld_tolerance)?,
+                pipeline: sim.pipeline()?,
+                pipeline_dir: sim.pipeline_dir(),
+                quiet,
+                on_stage: None,
+                prefix_images: false,
+                frames: frames
+                    .map(|v| frames::FramesArgs::parse(&v))
+                    .transpose()
+                    .map_err(UsageError)?,
+            })
+        }
         Command::Presets { show } => presets(show.as_deref()),
         Command::Study {
             input,
@@ -377,4 +380,19 @@ fn run_other(command: Command, quiet: bool) -> anyhow::Result<()> {
             json,
         } => convert::run(&input, &output, &weld_options(weld_tolerance)?, json, quiet),
     }
+}
+
+/// A usage error unless `output` names a format crackle writes (.gltf or
+/// .glb), checked before any work.
+pub(crate) fn check_output_format(output: &std::path::Path) -> Result<(), UsageError> {
+    crackle::io::Format::from_path(output)
+        .ok()
+        .filter(|f| *f != crackle::io::Format::Obj)
+        .map(|_| ())
+        .ok_or_else(|| {
+            UsageError(format!(
+                "{}: output must be .gltf or .glb (the formats crackle writes)",
+                output.display()
+            ))
+        })
 }

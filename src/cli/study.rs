@@ -155,7 +155,14 @@ pub fn run(mut a: StudyArgs) -> anyhow::Result<()> {
         ))
         .into());
     }
-    let base = pipe.params(&groups);
+    // The study compares the integrators of the mesh-scale relaxation: a
+    // film (a pipeline's cell size) is always solved for equilibrium, so
+    // its cell size is left out here.
+    let base = crackle::sim::SimParams {
+        cell_size: None,
+        cell_size_relative: None,
+        ..pipe.params(&groups)
+    };
     let curvature = pipe
         .needs_curvature()
         .then(|| crackle::geometry::curvature::estimate(&e.sim));

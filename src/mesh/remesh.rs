@@ -74,7 +74,7 @@ pub struct RemeshReport {
 /// area over that of an equilateral triangle of that edge.
 pub fn estimate_triangles(mesh: &SimMesh, target_edge: f64) -> usize {
     let tri = 3f64.sqrt() / 4.0 * target_edge * target_edge;
-    if !(tri > 0.0) {
+    if tri.is_nan() || tri <= 0.0 {
         return usize::MAX;
     }
     let n = mesh.total_area() / tri;
@@ -477,12 +477,12 @@ impl Work {
             ends[b as usize].push(a);
         }
         let cos_turn = -(input.cos_crease);
-        for v in 0..n {
+        for (v, e) in ends.iter().enumerate() {
             w.corner[v] = w.nfeat[v] != 0 && w.nfeat[v] != 2;
             if w.nfeat[v] == 2 {
                 let p = w.pos[v];
-                let d1 = sub(w.pos[ends[v][0] as usize], p);
-                let d2 = sub(w.pos[ends[v][1] as usize], p);
+                let d1 = sub(w.pos[e[0] as usize], p);
+                let d2 = sub(w.pos[e[1] as usize], p);
                 let (l1, l2) = (norm(d1), norm(d2));
                 // Straight on: the directions are opposite.
                 if l1 > 0.0 && l2 > 0.0 && dot(d1, d2) > cos_turn * l1 * l2 {
@@ -803,9 +803,8 @@ impl Work {
     /// Tangential smoothing toward the neighbours' centroid, then
     /// projection onto the input (feature vertices along their lines).
     fn smooth(&mut self, input: &Input) {
-        let n = self.pos.len();
         let mut next = self.pos.clone();
-        for v in 0..n {
+        for (v, slot) in next.iter_mut().enumerate() {
             if self.dead_vertex[v] || self.corner[v] || self.vf[v].is_empty() {
                 continue;
             }
@@ -840,7 +839,7 @@ impl Work {
                 }
             }
             let q = add(p, d);
-            next[v] = if self.nfeat[v] > 0 {
+            *slot = if self.nfeat[v] > 0 {
                 input.closest_feature(q).unwrap_or(q)
             } else {
                 let chart = self.chart[self.vf[v][0] as usize];
@@ -848,8 +847,8 @@ impl Work {
             };
         }
         // Keep a move only where no incident face turns over.
-        for v in 0..n {
-            if next[v] == self.pos[v] {
+        for (v, &to) in next.iter().enumerate() {
+            if to == self.pos[v] {
                 continue;
             }
             let ok = self.vf[v].iter().all(|&f| {
@@ -857,7 +856,7 @@ impl Work {
                 let before = self.face_normal(t);
                 let pts = t.map(|x| {
                     if x as usize == v {
-                        next[v]
+                        to
                     } else {
                         self.pos[x as usize]
                     }
@@ -866,7 +865,7 @@ impl Work {
                 dot(before, after) > 0.2 * norm(before) * norm(after)
             });
             if ok {
-                self.pos[v] = next[v];
+                self.pos[v] = to;
             }
         }
     }
@@ -1046,7 +1045,7 @@ fn closest_on_triangle(p: [f64; 3], t: [[f64; 3]; 3]) -> ([f64; 3], [f64; 3]) {
         return (add(b, scale(sub(c, b), w)), [0.0, 1.0 - w, w]);
     }
     let denom = va + vb + vc;
-    if !(denom.abs() > 0.0) {
+    if denom.is_nan() || denom == 0.0 {
         return (a, [1.0, 0.0, 0.0]);
     }
     let v = vb / denom;

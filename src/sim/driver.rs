@@ -129,7 +129,7 @@ pub struct SimParams {
     /// diagonal (every preset sets one).
     pub cell_size_relative: Option<f64>,
     /// With a cell size: remesh each simulated surface isotropically to
-    /// `cell size / 9` edges before cracking, refining coarse inputs (finer
+    /// `cell size / 8` edges before cracking, refining coarse inputs (finer
     /// ones are left as they are). Default true.
     pub isotropic_remesh: bool,
     /// With `isotropic_remesh`: also coarsen surfaces finer than needed.
@@ -2194,6 +2194,7 @@ fn finish_cracks(
     }
     if st.film.is_some() && report.cracks > cracks0 {
         relax_round(mesh, st, params, g, false, &mut loaded, report, None)?;
+        observe(observer, mesh, st, report);
     }
     fin.cracks = report.cracks - cracks0;
     fin.length = report.crack_length - length0;
@@ -2234,8 +2235,21 @@ fn film_separation(mesh: &SimMesh, st: &State, film: &crate::sim::film::Film, v:
         st.unit,
         film.average_radius(),
         v,
-    );
-    scaled_separation(mesh, st, v, s)
+    ) + st.residual[v.idx()];
+    // The least separation factor of the node's faces: a crack does not
+    // enter a face where the field forbids it (a confining mask's white).
+    if st.sep_scale.is_empty() {
+        return s;
+    }
+    let factor = mesh
+        .vertex_faces(v)
+        .map(|f| st.sep_scale[f.idx()])
+        .fold(f64::INFINITY, f64::min);
+    if factor.is_finite() {
+        s * factor
+    } else {
+        s
+    }
 }
 
 /// The residual and the separation factor on node `v`'s force-based

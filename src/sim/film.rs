@@ -42,7 +42,7 @@ use crate::stress::tensor::{v3, Sym3};
 pub const CELL_PER_LENGTH: f64 = 1.35;
 
 /// Edges across one cell of the remeshed simulation surface.
-pub const EDGES_PER_CELL: f64 = 9.0;
+pub const EDGES_PER_CELL: f64 = 8.0;
 
 /// Radius of the disc the failure stress is averaged over, in cell sizes.
 pub const AVERAGE_RADIUS: f64 = 1.0 / 12.0;
