@@ -18,7 +18,7 @@ shot() {
     local name=$1 input=$2 preset=$3 elev=$4 azim=$5
     shift 5
     "$bin" -q crack "$input" "$tmp/$name.glb" --preset "$preset" "$@"
-    "$bin" stats "$tmp/$name.glb" --input "$input" > "$out/$name.txt"
+    "$bin" stats "$tmp/$name.glb" --input "$input" | sed "1s|.*|$name.glb ($preset on ${input##*/})|" > "$out/$name.txt"
     blender -b --factory-startup --python scripts/render_preset_pictures.py -- \
         "$tmp/$name.glb" "$out/$name.png" "$elev" "$azim" BLENDER_WORKBENCH auto 3.0 >/dev/null 2>&1
     echo "$name: $(grep cells "$out/$name.txt" | tr -s ' ')"
