@@ -10,6 +10,7 @@
 use crate::mesh::remesh::{closest_on_segment, Grid};
 use crate::mesh::SimMesh;
 use crate::scene::{Geometry, Scene};
+use crate::stress::tensor::v3::{add, cross, dot, norm, scale, sub};
 use std::collections::{HashMap, HashSet};
 
 /// A surface and its cracks; see the module documentation.
@@ -513,28 +514,6 @@ fn graph_ball(adj: &[Vec<u32>], pos: &[[f64; 3]], seeds: [u32; 2], r: f64) -> Ha
     best.into_keys().collect()
 }
 
-fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-fn add(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
-}
-fn scale(a: [f64; 3], s: f64) -> [f64; 3] {
-    [a[0] * s, a[1] * s, a[2] * s]
-}
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
-fn norm(a: [f64; 3]) -> f64 {
-    dot(a, a).sqrt()
-}
 fn dist(a: [f64; 3], b: [f64; 3]) -> f64 {
     norm(sub(a, b))
 }
