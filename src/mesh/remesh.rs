@@ -905,15 +905,17 @@ impl Work {
                                     .sum();
                             }
                             if ch.kind == super::attributes::ChannelKind::UnitVector {
-                                let l = vals[off..off + ch.components]
-                                    .iter()
-                                    .map(|x| x * x)
-                                    .sum::<f64>()
-                                    .sqrt();
+                                // A tangent's fourth value is its handedness
+                                // sign: the vector is its first three.
+                                let nv = if ch.components == 4 { 3 } else { ch.components };
+                                let v = &mut vals[off..off + nv];
+                                let l = v.iter().map(|x| x * x).sum::<f64>().sqrt();
                                 if l > 0.0 {
-                                    vals[off..off + ch.components]
-                                        .iter_mut()
-                                        .for_each(|x| *x /= l);
+                                    v.iter_mut().for_each(|x| *x /= l);
+                                }
+                                if ch.components == 4 {
+                                    let w = &mut vals[off + 3];
+                                    *w = if *w < 0.0 { -1.0 } else { 1.0 };
                                 }
                             }
                             off += ch.components;

@@ -228,3 +228,33 @@ fn fine_surfaces_are_left_alone() {
     )
     .is_err());
 }
+
+/// A tangent channel keeps its handedness sign exactly (the fourth value is
+/// a sign, not a vector component).
+#[test]
+fn tangent_signs_stay_signs() {
+    let mut input = grid_input(4, 4);
+    let n = input.positions.len();
+    let tangents: Vec<f64> = (0..n).flat_map(|_| [1.0, 0.0, 0.0, -1.0]).collect();
+    input.wedge_channels.push(Channel::new(
+        "TANGENT",
+        4,
+        ChannelKind::UnitVector,
+        tangents,
+    ));
+    let (m, _) = build(&input);
+    let (r, _) = remesh(
+        &m,
+        &RemeshOptions {
+            target_edge: 0.3,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    let t = r.wedges().channel("TANGENT").unwrap();
+    for w in 0..r.n_wedges() {
+        let v = &t.data[w * 4..w * 4 + 4];
+        assert_eq!(v[3], -1.0, "{v:?}");
+        assert!((v[0] - 1.0).abs() < 1e-12 && v[1].abs() < 1e-12, "{v:?}");
+    }
+}
