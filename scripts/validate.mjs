@@ -111,4 +111,6 @@ for (const file of args) {
   process.stdout.write(JSON.stringify(line) + "\n");
   if (!ok) code = 1;
 }
-process.exit(code);
+// Not process.exit(): that ends the process before a piped stdout is
+// drained, cutting a long report at 64 KiB.
+process.exitCode = code;
