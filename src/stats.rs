@@ -212,11 +212,91 @@ impl PatternInput {
             out.positions.extend(w.positions);
             out.cracks.extend(crack_ids);
         }
+        out.cracks = split_at_junctions(&out.positions, out.cracks);
         out.cracks.sort_unstable();
         out.cracks.dedup();
         out.cracks.retain(|c| c[0] != c[1]);
         out
     }
+}
+
+/// Split every crack segment at the crack ends lying inside it. A crack
+/// that runs into an earlier one ends on it, but the earlier crack's line
+/// segment may have been written whole: without the split that junction
+/// is an open end, and the earlier crack's two halves there are not crack
+/// edges of the surface. "On it" is within a millionth of the pattern's
+/// size (line positions are stored in single precision).
+fn split_at_junctions(positions: &[[f64; 3]], cracks: Vec<[u32; 2]>) -> Vec<[u32; 2]> {
+    let mut count = vec![0u32; positions.len()];
+    for c in &cracks {
+        count[c[0] as usize] += 1;
+        count[c[1] as usize] += 1;
+    }
+    let mut lo = [f64::INFINITY; 3];
+    let mut hi = [f64::NEG_INFINITY; 3];
+    let mut total = 0.0;
+    for c in &cracks {
+        let (a, b) = (positions[c[0] as usize], positions[c[1] as usize]);
+        total += dist(a, b);
+        for k in 0..3 {
+            lo[k] = lo[k].min(a[k]).min(b[k]);
+            hi[k] = hi[k].max(a[k]).max(b[k]);
+        }
+    }
+    if cracks.is_empty() || total <= 0.0 {
+        return cracks;
+    }
+    let eps = 1e-6 * dist(lo, hi);
+    let boxes = cracks.iter().map(|c| {
+        let (a, b) = (positions[c[0] as usize], positions[c[1] as usize]);
+        (
+            [0, 1, 2].map(|k| a[k].min(b[k]) - eps),
+            [0, 1, 2].map(|k| a[k].max(b[k]) + eps),
+        )
+    });
+    let grid = Grid::new(boxes, total / cracks.len() as f64);
+    // Per segment: the ends inside it, with their parameter along it.
+    let mut cuts: HashMap<usize, Vec<(f64, u32)>> = HashMap::new();
+    for (v, _) in count.iter().enumerate().filter(|(_, &n)| n == 1) {
+        let p = positions[v];
+        let mut best: Option<(f64, usize)> = None;
+        grid.search(p, |i| {
+            let c = cracks[i];
+            if c[0] as usize != v && c[1] as usize != v {
+                let (a, b) = (positions[c[0] as usize], positions[c[1] as usize]);
+                let d = dist(closest_on_segment(p, a, b), p);
+                if d <= eps
+                    && (dist(p, a) > eps && dist(p, b) > eps)
+                    && best.is_none_or(|x| d < x.0)
+                {
+                    best = Some((d, i));
+                }
+            }
+            Some(best.map_or(eps * eps, |b| b.0 * b.0).max(eps * eps))
+        });
+        if let Some((_, i)) = best {
+            let c = cracks[i];
+            let (a, b) = (positions[c[0] as usize], positions[c[1] as usize]);
+            let t = dot(sub(p, a), sub(b, a)) / dot(sub(b, a), sub(b, a));
+            cuts.entry(i).or_default().push((t, v as u32));
+        }
+    }
+    let mut out = Vec::with_capacity(cracks.len() + cuts.len());
+    for (i, c) in cracks.into_iter().enumerate() {
+        match cuts.get_mut(&i) {
+            None => out.push(c),
+            Some(inner) => {
+                inner.sort_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
+                let mut prev = c[0];
+                for &(_, v) in inner.iter() {
+                    out.push([prev.min(v), prev.max(v)]);
+                    prev = v;
+                }
+                out.push([prev.min(c[1]), prev.max(c[1])]);
+            }
+        }
+    }
+    out
 }
 
 /// Welds points by their exact position.

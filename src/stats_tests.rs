@@ -158,3 +158,39 @@ fn cracks_along_the_input_edges_are_counted() {
         Some(0.0)
     );
 }
+
+#[test]
+fn a_crack_ending_inside_a_whole_segment_of_another_is_joined_to_it() {
+    let (positions, triangles, id) = grid(4);
+    // The earlier crack's segment over (2,1)-(2,3) was written whole; the
+    // later one ends at (2,2), inside it.
+    let mut cracks = vec![
+        [id(2, 0), id(2, 1)],
+        [id(2, 1), id(2, 3)],
+        [id(2, 3), id(2, 4)],
+    ];
+    cracks.extend(horizontal(&id, 2, 0, 2));
+    let unsplit = pattern_stats(
+        &PatternInput {
+            positions: positions.clone(),
+            triangles: triangles.clone(),
+            cracks: cracks.clone(),
+        },
+        None,
+    );
+    assert_eq!(unsplit.dangling_tips, 1, "the check can fail: {unsplit:?}");
+    let mut cracks = split_at_junctions(&positions, cracks);
+    cracks.sort_unstable();
+    assert!(cracks.contains(&[id(2, 1), id(2, 2)]) && cracks.contains(&[id(2, 2), id(2, 3)]));
+    assert_eq!(cracks.len(), 6);
+    let s = pattern_stats(
+        &PatternInput {
+            positions,
+            triangles,
+            cracks,
+        },
+        None,
+    );
+    assert_eq!(s.cells, 3);
+    assert_eq!((s.t_junctions, s.dangling_tips), (1, 0));
+}
