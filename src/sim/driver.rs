@@ -9,7 +9,7 @@
 
 use crate::geometry::element::Element;
 use crate::mesh::{FaceId, MeshError, SimMesh, VertexId};
-use crate::sim::crack::{crack_node, CrackRules};
+use crate::sim::crack::{crack_node_avoiding, CrackRules};
 use crate::sim::forces::{
     corner_forces, element_corner_forces, element_strain, face_points, gather, separation_tensor,
     separation_tensor_split, tensile_splits, Elements, Fans,
@@ -647,6 +647,9 @@ struct State {
     displacement: Vec<[f64; 3]>,
     /// Time each node first lay on a crack (NaN: never).
     crack_time: Vec<f64>,
+    /// Cracks meeting at each node, indexed by the node's root (all copies
+    /// of a crack node share it): 2 along a crack, 3 at a T.
+    crack_degree: Vec<u8>,
     unit: f64,
     /// Scratch: per-corner element forces of the current step.
     corner: Vec<[f64; 3]>,
@@ -754,6 +757,7 @@ impl State {
     /// inserted vertices are settled by the caller.
     fn grow(&mut self, mesh: &SimMesh, params: &SimParams) {
         self.residual.resize(mesh.n_vertices(), Sym3::ZERO);
+        self.crack_degree.resize(mesh.n_vertices(), 0);
         if let Some(fz) = &mut self.frozen {
             while fz.len() < mesh.n_vertices() {
                 let v = VertexId(fz.len() as u32);
@@ -952,7 +956,11 @@ pub fn run_with(
             if val.is_nan() || val <= params.toughness {
                 continue;
             }
-            let ev = crack_node(mesh, v, dir, &rules).map_err(SimError::Mesh)?;
+            let run = st.film.as_mut().map_or(0, |film| film.run_at(v));
+            let ev = crack_node_avoiding(mesh, v, dir, &rules, &|m, w| {
+                crowded_junction(m, &st.crack_degree, w)
+            })
+            .map_err(SimError::Mesh)?;
             st.residual[v.idx()] = Sym3::ZERO;
             if let Some(fz) = &mut st.frozen {
                 // The crack releases the node's failing component.
@@ -967,7 +975,7 @@ pub fn run_with(
             }
             if let Some(film) = &mut st.film {
                 let ends: Vec<VertexId> = ev.segments.iter().flat_map(|&(a, b)| [a, b]).collect();
-                film.mark_around(mesh, &ends);
+                film.mark_around(mesh, &ends, run);
             }
             cracked_this_round += 1;
             chain = true;
@@ -1157,6 +1165,7 @@ fn start(
             .unwrap_or_default(),
         displacement: Vec::new(),
         crack_time: Vec::new(),
+        crack_degree: Vec::new(),
         unit,
         corner: Vec::new(),
         warm: Vec::new(),
@@ -2001,6 +2010,23 @@ fn apply_event(
     if ev.segments.is_empty() {
         return false;
     }
+    for (&q, &(a, b, border)) in ev.inserted.iter().zip(&ev.inserted_on) {
+        // A vertex inserted on a crack lies on two of its segments.
+        let on_crack = border
+            && !st.crack_time[a.idx()].is_nan()
+            && !st.crack_time[b.idx()].is_nan()
+            && ev.segments.iter().any(|&(a, b)| a == q || b == q);
+        if on_crack {
+            let r = vertex_root(mesh, q).idx();
+            st.crack_degree[r] = st.crack_degree[r].saturating_add(2);
+        }
+    }
+    for &(a, b) in &ev.segments {
+        for v in [a, b] {
+            let r = vertex_root(mesh, v).idx();
+            st.crack_degree[r] = st.crack_degree[r].saturating_add(1);
+        }
+    }
     report.cracks += 1;
     report.crack_length += ev.length;
     report.first_crack_time.get_or_insert(report.time);
@@ -2155,7 +2181,10 @@ fn finish_cracks(
             let Some(plane) = tip_plane(mesh, st, v) else {
                 continue;
             };
-            let ev = crack_node(mesh, v, plane, &crack_rules(params)).map_err(SimError::Mesh)?;
+            let ev = crack_node_avoiding(mesh, v, plane, &crack_rules(params), &|m, w| {
+                crowded_junction(m, &st.crack_degree, w)
+            })
+            .map_err(SimError::Mesh)?;
             let residual = st.residual[v.idx()];
             st.residual[v.idx()] = Sym3::ZERO;
             if apply_event(mesh, st, params, report, &ev) {
@@ -2202,6 +2231,29 @@ fn finish_cracks(
     Ok(fin)
 }
 
+/// The vertex `v`'s copies were all duplicated from (see
+/// [`SimMesh::vertex_parent`]).
+fn vertex_root(mesh: &SimMesh, v: VertexId) -> VertexId {
+    let mut r = v;
+    for _ in 0..64 {
+        let p = mesh.vertex_parent(r);
+        if p == r {
+            break;
+        }
+        r = p;
+    }
+    r
+}
+
+/// Whether a new crack should not end on `w`: three or more cracks meet
+/// there already (a fourth makes a cross; more, a fan).
+fn crowded_junction(mesh: &SimMesh, degree: &[u8], w: VertexId) -> bool {
+    mesh.is_boundary_vertex(w)
+        && degree
+            .get(vertex_root(mesh, w).idx())
+            .is_some_and(|&d| d >= 3)
+}
+
 /// Separation tensor of node `v`: the force-based tensor (eq. 3) plus the
 /// node's residual, times the mean separation factor of the node's faces
 /// when the field scales it (a factor `f` acts as toughness `tau / f`).
@@ -2225,7 +2277,11 @@ fn film_separation(mesh: &SimMesh, st: &State, film: &crate::sim::film::Film, v:
     // crack included) a crack would be a new one.
     let tip = !st.crack_time[v.idx()].is_nan()
         && !mesh.is_boundary_vertex(v) | (crate::sim::crack::crack_directions(mesh, v).len() == 1);
-    if !tip && !film.may_start(v) {
+    if if tip {
+        !film.tip_may_run(v)
+    } else {
+        !film.may_start(v)
+    } {
         return Sym3::ZERO;
     }
     let s = crate::sim::film::averaged_stress(
@@ -3511,6 +3567,7 @@ mod tests {
                 sep_scale: Vec::new(),
                 displacement: Vec::new(),
                 crack_time: Vec::new(),
+                crack_degree: Vec::new(),
                 unit: r.length_unit,
                 corner: Vec::new(),
                 warm: Vec::new(),
