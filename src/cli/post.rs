@@ -5,7 +5,7 @@
 use crackle::bridge::{write_back_with, SimEntry};
 use crackle::pipeline::Post;
 use crackle::post::distance::{crack_vertices, distance_field};
-use crackle::post::walls::{build_walls, crossings, WallOptions, Walls};
+use crackle::post::walls::{build_walls_uncrossed, WallOptions, Walls};
 use crackle::post::width::{displace, turn_normals, WidthOptions};
 use crackle::scene::{
     Geometry, Material, Primitive, RawAccessor, RawGeometry, Scene, TriGeometry, VertexAttribute,
@@ -85,18 +85,23 @@ pub fn apply(
             } else {
                 post.wall_depth_relative * mean_gap
             };
-            let w = build_walls(&e.sim, &positions, &WallOptions { depth });
             // Walls passing through the surface or each other (narrow,
-            // sheared gaps at junctions), counted for the report.
-            let (crossing, _) = crossings(&e.sim, &positions, &w);
-            if crossing > 0 {
-                log::info!("{}: {crossing} wall triangle pairs cross", e.label);
+            // sheared gaps at junctions) have their moves shortened.
+            let (w, fix) = build_walls_uncrossed(&e.sim, &mut positions, &WallOptions { depth });
+            if fix.crossing_after > 0 {
+                log::info!(
+                    "{}: {} wall triangle pairs cross",
+                    e.label,
+                    fix.crossing_after
+                );
             }
             detail.insert(
                 "walls".into(),
                 json!({
                     "depth": depth,
-                    "crossing_pairs": crossing,
+                    "crossing_pairs": fix.crossing_after,
+                    "crossing_pairs_prevented": fix.crossing_before - fix.crossing_after,
+                    "shortened_nodes": fix.shortened_nodes,
                     "triangles": w.triangles.len(),
                     "skipped_degenerate": w.skipped_degenerate,
                     "skipped_closed_sides": w.skipped_closed,

@@ -790,6 +790,86 @@ fn emit_triangle(out: &mut Walls, p: [P3; 3], uv: [[f64; 2]; 3], face: FaceId, s
     out.sides.push(side);
 }
 
+/// Passes of [`build_walls_uncrossed`] that halve the crossing nodes'
+/// moves before the next ones shut them.
+const HALVINGS_BEFORE_SHUTTING: usize = 3;
+
+/// What [`build_walls_uncrossed`] had to do.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Uncrossing {
+    /// Crossing pairs of the walls at the positions given ([`crossings`]).
+    pub crossing_before: usize,
+    /// Crossing pairs left (0 unless the moves were dropped entirely and
+    /// the walls still cross).
+    pub crossing_after: usize,
+    /// Passes of shortening.
+    pub passes: usize,
+    /// Nodes whose move was shortened.
+    pub shortened_nodes: usize,
+}
+
+/// [`build_walls`] for the displaced positions `top`, where walls that
+/// pass through the surface or each other (a side pushed across a
+/// neighbouring crack, narrow sheared gaps at junctions) are not left:
+/// the moves from rest of the crack nodes involved, with the nodes tied to
+/// them, are halved ([`crate::post::width::shorten`]) and the walls built
+/// again, a few times, then the cracks there are shut
+/// ([`crate::post::width::shut`]), until none
+/// crosses or [`MAX_HALVINGS`](crate::post::width::MAX_HALVINGS) passes
+/// are done; the passes that left the fewest crossings are kept. `top` is
+/// updated in place.
+pub fn build_walls_uncrossed(
+    mesh: &SimMesh,
+    top: &mut [[f64; 3]],
+    opts: &WallOptions,
+) -> (Walls, Uncrossing) {
+    let max = crate::post::width::MAX_HALVINGS;
+    let mut walls = build_walls(mesh, top, opts);
+    let (mut count, mut nodes) = crossings(mesh, top, &walls);
+    let mut fix = Uncrossing {
+        crossing_before: count,
+        ..Uncrossing::default()
+    };
+    if count == 0 {
+        return (walls, fix);
+    }
+    let given: Vec<[f64; 3]> = top.to_vec();
+    let mut best: Option<(usize, Vec<[f64; 3]>, Walls)> = None;
+    while count > 0 && fix.passes <= max {
+        // Halving helps where a side was pushed across another crack; a
+        // nearly shut crack whose two walls cross (its sides' opening
+        // directions differ at a bend) crosses at any fraction of its
+        // opening, and only shutting it helps.
+        if fix.passes < HALVINGS_BEFORE_SHUTTING {
+            crate::post::width::shorten(mesh, top, &nodes, 0.5);
+        } else {
+            crate::post::width::shut(mesh, top, &nodes);
+        }
+        walls = build_walls(mesh, top, opts);
+        (count, nodes) = crossings(mesh, top, &walls);
+        fix.passes += 1;
+        if count < best.as_ref().map_or(fix.crossing_before, |b| b.0) {
+            best = Some((count, top.to_vec(), walls.clone()));
+        }
+    }
+    // Shortening that did not help is undone (some crossings come from
+    // the walls' construction, not from the moves).
+    match best {
+        Some((count, positions, best_walls)) => {
+            top.copy_from_slice(&positions);
+            walls = best_walls;
+            fix.crossing_after = count;
+            fix.shortened_nodes = given.iter().zip(top.iter()).filter(|(a, b)| a != b).count();
+        }
+        None => {
+            top.copy_from_slice(&given);
+            walls = build_walls(mesh, top, opts);
+            fix.crossing_after = fix.crossing_before;
+        }
+    }
+    (walls, fix)
+}
+
 /// Where the walls pass through the surface or each other: the number of
 /// crossing (wall, wall) and (wall, surface face) pairs, and the crack
 /// vertices involved (the ends of the walls' crack sides and the crack

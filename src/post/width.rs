@@ -425,19 +425,47 @@ pub fn displace(mesh: &SimMesh, displacement: &[[f64; 3]], opts: &WidthOptions) 
     // No silent inversion: halve the moves of the nodes of flipped
     // triangles until none is left, then drop the rest.
     let mut positions: Vec<[f64; 3]> = rest.iter().zip(&mv).map(|(p, d)| v3::add(*p, *d)).collect();
-    let bad = |positions: &[[f64; 3]]| -> Vec<FaceId> {
-        mesh.faces()
-            .filter(|&f| bad_face(mesh, f, positions))
-            .collect()
-    };
     // A crack node is halved together with every node its move was tied
     // to above (its copies, and at a T-junction the spanning edge's ends
     // and their copies), so the two sides of a crack stay apart: halving
     // one copy alone would slide it against the other side.
     let links = linked_nodes(mesh, &groups, &junctions);
-    let mut flipped = bad(&positions);
-    out.inverted_triangles = flipped.len();
     let mut shortened = vec![false; mesh.n_vertices()];
+    out.inverted_triangles = unflip(mesh, &links, &mut mv, &mut positions, &mut shortened);
+    out.shortened_nodes = shortened.iter().filter(|&&s| s).count();
+
+    let mut sum = 0.0;
+    for g in &groups {
+        let w = spread(g, |v| positions[v.idx()]);
+        out.max_gap = out.max_gap.max(w);
+        sum += w;
+    }
+    if !groups.is_empty() {
+        out.mean_gap = sum / groups.len() as f64;
+    }
+    out.positions = positions;
+    out
+}
+
+/// Halve the moves `mv` of the nodes of flipped or collapsed triangles at
+/// `positions` (the rest positions plus `mv`), each with every node tied
+/// to it, until none is left; after [`MAX_HALVINGS`] halvings the moves
+/// left are dropped. Marks the nodes it moved in `shortened`; returns how
+/// many triangles were flipped at first.
+fn unflip(
+    mesh: &SimMesh,
+    links: &Links,
+    mv: &mut [[f64; 3]],
+    positions: &mut [[f64; 3]],
+    shortened: &mut [bool],
+) -> usize {
+    let bad = |positions: &[[f64; 3]]| -> Vec<FaceId> {
+        mesh.faces()
+            .filter(|&f| bad_face(mesh, f, positions))
+            .collect()
+    };
+    let mut flipped = bad(positions);
+    let first = flipped.len();
     for round in 0..=MAX_HALVINGS {
         if flipped.is_empty() {
             break;
@@ -456,23 +484,90 @@ pub fn displace(mesh: &SimMesh, displacement: &[[f64; 3]], opts: &WidthOptions) 
             } else {
                 v3::scale(mv[v.idx()], 0.5)
             };
-            positions[v.idx()] = v3::add(rest[v.idx()], mv[v.idx()]);
+            positions[v.idx()] = v3::add(mesh.position(v), mv[v.idx()]);
         }
-        flipped = bad(&positions);
+        flipped = bad(positions);
     }
-    out.shortened_nodes = shortened.iter().filter(|&&s| s).count();
+    first
+}
 
-    let mut sum = 0.0;
+/// Scale by `factor` the moves (from the rest positions to `positions`)
+/// of `nodes` and of every node tied to them (the copies of a crack vertex,
+/// and at a T-junction the spanning edge's ends), so the sides of a crack
+/// keep their shape relative to each other; then halve moves that this
+/// flipped as [`displace`] does. Returns the number of nodes moved.
+pub fn shorten(
+    mesh: &SimMesh,
+    positions: &mut [[f64; 3]],
+    nodes: &[VertexId],
+    factor: f64,
+) -> usize {
+    let groups = crack_groups(mesh);
+    let junctions = t_junctions(mesh);
+    let links = linked_nodes(mesh, &groups, &junctions);
+    let mut tied: Vec<VertexId> = nodes.iter().flat_map(|&v| links.of(v)).collect();
+    tied.sort();
+    tied.dedup();
+    let mut mv: Vec<[f64; 3]> = mesh
+        .positions()
+        .iter()
+        .zip(positions.iter())
+        .map(|(r, p)| v3::sub(*p, *r))
+        .collect();
+    let mut shortened = vec![false; mesh.n_vertices()];
+    for &v in &tied {
+        shortened[v.idx()] = true;
+        mv[v.idx()] = v3::scale(mv[v.idx()], factor);
+        positions[v.idx()] = v3::add(mesh.position(v), mv[v.idx()]);
+    }
+    unflip(mesh, &links, &mut mv, positions, &mut shortened);
+    shortened.iter().filter(|&&s| s).count()
+}
+
+/// Shut the cracks at `nodes`: every copy of each of those crack vertices
+/// moves to the copies' mean position (so the sides meet exactly and their
+/// walls are left out), and a T-junction node among them onto the edge it
+/// lies on; then halve moves that this flipped as [`displace`] does.
+pub fn shut(mesh: &SimMesh, positions: &mut [[f64; 3]], nodes: &[VertexId]) {
+    let groups = crack_groups(mesh);
+    let junctions = t_junctions(mesh);
+    let mut wanted = vec![false; mesh.n_vertices()];
+    for v in nodes {
+        wanted[v.idx()] = true;
+    }
     for g in &groups {
-        let w = spread(g, |v| positions[v.idx()]);
-        out.max_gap = out.max_gap.max(w);
-        sum += w;
+        if g.iter().any(|v| wanted[v.idx()]) {
+            let sum = g
+                .iter()
+                .fold([0.0; 3], |s, v| v3::add(s, positions[v.idx()]));
+            let mean = v3::scale(sum, 1.0 / g.len() as f64);
+            for v in g {
+                positions[v.idx()] = mean;
+            }
+        }
     }
-    if !groups.is_empty() {
-        out.mean_gap = sum / groups.len() as f64;
+    for &(q, a, b, t) in &junctions {
+        if wanted[q.idx()] {
+            positions[q.idx()] = v3::add(
+                v3::scale(positions[a.idx()], 1.0 - t),
+                v3::scale(positions[b.idx()], t),
+            );
+        }
     }
-    out.positions = positions;
-    out
+    let links = linked_nodes(mesh, &groups, &junctions);
+    let mut mv: Vec<[f64; 3]> = mesh
+        .positions()
+        .iter()
+        .zip(positions.iter())
+        .map(|(r, p)| v3::sub(*p, *r))
+        .collect();
+    unflip(
+        mesh,
+        &links,
+        &mut mv,
+        positions,
+        &mut vec![false; mesh.n_vertices()],
+    );
 }
 
 /// Turn the wedges' `NORMAL` (and `TANGENT` direction) values of every
