@@ -30,3 +30,12 @@ shot bunny-3k-glaze "$data/obj/npm-bunny/bunny.obj" glaze 15 20 --cell-size-rela
 shot bunny-69k-glaze "$data/obj/stanford-bunny/stanford-bunny.obj" glaze 15 20 --cell-size-relative 0.05
 shot ground-mud fixtures/plate_jittered.obj mud 65 10
 shot teapot-impact "$data/obj/teapot/teapot.obj" glass-impact 25 30
+# The other presets on real assets (and the ground patch).
+shot teapot-tree-rings "$data/obj/teapot/teapot.obj" tree-rings 25 30
+shot bunny-wood-grain "$data/obj/npm-bunny/bunny.obj" wood-grain 15 20
+shot spot-curvature "$data/obj/spot/spot_triangulated.obj" curvature 20 60
+shot duck-texture-mask "$data/gltf/Duck/Duck.glb" texture-mask 20 40
+shot spot-springs-glaze "$data/obj/spot/spot_triangulated.obj" springs-glaze 20 60
+shot teapot-impact-snapped "$data/obj/teapot/teapot.obj" impact-snapped 25 30
+shot ground-mud-jagged fixtures/plate_jittered.obj mud-jagged 65 10
+shot ground-springs-mud fixtures/plate_jittered.obj springs-mud 65 10
