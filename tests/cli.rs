@@ -122,6 +122,36 @@ fn quiet_and_verbose() {
     );
     let o = common::run(["-q", "-v", "info", "x.obj"]);
     assert_eq!(o.status.code(), Some(2), "-q and -v conflict");
+    // A long run shows its progress: a line per round with the cracks and
+    // relaxation steps so far, for both engines.
+    for preset in ["glaze", "springs-mud"] {
+        let fx = common::fixture("plate_jittered.obj");
+        let o = common::run_ok([
+            "-v".as_ref(),
+            "crack".as_ref(),
+            fx.as_os_str(),
+            out.as_os_str(),
+            "--preset".as_ref(),
+            preset.as_ref(),
+        ]);
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        let rounds: Vec<&str> = stderr
+            .lines()
+            .filter(|l| l.contains("mesh 0 'plate': round "))
+            .collect();
+        assert!(rounds.len() >= 3, "{preset}: {stderr}");
+        assert!(
+            rounds[0].contains("round 1: ") && rounds[1].contains("round 2: "),
+            "{rounds:?}"
+        );
+        let last = rounds.last().unwrap();
+        assert!(
+            last.contains(" cracks, ")
+                && last.contains(" relaxation steps")
+                && !last.contains(": 0 cracks"),
+            "{preset}: {last}"
+        );
+    }
 }
 
 /// A glTF with a triangle, a LINES and a POINTS primitive in data URIs.

@@ -283,12 +283,18 @@ type StageFn<'a> = &'a (dyn Fn(&str) + Sync);
 
 struct Bar<'a> {
     bar: Option<indicatif::ProgressBar>,
+    /// The mesh's label and ": " for the per-round log lines.
+    label: String,
     /// The batch's stage callback and the mesh's label.
     stage: Option<(StageFn<'a>, String)>,
 }
 
 impl crackle::sim::Observer for Bar<'_> {
-    fn round(&mut self, round: usize, max_rounds: usize, cracks: usize) {
+    fn round(&mut self, round: usize, max_rounds: usize, cracks: usize, relax_steps: usize) {
+        log::info!(
+            "{}round {round}: {cracks} cracks, {relax_steps} relaxation steps",
+            self.label
+        );
         if let Some(b) = &self.bar {
             b.set_length(max_rounds as u64);
             b.set_position(round as u64);
@@ -502,6 +508,7 @@ pub fn process(mut a: CrackArgs) -> Result<serde_json::Value> {
         stage(&format!("simulate {}", e.label));
         let mut obs = Bar {
             bar,
+            label: format!("{}: ", e.label),
             stage: a.on_stage.map(|f| (f, e.label.clone())),
         };
         let r = crackle::sim::run_with(&mut e.sim, params, field.as_ref(), &mut obs)

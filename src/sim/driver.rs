@@ -563,8 +563,9 @@ pub struct FinishReport {
 
 /// Progress reports from the loop (the CLI turns them into a progress bar).
 pub trait Observer {
-    /// After each round.
-    fn round(&mut self, _round: usize, _max_rounds: usize, _cracks: usize) {}
+    /// After each round: its number (from 1), the round limit, the cracks
+    /// and the relaxation steps so far.
+    fn round(&mut self, _round: usize, _max_rounds: usize, _cracks: usize, _relax_steps: usize) {}
     /// Before the first round, after each round and after each finishing
     /// pass: the state of the run so far, for time-lapse frames. Called only
     /// when [`Observer::wants_state`] is true.
@@ -1004,7 +1005,12 @@ pub fn run_with(
             }
         }
         hold = cracked_this_round >= per_round_cap;
-        observer.round(round + 1, params.max_rounds, report.cracks);
+        observer.round(
+            round + 1,
+            params.max_rounds,
+            report.cracks,
+            report.relax_steps,
+        );
         observe(observer, mesh, &st, &report);
         if report.cracks >= params.max_cracks {
             report.stopped = format!("reached max_cracks ({})", params.max_cracks);

@@ -476,7 +476,7 @@ pub fn run(
         }
         if (step + 1) % per_round == 0 || step + 1 == steps {
             report.rounds += 1;
-            observer.round(report.rounds, max_rounds, report.cracks);
+            observer.round(report.rounds, max_rounds, report.cracks, step + 1);
             snapshot(mesh, &st, &report, observer);
             // Done when drying is over, nothing has broken for a while and
             // the motion has died down.
