@@ -367,3 +367,42 @@ fn output_folder_is_created() {
         "the texture is copied beside the .gltf"
     );
 }
+
+/// Temporary files a killed `crack` or `convert` left beside its output
+/// (their process is gone) are removed by the next run into that folder;
+/// another live process's, and other files, are kept.
+#[test]
+fn a_run_removes_the_temporary_files_a_killed_run_left() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("o.glb");
+    // Process ids stop far below 999,999,999 (Linux: 4,194,304 at most);
+    // process 1 is always alive.
+    let stale = dir.path().join(".o.glb.crackle-tmp-999999999-0");
+    let stale_bin = dir.path().join(".o.bin.crackle-tmp-999999999-3");
+    let live = dir.path().join(".o.glb.crackle-tmp-1-0");
+    let other = dir.path().join("notes.crackle-tmp-999999999-0");
+    for p in [&stale, &stale_bin, &live, &other] {
+        std::fs::write(p, b"x").unwrap();
+    }
+    let fx = common::fixture("cube.obj");
+    for command in ["convert", "crack"] {
+        std::fs::write(&stale, b"x").unwrap();
+        common::run_ok([
+            "-q".as_ref(),
+            command.as_ref(),
+            fx.as_os_str(),
+            out.as_os_str(),
+        ]);
+        assert!(!stale.exists(), "{command}: the stale temporary is left");
+        assert!(!stale_bin.exists() || command == "crack");
+        assert!(
+            live.exists(),
+            "{command}: a live process's temporary was removed"
+        );
+        assert!(
+            other.exists(),
+            "{command}: a file not named as a temporary was removed"
+        );
+        assert!(out.exists());
+    }
+}

@@ -221,7 +221,7 @@ pub fn run(a: BatchArgs) -> anyhow::Result<u8> {
     }
     // ---- up to date? (First clear what a killed run left behind.)
     if !a.dry_run {
-        remove_stale_temps(a.out);
+        crackle::io::gltf_write::remove_stale_temps(a.out, true);
     }
     let state_path = a.out.join(STATE_FILE);
     let state = State::load(&state_path);
@@ -1047,34 +1047,6 @@ fn copy_atomic(from: &Path, to: &Path) -> anyhow::Result<()> {
         anyhow::anyhow!("{}: cannot write: {e}", to.display())
     })?;
     Ok(())
-}
-
-/// Remove temporary files (`.NAME.crackle-tmp-PID`) that a killed run
-/// left in the output tree, when their process is gone.
-fn remove_stale_temps(dir: &Path) {
-    let Ok(entries) = std::fs::read_dir(dir) else {
-        return;
-    };
-    for e in entries.flatten() {
-        let p = e.path();
-        if p.is_dir() {
-            remove_stale_temps(&p);
-            continue;
-        }
-        let Some(name) = p.file_name().and_then(|n| n.to_str()) else {
-            continue;
-        };
-        let Some((_, pid)) = name.rsplit_once(".crackle-tmp-") else {
-            continue;
-        };
-        let pid = pid.split('-').next().unwrap_or(pid);
-        let alive = pid.parse::<u32>().is_ok_and(|pid| {
-            pid == std::process::id() || Path::new(&format!("/proc/{pid}")).exists()
-        });
-        if name.starts_with('.') && !alive {
-            let _ = std::fs::remove_file(&p);
-        }
-    }
 }
 
 /// What the state file records of an asset (paths relative to the output

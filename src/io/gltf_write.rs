@@ -51,6 +51,44 @@ pub fn temp_path(path: &Path) -> PathBuf {
     path.with_file_name(format!(".{name}.crackle-tmp-{}-{n}", std::process::id()))
 }
 
+/// Remove the temporary files (`.NAME.crackle-tmp-PID-N`, regular files
+/// only) that a killed run left in `dir`, and in its subfolders when
+/// `recursive` (folder links are not followed), when their process is gone.
+/// Errors are ignored: this is tidying, not the run's work.
+pub fn remove_stale_temps(dir: &Path, recursive: bool) {
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return;
+    };
+    for e in entries.flatten() {
+        let Ok(kind) = e.file_type() else {
+            continue;
+        };
+        let p = e.path();
+        if kind.is_dir() {
+            if recursive {
+                remove_stale_temps(&p, true);
+            }
+            continue;
+        }
+        if !kind.is_file() {
+            continue;
+        }
+        let Some(name) = p.file_name().and_then(|n| n.to_str()) else {
+            continue;
+        };
+        let Some((_, pid)) = name.rsplit_once(".crackle-tmp-") else {
+            continue;
+        };
+        let pid = pid.split('-').next().unwrap_or(pid);
+        let alive = pid.parse::<u32>().is_ok_and(|pid| {
+            pid == std::process::id() || Path::new(&format!("/proc/{pid}")).exists()
+        });
+        if name.starts_with('.') && !alive {
+            let _ = std::fs::remove_file(&p);
+        }
+    }
+}
+
 /// [`write_scene`]; with `prefix_images`, a `.gltf` output's image files
 /// are named `<stem>_<name>` so that outputs sharing a folder never write
 /// the same side file (its `.bin` is `<stem>.bin` either way).
@@ -64,6 +102,15 @@ pub fn write_scene_with(scene: &Scene, path: &Path, prefix_images: bool) -> Resu
     }
     let glb = format == Format::Glb;
     let out_dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
+    // A run killed while writing left its temporary files here.
+    remove_stale_temps(
+        if out_dir.as_os_str().is_empty() {
+            Path::new(".")
+        } else {
+            &out_dir
+        },
+        false,
+    );
     let stem = path
         .file_stem()
         .and_then(|s| s.to_str())
