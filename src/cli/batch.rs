@@ -496,19 +496,23 @@ fn slash_path(p: &Path) -> String {
 
 /// Every file under `dir` (recursively when `recursive`), sorted, leaving
 /// out `skip` (the output folder) and hidden files.
+/// A link (to a file or a folder) whose target lies outside `dir` is not
+/// followed, with a warning: nothing outside the folders given is read.
 fn walk(dir: &Path, recursive: bool, skip: &Path, out: &mut Vec<PathBuf>) -> anyhow::Result<()> {
-    walk_seen(dir, recursive, skip, out, &mut BTreeSet::new())
+    let root = canonical_or_lexical(dir);
+    walk_seen(dir, recursive, skip, out, &mut (root, BTreeSet::new()))
 }
 
-/// [`walk`], entering each real folder once (folder links may loop).
+/// [`walk`], entering each real folder once (folder links may loop);
+/// `seen` holds the real root and the real folders entered.
 fn walk_seen(
     dir: &Path,
     recursive: bool,
     skip: &Path,
     out: &mut Vec<PathBuf>,
-    seen: &mut BTreeSet<PathBuf>,
+    seen: &mut (PathBuf, BTreeSet<PathBuf>),
 ) -> anyhow::Result<()> {
-    if !seen.insert(canonical_or_lexical(dir)) {
+    if !seen.1.insert(canonical_or_lexical(dir)) {
         return Ok(());
     }
     let mut entries: Vec<PathBuf> = std::fs::read_dir(dir)
@@ -523,6 +527,22 @@ fn walk_seen(
             .is_some_and(|n| n.starts_with('.'));
         if hidden {
             continue;
+        }
+        let link = std::fs::symlink_metadata(&p).is_ok_and(|m| m.file_type().is_symlink());
+        if link {
+            match p.canonicalize() {
+                Ok(real) if real.starts_with(&seen.0) => {}
+                Ok(real) => {
+                    log::warn!(
+                        "{}: a link to '{}', outside the input folder '{}'; not followed",
+                        p.display(),
+                        real.display(),
+                        seen.0.display()
+                    );
+                    continue;
+                }
+                Err(_) => continue, // dangling
+            }
         }
         if p.is_dir() {
             if recursive && canonical_or_lexical(&p) != skip {

@@ -10,7 +10,7 @@
 
 use crate::error::{Error, Result};
 use crate::io::accessor::AccessorReader;
-use crate::io::paths::resolve_inside;
+use crate::io::paths::{resolve_file_inside, resolve_inside};
 use crate::scene::{
     mode, Geometry, Image, ImageSource, Material, Mesh, Node, Primitive, RawAccessor, RawGeometry,
     Scene, SceneRoot, Transform, TriGeometry, VertexAttribute,
@@ -42,7 +42,9 @@ fn required_extension_supported(name: &str) -> bool {
 /// (Draco, meshopt...), a buffer or image outside the asset's folder or
 /// missing, a declared size larger than the data.
 pub fn read_gltf(path: &Path) -> Result<Scene> {
-    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    let bytes =
+        crate::io::paths::read_capped(path, crate::io::paths::MAX_MODEL_BYTES, "model file")
+            .map_err(|e| Error::io(path, e))?;
     let base_dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
     read_gltf_bytes(&bytes, &base_dir, path)
 }
@@ -245,8 +247,8 @@ fn load_buffers(
                     }
                     data
                 } else {
-                    let file =
-                        resolve_inside(base_dir, uri).map_err(|e| format!("buffer {i}: {e}"))?;
+                    let file = resolve_file_inside(base_dir, uri)
+                        .map_err(|e| format!("buffer {i}: {e}"))?;
                     let meta = std::fs::metadata(&file).map_err(|e| {
                         format!("buffer {i}: cannot open '{}': {e}", file.display())
                     })?;
@@ -480,11 +482,8 @@ impl SceneReader<'_> {
                 }
                 (ImageSource::Bytes(bytes), None)
             } else {
-                let file =
-                    resolve_inside(self.base_dir, uri).map_err(|e| format!("image {i}: {e}"))?;
-                if !file.is_file() {
-                    return Err(format!("image {i}: file '{}' not found", file.display()));
-                }
+                let file = resolve_file_inside(self.base_dir, uri)
+                    .map_err(|e| format!("image {i}: {e}"))?;
                 let fname = file
                     .file_name()
                     .and_then(|f| f.to_str())

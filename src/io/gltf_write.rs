@@ -666,8 +666,10 @@ fn build_document(
         let img = &scene.images[i];
         let bytes = match &img.source {
             ImageSource::Bytes(b) => b.clone(),
-            ImageSource::File(p) => std::fs::read(p)
-                .map_err(|e| format!("image {i}: cannot read '{}': {e}", p.display()))?,
+            ImageSource::File(p) => {
+                crate::io::paths::read_capped(p, crate::io::paths::MAX_IMAGE_BYTES, "image")
+                    .map_err(|e| format!("image {i}: cannot read '{}': {e}", p.display()))?
+            }
         };
         let mime = img
             .mime_type

@@ -14,7 +14,7 @@
 
 use crate::error::Error;
 use crate::geometry::triangulate_polygon;
-use crate::io::paths::resolve_inside;
+use crate::io::paths::{read_capped, resolve_file_inside, resolve_inside, MAX_MTL_BYTES};
 use crate::scene::{
     Geometry, Image, ImageSource, Material, Mesh, Node, Primitive, Scene, SceneRoot, TriGeometry,
     VertexAttribute,
@@ -34,7 +34,9 @@ use std::path::{Path, PathBuf};
 /// face. Missing material libraries and textures are only warnings
 /// ([`Scene::warnings`]).
 pub fn read_obj(path: &Path) -> Result<Scene, Error> {
-    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    let bytes =
+        crate::io::paths::read_capped(path, crate::io::paths::MAX_MODEL_BYTES, "model file")
+            .map_err(|e| Error::io(path, e))?;
     let text = String::from_utf8_lossy(&bytes);
     let base_dir = match path.parent() {
         Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
@@ -820,6 +822,20 @@ impl MtlState {
 
     fn load_one(&mut self, base_dir: &Path, obj_name: &str, reference: &str) {
         let path = match resolve_inside(base_dir, reference) {
+            Ok(p) if std::fs::symlink_metadata(&p).is_err() => {
+                // A source all the same: its appearing later changes the output.
+                if !self.loaded.insert(p) {
+                    return;
+                }
+                self.warnings.push(format!(
+                    "{obj_name}: material library '{reference}' not found; faces using its materials get no material"
+                ));
+                return;
+            }
+            Ok(_) => resolve_file_inside(base_dir, reference),
+            Err(msg) => Err(msg),
+        };
+        let path = match path {
             Ok(p) => p,
             Err(msg) => {
                 self.warnings.push(format!(
@@ -831,7 +847,7 @@ impl MtlState {
         if !self.loaded.insert(path.clone()) {
             return;
         }
-        let bytes = match std::fs::read(&path) {
+        let bytes = match read_capped(&path, MAX_MTL_BYTES, "material library") {
             Ok(b) => b,
             Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
                 self.warnings.push(format!(
@@ -1087,6 +1103,12 @@ impl MaterialBuilder<'_> {
             return None;
         }
         let path = match resolve_inside(self.base_dir, &file) {
+            // A missing file is reported below, with the type check.
+            Ok(p) if std::fs::symlink_metadata(&p).is_err() => Ok(p),
+            Ok(_) => resolve_file_inside(self.base_dir, &file),
+            Err(msg) => Err(msg),
+        };
+        let path = match path {
             Ok(p) => p,
             Err(msg) => {
                 scene.warnings.push(format!(

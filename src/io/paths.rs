@@ -1,7 +1,116 @@
 //! Resolving file references (buffer and image URIs, MTL libraries, texture
 //! maps) safely: a reference may only name a file inside the asset's folder.
 
+use std::io::Read;
 use std::path::{Component, Path, PathBuf};
+
+/// Largest model file (OBJ, glTF, GLB) or external glTF buffer read: 4 GiB.
+pub const MAX_MODEL_BYTES: u64 = 4 << 30;
+/// Largest MTL material library read: 64 MiB (a library of text lines).
+pub const MAX_MTL_BYTES: u64 = 64 << 20;
+/// Largest image file read: 1 GiB.
+pub const MAX_IMAGE_BYTES: u64 = 1 << 30;
+
+/// Resolve `reference` like [`resolve_inside`], then follow symbolic links:
+/// the real file must lie inside the real `base_dir` (a link inside the
+/// folder to a file or folder outside it is refused) and be a regular file
+/// (not a folder, FIFO, socket or device). Returns the real path. Errors
+/// name the reference; a missing file gives an error whose text contains
+/// "not found".
+pub fn resolve_file_inside(base_dir: &Path, reference: &str) -> Result<PathBuf, String> {
+    let path = resolve_inside(base_dir, reference)?;
+    let base = if base_dir.as_os_str().is_empty() {
+        Path::new(".")
+    } else {
+        base_dir
+    };
+    let real_base = base.canonicalize().map_err(|e| {
+        format!(
+            "the asset's folder '{}' cannot be read: {e}",
+            base.display()
+        )
+    })?;
+    let real = match path.canonicalize() {
+        Ok(r) => r,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+            return Err(format!("'{reference}' not found"))
+        }
+        Err(e) => return Err(format!("'{reference}' cannot be read: {e}")),
+    };
+    if !real.starts_with(&real_base) {
+        return Err(format!(
+            "'{reference}' is a symbolic link to '{}', outside the asset's folder '{}' (only files inside it are read)",
+            real.display(),
+            real_base.display()
+        ));
+    }
+    match regular_file(&real) {
+        Ok(Ok(_)) => Ok(real),
+        Ok(Err(what)) => Err(format!("'{reference}' is {what}, not a regular file")),
+        Err(e) => Err(format!("'{reference}' cannot be read: {e}")),
+    }
+}
+
+/// The metadata of a regular file (links followed), else what the path
+/// names instead.
+fn regular_file(path: &Path) -> std::io::Result<Result<std::fs::Metadata, &'static str>> {
+    let meta = std::fs::metadata(path)?;
+    let kind = meta.file_type();
+    if kind.is_file() {
+        return Ok(Ok(meta));
+    }
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::FileTypeExt;
+        if kind.is_fifo() {
+            return Ok(Err("a FIFO"));
+        }
+        if kind.is_socket() {
+            return Ok(Err("a socket"));
+        }
+        if kind.is_block_device() || kind.is_char_device() {
+            return Ok(Err("a device"));
+        }
+    }
+    Ok(Err(if kind.is_dir() {
+        "a folder"
+    } else {
+        "not a file"
+    }))
+}
+
+/// Read a whole regular file of at most `cap` bytes; the kind and the size
+/// are checked before reading (and the read stops at the cap should the
+/// file grow meanwhile). `what` names the file's role in the errors
+/// ("material library", "image"...).
+pub fn read_capped(path: &Path, cap: u64, what: &str) -> std::io::Result<Vec<u8>> {
+    let meta = match regular_file(path)? {
+        Ok(m) => m,
+        Err(kind) => {
+            return Err(std::io::Error::new(
+                std::io::ErrorKind::InvalidInput,
+                format!("the {what} is {kind}, not a regular file"),
+            ))
+        }
+    };
+    let too_big = |len: u64| {
+        std::io::Error::new(
+            std::io::ErrorKind::InvalidData,
+            format!("the {what} has {len} bytes, more than the {cap} accepted"),
+        )
+    };
+    if meta.len() > cap {
+        return Err(too_big(meta.len()));
+    }
+    let mut data = Vec::with_capacity(meta.len() as usize);
+    std::fs::File::open(path)?
+        .take(cap + 1)
+        .read_to_end(&mut data)?;
+    if data.len() as u64 > cap {
+        return Err(too_big(data.len() as u64));
+    }
+    Ok(data)
+}
 
 /// Resolve `reference` (a relative URI or path as written in an asset) against
 /// `base_dir`, the folder of the asset.
@@ -107,5 +216,30 @@ mod tests {
         ] {
             assert!(resolve_inside(b, r).is_err(), "{r} should be refused");
         }
+    }
+
+    #[test]
+    fn only_regular_files_within_the_cap_are_read() {
+        let t = tempfile::tempdir().unwrap();
+        let f = t.path().join("a.mtl");
+        std::fs::write(&f, b"0123456789").unwrap();
+        assert_eq!(read_capped(&f, 10, "library").unwrap().len(), 10);
+        let e = read_capped(&f, 9, "library").unwrap_err().to_string();
+        assert!(e.contains("has 10 bytes, more than the 9"), "{e}");
+        let e = read_capped(t.path(), 9, "library").unwrap_err().to_string();
+        assert!(e.contains("a folder"), "{e}");
+        #[cfg(unix)]
+        {
+            let e = read_capped(Path::new("/dev/zero"), 9, "library")
+                .unwrap_err()
+                .to_string();
+            assert!(e.contains("a device"), "{e}");
+        }
+        assert_eq!(
+            read_capped(&t.path().join("missing"), 9, "library")
+                .unwrap_err()
+                .kind(),
+            std::io::ErrorKind::NotFound
+        );
     }
 }

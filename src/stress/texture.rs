@@ -579,13 +579,25 @@ fn read_limited(path: &Path, name: &str) -> Result<Vec<u8>, TextureError> {
         path: path.to_path_buf(),
         source,
     };
-    let len = std::fs::metadata(path).map_err(io)?.len();
+    let meta = std::fs::metadata(path).map_err(io)?;
+    if !meta.is_file() {
+        return Err(io(std::io::Error::other(
+            "not a regular file (a folder, FIFO or device is not an image)",
+        )));
+    }
+    let len = meta.len();
     if len > MAX_FILE_BYTES {
         return Err(io(std::io::Error::other(format!(
             "the file has {len} bytes, more than the {MAX_FILE_BYTES} accepted for an image"
         ))));
     }
-    std::fs::read(path).map_err(io)
+    let mut data = Vec::with_capacity(len as usize);
+    std::io::Read::read_to_end(
+        &mut std::io::Read::take(std::fs::File::open(path).map_err(io)?, MAX_FILE_BYTES),
+        &mut data,
+    )
+    .map_err(io)?;
+    Ok(data)
 }
 
 /// A texture-stress mask: an image with its sampler and UV transform.
