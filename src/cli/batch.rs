@@ -13,6 +13,7 @@
 
 use super::crack::{CrackArgs, SimArgs};
 use super::UsageError;
+use crackle::io::paths::{read_capped, real_file_inside, MAX_MODEL_BYTES, MAX_MTL_BYTES};
 use crackle::mesh::WeldOptions;
 use crackle::pipeline::Pipeline;
 use serde_json::{json, Value};
@@ -778,10 +779,10 @@ fn pipe_spec(
                 Some(d) if Path::new(image).is_relative() => d.join(image),
                 _ => PathBuf::from(image),
             };
-            fingerprint
-                .extend(std::fs::read(&p).map_err(|e| {
-                    UsageError(format!("{label}: mask image {}: {e}", p.display()))
-                })?);
+            fingerprint.extend(
+                read_capped(&p, crackle::io::paths::MAX_IMAGE_BYTES, "mask image")
+                    .map_err(|e| UsageError(format!("{label}: mask image {}: {e}", p.display())))?,
+            );
         }
     }
     Ok(PipeSpec {
@@ -862,19 +863,24 @@ fn asset_key(input: &Path, sources: &[String], fingerprint: &[u8]) -> Option<Str
     let mut h = Sha256::new();
     h.update((fingerprint.len() as u64).to_le_bytes());
     h.update(fingerprint);
-    let bytes = std::fs::read(input).ok()?;
+    let bytes = read_capped(input, MAX_MODEL_BYTES, "model file").ok()?;
     h.update((bytes.len() as u64).to_le_bytes());
     h.update(&bytes);
     let dir = input.parent().unwrap_or(Path::new("."));
     for s in sources {
         h.update((s.len() as u64).to_le_bytes());
         h.update(s.as_bytes());
-        match std::fs::read(dir.join(s)) {
-            Ok(b) => {
+        // Only what the reader itself would read: inside the folder, a
+        // regular file, within the largest size read.
+        let read = real_file_inside(dir, &dir.join(s), s)
+            .ok()
+            .and_then(|p| read_capped(&p, MAX_MODEL_BYTES, "file").ok());
+        match read {
+            Some(b) => {
                 h.update((b.len() as u64).to_le_bytes());
                 h.update(&b);
             }
-            Err(_) => h.update(u64::MAX.to_le_bytes()),
+            None => h.update(u64::MAX.to_le_bytes()),
         }
     }
     Some(format!("{:x}", h.finalize()))
@@ -986,7 +992,7 @@ fn scan_references(input: &Path) -> Vec<PathBuf> {
         .and_then(|e| e.to_str())
         .map(str::to_ascii_lowercase)
         .unwrap_or_default();
-    let Ok(bytes) = std::fs::read(input) else {
+    let Ok(bytes) = read_capped(input, MAX_MODEL_BYTES, "model file") else {
         return out;
     };
     if ext == "obj" {
@@ -1007,7 +1013,10 @@ fn scan_references(input: &Path) -> Vec<PathBuf> {
             let Some(lib) = named(rest, dir) else {
                 continue;
             };
-            if let Ok(mtl) = std::fs::read(&lib) {
+            let mtl = real_file_inside(dir, &lib, rest)
+                .ok()
+                .and_then(|p| read_capped(&p, MAX_MTL_BYTES, "material library").ok());
+            if let Some(mtl) = mtl {
                 for l in String::from_utf8_lossy(&mtl).lines() {
                     let l = l.trim_start();
                     let (key, rest) = l.split_once(char::is_whitespace).unwrap_or((l, ""));

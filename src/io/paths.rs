@@ -19,6 +19,12 @@ pub const MAX_IMAGE_BYTES: u64 = 1 << 30;
 /// "not found".
 pub fn resolve_file_inside(base_dir: &Path, reference: &str) -> Result<PathBuf, String> {
     let path = resolve_inside(base_dir, reference)?;
+    real_file_inside(base_dir, &path, reference)
+}
+
+/// The real path of `path` (a file under `base_dir` by its text), checked
+/// as [`resolve_file_inside`] does; `reference` names it in errors.
+pub fn real_file_inside(base_dir: &Path, path: &Path, reference: &str) -> Result<PathBuf, String> {
     let base = if base_dir.as_os_str().is_empty() {
         Path::new(".")
     } else {
