@@ -557,6 +557,9 @@ pub struct FinishReport {
     pub passes: usize,
     /// Tips that could not go on (blocked by the angle rules) and were left.
     pub stuck: usize,
+    /// Tips left where the stress field keeps the material from cracking
+    /// (a confining mask's white, a curvature scale near 0).
+    pub confined: usize,
     /// Wall-clock seconds spent finishing.
     pub seconds: f64,
 }
@@ -2106,6 +2109,36 @@ fn finish_tips(mesh: &SimMesh, st: &State) -> Vec<(VertexId, [f64; 3])> {
 /// crack edges enclose more than 270 degrees of surface splits that corner
 /// along its bisector.
 fn tip_plane(mesh: &SimMesh, st: &State, v: VertexId) -> Option<[f64; 3]> {
+    if separation_factor(mesh, st, v) < FINISH_MIN_FACTOR {
+        return None; // the field keeps this material from cracking
+    }
+    open_tip_plane(mesh, st, v)
+}
+
+/// Finishing leaves a tip where the mean separation factor of its faces is
+/// below this: material a confining mask (or a curvature scale) keeps from
+/// cracking is not cracked by finishing either.
+const FINISH_MIN_FACTOR: f64 = 0.5;
+
+/// The mean separation factor of the faces around `v` (1 without one).
+fn separation_factor(mesh: &SimMesh, st: &State, v: VertexId) -> f64 {
+    if st.sep_scale.is_empty() {
+        return 1.0;
+    }
+    let (mut sum, mut n) = (0.0, 0usize);
+    for f in mesh.vertex_faces(v) {
+        sum += st.sep_scale[f.idx()];
+        n += 1;
+    }
+    if n > 0 {
+        sum / n as f64
+    } else {
+        1.0
+    }
+}
+
+/// [`tip_plane`] without the field's confinement.
+fn open_tip_plane(mesh: &SimMesh, st: &State, v: VertexId) -> Option<[f64; 3]> {
     let mut crack_sides = 0;
     for h in mesh.vertex_outgoing(v) {
         for e in [h, mesh.prev(h)] {
@@ -2234,6 +2267,13 @@ fn finish_cracks(
     fin.cracks = report.cracks - cracks0;
     fin.length = report.crack_length - length0;
     fin.stuck = finish_tips(mesh, st).len();
+    fin.confined = mesh
+        .vertices()
+        .filter(|&v| {
+            separation_factor(mesh, st, v) < FINISH_MIN_FACTOR
+                && open_tip_plane(mesh, st, v).is_some()
+        })
+        .count();
     Ok(fin)
 }
 
@@ -2321,16 +2361,7 @@ fn scaled_separation(mesh: &SimMesh, st: &State, v: VertexId, s: Sym3) -> Sym3 {
     if st.sep_scale.is_empty() {
         return s;
     }
-    let (mut sum, mut n) = (0.0, 0usize);
-    for f in mesh.vertex_faces(v) {
-        sum += st.sep_scale[f.idx()];
-        n += 1;
-    }
-    if n > 0 {
-        s * (sum / n as f64)
-    } else {
-        s
-    }
+    s * separation_factor(mesh, st, v)
 }
 
 /// Largest separation eigenvalue and its direction at every node.
