@@ -285,3 +285,88 @@ fn hierarchy_transforms_and_instances_survive() {
         "the box mesh stays instanced, not duplicated"
     );
 }
+
+/// Inputs that once took quadratic time convert, with every triangle kept
+/// or reported: an OBJ of 100,000 copies of one face (31 s before), a
+/// glTF whose nodes form a 100,000-deep chain (9 s) and a glTF mesh of
+/// 30,000 primitives (3.9 s). The work bounds are unit tests
+/// (`many_duplicate_faces_take_linear_work`,
+/// `the_hierarchy_check_takes_linear_work`,
+/// `large_polygons_take_about_n_log_n_work`); this runs the whole reader
+/// and writer on them.
+#[test]
+fn hostile_sizes_convert() {
+    use std::fmt::Write as _;
+    let dir = tempfile::tempdir().unwrap();
+    let mut obj = String::from("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\n");
+    for _ in 0..100_000 {
+        obj.push_str("f 1 2 3\n");
+    }
+    obj.push_str("f 2 4 3\n");
+    // And one face of 20,000 corners (a circle).
+    let base = 5;
+    for i in 0..20_000 {
+        let a = std::f64::consts::TAU * i as f64 / 20_000.0;
+        writeln!(obj, "v {} {} 1", a.cos(), a.sin()).unwrap();
+    }
+    obj.push('f');
+    for i in 0..20_000 {
+        write!(obj, " {}", base + i).unwrap();
+    }
+    obj.push('\n');
+    let triangle = "\"buffers\":[{\"byteLength\":36,\"uri\":\"data:application/octet-stream;base64,AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAA\"}],\
+        \"bufferViews\":[{\"buffer\":0,\"byteLength\":36}],\
+        \"accessors\":[{\"bufferView\":0,\"componentType\":5126,\"count\":3,\"type\":\"VEC3\",\"min\":[0,0,0],\"max\":[1,1,0]}]";
+    let n = 100_000;
+    let nodes: Vec<String> = (0..n)
+        .map(|i| {
+            if i + 1 < n {
+                format!("{{\"children\":[{}]}}", i + 1)
+            } else {
+                "{\"mesh\":0}".into()
+            }
+        })
+        .collect();
+    let chain = format!(
+        "{{\"asset\":{{\"version\":\"2.0\"}},\"scene\":0,\"scenes\":[{{\"nodes\":[0]}}],\"nodes\":[{}],\
+         \"meshes\":[{{\"primitives\":[{{\"attributes\":{{\"POSITION\":0}}}}]}}],{triangle}}}",
+        nodes.join(",")
+    );
+    let prims = vec!["{\"attributes\":{\"POSITION\":0}}"; 30_000].join(",");
+    let many = format!(
+        "{{\"asset\":{{\"version\":\"2.0\"}},\"scene\":0,\"scenes\":[{{\"nodes\":[0]}}],\"nodes\":[{{\"mesh\":0}}],\
+         \"meshes\":[{{\"primitives\":[{prims}]}}],{triangle}}}"
+    );
+    for (name, text, triangles) in [
+        ("dup.obj", obj, 100_001 + 19_998),
+        ("chain.gltf", chain, 1),
+        ("prims.gltf", many, 30_000),
+    ] {
+        let input = dir.path().join(name);
+        std::fs::write(&input, text).unwrap();
+        let out = dir.path().join(format!("{name}.glb"));
+        let o = common::run_ok(["convert".as_ref(), input.as_os_str(), out.as_os_str()]);
+        // Triangles too thin for f32 (the fine circle's ears) are dropped
+        // with a warning that counts them.
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        let dropped: usize = stderr
+            .split("dropped ")
+            .skip(1)
+            .filter_map(|t| t.split(' ').next()?.parse::<usize>().ok())
+            .sum();
+        let (doc, _, _) = gltf::import(&out).unwrap();
+        let count: usize = doc
+            .meshes()
+            .flat_map(|m| m.primitives().collect::<Vec<_>>())
+            .map(|p| {
+                p.indices()
+                    .map_or(p.get(&gltf::Semantic::Positions).unwrap().count(), |a| {
+                        a.count()
+                    })
+                    / 3
+            })
+            .sum();
+        assert_eq!(count + dropped, triangles, "{name}: {stderr}");
+        assert!(dropped * 10 < triangles, "{name}: {stderr}");
+    }
+}

