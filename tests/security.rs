@@ -300,3 +300,73 @@ fn batch_does_not_follow_a_folder_link_out_of_the_input_tree() {
         "an asset outside the tree is listed: {text}"
     );
 }
+
+/// The peak resident memory of this process, from /proc (Linux).
+fn peak_rss_bytes() -> Option<u64> {
+    let s = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = s.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kb: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kb * 1024)
+}
+
+/// A 9 KB glTF whose 40 primitives each name a sparse-only accessor (no
+/// bufferView: zeros with one substituted element) of 8 million positions:
+/// 96 MB each, under the per-accessor cap, 3.8 GB together. The file's
+/// decoded total is capped (64 times its real bytes, at least 1 GiB):
+/// refused with a message, before allocating it.
+#[test]
+fn sparse_only_accessors_cannot_add_up_without_bound() {
+    let t = tempfile::tempdir().unwrap();
+    let n = 40;
+    let accessors: Vec<String> = (0..n)
+        .map(|_| {
+            "{\"componentType\":5126,\"count\":8000000,\"type\":\"VEC3\",\"min\":[0,0,0],\"max\":[1,1,1],\
+             \"sparse\":{\"count\":1,\"indices\":{\"bufferView\":0,\"componentType\":5125},\"values\":{\"bufferView\":1}}}"
+                .to_string()
+        })
+        .collect();
+    let prims: Vec<String> = (0..n)
+        .map(|i| format!("{{\"attributes\":{{\"POSITION\":{i}}}}}"))
+        .collect();
+    // 4 bytes of index 0, then 12 bytes of the value (1, 1, 1).
+    let doc = format!(
+        "{{\"asset\":{{\"version\":\"2.0\"}},\"scene\":0,\"scenes\":[{{\"nodes\":[0]}}],\"nodes\":[{{\"mesh\":0}}],\
+         \"meshes\":[{{\"primitives\":[{}]}}],\
+         \"buffers\":[{{\"byteLength\":16,\"uri\":\"data:application/octet-stream;base64,AAAAAAAAgD8AAIA/AACAPw==\"}}],\
+         \"bufferViews\":[{{\"buffer\":0,\"byteLength\":4}},{{\"buffer\":0,\"byteOffset\":4,\"byteLength\":12}}],\
+         \"accessors\":[{}]}}",
+        prims.join(","),
+        accessors.join(",")
+    );
+    assert!(doc.len() < 10_000, "{}", doc.len());
+    let input = t.path().join("bomb.gltf");
+    std::fs::write(&input, &doc).unwrap();
+    let before = peak_rss_bytes();
+    let e = crackle::io::read(&input).unwrap_err().to_string();
+    assert!(
+        e.contains("bomb.gltf") && e.contains("decoded data past"),
+        "{e}"
+    );
+    if let (Some(b), Some(a)) = (before, peak_rss_bytes()) {
+        eprintln!("peak resident memory {} MB -> {} MB", b >> 20, a >> 20);
+        assert!(
+            a < b + (1536 << 20),
+            "the reader allocated {} MB",
+            (a - b) >> 20
+        );
+    }
+    // --max-memory lowers the limit: two of those accessors (192 MB) are
+    // refused under 100M.
+    let out = t.path().join("out.glb");
+    let o = common::run([
+        "convert".as_ref(),
+        input.as_os_str(),
+        out.as_os_str(),
+        "--max-memory".as_ref(),
+        "100M".as_ref(),
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(err.contains("104857600 bytes"), "{err}");
+    assert!(!out.exists());
+}

@@ -27,6 +27,11 @@ pub struct Cli {
     /// Only errors on stderr.
     #[arg(short, long, global = true)]
     pub quiet: bool,
+    /// Most memory one input's decoded glTF data may take (bytes, or with
+    /// K, M, G); a file asking for more is refused before allocating.
+    /// Each file's own budget is 64 times its real size, at least 1G.
+    #[arg(long, global = true, value_name = "SIZE", default_value = "8G", value_parser = parse_size)]
+    pub max_memory: u64,
     #[command(subcommand)]
     command: Command,
 }
@@ -262,8 +267,27 @@ fn weld_options(rel: f64) -> anyhow::Result<crackle::mesh::WeldOptions> {
 }
 
 /// Run the parsed command; returns the exit code.
+/// A size in bytes: a number with an optional K, M or G (powers of 1024).
+fn parse_size(s: &str) -> Result<u64, String> {
+    let t = s.trim();
+    let (num, shift) = match t.chars().last().map(|c| c.to_ascii_uppercase()) {
+        Some('K') => (&t[..t.len() - 1], 10),
+        Some('M') => (&t[..t.len() - 1], 20),
+        Some('G') => (&t[..t.len() - 1], 30),
+        _ => (t, 0),
+    };
+    let n: u64 = num
+        .trim()
+        .parse()
+        .map_err(|_| format!("'{s}' is not a size (a number of bytes, or with K, M or G)"))?;
+    n.checked_mul(1u64 << shift)
+        .filter(|&b| b > 0)
+        .ok_or_else(|| format!("'{s}' is not a usable size"))
+}
+
 pub fn run(cli: Cli) -> anyhow::Result<u8> {
     let quiet = cli.quiet;
+    crackle::io::set_max_memory(cli.max_memory);
     match cli.command {
         Command::Batch {
             inputs,

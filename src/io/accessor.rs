@@ -77,7 +77,30 @@ pub struct AccessorInfo {
 pub struct AccessorReader<'a> {
     root: &'a Value,
     buffers: &'a [Option<Vec<u8>>],
+    /// Bytes the document's decoded accessors may still take, together
+    /// (each read of an accessor counts: many primitives sharing one, or
+    /// sparse accessors without data, cannot multiply a small file into
+    /// unbounded memory).
+    budget: std::cell::Cell<u64>,
+    /// The whole budget, for the message.
+    limit: u64,
 }
+
+/// The decoded-data budget of a document of `real_bytes` bytes (its JSON
+/// and buffers): [`DECODE_FACTOR`] times them, at least [`DECODE_FLOOR`],
+/// at most `max_memory`.
+pub fn decode_budget(real_bytes: u64, max_memory: u64) -> u64 {
+    real_bytes
+        .saturating_mul(DECODE_FACTOR)
+        .max(DECODE_FLOOR)
+        .min(max_memory)
+}
+
+/// Decoded accessor data may take this many times the document's real
+/// bytes (integer to `f32` conversion takes 4x, shared accessors more).
+pub const DECODE_FACTOR: u64 = 64;
+/// Every document may decode at least this much: 1 GiB.
+pub const DECODE_FLOOR: u64 = 1 << 30;
 
 fn get_usize(v: &Value, key: &str) -> Result<Option<usize>, String> {
     match v.get(key) {
@@ -94,7 +117,30 @@ impl<'a> AccessorReader<'a> {
     /// A reader over the document `root` and its buffers (index-aligned with `root.buffers`;
     /// `None` for a buffer that was not loaded).
     pub fn new(root: &'a Value, buffers: &'a [Option<Vec<u8>>]) -> Self {
-        AccessorReader { root, buffers }
+        Self::with_budget(root, buffers, DECODE_FLOOR)
+    }
+
+    /// A reader whose decoded accessors may take `budget` bytes in all.
+    pub fn with_budget(root: &'a Value, buffers: &'a [Option<Vec<u8>>], budget: u64) -> Self {
+        AccessorReader {
+            root,
+            buffers,
+            budget: std::cell::Cell::new(budget),
+            limit: budget,
+        }
+    }
+
+    /// Take `bytes` from the budget before allocating them.
+    fn charge(&self, index: usize, bytes: usize) -> Result<(), String> {
+        let left = self.budget.get();
+        if bytes as u64 > left {
+            return Err(format!(
+                "accessor {index}: decoding its {bytes} bytes would take the file's decoded data past {} bytes ({DECODE_FACTOR} times its real size, at least {DECODE_FLOOR}, at most --max-memory); refused",
+                self.limit
+            ));
+        }
+        self.budget.set(left - bytes as u64);
+        Ok(())
     }
 
     fn accessor_json(&self, index: usize) -> Result<&'a Value, String> {
@@ -183,6 +229,7 @@ impl<'a> AccessorReader<'a> {
             .count
             .checked_mul(es)
             .ok_or_else(|| format!("accessor {index}: count {} overflows", info.count))?;
+        self.charge(index, total)?;
         let mut out;
         match get_usize(a, "bufferView")? {
             Some(view) => {
@@ -326,6 +373,7 @@ impl<'a> AccessorReader<'a> {
             ));
         }
         let n = info.count * info.components;
+        self.charge(index, 4 * n)?;
         let mut out = Vec::with_capacity(n);
         let norm = info.normalized;
         match info.component_type {
@@ -379,6 +427,7 @@ impl<'a> AccessorReader<'a> {
     /// An index accessor as `u32` values (SCALAR, unsigned byte/short/int, not normalized).
     pub fn read_indices(&self, index: usize) -> Result<Vec<u32>, String> {
         let (info, bytes) = self.read_packed(index)?;
+        self.charge(index, 4 * info.count)?;
         if info.kind != "SCALAR" || info.normalized {
             return Err(format!(
                 "accessor {index}: indices must be SCALAR and not normalized"

@@ -93,9 +93,16 @@ pub fn read_gltf_bytes(bytes: &[u8], base_dir: &Path, path: &Path) -> Result<Sce
     precheck_positions(&root).map_err(err)?;
     validate_schema(&json_bytes).map_err(err)?;
     let buffers = load_buffers(&root, bin, base_dir).map_err(err)?;
+    let real_bytes = json_bytes.len() as u64
+        + buffers
+            .iter()
+            .flatten()
+            .map(|b| b.len() as u64)
+            .sum::<u64>();
+    let budget = crate::io::accessor::decode_budget(real_bytes, crate::io::max_memory());
     let mut reader = SceneReader {
         root: &root,
-        acc: AccessorReader::new(&root, &buffers),
+        acc: AccessorReader::with_budget(&root, &buffers, budget),
         buffers: &buffers,
         base_dir,
         raw_map: HashMap::new(),

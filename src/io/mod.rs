@@ -40,6 +40,25 @@ impl Format {
     }
 }
 
+/// Default of [`set_max_memory`]: 8 GiB.
+pub const DEFAULT_MAX_MEMORY: u64 = 8 << 30;
+
+static MAX_MEMORY: std::sync::atomic::AtomicU64 =
+    std::sync::atomic::AtomicU64::new(DEFAULT_MAX_MEMORY);
+
+/// Most bytes one glTF document's decoded accessors may take, for every
+/// read that follows (the CLI's `--max-memory`); each document's own
+/// budget is also bounded by its real size
+/// ([`accessor::decode_budget`]).
+pub fn set_max_memory(bytes: u64) {
+    MAX_MEMORY.store(bytes, std::sync::atomic::Ordering::Relaxed);
+}
+
+/// The limit [`set_max_memory`] set.
+pub fn max_memory() -> u64 {
+    MAX_MEMORY.load(std::sync::atomic::Ordering::Relaxed)
+}
+
 /// Read an asset (OBJ, glTF or GLB, by extension).
 ///
 /// # Errors
