@@ -406,3 +406,99 @@ fn a_run_removes_the_temporary_files_a_killed_run_left() {
         assert!(out.exists());
     }
 }
+
+/// The command lines the README and `--help` show, run as written: every
+/// backticked span with `--set` (on the jittered plate), the README's
+/// `cargo run --release -- crack ...` quick starts (with the binary) and
+/// its `crackle batch ... --preset mud` example (on a folder of one mesh).
+#[test]
+fn documented_examples_work() {
+    let readme = std::fs::read_to_string(common::manifest_dir().join("README.md")).unwrap();
+    // README spans lie within one line (code fences would upset the
+    // pairing of backticks across lines); help text may wrap.
+    let mut texts: Vec<String> = readme
+        .lines()
+        .filter(|l| !l.contains("```"))
+        .map(str::to_string)
+        .collect();
+    for cmd in ["crack", "batch", "study"] {
+        let o = common::run_ok([cmd, "--help"]);
+        texts.push(String::from_utf8_lossy(&o.stdout).replace('\n', " "));
+    }
+    let t = tempfile::tempdir().unwrap();
+    let out = t.path().join("out.glb");
+    let ico = common::fixture("icosphere.obj");
+    let plate = common::fixture("plate_jittered.obj");
+    let mut ran = 0;
+    for text in &texts {
+        for (i, span) in text.split('`').enumerate() {
+            if i % 2 == 0
+                || !span.contains("--set")
+                || !span.trim_start().starts_with("--")
+                || span.contains("KEY")
+                || !span.contains('=')
+            {
+                continue;
+            }
+            let mut args: Vec<std::ffi::OsString> =
+                vec!["crack".into(), plate.clone().into(), out.clone().into()];
+            args.extend(span.split_whitespace().map(Into::into));
+            let o = common::run(&args);
+            assert_eq!(
+                o.status.code(),
+                Some(0),
+                "`{span}`: {}",
+                String::from_utf8_lossy(&o.stderr)
+            );
+            ran += 1;
+        }
+    }
+    assert!(ran >= 4, "only {ran} --set examples found");
+    // The quick starts.
+    for line in readme.lines() {
+        let key = "cargo run --release -- ";
+        let Some(at) = line.find(key) else {
+            continue;
+        };
+        let rest = line[at + key.len()..].split('`').next().unwrap_or_default();
+        let args: Vec<String> = rest
+            .split_whitespace()
+            .map(|a| {
+                if a.starts_with("fixtures/") {
+                    common::manifest_dir()
+                        .join(a)
+                        .to_string_lossy()
+                        .into_owned()
+                } else if a.starts_with("out/") {
+                    t.path()
+                        .join(a.replace('/', "_"))
+                        .to_string_lossy()
+                        .into_owned()
+                } else {
+                    a.to_string()
+                }
+            })
+            .collect();
+        common::run_ok(&args);
+        ran += 1;
+    }
+    // The batch example, in a folder with `assets/` of one mesh.
+    let line = readme
+        .lines()
+        .find(|l| l.starts_with("crackle batch assets/ -r --out build/cracked --preset mud"))
+        .expect("the README's batch example");
+    let cmd = line.split('#').next().unwrap();
+    std::fs::create_dir_all(t.path().join("assets/rocks")).unwrap();
+    std::fs::copy(&ico, t.path().join("assets/rocks/ico.obj")).unwrap();
+    let o = std::process::Command::new(common::crackle_bin())
+        .args(cmd.split_whitespace().skip(1))
+        .current_dir(t.path())
+        .output()
+        .unwrap();
+    assert!(
+        o.status.success(),
+        "{cmd}: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    assert!(t.path().join("build/cracked/rocks/ico.glb").is_file());
+}

@@ -26,7 +26,7 @@ pub struct SimArgs {
     /// Built-in pipeline (`crackle presets` lists them)
     #[arg(long, value_name = "NAME")]
     preset: Option<String>,
-    /// Override a pipeline key, e.g. --set simulation.toughness=3 --set stress.0.radius=0.5 (repeatable)
+    /// Override a pipeline key (repeatable), e.g. `--set simulation.toughness=3`; a stress entry's key by its index, e.g. `--preset glass-impact --set stress.0.radius_relative=0.1` (`crackle presets NAME` shows a preset's entries)
     #[arg(long = "set", value_name = "KEY=VALUE")]
     sets: Vec<String>,
     /// Cell size of the pattern in scene units (replaces the pipeline's cell size)
