@@ -482,6 +482,7 @@ fn documented_examples_work() {
         common::run_ok(&args);
         ran += 1;
     }
+    assert!(ran >= 6, "{ran} examples run: the quick starts are missing");
     // The batch example, in a folder with `assets/` of one mesh.
     let line = readme
         .lines()
