@@ -361,10 +361,22 @@ fn output_folder_is_created() {
         common::fixture("cube.obj").as_os_str(),
         out.as_os_str(),
     ]);
-    assert!(out.exists() && dir.path().join("a/b/cube.bin").exists());
+    // Side files are named after their content: cube.<tag>.bin.
+    let names: Vec<String> = std::fs::read_dir(dir.path().join("a/b"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    let tagged = |prefix: &str, ext: &str| {
+        names.iter().any(|n| {
+            n.strip_prefix(prefix)
+                .and_then(|r| r.strip_suffix(ext))
+                .is_some_and(|tag| tag.len() == 16 && tag.bytes().all(|b| b.is_ascii_hexdigit()))
+        })
+    };
+    assert!(out.exists() && tagged("cube.", ".bin"), "{names:?}");
     assert!(
-        dir.path().join("a/b/cube texture.png").exists(),
-        "the texture is copied beside the .gltf"
+        tagged("cube texture.", ".png"),
+        "the texture is copied beside the .gltf: {names:?}"
     );
 }
 
@@ -502,4 +514,54 @@ fn documented_examples_work() {
         String::from_utf8_lossy(&o.stderr)
     );
     assert!(t.path().join("build/cracked/rocks/ico.glb").is_file());
+}
+
+/// A `.gltf` output and its side files commit as a unit: side files are
+/// named after their content, so a new output never overwrites a side file
+/// an old one uses (nor an input image of the same name); the old side
+/// files go once the new main file is in place; when the main file cannot
+/// be placed (a folder in its way), the side files this run placed go
+/// again and nothing new is left.
+#[test]
+fn gltf_outputs_commit_as_a_unit() {
+    let t = tempfile::tempdir().unwrap();
+    let d = t.path();
+    for f in ["textured_quad.gltf", "textured_quad.bin", "checker.png"] {
+        std::fs::copy(common::fixture(f), d.join(f)).unwrap();
+    }
+    let listing = || {
+        let mut v: Vec<String> = std::fs::read_dir(d)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        v.sort();
+        v
+    };
+    let input = d.join("textured_quad.gltf");
+    let checker = std::fs::read(d.join("checker.png")).unwrap();
+    // Written beside its input, under the input's name pattern.
+    let out = d.join("out.gltf");
+    common::run_ok(["convert".as_ref(), input.as_os_str(), out.as_os_str()]);
+    let first = listing();
+    assert_eq!(first.len(), 6, "{first:?}");
+    assert_eq!(std::fs::read(d.join("checker.png")).unwrap(), checker);
+    gltf::import(&out).unwrap();
+    // Replaced by another asset: its side files replace the old ones.
+    let cube = common::fixture("cube.obj");
+    common::run_ok(["convert".as_ref(), cube.as_os_str(), out.as_os_str()]);
+    let second = listing();
+    assert_eq!(second.len(), 6, "old side files remain: {second:?}");
+    assert!(second.iter().any(|n| n.starts_with("cube texture.")));
+    assert!(!second
+        .iter()
+        .any(|n| n.starts_with("checker.") && n != "checker.png"));
+    gltf::import(&out).unwrap();
+    gltf::import(&input).unwrap();
+    // A folder where the main file goes: an error, and nothing new stays.
+    let blocked = d.join("blocked.gltf");
+    std::fs::create_dir(&blocked).unwrap();
+    let before = listing();
+    let o = common::run(["convert".as_ref(), input.as_os_str(), blocked.as_os_str()]);
+    assert_ne!(o.status.code(), Some(0));
+    assert_eq!(listing(), before, "{}", String::from_utf8_lossy(&o.stderr));
 }

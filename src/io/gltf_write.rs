@@ -116,10 +116,20 @@ pub fn write_scene_with(scene: &Scene, path: &Path, prefix_images: bool) -> Resu
         .and_then(|s| s.to_str())
         .unwrap_or("scene")
         .to_string();
-    let doc = build_document(scene, glb, &stem, prefix_images).map_err(|m| Error::Output {
+    let mut doc = build_document(scene, glb, &stem, prefix_images).map_err(|m| Error::Output {
         path: path.into(),
         message: m,
     })?;
+    if !glb {
+        name_side_files_by_content(&mut doc, &stem);
+    }
+    // The side files the output now in place uses, to remove once it is
+    // replaced (read before it is).
+    let old_side_files = if glb {
+        Vec::new()
+    } else {
+        side_files_of(path, &out_dir)
+    };
     let mut files: Vec<(PathBuf, Vec<u8>)> = Vec::new();
     let json_bytes = serde_json::to_vec(&doc.json).map_err(|e| Error::Output {
         path: path.into(),
@@ -130,13 +140,31 @@ pub fn write_scene_with(scene: &Scene, path: &Path, prefix_images: bool) -> Resu
     } else {
         files.push((path.to_path_buf(), json_bytes));
         if !doc.bin.is_empty() {
-            files.push((out_dir.join(format!("{stem}.bin")), doc.bin));
+            files.push((out_dir.join(&doc.bin_name), doc.bin));
         }
         for (name, bytes) in doc.image_files {
             files.push((out_dir.join(name), bytes));
         }
     }
     commit_files(&files)?;
+    // Old side files no longer referenced go, unless this run reads them
+    // (an input beside its output) or wrote them.
+    let inputs: BTreeSet<PathBuf> = scene
+        .sources
+        .iter()
+        .chain(scene.images.iter().filter_map(|i| match &i.source {
+            ImageSource::File(p) => Some(p),
+            ImageSource::Bytes(_) => None,
+        }))
+        .filter_map(|p| p.canonicalize().ok())
+        .collect();
+    for old in old_side_files {
+        let ours = files.iter().any(|(p, _)| *p == old);
+        let input = old.canonicalize().is_ok_and(|c| inputs.contains(&c));
+        if !ours && !input {
+            let _ = std::fs::remove_file(&old);
+        }
+    }
     Ok(WriteSummary {
         bytes: files.iter().map(|(_, b)| b.len() as u64).sum(),
         files: files.into_iter().map(|(p, _)| p).collect(),
@@ -144,9 +172,92 @@ pub fn write_scene_with(scene: &Scene, path: &Path, prefix_images: bool) -> Resu
     })
 }
 
+/// Side files named after their content (`<stem>.<16 hex digits>.bin`,
+/// `<image>.<16 hex digits>.png`): a new output never shares a side file's
+/// name with an old one unless their bytes are the same, so an old main
+/// file still in place never points at a new side file, and an output
+/// image never takes the name of an input image it differs from.
+fn name_side_files_by_content(doc: &mut Document, stem: &str) {
+    if !doc.bin.is_empty() {
+        let name = format!("{stem}.{}.bin", content_tag(&doc.bin));
+        if let Some(b) = doc.json.pointer_mut("/buffers/0") {
+            b["uri"] = uri_encode(&name).into();
+        }
+        doc.bin_name = name;
+    }
+    // Images with a file are those with a `uri`, in order.
+    let mut files = doc.image_files.iter_mut();
+    if let Some(images) = doc.json.get_mut("images").and_then(Value::as_array_mut) {
+        for img in images.iter_mut().filter(|i| i.get("uri").is_some()) {
+            let Some((name, bytes)) = files.next() else {
+                break;
+            };
+            *name = tagged(name, &content_tag(bytes));
+            img["uri"] = uri_encode(name).into();
+        }
+    }
+}
+
+/// The first 8 bytes of the SHA-256 of `bytes`, in hex.
+fn content_tag(bytes: &[u8]) -> String {
+    use sha2::Digest as _;
+    sha2::Sha256::digest(bytes)[..8]
+        .iter()
+        .map(|b| format!("{b:02x}"))
+        .collect()
+}
+
+/// `name` with `.tag` before its extension.
+fn tagged(name: &str, tag: &str) -> String {
+    match name.rfind('.') {
+        Some(i) if i > 0 => format!("{}.{tag}{}", &name[..i], &name[i..]),
+        _ => format!("{name}.{tag}"),
+    }
+}
+
+/// Whether a file name carries a content tag (`.<16 hex digits>.` or at
+/// its end): the side files this writer names.
+fn has_content_tag(name: &str) -> bool {
+    name.split('.')
+        .skip(1)
+        .any(|part| part.len() == 16 && part.bytes().all(|b| b.is_ascii_hexdigit()))
+}
+
+/// The tagged side files (buffers and images, plain names in `out_dir`)
+/// the glTF at `path` refers to, if it is a readable glTF of ours.
+fn side_files_of(path: &Path, out_dir: &Path) -> Vec<PathBuf> {
+    let Ok(bytes) = crate::io::paths::read_capped(path, 256 << 20, "glTF") else {
+        return Vec::new();
+    };
+    let Ok(json) = serde_json::from_slice::<Value>(&bytes) else {
+        return Vec::new();
+    };
+    let mut out = Vec::new();
+    for key in ["buffers", "images"] {
+        for item in json
+            .get(key)
+            .and_then(Value::as_array)
+            .into_iter()
+            .flatten()
+        {
+            let Some(uri) = item.get("uri").and_then(Value::as_str) else {
+                continue;
+            };
+            let Some(name) = crate::io::paths::percent_decode(uri) else {
+                continue;
+            };
+            if !name.contains(['/', '\\', ':']) && has_content_tag(&name) && name != ".." {
+                out.push(out_dir.join(name));
+            }
+        }
+    }
+    out
+}
+
 /// Write every file under a temporary name, then rename all into place,
 /// the main file (the first) last: a run killed in between leaves the old
-/// main file, never a new one beside old side files.
+/// main file, never a new one beside old side files. On failure, the side
+/// files this run placed under new names are removed again.
 fn commit_files(files: &[(PathBuf, Vec<u8>)]) -> Result<()> {
     let mut temps = Vec::new();
     let cleanup = |temps: &[PathBuf]| {
@@ -154,6 +265,10 @@ fn commit_files(files: &[(PathBuf, Vec<u8>)]) -> Result<()> {
             let _ = std::fs::remove_file(t);
         }
     };
+    let existed: Vec<bool> = files
+        .iter()
+        .map(|(p, _)| std::fs::symlink_metadata(p).is_ok())
+        .collect();
     for (p, bytes) in files {
         let tmp = temp_path(p);
         if let Err(e) = std::fs::write(&tmp, bytes) {
@@ -163,10 +278,17 @@ fn commit_files(files: &[(PathBuf, Vec<u8>)]) -> Result<()> {
         }
         temps.push(tmp);
     }
-    for ((p, _), tmp) in files.iter().zip(&temps).rev() {
+    let mut placed: Vec<&PathBuf> = Vec::new();
+    for (k, ((p, _), tmp)) in files.iter().zip(&temps).enumerate().rev() {
         if let Err(e) = std::fs::rename(tmp, p) {
             cleanup(&temps);
+            for q in placed {
+                let _ = std::fs::remove_file(q);
+            }
             return Err(Error::io(p, e));
+        }
+        if !existed[k] {
+            placed.push(p);
         }
     }
     Ok(())
@@ -196,6 +318,8 @@ fn glb_bytes(json: &[u8], bin: &[u8]) -> Vec<u8> {
 struct Document {
     json: Value,
     bin: Vec<u8>,
+    /// The buffer file's name (`.gltf` output).
+    bin_name: String,
     image_files: Vec<(String, Vec<u8>)>,
     triangles: usize,
 }
@@ -816,6 +940,7 @@ fn build_document(
     Ok(Document {
         json: Value::Object(root),
         bin: bin.data,
+        bin_name: format!("{stem}.bin"),
         image_files,
         triangles,
     })
