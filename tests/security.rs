@@ -42,17 +42,24 @@ fn convert(input: &Path, out: &Path) -> (Option<i32>, String) {
     run_bounded(&[Path::new("convert"), input, out])
 }
 
-/// The textured quad (glTF, external .bin and PNG) copied into `dir/asset`,
-/// with a secret file in `dir/outside`.
-fn quad_asset(dir: &Path) -> (PathBuf, PathBuf) {
+/// `files` (fixtures) copied into `dir/asset`, and an empty `dir/outside`.
+fn asset(dir: &Path, files: &[&str]) -> (PathBuf, PathBuf) {
     let asset = dir.join("asset");
     let outside = dir.join("outside");
     std::fs::create_dir_all(&asset).unwrap();
     std::fs::create_dir_all(&outside).unwrap();
-    for f in ["textured_quad.gltf", "textured_quad.bin", "checker.png"] {
+    for f in files {
         std::fs::copy(common::fixture(f), asset.join(f)).unwrap();
     }
     (asset, outside)
+}
+
+/// The textured quad (glTF, external .bin and PNG) in `dir/asset`.
+fn quad_asset(dir: &Path) -> (PathBuf, PathBuf) {
+    asset(
+        dir,
+        &["textured_quad.gltf", "textured_quad.bin", "checker.png"],
+    )
 }
 
 /// Refused with exit 1, the message naming `what`; no output written.
@@ -179,14 +186,7 @@ fn fifos_folders_and_devices_are_not_read() {
 
 /// The cube (OBJ, MTL, PNG) in `dir/asset`.
 fn cube_asset(dir: &Path) -> (PathBuf, PathBuf) {
-    let asset = dir.join("asset");
-    let outside = dir.join("outside");
-    std::fs::create_dir_all(&asset).unwrap();
-    std::fs::create_dir_all(&outside).unwrap();
-    for f in ["cube.obj", "cube.mtl", "cube texture.png"] {
-        std::fs::copy(common::fixture(f), asset.join(f)).unwrap();
-    }
-    (asset, outside)
+    asset(dir, &["cube.obj", "cube.mtl", "cube texture.png"])
 }
 
 fn output_json(out: &Path) -> serde_json::Value {

@@ -1039,19 +1039,8 @@ fn scan_references(input: &Path) -> Vec<PathBuf> {
             serde_json::from_slice(&bytes).ok()
         };
         if let Some(json) = json {
-            for key in ["buffers", "images"] {
-                for item in json
-                    .get(key)
-                    .and_then(Value::as_array)
-                    .into_iter()
-                    .flatten()
-                {
-                    if let Some(uri) = item.get("uri").and_then(Value::as_str) {
-                        if !uri.starts_with("data:") {
-                            out.extend(resolve_inside(dir, uri).ok());
-                        }
-                    }
-                }
+            for uri in crackle::io::gltf_read::file_uris(&json) {
+                out.extend(resolve_inside(dir, uri).ok());
             }
         }
     }

@@ -353,18 +353,8 @@ impl PointTree {
         ops: &mut u64,
     ) -> bool {
         let [a, b, c] = t;
-        let (pa, pb, pc) = (p[a], p[b], p[c]);
-        let tol = 1e-9 * scale;
-        let (lab, lbc, lca) = (dist(pa, pb), dist(pb, pc), dist(pc, pa));
-        let lo = [
-            pa[0].min(pb[0]).min(pc[0]) - tol,
-            pa[1].min(pb[1]).min(pc[1]) - tol,
-        ];
-        let hi = [
-            pa[0].max(pb[0]).max(pc[0]) + tol,
-            pa[1].max(pb[1]).max(pc[1]) + tol,
-        ];
-        let edges = [(pa, pb, lab), (pb, pc, lbc), (pc, pa, lca)];
+        let ear = EarTest::new([p[a], p[b], p[c]], scale);
+        let (lo, hi, tol) = (ear.lo, ear.hi, ear.tol);
         let mut stack = vec![0usize];
         while let Some(i) = stack.pop() {
             *ops += 1;
@@ -378,7 +368,7 @@ impl PointTree {
                 continue;
             }
             // The box lies wholly outside one edge's half-plane.
-            let outside = edges.iter().any(|&(u, w, l)| {
+            let outside = ear.edges.iter().any(|&(u, w, l)| {
                 let corners = [
                     [node.lo[0], node.lo[1]],
                     [node.hi[0], node.lo[1]],
@@ -398,17 +388,7 @@ impl PointTree {
             for &q in &self.order[node.begin as usize..node.end as usize] {
                 let q = q as usize;
                 *ops += 1;
-                if !alive[q] || q == a || q == b || q == c {
-                    continue;
-                }
-                let pq = p[q];
-                if pq[0] < lo[0] || pq[0] > hi[0] || pq[1] < lo[1] || pq[1] > hi[1] {
-                    continue;
-                }
-                if dist(pq, pa) <= tol || dist(pq, pb) <= tol || dist(pq, pc) <= tol {
-                    continue;
-                }
-                if edges.iter().all(|&(u, w, l)| cross2(u, w, pq) >= -tol * l) {
+                if alive[q] && q != a && q != b && q != c && ear.holds(p[q]) {
                     return true;
                 }
             }
@@ -446,33 +426,10 @@ fn quality(p: &[[f64; 2]], a: usize, b: usize, c: usize, t: f64) -> f64 {
 /// stops counting at 1 when `first_only`.
 fn blockers(p: &[[f64; 2]], rem: &[usize], k: usize, scale: f64, first_only: bool) -> usize {
     let (a, b, c) = corner(rem, k);
-    let (pa, pb, pc) = (p[a], p[b], p[c]);
-    let tol = 1e-9 * scale;
-    let (lab, lbc, lca) = (dist(pa, pb), dist(pb, pc), dist(pc, pa));
-    let lo = [
-        pa[0].min(pb[0]).min(pc[0]) - tol,
-        pa[1].min(pb[1]).min(pc[1]) - tol,
-    ];
-    let hi = [
-        pa[0].max(pb[0]).max(pc[0]) + tol,
-        pa[1].max(pb[1]).max(pc[1]) + tol,
-    ];
+    let ear = EarTest::new([p[a], p[b], p[c]], scale);
     let mut count = 0;
     for &q in rem {
-        if q == a || q == b || q == c {
-            continue;
-        }
-        let pq = p[q];
-        if pq[0] < lo[0] || pq[0] > hi[0] || pq[1] < lo[1] || pq[1] > hi[1] {
-            continue;
-        }
-        if dist(pq, pa) <= tol || dist(pq, pb) <= tol || dist(pq, pc) <= tol {
-            continue;
-        }
-        if cross2(pa, pb, pq) >= -tol * lab
-            && cross2(pb, pc, pq) >= -tol * lbc
-            && cross2(pc, pa, pq) >= -tol * lca
-        {
+        if q != a && q != b && q != c && ear.holds(p[q]) {
             count += 1;
             if first_only {
                 break;
@@ -480,6 +437,56 @@ fn blockers(p: &[[f64; 2]], rem: &[usize], k: usize, scale: f64, first_only: boo
         }
     }
     count
+}
+
+/// The containment test of an ear: a point inside or on the triangle, not
+/// coinciding with one of its corners (within `1e-9` of the polygon's
+/// extent).
+struct EarTest {
+    corners: [[f64; 2]; 3],
+    tol: f64,
+    /// The triangle's box, widened by `tol`.
+    lo: [f64; 2],
+    hi: [f64; 2],
+    /// Each edge with its length.
+    edges: [([f64; 2], [f64; 2], f64); 3],
+}
+
+impl EarTest {
+    fn new(corners: [[f64; 2]; 3], scale: f64) -> Self {
+        let [pa, pb, pc] = corners;
+        let tol = 1e-9 * scale;
+        EarTest {
+            corners,
+            tol,
+            lo: [
+                pa[0].min(pb[0]).min(pc[0]) - tol,
+                pa[1].min(pb[1]).min(pc[1]) - tol,
+            ],
+            hi: [
+                pa[0].max(pb[0]).max(pc[0]) + tol,
+                pa[1].max(pb[1]).max(pc[1]) + tol,
+            ],
+            edges: [
+                (pa, pb, dist(pa, pb)),
+                (pb, pc, dist(pb, pc)),
+                (pc, pa, dist(pc, pa)),
+            ],
+        }
+    }
+
+    fn holds(&self, q: [f64; 2]) -> bool {
+        let (lo, hi, tol) = (self.lo, self.hi, self.tol);
+        if q[0] < lo[0] || q[0] > hi[0] || q[1] < lo[1] || q[1] > hi[1] {
+            return false;
+        }
+        if self.corners.iter().any(|&c| dist(q, c) <= tol) {
+            return false;
+        }
+        self.edges
+            .iter()
+            .all(|&(u, w, l)| cross2(u, w, q) >= -tol * l)
+    }
 }
 
 /// A valid ear (strictly convex, nothing inside): the best-shaped one when

@@ -815,6 +815,22 @@ fn check_hierarchy_counted(nodes: &[Node]) -> std::result::Result<usize, String>
     Ok(visits)
 }
 
+/// The `uri`s of a glTF document's buffers and images that name files
+/// (not `data:` URIs), in order, as written.
+pub fn file_uris(json: &Value) -> Vec<&str> {
+    ["buffers", "images"]
+        .iter()
+        .flat_map(|key| {
+            json.get(*key)
+                .and_then(Value::as_array)
+                .into_iter()
+                .flatten()
+        })
+        .filter_map(|item| item.get("uri").and_then(Value::as_str))
+        .filter(|uri| !uri.starts_with("data:"))
+        .collect()
+}
+
 /// Triangle list from TRIANGLES / TRIANGLE_STRIP / TRIANGLE_FAN indices, with
 /// glTF's winding rules.
 pub fn assemble_triangles(prim_mode: u32, ix: &[u32]) -> Vec<[u32; 3]> {

@@ -232,26 +232,12 @@ fn side_files_of(path: &Path, out_dir: &Path) -> Vec<PathBuf> {
     let Ok(json) = serde_json::from_slice::<Value>(&bytes) else {
         return Vec::new();
     };
-    let mut out = Vec::new();
-    for key in ["buffers", "images"] {
-        for item in json
-            .get(key)
-            .and_then(Value::as_array)
-            .into_iter()
-            .flatten()
-        {
-            let Some(uri) = item.get("uri").and_then(Value::as_str) else {
-                continue;
-            };
-            let Some(name) = crate::io::paths::percent_decode(uri) else {
-                continue;
-            };
-            if !name.contains(['/', '\\', ':']) && has_content_tag(&name) && name != ".." {
-                out.push(out_dir.join(name));
-            }
-        }
-    }
-    out
+    crate::io::gltf_read::file_uris(&json)
+        .into_iter()
+        .filter_map(crate::io::paths::percent_decode)
+        .filter(|name| !name.contains(['/', '\\', ':']) && has_content_tag(name))
+        .map(|name| out_dir.join(name))
+        .collect()
 }
 
 /// Write every file under a temporary name, then rename all into place,
