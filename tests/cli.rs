@@ -565,3 +565,87 @@ fn gltf_outputs_commit_as_a_unit() {
     assert_ne!(o.status.code(), Some(0));
     assert_eq!(listing(), before, "{}", String::from_utf8_lossy(&o.stderr));
 }
+
+/// Kills between renames: `convert` into a `.gltf` is killed (SIGKILL) at
+/// 25 moments across its run, alternating two inputs. After every kill the
+/// `.gltf` in place, if any, loads with all its side files; the next
+/// completed run leaves only its own files (the dead runs' temporary files
+/// removed, the old side files gone).
+#[cfg(unix)]
+#[test]
+fn a_gltf_output_survives_kills_at_any_moment() {
+    let t = tempfile::tempdir().unwrap();
+    let d = t.path();
+    // Two inputs that take a while to read and write.
+    let mut a = String::from("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\n");
+    for _ in 0..200_000 {
+        a.push_str("f 1 2 3\n");
+    }
+    a.push_str("f 2 4 3\n");
+    std::fs::write(d.join("a.obj"), &a).unwrap();
+    std::fs::copy(common::fixture("cube.obj"), d.join("b.obj")).unwrap();
+    for f in ["cube.mtl", "cube texture.png"] {
+        std::fs::copy(common::fixture(f), d.join(f)).unwrap();
+    }
+    let outdir = d.join("out");
+    std::fs::create_dir(&outdir).unwrap();
+    let out = outdir.join("scene.gltf");
+    // How long a whole run takes.
+    let start = std::time::Instant::now();
+    common::run_ok([
+        "convert".as_ref(),
+        d.join("a.obj").as_os_str(),
+        out.as_os_str(),
+    ]);
+    let whole = start.elapsed();
+    for k in 0..25u32 {
+        let input = d.join(if k % 2 == 0 { "b.obj" } else { "a.obj" });
+        let mut child = std::process::Command::new(common::crackle_bin())
+            .args(["convert".as_ref(), input.as_os_str(), out.as_os_str()])
+            .stderr(std::process::Stdio::null())
+            .spawn()
+            .unwrap();
+        std::thread::sleep(whole * k / 20);
+        let _ = child.kill();
+        let _ = child.wait();
+        if out.exists() {
+            gltf::import(&out).unwrap_or_else(|e| panic!("after a kill at {k}/20: {e}"));
+        }
+    }
+    common::run_ok([
+        "convert".as_ref(),
+        d.join("b.obj").as_os_str(),
+        out.as_os_str(),
+    ]);
+    gltf::import(&out).unwrap();
+    let mut left: Vec<String> = std::fs::read_dir(&outdir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    left.sort();
+    assert_eq!(
+        left.len(),
+        3,
+        "only scene.gltf, its .bin and its texture: {left:?}"
+    );
+}
+
+/// A `.gltf` written into the current folder by a bare name, twice: its
+/// side files stay (the sweep of stray buffers names them as written).
+#[test]
+fn a_gltf_output_by_bare_name_keeps_its_side_files() {
+    let t = tempfile::tempdir().unwrap();
+    for f in ["cube.obj", "cube.mtl", "cube texture.png"] {
+        std::fs::copy(common::fixture(f), t.path().join(f)).unwrap();
+    }
+    for _ in 0..2 {
+        let o = std::process::Command::new(common::crackle_bin())
+            .args(["convert", "cube.obj", "scene.gltf", "-q"])
+            .current_dir(t.path())
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        gltf::import(t.path().join("scene.gltf")).unwrap();
+    }
+    assert_eq!(std::fs::read_dir(t.path()).unwrap().count(), 6);
+}

@@ -158,6 +158,12 @@ pub fn write_scene_with(scene: &Scene, path: &Path, prefix_images: bool) -> Resu
         }))
         .filter_map(|p| p.canonicalize().ok())
         .collect();
+    // And this output's buffers a killed run placed without its main file
+    // (`<stem>.<tag>.bin`, named after this output alone).
+    let mut old_side_files = old_side_files;
+    if !glb {
+        old_side_files.extend(stray_buffers(&out_dir, &stem));
+    }
     for old in old_side_files {
         let ours = files.iter().any(|(p, _)| *p == old);
         let input = old.canonicalize().is_ok_and(|c| inputs.contains(&c));
@@ -238,6 +244,34 @@ fn side_files_of(path: &Path, out_dir: &Path) -> Vec<PathBuf> {
         .filter(|name| !name.contains(['/', '\\', ':']) && has_content_tag(name))
         .map(|name| out_dir.join(name))
         .collect()
+}
+
+/// The `<stem>.<tag>.bin` files in `dir`.
+fn stray_buffers(out_dir: &Path, stem: &str) -> Vec<PathBuf> {
+    let dir = if out_dir.as_os_str().is_empty() {
+        Path::new(".")
+    } else {
+        out_dir
+    };
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return Vec::new();
+    };
+    let mut out: Vec<PathBuf> = entries
+        .flatten()
+        .filter(|e| e.file_type().is_ok_and(|t| t.is_file()))
+        .filter(|e| {
+            let name = e.file_name();
+            let name = name.to_string_lossy();
+            name.strip_prefix(stem)
+                .and_then(|r| r.strip_prefix('.'))
+                .and_then(|r| r.strip_suffix(".bin"))
+                .is_some_and(|tag| tag.len() == 16 && tag.bytes().all(|b| b.is_ascii_hexdigit()))
+        })
+        // Named as the files written are (`out_dir` may be empty).
+        .map(|e| out_dir.join(e.file_name()))
+        .collect();
+    out.sort();
+    out
 }
 
 /// Write every file under a temporary name, then rename all into place,
