@@ -125,7 +125,7 @@ pub fn write_scene_with(scene: &Scene, path: &Path, prefix_images: bool) -> Resu
     }
     // The side files the output now in place uses, to remove once it is
     // replaced (read before it is).
-    let old_side_files = if glb {
+    let mut old_side_files = if glb {
         Vec::new()
     } else {
         side_files_of(path, &out_dir)
@@ -160,7 +160,6 @@ pub fn write_scene_with(scene: &Scene, path: &Path, prefix_images: bool) -> Resu
         .collect();
     // And this output's buffers a killed run placed without its main file
     // (`<stem>.<tag>.bin`, named after this output alone).
-    let mut old_side_files = old_side_files;
     if !glb {
         old_side_files.extend(stray_buffers(&out_dir, &stem));
     }
@@ -221,12 +220,15 @@ fn tagged(name: &str, tag: &str) -> String {
     }
 }
 
+/// Whether `part` is a content tag: 16 hex digits.
+fn is_content_tag(part: &str) -> bool {
+    part.len() == 16 && part.bytes().all(|b| b.is_ascii_hexdigit())
+}
+
 /// Whether a file name carries a content tag (`.<16 hex digits>.` or at
 /// its end): the side files this writer names.
 fn has_content_tag(name: &str) -> bool {
-    name.split('.')
-        .skip(1)
-        .any(|part| part.len() == 16 && part.bytes().all(|b| b.is_ascii_hexdigit()))
+    name.split('.').skip(1).any(is_content_tag)
 }
 
 /// The tagged side files (buffers and images, plain names in `out_dir`)
@@ -265,7 +267,7 @@ fn stray_buffers(out_dir: &Path, stem: &str) -> Vec<PathBuf> {
             name.strip_prefix(stem)
                 .and_then(|r| r.strip_prefix('.'))
                 .and_then(|r| r.strip_suffix(".bin"))
-                .is_some_and(|tag| tag.len() == 16 && tag.bytes().all(|b| b.is_ascii_hexdigit()))
+                .is_some_and(is_content_tag)
         })
         // Named as the files written are (`out_dir` may be empty).
         .map(|e| out_dir.join(e.file_name()))

@@ -14,7 +14,7 @@
 
 use crate::error::Error;
 use crate::geometry::triangulate_polygon;
-use crate::io::paths::{read_capped, resolve_file_inside, resolve_inside, MAX_MTL_BYTES};
+use crate::io::paths::{locate_inside, read_capped, resolve_inside, Located, MAX_MTL_BYTES};
 use crate::scene::{
     Geometry, Image, ImageSource, Material, Mesh, Node, Primitive, Scene, SceneRoot, TriGeometry,
     VertexAttribute,
@@ -821,8 +821,8 @@ impl MtlState {
     }
 
     fn load_one(&mut self, base_dir: &Path, obj_name: &str, reference: &str) {
-        let path = match resolve_inside(base_dir, reference) {
-            Ok(p) if std::fs::symlink_metadata(&p).is_err() => {
+        let path = match locate_inside(base_dir, reference) {
+            Ok(Located::Missing(p)) => {
                 // A source all the same: its appearing later changes the output.
                 if !self.loaded.insert(p) {
                     return;
@@ -832,11 +832,7 @@ impl MtlState {
                 ));
                 return;
             }
-            Ok(_) => resolve_file_inside(base_dir, reference),
-            Err(msg) => Err(msg),
-        };
-        let path = match path {
-            Ok(p) => p,
+            Ok(Located::Found(p)) => p,
             Err(msg) => {
                 self.warnings.push(format!(
                     "{obj_name}: material library '{reference}' not read: {msg}"
@@ -1102,14 +1098,9 @@ impl MaterialBuilder<'_> {
             ));
             return None;
         }
-        let path = match resolve_inside(self.base_dir, &file) {
+        let path = match locate_inside(self.base_dir, &file) {
             // A missing file is reported below, with the type check.
-            Ok(p) if std::fs::symlink_metadata(&p).is_err() => Ok(p),
-            Ok(_) => resolve_file_inside(self.base_dir, &file),
-            Err(msg) => Err(msg),
-        };
-        let path = match path {
-            Ok(p) => p,
+            Ok(Located::Missing(p) | Located::Found(p)) => p,
             Err(msg) => {
                 scene.warnings.push(format!(
                     "material '{material}': texture '{file}' not read: {msg}"

@@ -22,6 +22,26 @@ pub fn resolve_file_inside(base_dir: &Path, reference: &str) -> Result<PathBuf, 
     real_file_inside(base_dir, &path, reference)
 }
 
+/// Where a reference leads: the real path of a regular file inside the
+/// asset's folder, or nothing at all there (the path as written).
+#[derive(Debug, PartialEq, Eq)]
+pub enum Located {
+    /// The file's real path, checked as [`resolve_file_inside`] does.
+    Found(PathBuf),
+    /// Nothing by that name (not even a dangling link).
+    Missing(PathBuf),
+}
+
+/// [`resolve_file_inside`], telling a missing file (often only a warning)
+/// apart from one that is refused.
+pub fn locate_inside(base_dir: &Path, reference: &str) -> Result<Located, String> {
+    let path = resolve_inside(base_dir, reference)?;
+    if std::fs::symlink_metadata(&path).is_err() {
+        return Ok(Located::Missing(path));
+    }
+    real_file_inside(base_dir, &path, reference).map(Located::Found)
+}
+
 /// The real path of `path` (a file under `base_dir` by its text), checked
 /// as [`resolve_file_inside`] does; `reference` names it in errors.
 pub fn real_file_inside(base_dir: &Path, path: &Path, reference: &str) -> Result<PathBuf, String> {
