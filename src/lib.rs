@@ -10,6 +10,7 @@ pub mod bridge;
 pub mod error;
 pub mod geometry;
 pub mod io;
+pub mod math;
 pub mod mesh;
 pub mod pipeline;
 pub mod post;

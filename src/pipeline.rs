@@ -549,7 +549,7 @@ impl Pipeline {
                         )))
                     }
                 };
-                GreyImage::open(&path).map_err(|e| err(e.to_string()))?
+                crate::io::image::open_grey(&path).map_err(|e| err(e.to_string()))?
             };
             let mut mask = Mask::from_image(grey);
             mask.invert = spec.invert;
@@ -596,8 +596,14 @@ impl Pipeline {
                 ));
             };
             let slot = spec.slot.as_deref().unwrap_or("baseColorTexture");
-            let mut m = mask_from_material(scene, mi, slot, spec.invert, Some(asset_dir))
-                .map_err(|e| format!("{label}.material: {e}"))?;
+            let mut m = mask_from_material(
+                scene,
+                mi,
+                slot,
+                spec.invert,
+                &crate::io::image::Files::inside(asset_dir),
+            )
+            .map_err(|e| format!("{label}.material: {e}"))?;
             m.confine = spec.confine;
             out.push(Some(Arc::new(m)));
         }

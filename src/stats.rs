@@ -7,10 +7,10 @@
 //! vertices) and its crack edges as vertex pairs. Lengths are in the
 //! surface's units.
 
+use crate::math::v3::{add, cross, dot, norm, scale, sub};
 use crate::mesh::spatial::{closest_on_segment, Grid};
 use crate::mesh::SimMesh;
 use crate::scene::{Geometry, Scene};
-use crate::stress::tensor::v3::{add, cross, dot, norm, scale, sub};
 use std::collections::{HashMap, HashSet};
 
 /// A surface and its cracks; see the module documentation.

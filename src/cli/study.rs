@@ -18,9 +18,9 @@
 //! the plot as `study.svg` and `study.png`.
 
 use crackle::bridge::build_sim_meshes;
+use crackle::math::v3;
 use crackle::post::islands::face_islands;
 use crackle::sim::{relax_only, Integrator, Relaxed, SimParams};
-use crackle::stress::tensor::v3;
 use serde_json::{json, Value};
 use std::path::{Path, PathBuf};
 use std::time::Instant;

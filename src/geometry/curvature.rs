@@ -61,9 +61,9 @@
 //! (a face split close to a corner) pulls that vertex's normal towards its
 //! own.
 
+use crate::math::v3;
+use crate::math::{Sym2, Sym3};
 use crate::mesh::SimMesh;
-use crate::stress::tensor::v3;
-use crate::stress::{Sym2, Sym3};
 use rayon::prelude::*;
 
 /// Principal curvatures and directions at a point.

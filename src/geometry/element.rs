@@ -6,7 +6,7 @@
 //! singular values of `beta` (sliver triangles) are clamped to a threshold so
 //! that forces and stiffness stay bounded (Iben & O'Brien 2009, sec. 4.3).
 
-use crate::stress::tensor::v3;
+use crate::math::v3;
 
 /// Geometry of one triangle.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]

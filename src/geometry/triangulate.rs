@@ -2,6 +2,8 @@
 //! projected onto its best-fit plane, so concave polygons are triangulated
 //! correctly and collinear vertices do not produce zero-area triangles.
 
+use crate::math::v3::{cross, dot, sub};
+
 /// Polygons up to this size pick the best-shaped ear in every step; larger
 /// ones walk their ring and clip the valid ears they meet, with a grid for
 /// the containment tests ([`ear_clip_large`]).
@@ -556,22 +558,6 @@ fn centroid(points: &[[f64; 3]]) -> [f64; 3] {
         }
     }
     [c[0] / n, c[1] / n, c[2] / n]
-}
-
-fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
 }
 
 /// Twice the signed area of the 2D triangle (o, a, b).

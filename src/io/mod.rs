@@ -3,6 +3,7 @@
 pub mod accessor;
 pub mod gltf_read;
 pub mod gltf_write;
+pub mod image;
 pub mod obj;
 pub mod paths;
 

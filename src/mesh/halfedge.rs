@@ -19,6 +19,8 @@
 use super::attributes::WedgeAttributes;
 use super::error::MeshError;
 use super::ids::{FaceId, HalfedgeId, VertexId, WedgeId, INVALID};
+use crate::math::v3;
+pub(super) use crate::math::v3::{cross, norm, sub};
 
 /// A simulation mesh: an oriented 2-manifold triangle mesh with boundary,
 /// with per-corner attribute wedges. See the [module docs](self) for the
@@ -52,25 +54,6 @@ pub struct SimMesh {
     pub(super) generation: u64,
 }
 
-#[inline]
-pub(super) fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-
-#[inline]
-pub(super) fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
-
-#[inline]
-pub(super) fn norm(a: [f64; 3]) -> f64 {
-    (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt()
-}
-
 /// Twice the area of triangle `(a, b, c)`.
 #[inline]
 pub(super) fn double_area(a: [f64; 3], b: [f64; 3], c: [f64; 3]) -> f64 {
@@ -78,6 +61,40 @@ pub(super) fn double_area(a: [f64; 3], b: [f64; 3], c: [f64; 3]) -> f64 {
 }
 
 impl SimMesh {
+    /// The angle `v`'s fan of faces spans at `v`, and the unit direction
+    /// through the middle of that angle (the fan walked counter-clockwise from
+    /// [`SimMesh::vertex_halfedge`]). On a copy of a crack node the fan lies
+    /// between two crack edges, so the middle points away from the crack:
+    /// perpendicular to a straight crack, the bisector at a corner. `None` when
+    /// the fan has no non-degenerate corner or the middle direction vanishes.
+    pub fn fan_middle(&self, v: VertexId) -> Option<(f64, [f64; 3])> {
+        let pv = self.position(v);
+        let mut corners: Vec<([f64; 3], [f64; 3], f64)> = Vec::new();
+        for h in self.vertex_outgoing(v) {
+            let a = v3::unit(v3::sub(self.position(self.dest(h)), pv));
+            let b = v3::unit(v3::sub(self.position(self.origin(self.prev(h))), pv));
+            if let (Some(ua), Some(ub)) = (a, b) {
+                corners.push((ua, ub, v3::dot(ua, ub).clamp(-1.0, 1.0).acos()));
+            }
+        }
+        let total: f64 = corners.iter().map(|c| c.2).sum();
+        let half = 0.5 * total;
+        let mut acc = 0.0;
+        for (u1, u2, a) in corners {
+            if acc + a >= half {
+                // Turn u1 towards u2 by (half - acc) within this corner.
+                let s = if a > 0.0 { (half - acc) / a } else { 0.0 };
+                let d = v3::add(
+                    v3::scale(u1, ((1.0 - s) * a).sin()),
+                    v3::scale(u2, (s * a).sin()),
+                );
+                return v3::unit(d).map(|d| (total, d));
+            }
+            acc += a;
+        }
+        None
+    }
+
     // ----- sizes -------------------------------------------------------
 
     /// Number of vertices.

@@ -49,8 +49,8 @@
 use std::cmp::Ordering;
 use std::collections::BinaryHeap;
 
+use crate::math::v3::{dot, norm, sub};
 use crate::mesh::{SimMesh, VertexId};
-use crate::stress::tensor::v3::{dot, norm, sub};
 
 /// A triangle whose angle at the updated vertex has `sin^2` below this is
 /// treated as degenerate (edge updates only).

@@ -3,8 +3,8 @@
 //! (a crack or the input's border). Pieces touching only at a vertex are
 //! separate: the simulation mesh has already split such vertices.
 
+use crate::math::v3;
 use crate::mesh::{FaceId, SimMesh};
-use crate::stress::tensor::v3;
 
 /// The pieces of a mesh.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]

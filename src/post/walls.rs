@@ -115,8 +115,8 @@ use parry3d::bounding_volume::Aabb;
 use parry3d::math::Vector;
 use parry3d::partitioning::{Bvh, BvhBuildStrategy};
 
+use crate::math::v3;
 use crate::mesh::{FaceId, HalfedgeId, SimMesh, VertexId};
-use crate::stress::tensor::v3;
 
 /// A point or vector.
 type P3 = [f64; 3];

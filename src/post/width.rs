@@ -12,10 +12,9 @@
 //! triangle is fine, at most [`MAX_HALVINGS`] times, then dropped), and the
 //! shortened nodes and flipped triangles are counted.
 
+use crate::math::v3;
 use crate::mesh::{FaceId, SimMesh, VertexId};
 use crate::post::distance::crack_vertices;
-use crate::sim::crack::fan_middle;
-use crate::stress::tensor::v3;
 
 /// How many times a node's move is halved before it is dropped.
 pub const MAX_HALVINGS: usize = 12;
@@ -97,7 +96,7 @@ fn away_from_crack(mesh: &SimMesh, v: VertexId) -> Option<[f64; 3]> {
     let crack_edge = match (mesh.is_crack_halfedge(first), mesh.is_crack_halfedge(last)) {
         (true, false) => v3::sub(mesh.position(mesh.dest(first)), pv),
         (false, true) => v3::sub(mesh.position(mesh.origin(last)), pv),
-        _ => return fan_middle(mesh, v).map(|(_, middle)| middle),
+        _ => return mesh.fan_middle(v).map(|(_, middle)| middle),
     };
     // The plane and the inside of the fan from its first proper corner.
     let unit = |x: [f64; 3]| {

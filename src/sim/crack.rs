@@ -9,8 +9,8 @@
 //! Directions within `theta2` of an existing crack edge at the node are not
 //! cracked again (no back-cracking), and a crack tip cracks forward only.
 
+use crate::math::v3;
 use crate::mesh::{FaceId, HalfedgeId, MeshError, SimMesh, VertexId};
-use crate::stress::tensor::v3;
 
 /// Geometric rules of cracking.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -58,13 +58,8 @@ pub struct CrackEvent {
     pub length: f64,
 }
 
-fn unit(a: [f64; 3]) -> Option<[f64; 3]> {
-    let n = v3::norm(a);
-    (n > 0.0 && n.is_finite()).then(|| v3::scale(a, 1.0 / n))
-}
-
 fn angle(a: [f64; 3], b: [f64; 3]) -> f64 {
-    match (unit(a), unit(b)) {
+    match (v3::unit(a), v3::unit(b)) {
         (Some(a), Some(b)) => v3::dot(a, b).clamp(-1.0, 1.0).acos(),
         _ => 0.0,
     }
@@ -82,7 +77,7 @@ pub fn crack_directions(mesh: &SimMesh, v: VertexId) -> Vec<[f64; 3]> {
         // duplicate): count the direction once.
         for (e, other) in [(h, mesh.dest(h)), (mesh.prev(h), mesh.origin(mesh.prev(h)))] {
             if mesh.is_boundary_halfedge(e) {
-                if let Some(d) = unit(v3::sub(mesh.position(other), pv)) {
+                if let Some(d) = v3::unit(v3::sub(mesh.position(other), pv)) {
                     if out.iter().all(|&x| v3::dot(x, d) < 1.0 - 1e-12) {
                         out.push(d);
                     }
@@ -91,40 +86,6 @@ pub fn crack_directions(mesh: &SimMesh, v: VertexId) -> Vec<[f64; 3]> {
         }
     }
     out
-}
-
-/// The angle `v`'s fan of faces spans at `v`, and the unit direction
-/// through the middle of that angle (the fan walked counter-clockwise from
-/// [`SimMesh::vertex_halfedge`]). On a copy of a crack node the fan lies
-/// between two crack edges, so the middle points away from the crack:
-/// perpendicular to a straight crack, the bisector at a corner. `None` when
-/// the fan has no non-degenerate corner or the middle direction vanishes.
-pub fn fan_middle(mesh: &SimMesh, v: VertexId) -> Option<(f64, [f64; 3])> {
-    let pv = mesh.position(v);
-    let mut corners: Vec<([f64; 3], [f64; 3], f64)> = Vec::new();
-    for h in mesh.vertex_outgoing(v) {
-        let a = unit(v3::sub(mesh.position(mesh.dest(h)), pv));
-        let b = unit(v3::sub(mesh.position(mesh.origin(mesh.prev(h))), pv));
-        if let (Some(ua), Some(ub)) = (a, b) {
-            corners.push((ua, ub, v3::dot(ua, ub).clamp(-1.0, 1.0).acos()));
-        }
-    }
-    let total: f64 = corners.iter().map(|c| c.2).sum();
-    let half = 0.5 * total;
-    let mut acc = 0.0;
-    for (u1, u2, a) in corners {
-        if acc + a >= half {
-            // Turn u1 towards u2 by (half - acc) within this corner.
-            let s = if a > 0.0 { (half - acc) / a } else { 0.0 };
-            let d = v3::add(
-                v3::scale(u1, ((1.0 - s) * a).sin()),
-                v3::scale(u2, (s * a).sin()),
-            );
-            return unit(d).map(|d| (total, d));
-        }
-        acc += a;
-    }
-    None
 }
 
 /// Triangle quality `4 sqrt(3) A / (l0^2 + l1^2 + l2^2)`: 1 for an
@@ -188,7 +149,7 @@ fn crossings(mesh: &SimMesh, v: VertexId, n: [f64; 3]) -> Vec<Crossing> {
         if (sa < 0.0 && sb > 0.0) || (sa > 0.0 && sb < 0.0) || (sb == 0.0 && sa != 0.0) {
             let s = sa / (sa - sb);
             let q = v3::add(pa, v3::scale(v3::sub(pb, pa), s));
-            if let Some(dir) = unit(v3::sub(q, pv)) {
+            if let Some(dir) = v3::unit(v3::sub(q, pv)) {
                 out.push(Crossing { far, s, dir });
             }
         }
@@ -228,7 +189,9 @@ pub fn crack_node_avoiding(
     junction: &dyn Fn(&SimMesh, VertexId) -> bool,
 ) -> Result<CrackEvent, MeshError> {
     let mut ev = CrackEvent::default();
-    let Some(n) = unit(normal) else { return Ok(ev) };
+    let Some(n) = v3::unit(normal) else {
+        return Ok(ev);
+    };
     let existing = crack_directions(mesh, v);
     let mut dirs: Vec<Crossing> = crossings(mesh, v, n)
         .into_iter()

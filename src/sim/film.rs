@@ -32,9 +32,9 @@
 //! round, within [`SHADOW`]` * c` of a crack that round made (its relief
 //! is not solved for until the round ends).
 
+use crate::math::{v3, Sym3};
 use crate::mesh::{FaceId, SimMesh, VertexId};
 use crate::sim::forces::{Elements, Fans};
-use crate::stress::tensor::{v3, Sym3};
 
 /// Cell size over the shear-lag length `l`. Calibrated so that the mean cell
 /// diameter `crackle stats` measures comes out near the cell size asked
@@ -305,9 +305,7 @@ pub fn value_noise(seed: u64, p: [f64; 3]) -> f64 {
                         .wrapping_add(k as u64);
                 }
                 for bump in 0..BUMPS_PER_CELL {
-                    let h = |i: u64| {
-                        crate::sim::driver::hash_unit(seed, key.wrapping_add(8 * bump + i))
-                    };
+                    let h = |i: u64| crate::math::hash_unit(seed, key.wrapping_add(8 * bump + i));
                     let q = [
                         c[0] as f64 + 0.5 + 0.5 * h(0),
                         c[1] as f64 + 0.5 + 0.5 * h(1),
@@ -346,7 +344,7 @@ mod tests {
         let mut bins = [0.0f64; 6];
         let (mut sum, mut sum_sq) = (0.0, 0.0);
         for i in 0..n {
-            let h = |k: u64| 40.0 * crate::sim::driver::hash_unit(3, 3 * i + k);
+            let h = |k: u64| 40.0 * crate::math::hash_unit(3, 3 * i + k);
             let p = [h(0), h(1), 0.37];
             let v = value_noise(11, p);
             sum += v;

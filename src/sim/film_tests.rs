@@ -50,9 +50,10 @@ fn stress_recovers_from_a_free_edge_over_the_shear_lag_length() {
         let at = |x0: f64| {
             let (mut sum, mut area) = (0.0, 0.0);
             for f in mesh.faces() {
-                let c = mesh.face_vertices(f).iter().fold([0.0; 3], |a, &v| {
-                    crate::stress::tensor::v3::add(a, mesh.position(v))
-                });
+                let c = mesh
+                    .face_vertices(f)
+                    .iter()
+                    .fold([0.0; 3], |a, &v| crate::math::v3::add(a, mesh.position(v)));
                 let (x, y) = (c[0] / 3.0, c[1] / 3.0);
                 if (x - x0).abs() < 0.75 && (14.0..26.0).contains(&y) {
                     sum += relaxed.stress[f.idx()].xx * relaxed.areas[f.idx()];

@@ -4,8 +4,8 @@
 //! order, so results do not depend on thread count or scheduling.
 
 use crate::geometry::element::{basis_norm, Element};
+use crate::math::{v3, Sym3};
 use crate::mesh::{FaceId, SimMesh, VertexId};
-use crate::stress::tensor::{v3, Sym3};
 use rayon::prelude::*;
 
 /// Element geometry for every face of a mesh (`None` for a degenerate face).
@@ -366,7 +366,7 @@ pub(crate) mod tests {
             let Some(el) = Element::new(p, f64::INFINITY) else {
                 continue;
             };
-            let s2 = crate::stress::Sym2 {
+            let s2 = crate::math::Sym2 {
                 xx: rng.next_f64(),
                 yy: rng.next_f64(),
                 xy: rng.next_f64(),

@@ -23,8 +23,8 @@
 //! thread count.
 
 use crate::geometry::element::Element;
+use crate::math::{v3, Sym3};
 use crate::sim::forces::{element_corner_forces, element_strain, gather, Elements, Fans};
-use crate::stress::tensor::{v3, Sym3};
 use rayon::prelude::*;
 
 /// Chunk length of the deterministic dot products.
@@ -698,10 +698,10 @@ pub fn subspace_start(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::math::Sym2;
     use crate::sim::forces::node_forces_fans;
     use crate::sim::forces::tests::jittered_plate;
     use crate::sim::relax::{apply_virtual_displacement, energy};
-    use crate::stress::Sym2;
 
     /// Solve `(I + dt K) x = rhs` with the block-Jacobi preconditioner.
     fn solve(

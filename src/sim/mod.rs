@@ -3,19 +3,30 @@
 //! No I/O and no printing here.
 
 pub mod crack;
+mod diffusion;
 pub mod driver;
+pub mod error;
 pub mod film;
+mod finish;
 pub mod forces;
 pub mod implicit;
+mod integrate;
+mod load;
+pub mod observer;
+pub mod params;
 pub mod queue;
 pub mod relax;
+pub mod report;
+mod separation;
 pub mod springs;
+mod state;
 
 pub use crack::{crack_node, CrackEvent, CrackRules};
-pub use driver::{
-    relax_only, run, run_with, Integrator, Observer, Phase, Relaxed, SimError, SimParams,
-    SimReport, Snapshot,
-};
+pub use driver::{relax_only, run, run_with};
+pub use error::SimError;
 pub use forces::{element_forces, node_forces, separation_tensor, split_tensile, Elements};
+pub use observer::{Observer, Snapshot};
+pub use params::{Integrator, Model, Propagation, Relaxation, SimParams, AUTO_STEP_LIMIT};
 pub use queue::FailureQueue;
 pub use relax::{energy, relax_step, stable_dt, RelaxStep};
+pub use report::{FinishReport, Phase, Relaxed, SimReport};

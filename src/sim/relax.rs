@@ -9,9 +9,9 @@
 //! `dt <= 2 / lambda_max(K)`; [`stable_dt`] bounds `lambda_max` from above.
 
 use crate::geometry::element::Element;
+use crate::math::{v3, Sym3};
 use crate::mesh::SimMesh;
 use crate::sim::forces::{element_corner_forces, element_strain, node_forces_fans, Elements, Fans};
-use crate::stress::tensor::{v3, Sym3};
 use rayon::prelude::*;
 
 /// What one relaxation step did.
@@ -391,9 +391,9 @@ impl Rkl2 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::math::Sym2;
     use crate::mesh::test_util::Lcg;
     use crate::sim::forces::tests::jittered_plate;
-    use crate::stress::Sym2;
 
     /// A random in-plane tension in every face.
     fn random_tension(mesh: &SimMesh, els: &Elements, rng: &mut Lcg) -> Vec<Sym3> {

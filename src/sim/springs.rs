@@ -9,9 +9,10 @@
 //! real here: the report's `displacement` is each node's motion (scene
 //! units), which the width post-processing turns into gaps.
 
+use crate::math::hash_unit;
+use crate::math::v3;
 use crate::mesh::{HalfedgeId, SimMesh};
-use crate::sim::driver::{hash_unit, Observer, SimError, SimParams, SimReport, Snapshot};
-use crate::stress::tensor::v3;
+use crate::sim::{Observer, SimError, SimParams, SimReport, Snapshot};
 
 /// How rest lengths shrink.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Deserialize, serde::Serialize)]
@@ -673,7 +674,7 @@ mod tests {
         let params = SimParams {
             fixed_boundary: true,
             seed: 3,
-            model: crate::sim::driver::Model::Springs,
+            model: crate::sim::Model::Springs,
             springs: SpringParams {
                 break_strain,
                 max_time: 150.0,
@@ -743,7 +744,7 @@ mod tests {
             f(&mut sp);
             let params = SimParams {
                 fixed_boundary: true,
-                model: crate::sim::driver::Model::Springs,
+                model: crate::sim::Model::Springs,
                 springs: sp,
                 ..Default::default()
             };
@@ -771,11 +772,11 @@ mod tests {
     fn options_of_the_other_engine_are_refused() {
         let mut mesh = jittered_plate(4, 0.0, 1);
         let params = SimParams {
-            model: crate::sim::driver::Model::Springs,
+            model: crate::sim::Model::Springs,
             finish: true,
             ..Default::default()
         };
-        let e = crate::sim::driver::run(&mut mesh, &params, &mut ())
+        let e = crate::sim::run(&mut mesh, &params, &mut ())
             .unwrap_err()
             .to_string();
         assert!(e.contains("post.finish"), "{e}");
@@ -787,10 +788,10 @@ mod tests {
         }];
         let field = crate::stress::StressField::build(&mesh, &terms, 1).unwrap();
         let params = SimParams {
-            model: crate::sim::driver::Model::Springs,
+            model: crate::sim::Model::Springs,
             ..Default::default()
         };
-        let e = crate::sim::driver::run_with(&mut mesh, &params, Some(&field), &mut ())
+        let e = crate::sim::run_with(&mut mesh, &params, Some(&field), &mut ())
             .unwrap_err()
             .to_string();
         assert!(e.contains("stress terms"), "{e}");

@@ -8,8 +8,8 @@
 //! units of the mesh before its node transforms).
 
 use crate::geometry::curvature::{self, Curvature, CurvatureField};
+use crate::math::{v3, Sym3};
 use crate::mesh::{FaceId, SimMesh};
-use crate::stress::tensor::{v3, Sym3};
 use crate::stress::texture::Mask;
 use std::sync::Arc;
 
@@ -156,7 +156,7 @@ fn in_plane(v: [f64; 3], n: [f64; 3]) -> [f64; 3] {
 
 /// A uniform value in [0, 1) from `seed` and `key`.
 fn hash01(seed: u64, key: u64) -> f64 {
-    0.5 * (crate::sim::driver::hash_unit(seed, key) + 1.0)
+    0.5 * (crate::math::hash_unit(seed, key) + 1.0)
 }
 
 impl Term {

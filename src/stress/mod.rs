@@ -1,8 +1,7 @@
-//! Stress tensors and (in later stages) stress initialisers and evolution terms.
+//! Stress fields: the load terms (shrinkage, grain, rings, impact, curvature,
+//! texture masks, noise) that set each triangle's rest stress.
 
 pub mod field;
-pub mod tensor;
 pub mod texture;
 
 pub use field::{CurvatureMeasure, CurvatureScale, StressField, Term, TermKind};
-pub use tensor::{Sym2, Sym3};

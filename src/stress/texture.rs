@@ -319,17 +319,6 @@ impl GreyImage {
         }
     }
 
-    /// Read and decode an image file; the file's path names it in errors.
-    ///
-    /// # Errors
-    /// [`TextureError::Io`] when the file cannot be read or is larger than
-    /// [`MAX_FILE_BYTES`], and the errors of [`GreyImage::decode`].
-    pub fn open(path: &Path) -> Result<GreyImage, TextureError> {
-        let name = format!("'{}'", path.display());
-        let bytes = read_limited(path, &name)?;
-        GreyImage::decode(&bytes, &name)
-    }
-
     /// The luminance of texel `(x, y)` (`y = 0` is the top row), or `None`
     /// outside the image.
     pub fn texel(&self, x: u32, y: u32) -> Option<f32> {
@@ -572,32 +561,16 @@ fn decode_jpeg(bytes: &[u8], name: &str) -> Result<GreyImage, TextureError> {
     })
 }
 
-/// Read a whole file, refusing files larger than [`MAX_FILE_BYTES`].
-fn read_limited(path: &Path, name: &str) -> Result<Vec<u8>, TextureError> {
-    let io = |source| TextureError::Io {
-        image: name.to_string(),
-        path: path.to_path_buf(),
-        source,
-    };
-    let meta = std::fs::metadata(path).map_err(io)?;
-    if !meta.is_file() {
-        return Err(io(std::io::Error::other(
-            "not a regular file (a folder, FIFO or device is not an image)",
-        )));
-    }
-    let len = meta.len();
-    if len > MAX_FILE_BYTES {
-        return Err(io(std::io::Error::other(format!(
-            "the file has {len} bytes, more than the {MAX_FILE_BYTES} accepted for an image"
-        ))));
-    }
-    let mut data = Vec::with_capacity(len as usize);
-    std::io::Read::read_to_end(
-        &mut std::io::Read::take(std::fs::File::open(path).map_err(io)?, MAX_FILE_BYTES),
-        &mut data,
-    )
-    .map_err(io)?;
-    Ok(data)
+/// Where a material mask's image files come from. This layer does no I/O:
+/// the caller supplies the files (`crate::io::image::Files` reads them
+/// inside an asset's folder, with a size cap).
+pub trait ImageFiles {
+    /// The bytes of the image file at `path`; `name` labels the image in
+    /// errors.
+    ///
+    /// # Errors
+    /// [`TextureError::Io`] or [`TextureError::OutsideBase`].
+    fn read(&self, path: &Path, name: &str) -> Result<Vec<u8>, TextureError>;
 }
 
 /// A texture-stress mask: an image with its sampler and UV transform.
@@ -679,22 +652,22 @@ fn index_of(v: &Value, key: &str) -> Option<Result<usize, ()>> {
 /// (default repeat), the textureInfo's `KHR_texture_transform` and its
 /// `texCoord` (the extension's `texCoord` overrides the textureInfo's).
 ///
-/// Image files ([`ImageSource::File`]) are read from the path the reader
-/// resolved; when `base_dir` is given, a file whose real path (symbolic links
-/// resolved) is not inside `base_dir` is refused.
+/// Image files ([`ImageSource::File`]) are read through `files` from the
+/// path the reader resolved (`crate::io::image::Files` refuses a file whose
+/// real path lies outside the asset's folder).
 ///
 /// # Errors
 /// An unknown slot (the message lists the valid ones), a material index out of
 /// range, a material with nothing in the slot (named), broken texture,
 /// sampler or image references, a texture without a PNG/JPEG source, a
-/// malformed `KHR_texture_transform`, a file outside `base_dir` or unreadable,
+/// malformed `KHR_texture_transform`, a file `files` refuses,
 /// and an image that does not decode (named).
 pub fn mask_from_material(
     scene: &Scene,
     material: usize,
     slot: &str,
     invert: bool,
-    base_dir: Option<&Path>,
+    files: &dyn ImageFiles,
 ) -> Result<Mask, TextureError> {
     if !SLOTS.contains(&slot) {
         return Err(TextureError::UnknownSlot {
@@ -825,10 +798,7 @@ pub fn mask_from_material(
     let name = image_label(source, img);
     let image = match &img.source {
         ImageSource::Bytes(b) => GreyImage::decode(b, &name)?,
-        ImageSource::File(path) => {
-            let path = checked_path(path, base_dir, &name)?;
-            GreyImage::decode(&read_limited(&path, &name)?, &name)?
-        }
+        ImageSource::File(path) => GreyImage::decode(&files.read(path, &name)?, &name)?,
     };
     Ok(Mask {
         image,
@@ -839,32 +809,6 @@ pub fn mask_from_material(
         tex_coord,
         confine: false,
     })
-}
-
-/// The path to read: as given without `base_dir`; with it, the real path,
-/// which must lie inside the real `base_dir`.
-fn checked_path(path: &Path, base_dir: Option<&Path>, name: &str) -> Result<PathBuf, TextureError> {
-    let Some(base) = base_dir else {
-        return Ok(path.to_path_buf());
-    };
-    let io = |p: &Path| {
-        let p = p.to_path_buf();
-        move |source| TextureError::Io {
-            image: name.to_string(),
-            path: p,
-            source,
-        }
-    };
-    let real_base = base.canonicalize().map_err(io(base))?;
-    let real = path.canonicalize().map_err(io(path))?;
-    if !real.starts_with(&real_base) {
-        return Err(TextureError::OutsideBase {
-            image: name.to_string(),
-            path: real,
-            base: real_base,
-        });
-    }
-    Ok(real)
 }
 
 #[cfg(test)]
@@ -1472,7 +1416,7 @@ mod tests {
     fn fixture_checker_png() {
         // 64 x 64 8-bit grey checker, 8-px cells: 192 where (x/8 + y/8) is
         // even, 64 elsewhere (fixtures/make_fixtures.py).
-        let img = GreyImage::open(&fixtures().join("checker.png")).unwrap();
+        let img = crate::io::image::open_grey(&fixtures().join("checker.png")).unwrap();
         assert_eq!((img.width, img.height), (64, 64));
         let (hi, lo) = (192.0 / 255.0, 64.0 / 255.0);
         for (x, y, want) in [
@@ -1492,7 +1436,7 @@ mod tests {
         assert_close(s(12.0 / 64.0, 4.0 / 64.0), lo, "next cell");
         assert_close(s(8.0 / 64.0, 8.0 / 64.0), (hi + lo) / 2.0, "cell corner");
         // RGB fixture: red (200, 60, 40) / cream (240, 230, 210).
-        let cube = GreyImage::open(&fixtures().join("cube texture.png")).unwrap();
+        let cube = crate::io::image::open_grey(&fixtures().join("cube texture.png")).unwrap();
         assert_eq!((cube.width, cube.height), (32, 32));
         let l = |r: f64, g: f64, b: f64| luma(r / 255.0, g / 255.0, b / 255.0) as f32;
         assert_close(cube.texel(0, 0).unwrap(), l(200.0, 60.0, 40.0), "red cell");
@@ -1507,26 +1451,53 @@ mod tests {
     fn mask_from_the_textured_quad_fixture() {
         let dir = fixtures();
         let scene = crate::io::read(&dir.join("textured_quad.gltf")).unwrap();
-        let m = mask_from_material(&scene, 0, "baseColorTexture", false, Some(&dir)).unwrap();
+        let m = mask_from_material(
+            &scene,
+            0,
+            "baseColorTexture",
+            false,
+            &crate::io::image::Files::inside(&dir),
+        )
+        .unwrap();
         assert_eq!((m.wrap_s, m.wrap_t), (Wrap::Repeat, Wrap::Repeat));
         assert_eq!(m.tex_coord, 0);
         assert!(m.transform.is_identity());
         assert_eq!((m.image.width, m.image.height), (64, 64));
         let hi = 192.0 / 255.0;
         assert!((m.weight([4.0 / 64.0, 4.0 / 64.0]) - (1.0 - hi)).abs() < 1e-6);
-        let inv = mask_from_material(&scene, 0, "baseColorTexture", true, None).unwrap();
+        let inv = mask_from_material(
+            &scene,
+            0,
+            "baseColorTexture",
+            true,
+            &crate::io::image::Files::default(),
+        )
+        .unwrap();
         assert!((inv.weight([4.0 / 64.0, 4.0 / 64.0]) - hi).abs() < 1e-6);
 
         // The material has no normal map: the error names the material.
-        let e = mask_from_material(&scene, 0, "normalTexture", false, None).unwrap_err();
+        let e = mask_from_material(
+            &scene,
+            0,
+            "normalTexture",
+            false,
+            &crate::io::image::Files::default(),
+        )
+        .unwrap_err();
         assert!(matches!(e, TextureError::NoTexture { .. }), "{e}");
         assert!(e.to_string().contains("'checker'"), "{e}");
         assert!(e.to_string().contains("normalTexture"), "{e}");
 
         // A folder the file is not in is refused.
         let other = tempfile::tempdir().unwrap();
-        let e = mask_from_material(&scene, 0, "baseColorTexture", false, Some(other.path()))
-            .unwrap_err();
+        let e = mask_from_material(
+            &scene,
+            0,
+            "baseColorTexture",
+            false,
+            &crate::io::image::Files::inside(other.path()),
+        )
+        .unwrap_err();
         assert!(matches!(e, TextureError::OutsideBase { .. }), "{e}");
         assert!(e.to_string().contains("checker"), "{e}");
     }
@@ -1585,27 +1556,55 @@ mod tests {
                 json!({"magFilter": 9729}),
             ],
         );
-        let m = mask_from_material(&scene, 0, "baseColorTexture", false, None).unwrap();
+        let m = mask_from_material(
+            &scene,
+            0,
+            "baseColorTexture",
+            false,
+            &crate::io::image::Files::default(),
+        )
+        .unwrap();
         assert_eq!(
             (m.wrap_s, m.wrap_t),
             (Wrap::ClampToEdge, Wrap::MirroredRepeat)
         );
         assert_eq!(m.tex_coord, 1);
         assert_eq!(m.image.data, vec![0.0, 1.0, 1.0, 0.0]);
-        let m = mask_from_material(&scene, 0, "metallicRoughnessTexture", false, None).unwrap();
+        let m = mask_from_material(
+            &scene,
+            0,
+            "metallicRoughnessTexture",
+            false,
+            &crate::io::image::Files::default(),
+        )
+        .unwrap();
         assert_eq!(
             (m.wrap_s, m.wrap_t),
             (Wrap::Repeat, Wrap::Repeat),
             "sampler defaults"
         );
-        let m = mask_from_material(&scene, 0, "normalTexture", true, None).unwrap();
+        let m = mask_from_material(
+            &scene,
+            0,
+            "normalTexture",
+            true,
+            &crate::io::image::Files::default(),
+        )
+        .unwrap();
         assert_eq!(
             (m.wrap_s, m.wrap_t),
             (Wrap::Repeat, Wrap::Repeat),
             "no sampler"
         );
         assert!(m.invert);
-        let m = mask_from_material(&scene, 0, "occlusionTexture", false, None).unwrap();
+        let m = mask_from_material(
+            &scene,
+            0,
+            "occlusionTexture",
+            false,
+            &crate::io::image::Files::default(),
+        )
+        .unwrap();
         assert_eq!(
             m.transform,
             UvTransform {
@@ -1617,21 +1616,49 @@ mod tests {
         assert_eq!(m.tex_coord, 2, "the extension's texCoord overrides");
 
         // A texture with only a KTX2 source.
-        let e = mask_from_material(&scene, 0, "emissiveTexture", false, None).unwrap_err();
+        let e = mask_from_material(
+            &scene,
+            0,
+            "emissiveTexture",
+            false,
+            &crate::io::image::Files::default(),
+        )
+        .unwrap_err();
         assert!(e.to_string().contains("KHR_texture_basisu"), "{e}");
         assert!(e.to_string().contains("texture 3"), "{e}");
 
         // Unknown slot: the valid ones are listed.
-        let e = mask_from_material(&scene, 0, "diffuseTexture", false, None).unwrap_err();
+        let e = mask_from_material(
+            &scene,
+            0,
+            "diffuseTexture",
+            false,
+            &crate::io::image::Files::default(),
+        )
+        .unwrap_err();
         let msg = e.to_string();
         assert!(msg.contains("diffuseTexture"), "{msg}");
         for s in SLOTS {
             assert!(msg.contains(s), "{msg} lists {s}");
         }
         // Unnamed material without the slot; material out of range.
-        let e = mask_from_material(&scene, 1, "baseColorTexture", false, None).unwrap_err();
+        let e = mask_from_material(
+            &scene,
+            1,
+            "baseColorTexture",
+            false,
+            &crate::io::image::Files::default(),
+        )
+        .unwrap_err();
         assert_eq!(e.to_string(), "material 1 has no baseColorTexture");
-        let e = mask_from_material(&scene, 5, "baseColorTexture", false, None).unwrap_err();
+        let e = mask_from_material(
+            &scene,
+            5,
+            "baseColorTexture",
+            false,
+            &crate::io::image::Files::default(),
+        )
+        .unwrap_err();
         assert!(
             matches!(e, TextureError::NoMaterial { index: 5, count: 2 }),
             "{e}"
@@ -1657,7 +1684,7 @@ mod tests {
             vec![json!({"wrapS": 1234})],
         );
         let msg = |scene: &Scene, slot| {
-            mask_from_material(scene, 0, slot, false, None)
+            mask_from_material(scene, 0, slot, false, &crate::io::image::Files::default())
                 .unwrap_err()
                 .to_string()
         };

@@ -5,6 +5,7 @@
 //! remeshing hands its stress to its children without re-expressing frames.
 //! [`Sym2`] is the same stress in an element's own 2D frame.
 
+use super::v3;
 use std::ops::{Add, AddAssign, Mul, Sub};
 
 /// A symmetric 2x2 tensor `[[xx, xy], [xy, yy]]`.
@@ -47,38 +48,6 @@ pub struct Sym3 {
     pub xz: f64,
     /// Component yz.
     pub yz: f64,
-}
-
-/// 3-vector helpers.
-pub mod v3 {
-    /// a + b
-    pub fn add(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-        [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
-    }
-    /// a - b
-    pub fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-        [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-    }
-    /// s * a
-    pub fn scale(a: [f64; 3], s: f64) -> [f64; 3] {
-        [a[0] * s, a[1] * s, a[2] * s]
-    }
-    /// a . b
-    pub fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-        a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-    }
-    /// a x b
-    pub fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-        [
-            a[1] * b[2] - a[2] * b[1],
-            a[2] * b[0] - a[0] * b[2],
-            a[0] * b[1] - a[1] * b[0],
-        ]
-    }
-    /// |a|
-    pub fn norm(a: [f64; 3]) -> f64 {
-        dot(a, a).sqrt()
-    }
 }
 
 impl Sym3 {

@@ -1,0 +1,20 @@
+//! The bottom layer: small vector and tensor maths in `f64` and the seeded
+//! hash every random choice draws from. It imports nothing from the crate.
+
+mod tensor;
+pub mod v3;
+
+pub use tensor::{Sym2, Sym3};
+
+/// A uniform value in [-1, 1] from `seed` and `key` (SplitMix64), the same
+/// on every platform and thread count.
+pub fn hash_unit(seed: u64, key: u64) -> f64 {
+    let mut z = seed ^ key.wrapping_mul(0x9E37_79B9_7F4A_7C15);
+    for _ in 0..2 {
+        z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^= z >> 31;
+    }
+    2.0 * ((z >> 11) as f64 / (1u64 << 53) as f64) - 1.0
+}

@@ -1,0 +1,156 @@
+//! The bonded film's round: equilibrium of the film tied to its rest
+//! position, by conjugate gradients.
+
+use crate::math::{v3, Sym3};
+use crate::mesh::SimMesh;
+use crate::sim::forces::Fans;
+use crate::sim::integrate::{region::*, Round, RoundEnd, Scheme, EQUILIBRIUM_DT};
+use crate::sim::{load::*, params::*, report::*, state::*};
+use rayon::prelude::*;
+
+/// One relaxation round of a bonded film ([`crate::sim::film`]): the
+/// round's load, then the equilibrium `(K + k M) du = f - k M u` of the
+/// film tied to its rest position, by conjugate gradients (the interface
+/// term makes the system positive definite, so the solve converges in few
+/// iterations whatever the triangles' shapes). Only the nodes of `region`
+/// move when given. Returns the stress energy and the residual node force
+/// (elastic plus interface) at the end.
+#[allow(clippy::too_many_arguments)]
+pub(in crate::sim) fn relax_film_round(
+    mesh: &SimMesh,
+    st: &mut State,
+    params: &SimParams,
+    cache: &mut RoundCache,
+    fans: &Fans,
+    normals: &[[f64; 3]],
+    region: Option<&Region>,
+    load: Load,
+    report: &mut SimReport,
+    phase: &mut Phase,
+) -> (f64, Vec<[f64; 3]>) {
+    let mut film = st.film.take().expect("a film run");
+    film.refresh(mesh.generation(), fans, &st.els);
+    add_load(&mut st.stress, &st.els, &st.shrink_scale, &st.evolve, load);
+    let held: Vec<bool>;
+    let fixed: &[bool] = match region {
+        Some(r) => {
+            held = st
+                .fixed
+                .iter()
+                .zip(&r.inside)
+                .map(|(&f, &i)| f || !i)
+                .collect();
+            &held
+        }
+        None => &st.fixed,
+    };
+    let op = crate::sim::implicit::Operator {
+        fans,
+        els: &st.els,
+        normals,
+        fixed,
+        interface: &film.interface,
+    };
+    let local_pre: Vec<Sym3>;
+    let pre: &[Sym3] = if region.is_some() {
+        local_pre = op.block_preconditioner(EQUILIBRIUM_DT);
+        &local_pre
+    } else {
+        if cache.pre.as_ref().is_none_or(|(d, _)| *d != EQUILIBRIUM_DT) {
+            cache.pre = Some((EQUILIBRIUM_DT, op.block_preconditioner(EQUILIBRIUM_DT)));
+        }
+        &cache.pre.as_ref().expect("set").1
+    };
+    // The failure test needs the stress to about 1e-3: a film's solves stop
+    // at ten times the backward-Euler tolerance.
+    let shifted = crate::sim::implicit::Shifted {
+        op: &op,
+        dt: EQUILIBRIUM_DT,
+        pre,
+        tol: (10.0 * params.tolerance).min(0.1),
+        max_iter: 10_000,
+    };
+    let unit = st.unit;
+    let mut bufs = std::mem::take(&mut st.implicit);
+    // The out-of-balance force: the stress's and the interface's pull
+    // back toward the rest position.
+    let residual = |op: &crate::sim::implicit::Operator,
+                    stress: &[Sym3],
+                    displacement: &[[f64; 3]],
+                    corner: &mut Vec<[f64; 3]>| {
+        let mut f = op.forces(stress, corner);
+        f.par_iter_mut().enumerate().for_each(|(n, f)| {
+            let tie = v3::scale(displacement[n], op.interface[n] / unit);
+            *f = v3::sub(*f, op.project(n, tie));
+        });
+        f
+    };
+    let mut rhs = residual(&op, &st.stress, &st.displacement, &mut bufs.cg.corner);
+    rhs.par_iter_mut()
+        .for_each(|b| *b = v3::scale(*b, EQUILIBRIUM_DT));
+    // Each solve starts from rest: a start from the last round's solution
+    // is often already at the tolerance's rounding floor, where conjugate
+    // gradients stall.
+    let mut x = std::mem::take(&mut st.warm);
+    x.clear();
+    let cg = shifted.solve(&rhs, &mut x, None, &mut bufs.r, &mut bufs.cg);
+    phase.cg_iterations += cg.iterations;
+    if !cg.converged {
+        report.cg_unconverged += 1;
+    }
+    phase.cg_residual = phase.cg_residual.max(cg.relative_residual);
+    let energy = crate::sim::relax::apply_virtual_displacement_energy(
+        fans,
+        &st.els,
+        &mut st.stress,
+        &mut st.corner,
+        &x,
+    );
+    st.displacement
+        .par_iter_mut()
+        .zip(x.par_iter())
+        .for_each(|(d, x)| *d = v3::add(*d, v3::scale(*x, unit)));
+    let force = residual(&op, &st.stress, &st.displacement, &mut bufs.cg.corner);
+    st.warm = x;
+    st.implicit = bufs;
+    st.film = Some(film);
+    (energy, force)
+}
+
+/// The bonded film (`[simulation] model = "film"`).
+pub(in crate::sim) struct Film;
+
+impl Scheme for Film {
+    fn relax(
+        &self,
+        r: &Round,
+        st: &mut State,
+        cache: &mut RoundCache,
+        _known_force: &mut Option<Vec<[f64; 3]>>,
+        loaded: &mut f64,
+        _g: &mut Vec<[f64; 3]>,
+        report: &mut SimReport,
+        phase: &mut Phase,
+    ) -> RoundEnd {
+        let Round {
+            mesh,
+            params,
+            fans,
+            normals,
+            region,
+            ..
+        } = *r;
+        let mut out = RoundEnd::default();
+        let load = r.load_for(loaded, params.relax_time);
+        let (energy, force) = relax_film_round(
+            mesh, st, params, cache, fans, normals, region, load, report, phase,
+        );
+        out.end_energy = Some(energy);
+        out.end_force = Some(force);
+        report.time += params.relax_time;
+        report.relax_steps += 1;
+        phase.steps = 1;
+        out.step_dt = 0.0;
+        out
+    }
+}

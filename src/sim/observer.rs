@@ -1,0 +1,64 @@
+//! The [`Observer`] a run tells about each round (progress) and, when it
+//! asks, the state after it ([`Snapshot`], for time-lapse frames).
+
+use crate::mesh::SimMesh;
+use crate::sim::relax::energy;
+use crate::sim::{report::*, state::*};
+
+/// Progress reports from the loop (the CLI turns them into a progress bar).
+pub trait Observer {
+    /// After each round: its number (from 1), the round limit, the cracks
+    /// and the relaxation steps so far.
+    fn round(&mut self, _round: usize, _max_rounds: usize, _cracks: usize, _relax_steps: usize) {}
+    /// Before the first round, after each round and after each finishing
+    /// pass: the state of the run so far, for time-lapse frames. Called only
+    /// when [`Observer::wants_state`] is true.
+    fn state(&mut self, _snapshot: &Snapshot) {}
+    /// Whether [`Observer::state`] should be called.
+    fn wants_state(&self) -> bool {
+        false
+    }
+}
+
+impl Observer for () {}
+
+/// The state of a run at one moment, for [`Observer::state`].
+pub struct Snapshot<'a> {
+    /// The mesh, cracks opened so far.
+    pub mesh: &'a SimMesh,
+    /// Simulation time.
+    pub time: f64,
+    /// Every node's accumulated relaxation displacement, as
+    /// [`SimReport::displacement`].
+    pub displacement: &'a [[f64; 3]],
+    /// Every node's crack time so far (NaN: not on a crack), as
+    /// [`SimReport::crack_time`].
+    pub crack_time: &'a [f64],
+    /// The crack segments so far and their times, as
+    /// [`SimReport::segments`] and [`SimReport::segment_times`].
+    pub segments: &'a [[[f64; 3]; 2]],
+    /// See `segments`.
+    pub segment_times: &'a [f64],
+    /// Area-weighted stress energy `1/2 sum_e A_e |S_e|^2` now.
+    pub energy: f64,
+}
+
+/// Tell `observer` the state, when it wants it.
+pub(in crate::sim) fn observe(
+    observer: &mut dyn Observer,
+    mesh: &SimMesh,
+    st: &State,
+    report: &SimReport,
+) {
+    if observer.wants_state() {
+        observer.state(&Snapshot {
+            mesh,
+            time: report.time,
+            displacement: &st.displacement,
+            crack_time: &st.crack_time,
+            segments: &report.segments,
+            segment_times: &report.segment_times,
+            energy: energy(&st.els, &st.stress),
+        });
+    }
+}

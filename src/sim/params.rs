@@ -1,0 +1,380 @@
+//! Parameters of a simulation run: [`SimParams`] (a pipeline's
+//! `[simulation]` table) and its enums, with their defaults and checks.
+
+use crate::math::v3;
+use crate::mesh::SimMesh;
+use crate::sim::crack::CrackRules;
+
+/// Parameters of a run (all lengths in mean-edge-length units). A
+/// pipeline's `[simulation]` table deserialises into it; the fixed
+/// boundary and groups come from its `[select]` table instead.
+#[derive(Clone, Debug, PartialEq, serde::Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct SimParams {
+    /// Toughness `tau`: a node fails when its separation eigenvalue exceeds it. Default 2.
+    pub toughness: f64,
+    /// Fraction `alpha` of the residual `v+ - tau` handed to the crack tips, in [0, 1]. Default 0.8.
+    pub alpha: f64,
+    /// Constant added to the residual at the crack tips (dimensionless
+    /// stress) so cracks run on until they meet another crack or the border,
+    /// closing cells. Default 1 (half the default toughness).
+    pub residual_constant: f64,
+    /// Uniform shrinkage added to every element per unit relaxation time. Default 0.05.
+    pub shrink_rate: f64,
+    /// How long the load (shrinkage and the stress field's evolution terms)
+    /// acts, in relaxation time; the run then goes on until nothing fails.
+    /// Total uniform shrinkage is `shrink_rate * load_time`. Default 120.
+    pub load_time: f64,
+    /// Seeded variation of the load between input triangles, as a
+    /// fraction: each triangle is loaded at `rate * (1 + noise * u)` with `u`
+    /// uniform in [-1, 1] (split triangles keep their input triangle's `u`).
+    /// Breaks the symmetry of perfectly regular meshes. In [0, 1]; default 0.2.
+    pub noise: f64,
+    /// Seed of every random choice. Default 1.
+    pub seed: u64,
+    /// Relaxation time between crack checks. Default 5.
+    pub relax_time: f64,
+    /// Largest relaxation step; 0 means the stable step of the current mesh
+    /// (a larger value is reduced to it, so relaxation never diverges). Default 0.
+    pub relax_dt: f64,
+    /// Relaxation steps per round; 0 means as many as `relax_time` needs.
+    /// When set, a round lasts `relax_steps * dt` instead of `relax_time`. Default 0.
+    pub relax_steps: usize,
+    /// Most relaxation rounds. Default 200.
+    pub max_rounds: usize,
+    /// Most crack events in the whole run. Default 1,000,000.
+    pub max_cracks: usize,
+    /// Most crack events per round; when a round reaches it the load is held
+    /// (no shrinkage) for the next round, so stress can redistribute around
+    /// the new cracks before more fail, as in a quasistatic loading. 0 means
+    /// 1% of the nodes, at least 16. Default 0.
+    pub max_cracks_per_round: usize,
+    /// Conditioning cap: singular values of the barycentric bases are clamped
+    /// at this factor times the input mean. Default 4.
+    pub clamp_factor: f64,
+    /// Fix the mesh's open boundary (otherwise it is free). Default false.
+    #[serde(skip)]
+    pub fixed_boundary: bool,
+    /// Fix every node of the faces in these groups (the bridge makes one
+    /// group per primitive, so a material or an OBJ group). Default none.
+    #[serde(skip)]
+    pub fixed_groups: Vec<u32>,
+    /// The surface is bonded to the body under it (a glaze on a pot, mud on
+    /// the ground): the body carries the normal part of each node force, so
+    /// only tangential motion relaxes stress. Without it a free closed shell
+    /// under uniform shrinkage just shrinks and never cracks. Default true.
+    pub bonded: bool,
+    /// Finish cracks after the run (sec. 5): every remaining crack tip, and
+    /// every vertex where two crack edges enclose more than 270 degrees of
+    /// surface, keeps cracking along its last direction, with relaxation
+    /// between steps, until it meets another crack or the border. Set by a
+    /// pipeline's `[post] finish`. Default false.
+    #[serde(skip)]
+    pub finish: bool,
+    /// How relaxation is integrated over each round's `relax_time`; see
+    /// [`Integrator`]. Default `local-euler`.
+    pub integrator: Integrator,
+    /// Relative residual each backward-Euler solve reaches. Default 1e-4.
+    pub tolerance: f64,
+    /// Local relaxation in the finishing passes: each pass relaxes only the
+    /// nodes within this many rings of the nodes its cracks touched (the
+    /// rest of the mesh holds still, as if fixed), for the same
+    /// `relax_time`. 0 relaxes the whole mesh after every pass. Default 8.
+    pub finish_rings: usize,
+    /// Geometric cracking rules.
+    #[serde(skip)]
+    pub rules: CrackRules,
+    /// The crack model. Default `quasistatic` (Iben & O'Brien 2009).
+    pub model: Model,
+    /// Cracks may split triangles (the paper's local remeshing). `false`
+    /// snaps every crack to the existing edge nearest its plane (the
+    /// snapping variant). Default true.
+    pub remesh: bool,
+    /// Which failing node cracks next; see [`Propagation`]. Default `queue`.
+    pub propagation: Propagation,
+    /// How stress relaxes between crack checks; see [`Relaxation`].
+    /// Default `tensor`.
+    pub relaxation: Relaxation,
+    /// Eigen-diffusion passes after each crack (or each crack run with
+    /// `propagation = "to-end"`). Default 30.
+    pub diffusion_passes: usize,
+    /// Fraction of a node's largest separation eigenvalue shared with its
+    /// neighbours per pass, in [0, 1]. Default 0.05.
+    pub diffusion_fraction: f64,
+    /// Parameters of `model = "springs"` (`[simulation.springs]`).
+    pub springs: crate::sim::springs::SpringParams,
+    /// The pattern's cell size in scene units: the surface is a film bonded
+    /// to its body ([`crate::sim::film`]) whose cells come out near this
+    /// diameter, whatever the triangles. Give this or
+    /// `cell_size_relative`, not both; with neither, lengths are the
+    /// mesh's (the mean edge length) and cells follow the triangles.
+    pub cell_size: Option<f64>,
+    /// The cell size as a fraction of each simulated mesh's bounding-box
+    /// diagonal (every preset sets one).
+    pub cell_size_relative: Option<f64>,
+    /// With a cell size: remesh each simulated surface isotropically to
+    /// `cell size / 8` edges before cracking, refining coarse inputs (finer
+    /// ones are left as they are). Default true.
+    pub isotropic_remesh: bool,
+    /// With `isotropic_remesh`: also coarsen surfaces finer than needed.
+    /// Default false.
+    pub coarsen: bool,
+    /// Most triangles the remeshed surface may have: a request above it is
+    /// refused with the numbers before any work. Default 2,000,000.
+    pub max_triangles: usize,
+}
+
+/// Which failing node cracks next.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Deserialize, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Propagation {
+    /// The node whose separation is largest (the paper's priority queue).
+    #[default]
+    Queue,
+    /// A crack runs on tip by tip while its tip's separation (with the
+    /// residual scaled by `alpha`, the text's tip factor) exceeds the
+    /// toughness, before the next crack starts (the snapping variant).
+    ToEnd,
+}
+
+/// How stress relaxes.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Deserialize, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Relaxation {
+    /// The paper's stress-tensor relaxation (by `integrator`).
+    #[default]
+    Tensor,
+    /// No tensor relaxation: after each crack (or crack run) every node
+    /// shares `diffusion_fraction` of its largest separation eigenvalue
+    /// equally with its neighbours, `diffusion_passes` times (the snapping
+    /// variant's mesh-based diffusion).
+    EigenDiffusion,
+}
+
+/// Crack models.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Deserialize, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Model {
+    /// The quasistatic surface-crack method: stress, separation tensors,
+    /// a failure queue and cracking with local remeshing.
+    #[default]
+    Quasistatic,
+    /// Mass-spring drying: every edge a spring that shrinks and breaks
+    /// (see [`crate::sim::springs`]).
+    Springs,
+}
+
+/// Time integrators of the relaxation, all approximating the same
+/// relaxation time per round.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Deserialize, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Integrator {
+    /// `local-euler`, unless the mesh is so stiff (sliver triangles) that a
+    /// round would need more than [`AUTO_STEP_LIMIT`] of its steps; then
+    /// `backward-euler`, whose cost does not grow with stiffness. The
+    /// report names the scheme that ran and why.
+    #[default]
+    Auto,
+    /// Forward Euler with the stable step of a typical node (the median of
+    /// the per-node bounds); stiffer nodes move more slowly, each within
+    /// its own stable limit. Fast, but stiff regions relax late.
+    LocalEuler,
+    /// Forward Euler with one step for every node: the largest step the
+    /// Gershgorin bound of the stiffness allows (`1.9 / max_n b_n`), or
+    /// `relax_dt` when smaller. A larger requested step is split into
+    /// stable sub-steps and counted in [`SimReport::dt_limited_rounds`].
+    Euler,
+    /// Forward Euler with the requested `relax_dt` as it is, as in the
+    /// paper: the reference scheme. Diverges above the stable step (the run
+    /// then stops with an error).
+    PaperEuler,
+    /// Backward Euler, one step of `relax_dt` (or the whole `relax_time`
+    /// when 0) per solve, by preconditioned conjugate gradients to
+    /// `tolerance`: stable for every step.
+    BackwardEuler,
+    /// The limit of long relaxation: each round solves for equilibrium
+    /// (`K du = f`, no residual force left) after adding the round's load.
+    Equilibrium,
+    /// Second-order Runge-Kutta-Legendre super time stepping: explicit,
+    /// one super-step per round (or `relax_steps` of them, or steps of at
+    /// most `relax_dt`) of `s` stages, `s` the fewest whose stable reach
+    /// `(s^2 + s - 2) / 4` forward-Euler steps of the stiffest node covers
+    /// it: about `sqrt(4 T / h)` force evaluations where forward Euler
+    /// needs `T / h`. Above [`RKL_MAX_STAGES`] stages the stiffest nodes are
+    /// slowed to fit, as in `local-euler`. Energy never rises over a
+    /// super-step without load.
+    Rkl,
+}
+
+/// With `integrator = "auto"`: the most local-euler steps a round may
+/// take before the run uses backward Euler instead.
+pub const AUTO_STEP_LIMIT: f64 = 2000.0;
+
+/// Most stages of an RKL super-step; stiffer nodes than this covers are
+/// slowed down (their mobility reduced) instead.
+pub const RKL_MAX_STAGES: usize = 48;
+
+impl Integrator {
+    /// The pipeline name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Integrator::Auto => "auto",
+            Integrator::LocalEuler => "local-euler",
+            Integrator::Euler => "euler",
+            Integrator::PaperEuler => "paper-euler",
+            Integrator::BackwardEuler => "backward-euler",
+            Integrator::Equilibrium => "equilibrium",
+            Integrator::Rkl => "rkl",
+        }
+    }
+}
+
+impl Default for SimParams {
+    fn default() -> Self {
+        SimParams {
+            toughness: 2.0,
+            alpha: 0.8,
+            residual_constant: 1.0,
+            shrink_rate: 0.05,
+            load_time: 120.0,
+            noise: 0.2,
+            seed: 1,
+            relax_time: 5.0,
+            relax_dt: 0.0,
+            relax_steps: 0,
+            max_rounds: 200,
+            max_cracks: 1_000_000,
+            max_cracks_per_round: 0,
+            clamp_factor: 4.0,
+            fixed_boundary: false,
+            fixed_groups: Vec::new(),
+            bonded: true,
+            integrator: Integrator::Auto,
+            tolerance: 1e-4,
+            finish_rings: 8,
+            finish: false,
+            model: Model::Quasistatic,
+            springs: Default::default(),
+            remesh: true,
+            propagation: Propagation::Queue,
+            relaxation: Relaxation::Tensor,
+            diffusion_passes: 30,
+            diffusion_fraction: 0.05,
+            rules: CrackRules::default(),
+            cell_size: None,
+            cell_size_relative: None,
+            isotropic_remesh: true,
+            coarsen: false,
+            max_triangles: 2_000_000,
+        }
+    }
+}
+
+impl SimParams {
+    /// The cell size for `mesh` in scene units, when one is asked for
+    /// (relative sizes scale with the mesh's bounding-box diagonal).
+    pub fn cell_size_for(&self, mesh: &SimMesh) -> Option<f64> {
+        match (self.cell_size, self.cell_size_relative) {
+            (Some(c), _) => Some(c),
+            (None, Some(r)) => {
+                let (lo, hi) = mesh.bounding_box();
+                Some(r * v3::norm(v3::sub(hi, lo)))
+            }
+            (None, None) => None,
+        }
+    }
+
+    /// Whether a run on this mesh is a bonded film (the quasistatic model
+    /// with tensor relaxation and a cell size).
+    pub fn is_film(&self) -> bool {
+        self.model == Model::Quasistatic
+            && self.relaxation == Relaxation::Tensor
+            && (self.cell_size.is_some() || self.cell_size_relative.is_some())
+    }
+
+    /// Check every value, naming the parameter that is wrong.
+    pub fn validate(&self) -> Result<(), String> {
+        let finite_pos = |name: &str, x: f64| {
+            if x.is_finite() && x > 0.0 {
+                Ok(())
+            } else {
+                Err(format!("{name} must be a positive number, got {x}"))
+            }
+        };
+        if self.model == Model::Springs {
+            self.springs.validate()?;
+            if self.finish {
+                return Err("post.finish runs the quasistatic engine's tips on; it does not apply to model = \"springs\"".into());
+            }
+        }
+        if !(0.0..=1.0).contains(&self.diffusion_fraction) {
+            return Err(format!(
+                "diffusion_fraction must be in [0, 1], got {}",
+                self.diffusion_fraction
+            ));
+        }
+        finite_pos("toughness", self.toughness)?;
+        finite_pos("relax_time", self.relax_time)?;
+        finite_pos("clamp_factor", self.clamp_factor)?;
+        if !(self.tolerance.is_finite() && self.tolerance > 0.0 && self.tolerance < 1.0) {
+            return Err(format!(
+                "tolerance must be in (0, 1), got {}",
+                self.tolerance
+            ));
+        }
+        if self.integrator == Integrator::PaperEuler && self.relax_dt <= 0.0 {
+            return Err("integrator paper-euler needs relax_dt > 0 (its fixed step)".into());
+        }
+        if !(0.0..=1.0).contains(&self.alpha) {
+            return Err(format!(
+                "alpha must be in [0, 1] (above 1 the residual propagation is unstable), got {}",
+                self.alpha
+            ));
+        }
+        if !(self.shrink_rate.is_finite() && self.shrink_rate >= 0.0) {
+            return Err(format!(
+                "shrink_rate must be >= 0, got {}",
+                self.shrink_rate
+            ));
+        }
+        if !(self.relax_dt.is_finite() && self.relax_dt >= 0.0) {
+            return Err(format!(
+                "relax_dt must be >= 0 (0: the stable step), got {}",
+                self.relax_dt
+            ));
+        }
+        if !(self.load_time.is_finite() && self.load_time >= 0.0) {
+            return Err(format!("load_time must be >= 0, got {}", self.load_time));
+        }
+        if !(0.0..=1.0).contains(&self.noise) {
+            return Err(format!("noise must be in [0, 1], got {}", self.noise));
+        }
+        match (self.cell_size, self.cell_size_relative) {
+            (Some(_), Some(_)) => {
+                return Err(
+                    "give simulation.cell_size or simulation.cell_size_relative, not both".into(),
+                )
+            }
+            (Some(c), None) => finite_pos("cell_size", c)?,
+            (None, Some(r)) => {
+                finite_pos("cell_size_relative", r)?;
+                if r > 1.0 {
+                    return Err(format!(
+                        "cell_size_relative is a fraction of the bounding-box diagonal, at most 1; got {r}"
+                    ));
+                }
+            }
+            (None, None) => {}
+        }
+        if self.max_triangles == 0 {
+            return Err("max_triangles must be at least 1".into());
+        }
+        if !(self.residual_constant.is_finite() && self.residual_constant >= 0.0) {
+            return Err(format!(
+                "residual_constant must be >= 0, got {}",
+                self.residual_constant
+            ));
+        }
+        Ok(())
+    }
+}
