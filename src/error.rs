@@ -25,6 +25,41 @@ pub enum Error {
     /// A configuration value is invalid.
     #[error("invalid configuration: {0}")]
     Config(String),
+    /// What was asked cannot be done with this input or these options (a
+    /// name the input does not have, a cell size above the triangle
+    /// budget, a bad mask or frames request); the message says which.
+    /// The command line exits with 2 for it.
+    #[error("{0}")]
+    Usage(String),
+    /// A stage failed on one mesh of an asset.
+    #[error("{}: {mesh}: {message}", asset.display())]
+    Mesh {
+        /// The asset.
+        asset: PathBuf,
+        /// The mesh's label.
+        mesh: String,
+        /// What failed (the stage's error).
+        message: String,
+    },
+    /// A mesh edit the pipeline made was refused (a bug, not bad input).
+    #[error("{mesh}: {message}")]
+    Internal {
+        /// The mesh's label.
+        mesh: String,
+        /// What was refused.
+        message: String,
+    },
+    /// The time-lapse frames could not be made or written.
+    #[error("{0}")]
+    Frames(String),
+    /// The asset has nothing to crack.
+    #[error("{}: nothing to crack: {why}", path.display())]
+    NothingToCrack {
+        /// The asset.
+        path: PathBuf,
+        /// Why (the reader's warnings, or that it has no triangle mesh).
+        why: String,
+    },
     /// Output could not be produced.
     #[error("{path}: cannot write: {message}")]
     Output {
@@ -41,6 +76,14 @@ impl Error {
         Error::Input {
             path: path.into(),
             message: message.into(),
+        }
+    }
+    /// A stage's failure on mesh `mesh` of `asset`.
+    pub fn mesh(asset: &std::path::Path, mesh: &str, message: impl std::fmt::Display) -> Self {
+        Error::Mesh {
+            asset: asset.to_path_buf(),
+            mesh: mesh.to_string(),
+            message: message.to_string(),
         }
     }
     /// An I/O error for `path`.

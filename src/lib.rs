@@ -7,6 +7,7 @@
 #![warn(missing_docs)]
 
 pub mod bridge;
+pub mod compare;
 pub mod error;
 pub mod geometry;
 pub mod io;

@@ -17,7 +17,7 @@ pub fn run(
 ) -> Result<()> {
     super::check_output_format(output)?;
     let t0 = Instant::now();
-    let mut scene = super::read_crackable(input)?;
+    let mut scene = crackle::pipeline::read_crackable(input)?;
     let t_read = t0.elapsed();
     let t1 = Instant::now();
     let (entries, skipped) = build_sim_meshes(&scene, weld);
@@ -53,7 +53,7 @@ pub fn run(
     }
     let t_weld = t1.elapsed();
     let t2 = Instant::now();
-    let summary = super::write_output(&scene, output, false)?;
+    let summary = crackle::pipeline::write_output(&scene, output, false)?;
     let t_write = t2.elapsed();
     log::info!(
         "read {:.3} s, weld {:.3} s, write {:.3} s",

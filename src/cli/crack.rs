@@ -1,18 +1,12 @@
-//! `crackle crack`: read, weld, grow cracks, write the cracked scene with the
-//! crack network as a LINES primitive, and report.
+//! `crackle crack`: its options (a pipeline plus flags), the progress it
+//! shows, and the summary line; the run itself is
+//! [`crackle::pipeline::crack_file`].
 
 use anyhow::Result;
-use crackle::bridge::build_sim_meshes;
-use crackle::geometry::curvature::{self, CurvatureField};
-use crackle::mesh::{remesh, WeldOptions};
-use crackle::pipeline::{Bounds, Pipeline, Placement};
-use crackle::scene::{Geometry, Scene};
-use crackle::sim::SimReport;
-use crackle::stress::StressField;
-use serde_json::json;
+use crackle::mesh::WeldOptions;
+use crackle::pipeline::{Config, Frames, Pipeline};
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
-use std::time::Instant;
 
 /// Simulation options of the crack command: a pipeline (file or preset)
 /// plus overrides. Each flag below is short for `--set simulation.KEY=VALUE`
@@ -226,7 +220,7 @@ pub struct CrackArgs<'a> {
     pub pipeline_dir: Option<PathBuf>,
     pub quiet: bool,
     /// `--frames N DIR`.
-    pub frames: Option<super::frames::FramesArgs>,
+    pub frames: Option<Frames>,
     /// Told what the run is doing (`read`, `weld`, `simulate <mesh> round
     /// 3/200`...), for a batch's progress display.
     pub on_stage: Option<&'a (dyn Fn(&str) + Sync)>,
@@ -235,73 +229,62 @@ pub struct CrackArgs<'a> {
     pub prefix_images: bool,
 }
 
-/// Groups (primitive indices) of mesh `mesh_index` whose material or OBJ
-/// group name is in `names`, and the names that matched.
-pub fn fixed_groups(scene: &Scene, mesh_index: usize, names: &[String]) -> (Vec<u32>, Vec<String>) {
-    let mut groups = Vec::new();
-    let mut matched = Vec::new();
-    for (pi, p) in scene.meshes[mesh_index].primitives.iter().enumerate() {
-        let material = p
-            .material
-            .and_then(|m| scene.materials.get(m))
-            .and_then(|m| m.name());
-        let group = match &p.geometry {
-            Geometry::Triangles(t) => t.group.as_deref(),
-            Geometry::Raw(_) => None,
-        };
-        for n in names {
-            if Some(n.as_str()) == material || Some(n.as_str()) == group {
-                groups.push(pi as u32);
-                matched.push(n.clone());
-            }
-        }
-    }
-    (groups, matched)
-}
-
-/// Every material and group name in the scene, for error messages.
-fn all_names(scene: &Scene) -> Vec<String> {
-    let mut out: Vec<String> = scene
-        .materials
-        .iter()
-        .filter_map(|m| m.name().map(str::to_owned))
-        .collect();
-    for m in &scene.meshes {
-        for p in &m.primitives {
-            if let Geometry::Triangles(t) = &p.geometry {
-                out.extend(t.group.clone());
-            }
-        }
-    }
-    out.sort();
-    out.dedup();
-    out
-}
-
 /// A batch's stage callback.
 type StageFn<'a> = &'a (dyn Fn(&str) + Sync);
 
-struct Bar<'a> {
+/// The progress a run shows: a bar per simulated mesh on a terminal, a log
+/// line per round (`-v`), and a batch's stage callback.
+struct Progress<'a> {
+    /// Whether to draw bars.
+    show: bool,
     bar: Option<indicatif::ProgressBar>,
-    /// The mesh's label and ": " for the per-round log lines.
-    label: String,
-    /// The batch's stage callback and the mesh's label.
-    stage: Option<(StageFn<'a>, String)>,
+    /// The batch's stage callback.
+    stage: Option<StageFn<'a>>,
 }
 
-impl crackle::sim::Observer for Bar<'_> {
-    fn round(&mut self, round: usize, max_rounds: usize, cracks: usize, relax_steps: usize) {
-        log::info!(
-            "{}round {round}: {cracks} cracks, {relax_steps} relaxation steps",
-            self.label
-        );
+impl crackle::pipeline::Observer for Progress<'_> {
+    fn stage(&mut self, name: &str) {
+        if let Some(f) = self.stage {
+            f(name);
+        }
+    }
+
+    fn simulate_start(&mut self, mesh: &str, max_rounds: usize) {
+        self.bar = self.show.then(|| {
+            let b = indicatif::ProgressBar::new(max_rounds as u64);
+            b.set_style(
+                indicatif::ProgressStyle::with_template(
+                    "{prefix} [{bar:30}] round {pos}/{len} {msg}",
+                )
+                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+            );
+            b.set_prefix(mesh.to_string());
+            b
+        });
+    }
+
+    fn round(
+        &mut self,
+        mesh: &str,
+        round: usize,
+        max_rounds: usize,
+        cracks: usize,
+        relax_steps: usize,
+    ) {
+        log::info!("{mesh}: round {round}: {cracks} cracks, {relax_steps} relaxation steps");
         if let Some(b) = &self.bar {
             b.set_length(max_rounds as u64);
             b.set_position(round as u64);
             b.set_message(format!("{cracks} cracks"));
         }
-        if let Some((f, label)) = &self.stage {
-            f(&format!("simulate {label}: round {round}, {cracks} cracks"));
+        if let Some(f) = self.stage {
+            f(&format!("simulate {mesh}: round {round}, {cracks} cracks"));
+        }
+    }
+
+    fn simulate_end(&mut self, _mesh: &str) {
+        if let Some(b) = self.bar.take() {
+            b.finish_and_clear();
         }
     }
 }
@@ -329,330 +312,25 @@ pub fn run(a: CrackArgs) -> Result<()> {
     Ok(())
 }
 
-/// Read, crack and write one asset; returns its report.
-pub fn process(mut a: CrackArgs) -> Result<serde_json::Value> {
-    let stage = |name: &str| {
-        if let Some(f) = a.on_stage {
-            f(name);
-        }
+/// Read, crack and write one asset; returns its report as JSON.
+pub fn process(a: CrackArgs) -> Result<serde_json::Value> {
+    let config = Config {
+        pipeline: a.pipeline,
+        weld: a.weld,
+        asset: a.input.to_path_buf(),
+        frames: a.frames,
+        output: a.output.to_path_buf(),
     };
-    // Mask images are decoded before anything else, so a bad image is
-    // refused before any work.
-    let t = Instant::now();
-    let mut texture_seconds = 0.0;
-    if a.pipeline.has_masks() {
-        a.pipeline
-            .load_images(a.pipeline_dir.as_deref())
-            .map_err(|e| super::UsageError(e.to_string()))?;
-        texture_seconds += t.elapsed().as_secs_f64();
-    }
-    let pipe = &a.pipeline;
-    let mut stages = Vec::new();
-    let t = Instant::now();
-    stage("read");
-    let mut scene = super::read_crackable(a.input)?;
-    stages.push(json!({"name": "read", "seconds": t.elapsed().as_secs_f64()}));
-    let masks = if pipe.has_masks() {
-        let t = Instant::now();
-        let asset_dir = a
-            .input
-            .parent()
-            .filter(|d| !d.as_os_str().is_empty())
-            .unwrap_or(Path::new("."));
-        let masks = pipe
-            .masks_for(&scene, asset_dir)
-            .map_err(|m| super::UsageError(format!("{}: {m}", a.input.display())))?;
-        texture_seconds += t.elapsed().as_secs_f64();
-        stages.push(json!({"name": "texture", "seconds": texture_seconds}));
-        masks
-    } else {
-        Vec::new()
+    let mut progress = Progress {
+        show: !a.quiet && std::io::stderr().is_terminal(),
+        bar: None,
+        stage: a.on_stage,
     };
-    let t = Instant::now();
-    stage("weld");
-    let (mut entries, skipped) = build_sim_meshes(&scene, &a.weld);
-    for s in &skipped {
-        log::warn!(
-            "{}: {} is written unchanged: {}",
-            a.input.display(),
-            s.label,
-            s.reason
-        );
-    }
-    // Mesh selection by name.
-    if !pipe.select.meshes.is_empty() {
-        let name_of = |i: usize| scene.meshes[i].name.clone().unwrap_or_default();
-        if let Some(missing) = pipe
-            .select
-            .meshes
-            .iter()
-            .find(|n| !entries.iter().any(|e| &name_of(e.mesh_index) == *n))
-        {
-            let names: Vec<String> = entries.iter().map(|e| name_of(e.mesh_index)).collect();
-            return Err(super::UsageError(format!(
-                "select.meshes: {} has no crackable mesh named '{missing}' (meshes: {})",
-                a.input.display(),
-                names.join(", ")
-            ))
-            .into());
-        }
-        entries.retain(|e| pipe.select.meshes.contains(&name_of(e.mesh_index)));
-    }
-    stages.push(json!({"name": "weld", "seconds": t.elapsed().as_secs_f64()}));
-    let mut matched: Vec<String> = Vec::new();
-    let mut params_of = Vec::new();
-    for e in &entries {
-        let (groups, m) = fixed_groups(&scene, e.mesh_index, &pipe.select.fix);
-        matched.extend(m);
-        params_of.push(pipe.params(&groups));
-    }
-    if let Some(missing) = pipe.select.fix.iter().find(|n| !matched.contains(n)) {
-        return Err(super::UsageError(format!(
-            "--fix {missing}: no crackable primitive of {} has that material or group name (names: {})",
-            a.input.display(),
-            all_names(&scene).join(", ")
-        ))
-        .into());
-    }
-    // Isotropic remeshing to the cell size: a stage only when a pipeline
-    // asks for a cell size. Every budget is checked before any work.
-    if entries
-        .iter()
-        .zip(&params_of)
-        .any(|(e, p)| p.isotropic_remesh && p.cell_size_for(&e.sim).is_some())
-    {
-        let t = Instant::now();
-        stage("remesh");
-        let mut plans = Vec::new();
-        for (e, p) in entries.iter().zip(&params_of) {
-            let plan = p
-                .cell_size_for(&e.sim)
-                .filter(|_| p.isotropic_remesh)
-                .map(|cell| cell / crackle::sim::film::EDGES_PER_CELL);
-            if let Some(target) = plan {
-                let estimate = remesh::estimate_triangles(&e.sim, target);
-                if estimate > p.max_triangles {
-                    return Err(super::UsageError(format!(
-                        "{}: {}: a cell size of {:.6} (edges of {:.6}) needs about {} triangles, above simulation.max_triangles = {}; ask for a larger cell size or raise max_triangles",
-                        a.input.display(),
-                        e.label,
-                        target * crackle::sim::film::EDGES_PER_CELL,
-                        target,
-                        estimate,
-                        p.max_triangles
-                    ))
-                    .into());
-                }
-            }
-            plans.push(plan);
-        }
-        let mut meshes = Vec::new();
-        for ((e, p), plan) in entries.iter_mut().zip(&params_of).zip(plans) {
-            let Some(target) = plan else { continue };
-            let options = remesh::RemeshOptions {
-                target_edge: target,
-                coarsen: p.coarsen,
-                ..Default::default()
-            };
-            let (sim, r) = remesh::remesh(&e.sim, &options).map_err(|err| {
-                anyhow::anyhow!("{}: {}: remeshing: {err}", a.input.display(), e.label)
-            })?;
-            e.sim = sim;
-            meshes.push(json!({"mesh": e.label, "target_edge": target, "report": r}));
-        }
-        stages.push(
-            json!({"name": "remesh", "seconds": t.elapsed().as_secs_f64(), "meshes": meshes}),
-        );
-    }
-    // Curvature: a stage only when a stress term uses it.
-    let mut curvatures: Vec<Option<CurvatureField>> = vec![None; entries.len()];
-    if pipe.needs_curvature() {
-        let t = Instant::now();
-        stage("curvature");
-        for (k, e) in curvatures.iter_mut().zip(&entries) {
-            *k = Some(curvature::estimate(&e.sim));
-        }
-        stages.push(json!({"name": "curvature", "seconds": t.elapsed().as_secs_f64()}));
-    }
-    // Stress fields: a stage only when the pipeline has stress terms.
-    let mut fields: Vec<Option<StressField>> = Vec::new();
-    if pipe.stress.is_empty() {
-        fields.resize(entries.len(), None);
-    } else {
-        let t = Instant::now();
-        stage("stress");
-        for ((e, params), k) in entries.iter().zip(&params_of).zip(&curvatures) {
-            let field = stress_field(&scene, e, pipe, &masks, k.as_ref(), params.seed, a.input)?;
-            fields.push(Some(field));
-        }
-        stages.push(json!({"name": "stress", "seconds": t.elapsed().as_secs_f64()}));
-    }
-    // Frames replay each mesh from its start.
-    let starts = a.frames.as_ref().map(|_| entries.clone());
-    let t = Instant::now();
-    let show = !a.quiet && std::io::stderr().is_terminal();
-    let mut total = SimReport::default();
-    let mut per_mesh = Vec::new();
-    for ((e, params), field) in entries.iter_mut().zip(&params_of).zip(&fields) {
-        let bar = show.then(|| {
-            let b = indicatif::ProgressBar::new(params.max_rounds as u64);
-            b.set_style(
-                indicatif::ProgressStyle::with_template(
-                    "{prefix} [{bar:30}] round {pos}/{len} {msg}",
-                )
-                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
-            );
-            b.set_prefix(e.label.clone());
-            b
-        });
-        stage(&format!("simulate {}", e.label));
-        let mut obs = Bar {
-            bar,
-            label: format!("{}: ", e.label),
-            stage: a.on_stage.map(|f| (f, e.label.clone())),
-        };
-        let r = crackle::sim::run_with(&mut e.sim, params, field.as_ref(), &mut obs)
-            .map_err(|err| anyhow::anyhow!("{}: {}: {err}", a.input.display(), e.label))?;
-        if let Some(b) = obs.bar {
-            b.finish_and_clear();
-        }
-        if r.cg_unconverged > 0 {
-            log::warn!(
-                "{}: {}: {} implicit solves stopped before reaching tolerance {}",
-                a.input.display(),
-                e.label,
-                r.cg_unconverged,
-                params.tolerance
-            );
-        }
-        if r.dt_limited_rounds > 0 {
-            log::warn!(
-                "{}: {}: relax_dt {} is above the stable step ({:.3e}) in {} rounds; those rounds took stable steps over the same relaxation time",
-                a.input.display(),
-                e.label,
-                params.relax_dt,
-                r.stable_dt,
-                r.dt_limited_rounds
-            );
-        }
-        if r.substeps > 1 {
-            log::warn!(
-                "{}: {}: springs.dt {} is above the stable step ({:.3e}); each step was split into {} stable sub-steps",
-                a.input.display(),
-                e.label,
-                params.springs.dt,
-                r.stable_dt,
-                r.substeps
-            );
-        }
-        total.cracks += r.cracks;
-        total.crack_length += r.crack_length;
-        total.rounds = total.rounds.max(r.rounds);
-        total.relax_steps += r.relax_steps;
-        for k in 0..2 {
-            total.triangles[k] += r.triangles[k];
-            total.nodes[k] += r.nodes[k];
-            total.energy[k] += r.energy[k];
-        }
-        per_mesh.push((e.mesh_index, r));
-    }
-    // Finishing runs inside the simulation; it is its own stage.
-    let finish_seconds: f64 = per_mesh
-        .iter()
-        .filter_map(|(_, r)| r.finish.as_ref().map(|f| f.seconds))
-        .sum();
-    stages.push(json!({"name": "simulate", "seconds": t.elapsed().as_secs_f64() - finish_seconds}));
-    if pipe.post.finish {
-        stages.push(json!({"name": "finish", "seconds": finish_seconds}));
-    }
-    let template = a.frames.as_ref().map(|_| scene.clone());
-    stage("post");
-    let post = super::post::apply(&mut scene, &mut entries, &per_mesh, &pipe.post)?;
-    for (name, seconds) in &post.stages {
-        stages.push(json!({"name": name, "seconds": seconds}));
-    }
-    let t = Instant::now();
-    stage("write");
-    let summary = super::write_output(&scene, a.output, a.prefix_images)?;
-    stages.push(json!({"name": "write", "seconds": t.elapsed().as_secs_f64()}));
-    let mut frames_report = serde_json::Value::Null;
-    if let (Some(frames), Some(starts), Some(template)) = (&a.frames, starts, template) {
-        let t = Instant::now();
-        let replays = starts
-            .into_iter()
-            .zip(&params_of)
-            .zip(&fields)
-            .zip(&per_mesh)
-            .map(|(((start, params), field), (_, r))| super::frames::Replay {
-                start,
-                params,
-                field: field.as_ref(),
-                end_time: r.time,
-            })
-            .collect();
-        let files = super::frames::write_frames(frames, a.output, &template, replays, &pipe.post)?;
-        stages.push(json!({"name": "frames", "seconds": t.elapsed().as_secs_f64()}));
-        frames_report = json!({
-            "count": files.len(),
-            "files": files.iter().map(|f| f.display().to_string()).collect::<Vec<_>>(),
-        });
-    }
-    let report = json!({
-        "input": a.input.display().to_string(),
-        "output": a.output.display().to_string(),
-        "files": summary.files.iter().map(|f| f.display().to_string()).collect::<Vec<_>>(),
-        "bytes": summary.bytes,
-        "sources": scene.referenced_files().iter().map(|f| f.display().to_string()).collect::<Vec<_>>(),
-        "cracks": total.cracks,
-        "crack_length": total.crack_length,
-        "triangles": {"before": total.triangles[0], "after": total.triangles[1]},
-        "nodes": {"before": total.nodes[0], "after": total.nodes[1]},
-        "relaxation_steps": total.relax_steps,
-        "rounds": total.rounds,
-        "energy": {"start": total.energy[0], "end": total.energy[1]},
-        "stages": stages,
-        "meshes": per_mesh.iter().zip(&post.details).map(|((mi, r), d)| json!({"index": mi, "report": r, "post": d})).collect::<Vec<_>>(),
-        "warnings": scene.warnings,
-        "frames": frames_report,
-    });
-    Ok(report)
-}
-
-/// The stress field of simulation mesh `e` from the pipeline's terms:
-/// world-space keys mapped through the mesh's first instance.
-pub fn stress_field(
-    scene: &Scene,
-    e: &crackle::bridge::SimEntry,
-    pipe: &Pipeline,
-    masks: &[Option<std::sync::Arc<crackle::stress::texture::Mask>>],
-    curvature: Option<&CurvatureField>,
-    seed: u64,
-    input: &Path,
-) -> Result<StressField> {
-    let bounds = Bounds::of(e.sim.vertices().map(|v| e.sim.position(v)));
-    let place = if pipe.uses_world_space() {
-        // World-space keys map into the mesh through its first instance;
-        // the crack pattern is shared by every instance.
-        let worlds = scene.mesh_world_matrices(e.mesh_index);
-        if worlds.iter().skip(1).any(|w| w != &worlds[0]) {
-            log::warn!(
-                "{}: {} is instanced {} times with different transforms; world-space stress keys use its first instance",
-                input.display(),
-                e.label,
-                worlds.len()
-            );
-        }
-        match worlds.first() {
-            Some(w) => Placement::new(bounds, w)
-                .map_err(|m| anyhow::anyhow!("{}: {}: {m}", input.display(), e.label))?,
-            None => Placement::local(bounds),
-        }
-    } else {
-        Placement::local(bounds)
-    };
-    let terms = pipe
-        .terms(&place, masks)
-        .map_err(|m| super::UsageError(format!("stress: {m}")))?;
-    StressField::build_with(&e.sim, &terms, seed, curvature)
-        .map_err(|err| anyhow::anyhow!("{}: {}: {err}", input.display(), e.label))
+    let report = crackle::pipeline::crack_file(
+        config,
+        a.pipeline_dir.as_deref(),
+        a.prefix_images,
+        &mut progress,
+    )?;
+    Ok(serde_json::to_value(&report)?)
 }

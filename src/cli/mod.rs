@@ -4,11 +4,8 @@ mod batch;
 mod convert;
 mod crack;
 mod diff;
-mod frames;
 mod info;
-mod islands;
 pub mod logger;
-mod post;
 mod stats;
 mod study;
 
@@ -191,7 +188,7 @@ pub fn exit_code(e: &anyhow::Error) -> u8 {
     if e.downcast_ref::<UsageError>().is_some()
         || matches!(
             e.downcast_ref::<crackle::Error>(),
-            Some(crackle::Error::Config(_))
+            Some(crackle::Error::Config(_) | crackle::Error::Usage(_))
         )
     {
         2
@@ -219,42 +216,6 @@ fn presets(show: Option<&str>) -> anyhow::Result<()> {
         }
     }
     Ok(())
-}
-
-/// Read an asset, log its warnings, and refuse it when nothing in it can be cracked.
-fn read_crackable(input: &std::path::Path) -> anyhow::Result<crackle::scene::Scene> {
-    let scene = crackle::io::read(input)?;
-    for w in &scene.warnings {
-        log::warn!("{}: {w}", input.display());
-    }
-    if scene.triangle_count() == 0 {
-        let why = if scene.warnings.is_empty() {
-            "it has no triangle mesh".to_string()
-        } else {
-            scene.warnings.join("; ")
-        };
-        anyhow::bail!("{}: nothing to crack: {why}", input.display());
-    }
-    Ok(scene)
-}
-
-/// Write `scene` to `output`, creating the output folder first (see
-/// [`crackle::io::gltf_write::write_scene_with`] for `prefix_images`).
-fn write_output(
-    scene: &crackle::scene::Scene,
-    output: &std::path::Path,
-    prefix_images: bool,
-) -> anyhow::Result<crackle::io::gltf_write::WriteSummary> {
-    if let Some(dir) = output.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir).map_err(|e| {
-            anyhow::anyhow!("{}: cannot create the output folder: {e}", dir.display())
-        })?;
-    }
-    Ok(crackle::io::gltf_write::write_scene_with(
-        scene,
-        output,
-        prefix_images,
-    )?)
 }
 
 fn weld_options(rel: f64) -> anyhow::Result<crackle::mesh::WeldOptions> {
@@ -373,7 +334,7 @@ fn run_other(command: Command, quiet: bool) -> anyhow::Result<()> {
                 on_stage: None,
                 prefix_images: false,
                 frames: frames
-                    .map(|v| frames::FramesArgs::parse(&v))
+                    .map(|v| crackle::pipeline::Frames::parse(&v))
                     .transpose()
                     .map_err(UsageError)?,
             })

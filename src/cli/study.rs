@@ -127,7 +127,7 @@ pub fn run(mut a: StudyArgs) -> anyhow::Result<()> {
             .map_err(|e| super::UsageError(e.to_string()))?;
     }
     let pipe = &a.pipeline;
-    let scene = super::read_crackable(a.input)?;
+    let scene = crackle::pipeline::read_crackable(a.input)?;
     let (entries, _) = build_sim_meshes(&scene, &a.weld);
     let Some(e) = entries
         .iter()
@@ -146,7 +146,7 @@ pub fn run(mut a: StudyArgs) -> anyhow::Result<()> {
     } else {
         Vec::new()
     };
-    let (groups, matched) = super::crack::fixed_groups(&scene, e.mesh_index, &pipe.select.fix);
+    let (groups, matched) = crackle::pipeline::fixed_groups(&scene, e.mesh_index, &pipe.select.fix);
     if let Some(missing) = pipe.select.fix.iter().find(|n| !matched.contains(n)) {
         return Err(super::UsageError(format!(
             "--fix {missing}: {} of {} has no primitive with that material or group name",
@@ -169,7 +169,7 @@ pub fn run(mut a: StudyArgs) -> anyhow::Result<()> {
     let field = if pipe.stress.is_empty() {
         None
     } else {
-        Some(super::crack::stress_field(
+        Some(crackle::pipeline::stress_field(
             &scene,
             e,
             pipe,

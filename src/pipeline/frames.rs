@@ -13,12 +13,12 @@
 //! kept (full copies of the meshes) until all meshes reached them, so
 //! memory grows with `N`.
 
-use crackle::bridge::SimEntry;
-use crackle::mesh::SimMesh;
-use crackle::pipeline::Post;
-use crackle::scene::Scene;
-use crackle::sim::{Observer, SimParams, SimReport, Snapshot};
-use crackle::stress::StressField;
+use super::Post;
+use crate::bridge::SimEntry;
+use crate::mesh::SimMesh;
+use crate::scene::Scene;
+use crate::sim::{Observer, SimParams, SimReport, Snapshot};
+use crate::stress::StressField;
 use std::path::{Path, PathBuf};
 
 /// One kept state.
@@ -28,7 +28,7 @@ struct Kept {
 }
 
 /// Where a reached frame goes.
-type Sink<'a> = dyn FnMut(usize, Kept) -> anyhow::Result<()> + 'a;
+type Sink<'a> = dyn FnMut(usize, Kept) -> crate::Result<()> + 'a;
 
 /// Keeps the state at each target time, or hands it to a sink at once.
 struct Keeper<'a> {
@@ -37,7 +37,7 @@ struct Keeper<'a> {
     count: usize,
     kept: Vec<Kept>,
     sink: Option<&'a mut Sink<'a>>,
-    error: Option<anyhow::Error>,
+    error: Option<crate::Error>,
 }
 
 impl Observer for Keeper<'_> {
@@ -75,12 +75,15 @@ impl Observer for Keeper<'_> {
 }
 
 /// The `--frames` request, checked.
-pub struct FramesArgs {
+#[derive(Clone, Debug)]
+pub struct Frames {
+    /// How many frames, from the uncracked mesh to the end (2..=10000).
     pub count: usize,
+    /// The folder they go in.
     pub dir: PathBuf,
 }
 
-impl FramesArgs {
+impl Frames {
     /// From the two command-line values `N DIR`.
     pub fn parse(values: &[String]) -> Result<Self, String> {
         let [n, dir] = values else {
@@ -96,7 +99,7 @@ impl FramesArgs {
         if dir.exists() && !dir.is_dir() {
             return Err(format!("--frames DIR: {} is not a folder", dir.display()));
         }
-        Ok(FramesArgs { count, dir })
+        Ok(Frames { count, dir })
     }
 
     /// File of frame `k` for output `output`.
@@ -117,34 +120,40 @@ impl FramesArgs {
 /// One mesh to replay: its start state, parameters, stress field and how
 /// long its first run took.
 pub struct Replay<'a> {
+    /// The mesh as the simulation started from it.
     pub start: SimEntry,
+    /// Its parameters.
     pub params: &'a SimParams,
+    /// Its stress field.
     pub field: Option<&'a StressField>,
+    /// The time its first run ended at.
     pub end_time: f64,
 }
 
 /// Replay every mesh, post-process each frame on a copy of `scene` (the
 /// scene before post-processing) and write it. Returns the files written.
 pub fn write_frames(
-    frames: &FramesArgs,
+    frames: &Frames,
     output: &Path,
     scene: &Scene,
     replays: Vec<Replay>,
     post: &Post,
-) -> anyhow::Result<Vec<PathBuf>> {
+) -> crate::Result<Vec<PathBuf>> {
     let n = frames.count;
     std::fs::create_dir_all(&frames.dir).map_err(|e| {
-        anyhow::anyhow!(
+        crate::Error::Frames(format!(
             "{}: cannot create the frames folder: {e}",
             frames.dir.display()
-        )
+        ))
     })?;
     let targets =
         |end: f64| -> Vec<f64> { (0..n).map(|k| end * k as f64 / (n - 1) as f64).collect() };
     // The replay is the first run again, so it reaches every target (the
     // last at its final time); anything else is a bug, not a short frame set.
     let short = |label: &str, got: usize| {
-        anyhow::anyhow!("{label}: frames: the replay reached {got} of {n} frames")
+        crate::Error::Frames(format!(
+            "{label}: frames: the replay reached {got} of {n} frames"
+        ))
     };
     // One simulated mesh: each frame is written as soon as it is reached,
     // so memory does not grow with N.
@@ -154,7 +163,7 @@ pub fn write_frames(
         let template = entry.clone();
         let end = r.end_time;
         let mut written = Vec::new();
-        let mut write = |k: usize, kept: Kept| -> anyhow::Result<()> {
+        let mut write = |k: usize, kept: Kept| -> crate::Result<()> {
             let path = frames.path(output, k);
             write_frame(scene, vec![(&template, end, kept)], post, &path)?;
             written.push(path);
@@ -167,8 +176,8 @@ pub fn write_frames(
             sink: Some(&mut write),
             error: None,
         };
-        crackle::sim::run_with(&mut entry.sim, r.params, r.field, &mut keeper)
-            .map_err(|e| anyhow::anyhow!("{}: frames: {e}", entry.label))?;
+        crate::sim::run_with(&mut entry.sim, r.params, r.field, &mut keeper)
+            .map_err(|e| crate::Error::Frames(format!("{}: frames: {e}", entry.label)))?;
         if let Some(e) = keeper.error {
             return Err(e);
         }
@@ -187,8 +196,8 @@ pub fn write_frames(
             error: None,
         };
         let mut entry = r.start;
-        crackle::sim::run_with(&mut entry.sim, r.params, r.field, &mut keeper)
-            .map_err(|e| anyhow::anyhow!("{}: frames: {e}", entry.label))?;
+        crate::sim::run_with(&mut entry.sim, r.params, r.field, &mut keeper)
+            .map_err(|e| crate::Error::Frames(format!("{}: frames: {e}", entry.label)))?;
         if keeper.count < n {
             return Err(short(&entry.label, keeper.count));
         }
@@ -214,7 +223,7 @@ fn write_frame(
     states: Vec<(&SimEntry, f64, Kept)>,
     post: &Post,
     path: &Path,
-) -> anyhow::Result<()> {
+) -> crate::Result<()> {
     let mut scene_k = scene.clone();
     let mut entries: Vec<SimEntry> = Vec::new();
     let mut reports: Vec<(usize, SimReport)> = Vec::new();
@@ -228,5 +237,5 @@ fn write_frame(
         entries.push(e);
     }
     super::post::apply(&mut scene_k, &mut entries, &reports, post)?;
-    super::write_output(&scene_k, path, false).map(|_| ())
+    super::run::write_output(&scene_k, path, false).map(|_| ())
 }

@@ -2,15 +2,15 @@
 //! side walls, shader attributes, crack lines. Each runs only when the
 //! pipeline's `[post]` table asks for it.
 
-use crackle::bridge::{write_back_with, SimEntry};
-use crackle::pipeline::Post;
-use crackle::post::distance::{crack_vertices, distance_field};
-use crackle::post::walls::{build_walls_uncrossed, WallOptions, Walls};
-use crackle::post::width::{displace, turn_normals, WidthOptions};
-use crackle::scene::{
+use super::Post;
+use crate::bridge::{write_back_with, SimEntry};
+use crate::post::distance::{crack_vertices, distance_field};
+use crate::post::walls::{build_walls_uncrossed, WallOptions, Walls};
+use crate::post::width::{displace, turn_normals, WidthOptions};
+use crate::scene::{
     Geometry, Material, Primitive, RawAccessor, RawGeometry, Scene, TriGeometry, VertexAttribute,
 };
-use crackle::sim::SimReport;
+use crate::sim::SimReport;
 use serde_json::{json, Value};
 use std::time::Instant;
 
@@ -42,7 +42,7 @@ pub fn apply(
     entries: &mut [SimEntry],
     reports: &[(usize, SimReport)],
     post: &Post,
-) -> anyhow::Result<PostOutcome> {
+) -> crate::Result<PostOutcome> {
     let mut out = PostOutcome::default();
     let mut walls_of: Vec<Option<Walls>> = Vec::new();
     let mut lines_of: Vec<CrackLines> = Vec::new();
@@ -162,7 +162,10 @@ pub fn apply(
             turn_normals(&mut e.sim, &positions);
             e.sim
                 .set_positions(&positions)
-                .map_err(|err| anyhow::anyhow!("{}: {err}", e.label))?;
+                .map_err(|err| crate::Error::Internal {
+                    mesh: e.label.clone(),
+                    message: err.to_string(),
+                })?;
         }
         write_back_with(scene, e, &extra);
         walls_of.push(walls);
@@ -213,7 +216,7 @@ pub fn apply(
 /// to the mean of the `positions` of the crack vertices resting there; ends
 /// at no crack vertex stay.
 fn follow_gaps(
-    mesh: &crackle::mesh::SimMesh,
+    mesh: &crate::mesh::SimMesh,
     positions: &[[f64; 3]],
     segments: &[[[f64; 3]; 2]],
 ) -> Vec<[[f64; 3]; 2]> {
@@ -368,7 +371,7 @@ fn add_crack_lines(
     let n = pos.len() / 3;
     let acc = f32_accessor(scene, "VEC3", 3, pos, "crack_lines");
     let mut geo = RawGeometry {
-        mode: crackle::scene::mode::LINES,
+        mode: crate::scene::mode::LINES,
         ..Default::default()
     };
     geo.attributes.insert("POSITION".into(), acc);

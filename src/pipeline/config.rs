@@ -32,7 +32,7 @@ use std::sync::Arc;
 
 /// Images built into the tool, for `mask = { image = "builtin:NAME" }`.
 pub const BUILTIN_IMAGES: &[(&str, &[u8])] =
-    &[("blotches", include_bytes!("../fixtures/crack_mask.png"))];
+    &[("blotches", include_bytes!("../../fixtures/crack_mask.png"))];
 
 /// Per stress entry, its mask once loaded (`None`: no mask).
 pub type Masks = Vec<Option<Arc<Mask>>>;
@@ -285,28 +285,31 @@ pub struct Pipeline {
 
 /// The built-in presets: (name, TOML).
 pub const PRESETS: &[(&str, &str)] = &[
-    ("glaze", include_str!("../pipeline/glaze.toml")),
-    ("mud", include_str!("../pipeline/mud.toml")),
-    ("mud-jagged", include_str!("../pipeline/mud-jagged.toml")),
+    ("glaze", include_str!("../../pipeline/glaze.toml")),
+    ("mud", include_str!("../../pipeline/mud.toml")),
+    ("mud-jagged", include_str!("../../pipeline/mud-jagged.toml")),
     (
         "glass-impact",
-        include_str!("../pipeline/glass-impact.toml"),
+        include_str!("../../pipeline/glass-impact.toml"),
     ),
-    ("wood-grain", include_str!("../pipeline/wood-grain.toml")),
-    ("tree-rings", include_str!("../pipeline/tree-rings.toml")),
-    ("curvature", include_str!("../pipeline/curvature.toml")),
+    ("wood-grain", include_str!("../../pipeline/wood-grain.toml")),
+    ("tree-rings", include_str!("../../pipeline/tree-rings.toml")),
+    ("curvature", include_str!("../../pipeline/curvature.toml")),
     (
         "texture-mask",
-        include_str!("../pipeline/texture-mask.toml"),
+        include_str!("../../pipeline/texture-mask.toml"),
     ),
-    ("springs-mud", include_str!("../pipeline/springs-mud.toml")),
+    (
+        "springs-mud",
+        include_str!("../../pipeline/springs-mud.toml"),
+    ),
     (
         "springs-glaze",
-        include_str!("../pipeline/springs-glaze.toml"),
+        include_str!("../../pipeline/springs-glaze.toml"),
     ),
     (
         "impact-snapped",
-        include_str!("../pipeline/impact-snapped.toml"),
+        include_str!("../../pipeline/impact-snapped.toml"),
     ),
 ];
 

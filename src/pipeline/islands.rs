@@ -16,10 +16,10 @@
 //! transform is ignored by glTF, so a pivot cannot be moved there): their
 //! pieces are not recentred, and carry the node's skin.
 
-use crackle::bridge::{primitive_faces, SimEntry};
-use crackle::post::islands::{centroid, face_islands};
-use crackle::post::walls::Walls;
-use crackle::scene::{Geometry, Mesh, Node, Primitive, Scene, Transform, TriGeometry};
+use crate::bridge::{primitive_faces, SimEntry};
+use crate::post::islands::{centroid, face_islands};
+use crate::post::walls::Walls;
+use crate::scene::{Geometry, Mesh, Node, Primitive, Scene, Transform, TriGeometry};
 
 /// Makes the wall primitive of some wall triangles, moved by `-offset`.
 pub type WallPrimitive<'a> =
@@ -55,7 +55,7 @@ fn subset(t: &TriGeometry, tris: &[usize], offset: [f64; 3], new_of: &mut Vec<u3
     for &i in &order {
         new_of[i] = u32::MAX;
     }
-    let pick = |a: &crackle::scene::VertexAttribute| crackle::scene::VertexAttribute {
+    let pick = |a: &crate::scene::VertexAttribute| crate::scene::VertexAttribute {
         semantic: a.semantic.clone(),
         components: a.components,
         data: order

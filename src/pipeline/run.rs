@@ -1,0 +1,700 @@
+//! The run of one asset through a pipeline: weld, select, remesh to the
+//! cell size, curvature, stress, simulate, post-process ([`run`]); and the
+//! same from a file to a file ([`crack_file`]), which `crackle crack`,
+//! `crackle batch` and `--frames` use.
+
+use super::frames::{self, Frames, Replay};
+use super::{Bounds, Pipeline, Placement};
+use crate::bridge::{build_sim_meshes, SimEntry};
+use crate::geometry::curvature::{self, CurvatureField};
+use crate::mesh::remesh::{self, RemeshReport};
+use crate::mesh::WeldOptions;
+use crate::scene::{Geometry, Scene};
+use crate::sim::{SimParams, SimReport};
+use crate::stress::StressField;
+use crate::{Error, Result};
+use serde::Serialize;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// What one run does, besides the scene it works on.
+#[derive(Clone, Debug)]
+pub struct Config {
+    /// The pipeline, checked, with its mask images loaded
+    /// ([`Pipeline::load_images`]).
+    pub pipeline: Pipeline,
+    /// How input meshes are welded into simulation meshes.
+    pub weld: WeldOptions,
+    /// The asset's file: names it in messages; the textures of material
+    /// masks must lie in its folder.
+    pub asset: PathBuf,
+    /// `--frames N DIR`: a time-lapse of the run, written as it is replayed.
+    pub frames: Option<Frames>,
+    /// Where the cracked scene will be written (frames are named after it).
+    pub output: PathBuf,
+}
+
+/// Told what a run is doing, for progress displays. Every method has an
+/// empty default.
+pub trait Observer {
+    /// A stage starts: `weld`, `remesh`, `curvature`, `stress`,
+    /// `simulate <mesh>`, `post`.
+    fn stage(&mut self, _name: &str) {}
+    /// The simulation of `mesh` starts (at most `max_rounds` rounds).
+    fn simulate_start(&mut self, _mesh: &str, _max_rounds: usize) {}
+    /// A round of `mesh` ended.
+    fn round(
+        &mut self,
+        _mesh: &str,
+        _round: usize,
+        _max_rounds: usize,
+        _cracks: usize,
+        _relax_steps: usize,
+    ) {
+    }
+    /// The simulation of `mesh` ended.
+    fn simulate_end(&mut self, _mesh: &str) {}
+}
+
+impl Observer for () {}
+
+/// One stage of a run and its time.
+#[derive(Clone, Debug, Serialize)]
+pub struct Stage {
+    /// `read`, `texture`, `weld`, `remesh`, `curvature`, `stress`,
+    /// `simulate`, `finish`, a post stage, `write`, `frames`.
+    pub name: String,
+    /// Wall-clock seconds.
+    pub seconds: f64,
+    /// `remesh`: what it did to each mesh.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub meshes: Option<Vec<Remeshed>>,
+}
+
+impl Stage {
+    fn new(name: &str, seconds: f64) -> Stage {
+        Stage {
+            name: name.to_string(),
+            seconds,
+            meshes: None,
+        }
+    }
+}
+
+/// What remeshing did to one mesh.
+#[derive(Clone, Debug, Serialize)]
+pub struct Remeshed {
+    /// The mesh's label.
+    pub mesh: String,
+    /// The edge length asked for (scene units).
+    pub target_edge: f64,
+    /// What the remesher did.
+    pub report: RemeshReport,
+}
+
+/// A count before and after the run.
+#[derive(Clone, Copy, Debug, Default, Serialize)]
+pub struct BeforeAfter<T> {
+    /// Before.
+    pub before: T,
+    /// After.
+    pub after: T,
+}
+
+/// Energy at the start and the end.
+#[derive(Clone, Copy, Debug, Default, Serialize)]
+pub struct StartEnd {
+    /// At the start.
+    pub start: f64,
+    /// At the end.
+    pub end: f64,
+}
+
+/// One simulated mesh's part of a run.
+#[derive(Clone, Debug, Serialize)]
+pub struct MeshRun {
+    /// Index of the mesh in the scene.
+    pub index: usize,
+    /// The simulation's report.
+    pub report: SimReport,
+    /// What each post stage did to it.
+    pub post: serde_json::Value,
+}
+
+/// The time-lapse frames a run wrote.
+#[derive(Clone, Debug, Serialize)]
+pub struct FramesReport {
+    /// How many.
+    pub count: usize,
+    /// The files, in time order.
+    pub files: Vec<String>,
+}
+
+/// What a run did: totals over its meshes, its stages and each mesh.
+#[derive(Clone, Debug, Serialize)]
+pub struct RunReport {
+    /// Crack events.
+    pub cracks: usize,
+    /// Total crack length (scene units).
+    pub crack_length: f64,
+    /// Triangles of the simulation meshes.
+    pub triangles: BeforeAfter<usize>,
+    /// Nodes of the simulation meshes.
+    pub nodes: BeforeAfter<usize>,
+    /// Relaxation steps.
+    pub relaxation_steps: usize,
+    /// Rounds of the longest mesh.
+    pub rounds: usize,
+    /// Stress energy.
+    pub energy: StartEnd,
+    /// The stages that ran, in order.
+    pub stages: Vec<Stage>,
+    /// Each simulated mesh.
+    pub meshes: Vec<MeshRun>,
+    /// The reader's warnings about the scene.
+    pub warnings: Vec<String>,
+    /// The frames written, when asked.
+    pub frames: Option<FramesReport>,
+}
+
+/// What [`crack_file`] did: the files, then the run.
+#[derive(Clone, Debug, Serialize)]
+pub struct CrackReport {
+    /// The input file.
+    pub input: String,
+    /// The output file.
+    pub output: String,
+    /// Every file written (the main file first).
+    pub files: Vec<String>,
+    /// Bytes written.
+    pub bytes: u64,
+    /// The files the input refers to (buffers, images, material libraries).
+    pub sources: Vec<String>,
+    /// The run.
+    #[serde(flatten)]
+    pub run: RunReport,
+}
+
+/// Read an asset, log its warnings, and refuse it when nothing in it can
+/// be cracked.
+///
+/// # Errors
+/// The reader's errors, and [`Error::NothingToCrack`].
+pub fn read_crackable(input: &Path) -> Result<Scene> {
+    let scene = crate::io::read(input)?;
+    for w in &scene.warnings {
+        log::warn!("{}: {w}", input.display());
+    }
+    if scene.triangle_count() == 0 {
+        let why = if scene.warnings.is_empty() {
+            "it has no triangle mesh".to_string()
+        } else {
+            scene.warnings.join("; ")
+        };
+        return Err(Error::NothingToCrack {
+            path: input.to_path_buf(),
+            why,
+        });
+    }
+    Ok(scene)
+}
+
+/// Write `scene` to `output`, creating the output folder first (see
+/// [`crate::io::gltf_write::write_scene_with`] for `prefix_images`).
+///
+/// # Errors
+/// A folder that cannot be created, and the writer's errors.
+pub fn write_output(
+    scene: &Scene,
+    output: &Path,
+    prefix_images: bool,
+) -> Result<crate::io::gltf_write::WriteSummary> {
+    if let Some(dir) = output.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).map_err(|e| Error::Output {
+            path: dir.to_path_buf(),
+            message: format!("cannot create the output folder: {e}"),
+        })?;
+    }
+    crate::io::gltf_write::write_scene_with(scene, output, prefix_images)
+}
+
+/// Read `config.asset`, crack it and write `config.output`; the report
+/// names the files. Mask images are decoded before anything else, so a bad
+/// image is refused before any work. `prefix_images` names a `.gltf`
+/// output's images `<stem>_<name>` (a batch, where outputs share folders).
+///
+/// # Errors
+/// Those of [`read_crackable`], [`run`] and [`write_output`].
+pub fn crack_file(
+    mut config: Config,
+    pipeline_dir: Option<&Path>,
+    prefix_images: bool,
+    observer: &mut dyn Observer,
+) -> Result<CrackReport> {
+    let t = Instant::now();
+    let mut image_seconds = 0.0;
+    if config.pipeline.has_masks() {
+        config
+            .pipeline
+            .load_images(pipeline_dir)
+            .map_err(|e| Error::Usage(e.to_string()))?;
+        image_seconds = t.elapsed().as_secs_f64();
+    }
+    let t = Instant::now();
+    observer.stage("read");
+    let mut scene = read_crackable(&config.asset)?;
+    let read = Stage::new("read", t.elapsed().as_secs_f64());
+    // The written scene: `run` post-processes `scene` in place; frames
+    // are written inside it.
+    let mut run = run(&mut scene, &config, observer)?;
+    if let Some(s) = run.stages.iter_mut().find(|s| s.name == "texture") {
+        s.seconds += image_seconds;
+    }
+    run.stages.insert(0, read);
+    let t = Instant::now();
+    observer.stage("write");
+    let summary = write_output(&scene, &config.output, prefix_images)?;
+    let write = Stage::new("write", t.elapsed().as_secs_f64());
+    // The frames were written after the output: their stage goes last.
+    match run.stages.iter().position(|s| s.name == "frames") {
+        Some(k) => run.stages.insert(k, write),
+        None => run.stages.push(write),
+    }
+    Ok(CrackReport {
+        input: config.asset.display().to_string(),
+        output: config.output.display().to_string(),
+        files: summary
+            .files
+            .iter()
+            .map(|f| f.display().to_string())
+            .collect(),
+        bytes: summary.bytes,
+        sources: scene
+            .referenced_files()
+            .iter()
+            .map(|f| f.display().to_string())
+            .collect(),
+        run,
+    })
+}
+
+/// Crack every crackable mesh of `scene` as `config` says and write the
+/// results back into it (post-processed, with crack lines and attributes
+/// as the pipeline asks). The pipeline's mask images must be loaded.
+///
+/// # Errors
+/// [`Error::Usage`] for a request the input cannot meet (a mesh or group
+/// name it does not have, a cell size above the triangle budget, a bad
+/// mask), [`Error::Mesh`] when a stage fails on a mesh.
+pub fn run(scene: &mut Scene, config: &Config, observer: &mut dyn Observer) -> Result<RunReport> {
+    let pipe = &config.pipeline;
+    let input = config.asset.as_path();
+    let mut stages = Vec::new();
+    let masks = if pipe.has_masks() {
+        let t = Instant::now();
+        let asset_dir = input
+            .parent()
+            .filter(|d| !d.as_os_str().is_empty())
+            .unwrap_or(Path::new("."));
+        let masks = pipe
+            .masks_for(scene, asset_dir)
+            .map_err(|m| Error::Usage(format!("{}: {m}", input.display())))?;
+        stages.push(Stage::new("texture", t.elapsed().as_secs_f64()));
+        masks
+    } else {
+        Vec::new()
+    };
+    let t = Instant::now();
+    observer.stage("weld");
+    let mut entries = select_meshes(scene, pipe, &config.weld, input)?;
+    stages.push(Stage::new("weld", t.elapsed().as_secs_f64()));
+    let params_of = mesh_params(scene, &entries, pipe, input)?;
+    if let Some(stage) = remesh_to_cell_size(&mut entries, &params_of, input, observer)? {
+        stages.push(stage);
+    }
+    // Curvature: a stage only when a stress term uses it.
+    let mut curvatures: Vec<Option<CurvatureField>> = vec![None; entries.len()];
+    if pipe.needs_curvature() {
+        let t = Instant::now();
+        observer.stage("curvature");
+        for (k, e) in curvatures.iter_mut().zip(&entries) {
+            *k = Some(curvature::estimate(&e.sim));
+        }
+        stages.push(Stage::new("curvature", t.elapsed().as_secs_f64()));
+    }
+    // Stress fields: a stage only when the pipeline has stress terms.
+    let mut fields: Vec<Option<StressField>> = Vec::new();
+    if pipe.stress.is_empty() {
+        fields.resize(entries.len(), None);
+    } else {
+        let t = Instant::now();
+        observer.stage("stress");
+        for ((e, params), k) in entries.iter().zip(&params_of).zip(&curvatures) {
+            let field = stress_field(scene, e, pipe, &masks, k.as_ref(), params.seed, input)?;
+            fields.push(Some(field));
+        }
+        stages.push(Stage::new("stress", t.elapsed().as_secs_f64()));
+    }
+    // Frames replay each mesh from its start.
+    let starts = config.frames.as_ref().map(|_| entries.clone());
+    let t = Instant::now();
+    let per_mesh = simulate(&mut entries, &params_of, &fields, input, observer)?;
+    // Finishing runs inside the simulation; it is its own stage.
+    let finish_seconds: f64 = per_mesh
+        .iter()
+        .filter_map(|(_, r)| r.finish.as_ref().map(|f| f.seconds))
+        .sum();
+    stages.push(Stage::new(
+        "simulate",
+        t.elapsed().as_secs_f64() - finish_seconds,
+    ));
+    if pipe.post.finish {
+        stages.push(Stage::new("finish", finish_seconds));
+    }
+    let template = config.frames.as_ref().map(|_| scene.clone());
+    observer.stage("post");
+    let post = super::post::apply(scene, &mut entries, &per_mesh, &pipe.post)?;
+    for (name, seconds) in &post.stages {
+        stages.push(Stage::new(name, *seconds));
+    }
+    let mut frames_report = None;
+    if let (Some(frames), Some(starts), Some(template)) = (&config.frames, starts, template) {
+        let t = Instant::now();
+        let replays = starts
+            .into_iter()
+            .zip(&params_of)
+            .zip(&fields)
+            .zip(&per_mesh)
+            .map(|(((start, params), field), (_, r))| Replay {
+                start,
+                params,
+                field: field.as_ref(),
+                end_time: r.time,
+            })
+            .collect();
+        let files = frames::write_frames(frames, &config.output, &template, replays, &pipe.post)?;
+        stages.push(Stage::new("frames", t.elapsed().as_secs_f64()));
+        frames_report = Some(FramesReport {
+            count: files.len(),
+            files: files.iter().map(|f| f.display().to_string()).collect(),
+        });
+    }
+    let mut total = SimReport::default();
+    for (_, r) in &per_mesh {
+        total.cracks += r.cracks;
+        total.crack_length += r.crack_length;
+        total.rounds = total.rounds.max(r.rounds);
+        total.relax_steps += r.relax_steps;
+        for k in 0..2 {
+            total.triangles[k] += r.triangles[k];
+            total.nodes[k] += r.nodes[k];
+            total.energy[k] += r.energy[k];
+        }
+    }
+    Ok(RunReport {
+        cracks: total.cracks,
+        crack_length: total.crack_length,
+        triangles: BeforeAfter {
+            before: total.triangles[0],
+            after: total.triangles[1],
+        },
+        nodes: BeforeAfter {
+            before: total.nodes[0],
+            after: total.nodes[1],
+        },
+        relaxation_steps: total.relax_steps,
+        rounds: total.rounds,
+        energy: StartEnd {
+            start: total.energy[0],
+            end: total.energy[1],
+        },
+        stages,
+        meshes: per_mesh
+            .into_iter()
+            .zip(post.details)
+            .map(|((index, report), post)| MeshRun {
+                index,
+                report,
+                post,
+            })
+            .collect(),
+        warnings: scene.warnings.clone(),
+        frames: frames_report,
+    })
+}
+
+/// The simulation meshes of `scene`: every crackable mesh, welded, or
+/// those `select.meshes` names.
+fn select_meshes(
+    scene: &Scene,
+    pipe: &Pipeline,
+    weld: &WeldOptions,
+    input: &Path,
+) -> Result<Vec<SimEntry>> {
+    let (mut entries, skipped) = build_sim_meshes(scene, weld);
+    for s in &skipped {
+        log::warn!(
+            "{}: {} is written unchanged: {}",
+            input.display(),
+            s.label,
+            s.reason
+        );
+    }
+    if !pipe.select.meshes.is_empty() {
+        let name_of = |i: usize| scene.meshes[i].name.clone().unwrap_or_default();
+        if let Some(missing) = pipe
+            .select
+            .meshes
+            .iter()
+            .find(|n| !entries.iter().any(|e| &name_of(e.mesh_index) == *n))
+        {
+            let names: Vec<String> = entries.iter().map(|e| name_of(e.mesh_index)).collect();
+            return Err(Error::Usage(format!(
+                "select.meshes: {} has no crackable mesh named '{missing}' (meshes: {})",
+                input.display(),
+                names.join(", ")
+            )));
+        }
+        entries.retain(|e| pipe.select.meshes.contains(&name_of(e.mesh_index)));
+    }
+    Ok(entries)
+}
+
+/// Each mesh's simulation parameters (its fixed groups from the
+/// pipeline's `select.fix`, every name of which must match).
+fn mesh_params(
+    scene: &Scene,
+    entries: &[SimEntry],
+    pipe: &Pipeline,
+    input: &Path,
+) -> Result<Vec<SimParams>> {
+    let mut matched: Vec<String> = Vec::new();
+    let mut params_of = Vec::new();
+    for e in entries {
+        let (groups, m) = fixed_groups(scene, e.mesh_index, &pipe.select.fix);
+        matched.extend(m);
+        params_of.push(pipe.params(&groups));
+    }
+    if let Some(missing) = pipe.select.fix.iter().find(|n| !matched.contains(n)) {
+        return Err(Error::Usage(format!(
+            "--fix {missing}: no crackable primitive of {} has that material or group name (names: {})",
+            input.display(),
+            all_names(scene).join(", ")
+        )));
+    }
+    Ok(params_of)
+}
+
+/// Isotropic remeshing to the cell size: a stage only when a pipeline asks
+/// for a cell size. Every budget is checked before any work.
+fn remesh_to_cell_size(
+    entries: &mut [SimEntry],
+    params_of: &[SimParams],
+    input: &Path,
+    observer: &mut dyn Observer,
+) -> Result<Option<Stage>> {
+    if !entries
+        .iter()
+        .zip(params_of)
+        .any(|(e, p)| p.isotropic_remesh && p.cell_size_for(&e.sim).is_some())
+    {
+        return Ok(None);
+    }
+    let t = Instant::now();
+    observer.stage("remesh");
+    let mut plans = Vec::new();
+    for (e, p) in entries.iter().zip(params_of) {
+        let plan = p
+            .cell_size_for(&e.sim)
+            .filter(|_| p.isotropic_remesh)
+            .map(|cell| cell / crate::sim::film::EDGES_PER_CELL);
+        if let Some(target) = plan {
+            let estimate = remesh::estimate_triangles(&e.sim, target);
+            if estimate > p.max_triangles {
+                return Err(Error::Usage(format!(
+                    "{}: {}: a cell size of {:.6} (edges of {:.6}) needs about {} triangles, above simulation.max_triangles = {}; ask for a larger cell size or raise max_triangles",
+                    input.display(),
+                    e.label,
+                    target * crate::sim::film::EDGES_PER_CELL,
+                    target,
+                    estimate,
+                    p.max_triangles
+                )));
+            }
+        }
+        plans.push(plan);
+    }
+    let mut meshes = Vec::new();
+    for ((e, p), plan) in entries.iter_mut().zip(params_of).zip(plans) {
+        let Some(target) = plan else { continue };
+        let options = remesh::RemeshOptions {
+            target_edge: target,
+            coarsen: p.coarsen,
+            ..Default::default()
+        };
+        let (sim, r) = remesh::remesh(&e.sim, &options)
+            .map_err(|err| Error::mesh(input, &e.label, format!("remeshing: {err}")))?;
+        e.sim = sim;
+        meshes.push(Remeshed {
+            mesh: e.label.clone(),
+            target_edge: target,
+            report: r,
+        });
+    }
+    Ok(Some(Stage {
+        name: "remesh".into(),
+        seconds: t.elapsed().as_secs_f64(),
+        meshes: Some(meshes),
+    }))
+}
+
+/// Passes a mesh's rounds on to the run's observer with the mesh's label.
+struct MeshObserver<'a> {
+    observer: &'a mut dyn Observer,
+    label: &'a str,
+}
+
+impl crate::sim::Observer for MeshObserver<'_> {
+    fn round(&mut self, round: usize, max_rounds: usize, cracks: usize, relax_steps: usize) {
+        self.observer
+            .round(self.label, round, max_rounds, cracks, relax_steps);
+    }
+}
+
+/// Simulate every mesh; each mesh's index in the scene and report.
+fn simulate(
+    entries: &mut [SimEntry],
+    params_of: &[SimParams],
+    fields: &[Option<StressField>],
+    input: &Path,
+    observer: &mut dyn Observer,
+) -> Result<Vec<(usize, SimReport)>> {
+    let mut per_mesh = Vec::new();
+    for ((e, params), field) in entries.iter_mut().zip(params_of).zip(fields) {
+        observer.stage(&format!("simulate {}", e.label));
+        observer.simulate_start(&e.label, params.max_rounds);
+        let mut obs = MeshObserver {
+            observer: &mut *observer,
+            label: &e.label,
+        };
+        let r = crate::sim::run_with(&mut e.sim, params, field.as_ref(), &mut obs)
+            .map_err(|err| Error::mesh(input, &e.label, err))?;
+        observer.simulate_end(&e.label);
+        if r.cg_unconverged > 0 {
+            log::warn!(
+                "{}: {}: {} implicit solves stopped before reaching tolerance {}",
+                input.display(),
+                e.label,
+                r.cg_unconverged,
+                params.tolerance
+            );
+        }
+        if r.dt_limited_rounds > 0 {
+            log::warn!(
+                "{}: {}: relax_dt {} is above the stable step ({:.3e}) in {} rounds; those rounds took stable steps over the same relaxation time",
+                input.display(),
+                e.label,
+                params.relax_dt,
+                r.stable_dt,
+                r.dt_limited_rounds
+            );
+        }
+        if r.substeps > 1 {
+            log::warn!(
+                "{}: {}: springs.dt {} is above the stable step ({:.3e}); each step was split into {} stable sub-steps",
+                input.display(),
+                e.label,
+                params.springs.dt,
+                r.stable_dt,
+                r.substeps
+            );
+        }
+        per_mesh.push((e.mesh_index, r));
+    }
+    Ok(per_mesh)
+}
+
+/// Groups (primitive indices) of mesh `mesh_index` whose material or OBJ
+/// group name is in `names`, and the names that matched.
+pub fn fixed_groups(scene: &Scene, mesh_index: usize, names: &[String]) -> (Vec<u32>, Vec<String>) {
+    let mut groups = Vec::new();
+    let mut matched = Vec::new();
+    for (pi, p) in scene.meshes[mesh_index].primitives.iter().enumerate() {
+        let material = p
+            .material
+            .and_then(|m| scene.materials.get(m))
+            .and_then(|m| m.name());
+        let group = match &p.geometry {
+            Geometry::Triangles(t) => t.group.as_deref(),
+            Geometry::Raw(_) => None,
+        };
+        for n in names {
+            if Some(n.as_str()) == material || Some(n.as_str()) == group {
+                groups.push(pi as u32);
+                matched.push(n.clone());
+            }
+        }
+    }
+    (groups, matched)
+}
+
+/// Every material and group name in the scene, for error messages.
+fn all_names(scene: &Scene) -> Vec<String> {
+    let mut out: Vec<String> = scene
+        .materials
+        .iter()
+        .filter_map(|m| m.name().map(str::to_owned))
+        .collect();
+    for m in &scene.meshes {
+        for p in &m.primitives {
+            if let Geometry::Triangles(t) = &p.geometry {
+                out.extend(t.group.clone());
+            }
+        }
+    }
+    out.sort();
+    out.dedup();
+    out
+}
+
+/// The stress field of simulation mesh `e` from the pipeline's terms:
+/// world-space keys mapped through the mesh's first instance.
+///
+/// # Errors
+/// [`Error::Usage`] for a term the mesh cannot take, [`Error::Mesh`] when
+/// the field cannot be built.
+pub fn stress_field(
+    scene: &Scene,
+    e: &SimEntry,
+    pipe: &Pipeline,
+    masks: &[Option<std::sync::Arc<crate::stress::texture::Mask>>],
+    curvature: Option<&CurvatureField>,
+    seed: u64,
+    input: &Path,
+) -> Result<StressField> {
+    let bounds = Bounds::of(e.sim.vertices().map(|v| e.sim.position(v)));
+    let place = if pipe.uses_world_space() {
+        // World-space keys map into the mesh through its first instance;
+        // the crack pattern is shared by every instance.
+        let worlds = scene.mesh_world_matrices(e.mesh_index);
+        if worlds.iter().skip(1).any(|w| w != &worlds[0]) {
+            log::warn!(
+                "{}: {} is instanced {} times with different transforms; world-space stress keys use its first instance",
+                input.display(),
+                e.label,
+                worlds.len()
+            );
+        }
+        match worlds.first() {
+            Some(w) => Placement::new(bounds, w).map_err(|m| Error::mesh(input, &e.label, m))?,
+            None => Placement::local(bounds),
+        }
+    } else {
+        Placement::local(bounds)
+    };
+    let terms = pipe
+        .terms(&place, masks)
+        .map_err(|m| Error::Usage(format!("stress: {m}")))?;
+    StressField::build_with(&e.sim, &terms, seed, curvature)
+        .map_err(|err| Error::mesh(input, &e.label, err))
+}
