@@ -1,0 +1,264 @@
+//! The layers of ARCHITECTURE.md, checked on the source: every `crate::`
+//! path in the library's non-test code points to a module of the same or a
+//! lower layer, the modules' import graph has no cycle, the command line
+//! stays small, and no library file outside tests grows past about 900
+//! lines.
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::path::{Path, PathBuf};
+
+/// The layers, top first. A module may import from its own layer (without
+/// a cycle) and from any layer below.
+const LAYERS: &[&[&str]] = &[
+    &["pipeline", "batch", "compare", "stats"],
+    &["post", "sim", "io"],
+    &["stress", "geometry", "bridge"],
+    &["mesh", "scene"],
+    &["math", "error"],
+];
+
+/// Most lines of a library source file (tests excluded).
+const MAX_FILE_LINES: usize = 950;
+
+/// Largest share of `src/` the command line may have.
+const MAX_CLI_SHARE: f64 = 0.12;
+
+fn layer_of(module: &str) -> Option<usize> {
+    LAYERS.iter().position(|l| l.contains(&module))
+}
+
+fn rs_files(dir: &Path, out: &mut Vec<PathBuf>) {
+    let mut entries: Vec<_> = std::fs::read_dir(dir)
+        .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
+        .map(|e| e.expect("entry").path())
+        .collect();
+    entries.sort();
+    for p in entries {
+        if p.is_dir() {
+            rs_files(&p, out);
+        } else if p.extension().is_some_and(|x| x == "rs") {
+            out.push(p);
+        }
+    }
+}
+
+/// The file's text without its `#[cfg(test)]` module and line comments.
+fn code_of(text: &str) -> String {
+    let cut = text.find("#[cfg(test)]\nmod ").unwrap_or(text.len());
+    text[..cut]
+        .lines()
+        .map(|l| match l.find("//") {
+            Some(k) => &l[..k],
+            None => l,
+        })
+        .collect::<Vec<_>>()
+        .join("\n")
+}
+
+/// The top-level modules a piece of code names through `crate::`,
+/// including those inside `use crate::{a::x, b::{y, z}}` groups.
+fn crate_refs(code: &str) -> BTreeSet<String> {
+    let mut out = BTreeSet::new();
+    let mut rest = code;
+    while let Some(k) = rest.find("crate::") {
+        let after = &rest[k + "crate::".len()..];
+        if let Some(group) = after.strip_prefix('{') {
+            // The top-level names of the brace group.
+            let (mut depth, mut item, mut end) = (0usize, String::new(), group.len());
+            for (i, c) in group.char_indices() {
+                match c {
+                    '{' => {
+                        depth += 1;
+                        item.push(c);
+                    }
+                    '}' if depth == 0 => {
+                        end = i;
+                        break;
+                    }
+                    '}' => {
+                        depth -= 1;
+                        item.push(c);
+                    }
+                    ',' if depth == 0 => {
+                        out.insert(first_segment(&item));
+                        item.clear();
+                    }
+                    _ => item.push(c),
+                }
+            }
+            out.insert(first_segment(&item));
+            rest = &group[end..];
+        } else {
+            out.insert(first_segment(after));
+            rest = after;
+        }
+    }
+    out.retain(|s| !s.is_empty() && s != "self");
+    // `crate::Error` and `crate::Result` are the error module's.
+    out.into_iter()
+        .map(|s| match s.as_str() {
+            "Error" | "Result" => "error".to_string(),
+            _ => s,
+        })
+        .collect()
+}
+
+fn first_segment(s: &str) -> String {
+    s.trim()
+        .chars()
+        .take_while(|c| c.is_ascii_alphanumeric() || *c == '_')
+        .collect()
+}
+
+fn src_dir() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("src")
+}
+
+/// Top-level module of a library file (`None` for the binary's files).
+fn module_of(rel: &Path) -> Option<String> {
+    let first = rel.components().next()?.as_os_str().to_string_lossy();
+    let m = first.trim_end_matches(".rs").to_string();
+    (m != "cli" && m != "main" && m != "lib").then_some(m)
+}
+
+/// Module -> (imported module -> files that import it).
+fn import_graph() -> BTreeMap<String, BTreeMap<String, Vec<String>>> {
+    let src = src_dir();
+    let mut files = Vec::new();
+    rs_files(&src, &mut files);
+    let mut graph: BTreeMap<String, BTreeMap<String, Vec<String>>> = BTreeMap::new();
+    for f in files {
+        let rel = f.strip_prefix(&src).expect("inside src").to_path_buf();
+        let Some(module) = module_of(&rel) else {
+            continue;
+        };
+        if rel.to_string_lossy().ends_with("_tests.rs") {
+            continue;
+        }
+        let text = std::fs::read_to_string(&f).expect("readable");
+        let entry = graph.entry(module.clone()).or_default();
+        for r in crate_refs(&code_of(&text)) {
+            if r != module {
+                entry.entry(r).or_default().push(rel.display().to_string());
+            }
+        }
+    }
+    graph
+}
+
+#[test]
+fn the_parser_finds_grouped_and_nested_imports() {
+    let code = "use crate::{math::{v3, Sym3}, mesh::SimMesh};\nlet x = crate::io::read(p);\nuse crate::{self as c};";
+    let refs: Vec<String> = crate_refs(code).into_iter().collect();
+    assert_eq!(refs, ["io", "math", "mesh"]);
+    assert_eq!(
+        code_of("use crate::a; // crate::b\n#[cfg(test)]\nmod tests { crate::c }"),
+        "use crate::a; "
+    );
+}
+
+#[test]
+fn every_module_has_a_layer_and_imports_point_down() {
+    let graph = import_graph();
+    let mut wrong = Vec::new();
+    for (module, imports) in &graph {
+        let Some(from) = layer_of(module) else {
+            wrong.push(format!("{module}: in no layer of ARCHITECTURE.md"));
+            continue;
+        };
+        for (target, files) in imports {
+            match layer_of(target) {
+                None => wrong.push(format!("{module} -> {target}: {target} is in no layer")),
+                Some(to) if to < from => wrong.push(format!(
+                    "{module} (layer {from}) imports {target} (layer {to}, above it) in {}",
+                    files.join(", ")
+                )),
+                Some(_) => {}
+            }
+        }
+    }
+    assert!(
+        wrong.is_empty(),
+        "imports against the layers:\n{}",
+        wrong.join("\n")
+    );
+}
+
+#[test]
+fn the_module_graph_has_no_cycle() {
+    let graph = import_graph();
+    // Depth-first search with colours; a grey target is a cycle.
+    fn visit(
+        m: &str,
+        graph: &BTreeMap<String, BTreeMap<String, Vec<String>>>,
+        colour: &mut BTreeMap<String, u8>,
+        path: &mut Vec<String>,
+    ) -> Option<Vec<String>> {
+        colour.insert(m.to_string(), 1);
+        path.push(m.to_string());
+        for t in graph.get(m).map(|i| i.keys()).into_iter().flatten() {
+            match colour.get(t.as_str()).copied().unwrap_or(0) {
+                1 => {
+                    let k = path.iter().position(|p| p == t).unwrap_or(0);
+                    let mut cycle = path[k..].to_vec();
+                    cycle.push(t.clone());
+                    return Some(cycle);
+                }
+                0 => {
+                    if let Some(c) = visit(t, graph, colour, path) {
+                        return Some(c);
+                    }
+                }
+                _ => {}
+            }
+        }
+        path.pop();
+        colour.insert(m.to_string(), 2);
+        None
+    }
+    let mut colour = BTreeMap::new();
+    for m in graph.keys() {
+        if colour.get(m.as_str()).copied().unwrap_or(0) == 0 {
+            if let Some(c) = visit(m, &graph, &mut colour, &mut Vec::new()) {
+                panic!("import cycle: {}", c.join(" -> "));
+            }
+        }
+    }
+    // The graph is not empty: the check saw the library.
+    assert!(graph.get("pipeline").is_some_and(|i| i.contains_key("sim")));
+}
+
+#[test]
+fn the_command_line_is_small_and_library_files_are_readable() {
+    let src = src_dir();
+    let mut files = Vec::new();
+    rs_files(&src, &mut files);
+    let (mut cli, mut total) = (0usize, 0usize);
+    let mut long = Vec::new();
+    for f in &files {
+        let text = std::fs::read_to_string(f).expect("readable");
+        let rel = f.strip_prefix(&src).expect("inside src");
+        let lines = text.lines().count();
+        total += lines;
+        if rel.starts_with("cli") || rel == Path::new("main.rs") {
+            cli += lines;
+        }
+        let name = rel.to_string_lossy();
+        let code_lines = code_of(&text).lines().count();
+        if !name.ends_with("_tests.rs") && code_lines > MAX_FILE_LINES {
+            long.push(format!("{name}: {code_lines} lines before its tests"));
+        }
+    }
+    let share = cli as f64 / total as f64;
+    assert!(
+        share < MAX_CLI_SHARE,
+        "the command line is {cli} of {total} lines ({:.1}%), above {:.0}%",
+        100.0 * share,
+        100.0 * MAX_CLI_SHARE
+    );
+    assert!(
+        long.is_empty(),
+        "files too long to read in one sitting:\n{}",
+        long.join("\n")
+    );
+}
