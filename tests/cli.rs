@@ -649,3 +649,36 @@ fn a_gltf_output_by_bare_name_keeps_its_side_files() {
     }
     assert_eq!(std::fs::read_dir(t.path()).unwrap().count(), 6);
 }
+
+/// The crack command's help shows the library's defaults, not copies typed
+/// into the command line: change a default in `SimParams` and the help
+/// follows.
+#[test]
+fn help_shows_the_library_defaults() {
+    let out = common::run_ok(["crack", "--help"]);
+    let help = String::from_utf8_lossy(&out.stdout).into_owned();
+    let d = crackle::sim::SimParams::default();
+    for (flag, value) in [
+        ("--toughness", d.toughness.to_string()),
+        ("--alpha", d.alpha.to_string()),
+        ("--shrink-rate", d.shrink_rate.to_string()),
+        ("--load-time", d.load_time.to_string()),
+        ("--seed", d.seed.to_string()),
+        ("--tolerance", d.tolerance.to_string()),
+        ("--integrator", d.integrator.name().to_string()),
+        ("--max-rounds", d.max_rounds.to_string()),
+        ("--max-triangles", d.max_triangles.to_string()),
+        ("--finish-rings", d.finish_rings.to_string()),
+    ] {
+        let at = help
+            .find(&format!("{flag} "))
+            .unwrap_or_else(|| panic!("{flag} missing from the help:\n{help}"));
+        let entry = &help[at..];
+        let end = entry[2..].find("\n      -").map_or(entry.len(), |k| k + 2);
+        assert!(
+            entry[..end].contains(&format!("[default: {value}]")),
+            "{flag}: expected [default: {value}] in {:?}",
+            &entry[..end]
+        );
+    }
+}

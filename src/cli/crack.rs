@@ -5,6 +5,7 @@
 use anyhow::Result;
 use crackle::mesh::WeldOptions;
 use crackle::pipeline::{Config, Frames, Pipeline};
+use crackle::sim::SimParams;
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 
@@ -29,59 +30,41 @@ pub struct SimArgs {
     /// Cell size as a fraction of each mesh's bounding-box diagonal (replaces the pipeline's cell size)
     #[arg(long, value_name = "FRACTION")]
     cell_size_relative: Option<f64>,
-    /// Most triangles of the remeshed simulation surface [default: 2000000]
-    #[arg(long, value_name = "N")]
+    #[arg(long, value_name = "N", help = with_default("Most triangles of the remeshed simulation surface", SimParams::default().max_triangles))]
     max_triangles: Option<usize>,
-    /// Toughness: a node fails when its separation eigenvalue exceeds it [default: 2]
-    #[arg(long)]
+    #[arg(long, help = with_default("Toughness: a node fails when its separation eigenvalue exceeds it", SimParams::default().toughness))]
     toughness: Option<f64>,
-    /// Fraction of the residual stress handed to crack tips, in [0, 1] [default: 0.8]
-    #[arg(long)]
+    #[arg(long, help = with_default("Fraction of the residual stress handed to crack tips, in [0, 1]", SimParams::default().alpha))]
     alpha: Option<f64>,
-    /// Constant added to the residual at crack tips, for long joined cracks [default: 1]
-    #[arg(long)]
+    #[arg(long, help = with_default("Constant added to the residual at crack tips, for long joined cracks", SimParams::default().residual_constant))]
     residual_constant: Option<f64>,
-    /// Uniform shrinkage added per unit of relaxation time [default: 0.05]
-    #[arg(long)]
+    #[arg(long, help = with_default("Uniform shrinkage added per unit of relaxation time", SimParams::default().shrink_rate))]
     shrink_rate: Option<f64>,
-    /// How long the load acts; then the run goes on until nothing fails [default: 120]
-    #[arg(long)]
+    #[arg(long, help = with_default("How long the load acts; then the run goes on until nothing fails", SimParams::default().load_time))]
     load_time: Option<f64>,
-    /// Seeded variation of the load between triangles, in [0, 1] [default: 0.2]
-    #[arg(long)]
+    #[arg(long, help = with_default("Seeded variation of the load between triangles, in [0, 1]", SimParams::default().noise))]
     noise: Option<f64>,
-    /// Seed of every random choice [default: 1]
-    #[arg(long)]
+    #[arg(long, help = with_default("Seed of every random choice", SimParams::default().seed))]
     seed: Option<u64>,
-    /// Relaxation time between crack checks [default: 5]
-    #[arg(long)]
+    #[arg(long, help = with_default("Relaxation time between crack checks", SimParams::default().relax_time))]
     relax_time: Option<f64>,
-    /// Largest relaxation step; 0: the stable step [default: 0]
-    #[arg(long)]
+    #[arg(long, help = with_default("Largest relaxation step; 0: the stable step", SimParams::default().relax_dt))]
     relax_dt: Option<f64>,
-    /// Relaxation steps per round; 0: as many as --relax-time needs [default: 0]
-    #[arg(long)]
+    #[arg(long, help = with_default("Relaxation steps per round; 0: as many as --relax-time needs", SimParams::default().relax_steps))]
     relax_steps: Option<usize>,
-    /// Relaxation integrator: local-euler, euler, paper-euler (needs --relax-dt), backward-euler, equilibrium, rkl, or auto (local-euler unless the mesh is stiff, then backward-euler) [default: auto]
-    #[arg(long, value_name = "NAME")]
+    #[arg(long, value_name = "NAME", help = with_default("Relaxation integrator: local-euler, euler, paper-euler (needs --relax-dt), backward-euler, equilibrium, rkl, or auto (local-euler unless the mesh is stiff, then backward-euler)", SimParams::default().integrator.name()))]
     integrator: Option<String>,
-    /// Relative residual of each backward-Euler solve [default: 1e-4]
-    #[arg(long)]
+    #[arg(long, help = with_default("Relative residual of each backward-Euler solve", SimParams::default().tolerance))]
     tolerance: Option<f64>,
-    /// Finishing passes relax only this many rings around their new cracks; 0: the whole mesh [default: 8]
-    #[arg(long, value_name = "RINGS")]
+    #[arg(long, value_name = "RINGS", help = with_default("Finishing passes relax only this many rings around their new cracks; 0: the whole mesh", SimParams::default().finish_rings))]
     finish_rings: Option<usize>,
-    /// Most relaxation rounds [default: 200]
-    #[arg(long)]
+    #[arg(long, help = with_default("Most relaxation rounds", SimParams::default().max_rounds))]
     max_rounds: Option<usize>,
-    /// Most crack events per mesh [default: 1000000]
-    #[arg(long)]
+    #[arg(long, help = with_default("Most crack events per mesh", SimParams::default().max_cracks))]
     max_cracks: Option<usize>,
-    /// Most crack events per round before the load is held; 0: 1% of the nodes [default: 0]
-    #[arg(long)]
+    #[arg(long, help = with_default("Most crack events per round before the load is held; 0: 1% of the nodes", SimParams::default().max_cracks_per_round))]
     max_cracks_per_round: Option<usize>,
-    /// Conditioning cap on element gradients, times the input mean [default: 4]
-    #[arg(long)]
+    #[arg(long, help = with_default("Conditioning cap on element gradients, times the input mean", SimParams::default().clamp_factor))]
     clamp_factor: Option<f64>,
     /// Fix the mesh's open boundary instead of leaving it free
     #[arg(long)]
@@ -207,6 +190,11 @@ impl SimArgs {
         sets.extend(self.sets.iter().cloned());
         sets
     }
+}
+
+/// A flag's help with the library's default, so the help never retypes it.
+fn with_default(text: &str, default: impl std::fmt::Display) -> String {
+    format!("{text} [default: {default}]")
 }
 
 /// Options of the crack command.
