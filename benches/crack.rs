@@ -13,7 +13,7 @@
 //! 19,602 triangles, 2.17 h for 75,000 triangles; different machine and
 //! meshes, so only an order-of-magnitude comparison).
 
-use crackle::mesh::{MeshInput, SimMesh, WeldOptions};
+use crackle::mesh::{SimMesh, WeldOptions};
 use crackle::sim::{SimParams, SimReport};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -40,51 +40,6 @@ fn time<T>(f: impl FnOnce() -> T) -> (f64, T) {
     let s = Instant::now();
     let r = std::hint::black_box(f());
     (s.elapsed().as_secs_f64(), r)
-}
-
-/// Small deterministic generator (PCG multiplier), values in `[0, 1)`.
-struct Lcg(u64);
-
-impl Lcg {
-    fn next_f64(&mut self) -> f64 {
-        self.0 = self
-            .0
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        (self.0 >> 11) as f64 / (1u64 << 53) as f64
-    }
-}
-
-/// An `n` x `n` grid of unit quads over `[0, n]^2` at z = 0, two
-/// counter-clockwise triangles per quad (normal +z), interior vertices
-/// jittered in x and y by up to `jitter` cells.
-fn jittered_plate(n: usize, jitter: f64, seed: u64) -> MeshInput {
-    let mut rng = Lcg(seed);
-    let mut positions = Vec::with_capacity((n + 1) * (n + 1));
-    for j in 0..=n {
-        for i in 0..=n {
-            let mut p = [i as f64, j as f64, 0.0];
-            if i > 0 && i < n && j > 0 && j < n {
-                p[0] += jitter * (2.0 * rng.next_f64() - 1.0);
-                p[1] += jitter * (2.0 * rng.next_f64() - 1.0);
-            }
-            positions.push(p);
-        }
-    }
-    let id = |i: usize, j: usize| (j * (n + 1) + i) as u32;
-    let mut triangles = Vec::with_capacity(2 * n * n);
-    for j in 0..n {
-        for i in 0..n {
-            triangles.push([id(i, j), id(i + 1, j), id(i + 1, j + 1)]);
-            triangles.push([id(i, j), id(i + 1, j + 1), id(i, j + 1)]);
-        }
-    }
-    MeshInput {
-        positions,
-        triangles,
-        face_groups: vec![],
-        wedge_channels: vec![],
-    }
 }
 
 /// FNV-1a over the bits of every crack segment end point.
@@ -130,7 +85,7 @@ fn simulate(meshes: &mut [SimMesh], params: &SimParams) -> (f64, Vec<SimReport>)
 
 fn plate(params: &SimParams) -> Outcome {
     let (setup, mut meshes) = time(|| {
-        let input = jittered_plate(100, 0.3, 0x5eed_c0ff_ee00_0001);
+        let input = crackle::mesh::shapes::jittered_plate_input(100, 0.3, 0x5eed_c0ff_ee00_0001);
         let (m, _defects) =
             SimMesh::build(&input, &WeldOptions::default()).expect("plate mesh build failed");
         vec![m]

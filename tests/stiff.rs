@@ -448,7 +448,7 @@ fn default_runs_on_slivers_take_a_bounded_number_of_steps() {
             assert!(r.rounds > 0, "{name}");
             let per_round = r.relax_steps as f64 / r.rounds as f64;
             assert!(
-                per_round <= crackle::sim::driver::AUTO_STEP_LIMIT,
+                per_round <= crackle::sim::AUTO_STEP_LIMIT,
                 "{name}: {per_round} steps a round with {} ({})",
                 r.integrator,
                 r.integrator_reason

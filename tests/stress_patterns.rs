@@ -5,46 +5,15 @@
 
 mod common;
 
-use crackle::mesh::{MeshInput, SimMesh};
+use crackle::mesh::SimMesh;
 use crackle::pipeline::{Bounds, Pipeline, Placement};
 use crackle::sim::{run_with, SimParams, SimReport};
 use crackle::stress::{StressField, Term, TermKind};
 
-/// An n x n plate of unit cells in z = 0, interior nodes jittered.
+/// The shared jittered plate: `n` x `n` cells, interior nodes jittered by
+/// up to 0.3 of a cell.
 fn plate(n: usize, seed: u64) -> SimMesh {
-    let mut state = seed;
-    let mut rnd = || {
-        state = state
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        (state >> 11) as f64 / (1u64 << 53) as f64
-    };
-    let mut positions = Vec::new();
-    for j in 0..=n {
-        for i in 0..=n {
-            let (mut x, mut y) = (i as f64, j as f64);
-            if i > 0 && i < n && j > 0 && j < n {
-                x += 0.3 * (2.0 * rnd() - 1.0);
-                y += 0.3 * (2.0 * rnd() - 1.0);
-            }
-            positions.push([x, y, 0.0]);
-        }
-    }
-    let mut triangles = Vec::new();
-    for j in 0..n {
-        for i in 0..n {
-            let a = (j * (n + 1) + i) as u32;
-            let (b, c, d) = (a + 1, a + n as u32 + 1, a + n as u32 + 2);
-            triangles.push([a, b, d]);
-            triangles.push([a, d, c]);
-        }
-    }
-    let input = MeshInput {
-        positions,
-        triangles,
-        ..Default::default()
-    };
-    SimMesh::build(&input, &Default::default()).unwrap().0
+    crackle::mesh::shapes::jittered_plate(n, 0.3, seed)
 }
 
 /// Crack segments as (midpoint, unit direction, length).

@@ -521,7 +521,7 @@ mod tests {
 
     /// Icosahedron subdivided `level` times, on a sphere of radius `r`.
     fn icosphere(level: usize, r: f64) -> SimMesh {
-        let input = crate::mesh::test_util::icosphere_input(level);
+        let input = crate::mesh::shapes::icosphere_input(level);
         build(
             input.positions.iter().map(|&x| v3::scale(x, r)).collect(),
             input.triangles,

@@ -812,7 +812,7 @@ mod tests {
         };
         let mut spiral: Vec<[f64; 2]> = (0..half).map(|i| arm(i, 1.0)).collect();
         spiral.extend((0..half).rev().map(|i| arm(i, 1.5)));
-        let mut rng = crate::mesh::test_util::Lcg(5);
+        let mut rng = crate::mesh::shapes::Lcg(5);
         let random = (0..n).map(|_| [rng.next_f64(), rng.next_f64()]).collect();
         let mut all = vec![
             ("circle", circle),

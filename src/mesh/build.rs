@@ -544,7 +544,7 @@ fn count_non_manifold_vertices(mesh: &SimMesh, edges: &EdgeTable, nv: usize) -> 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::mesh::test_util::{build, cube24_input, grid_input, icosphere_input, Lcg};
+    use crate::mesh::shapes::{build, cube24_input, grid_input, icosphere_input, Lcg};
     use crate::mesh::{ChannelKind, FaceId, VertexId};
 
     fn soup(positions: Vec<[f64; 3]>, triangles: Vec<[u32; 3]>) -> MeshInput {

@@ -318,7 +318,7 @@ impl SimMesh {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::mesh::test_util::{build, grid_input, icosphere_input, Lcg};
+    use crate::mesh::shapes::{build, grid_input, icosphere_input, Lcg};
     use crate::mesh::{Channel, ChannelKind, MeshInput};
 
     fn vertex_at(m: &SimMesh, p: [f64; 2]) -> VertexId {

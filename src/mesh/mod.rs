@@ -25,8 +25,7 @@ pub(crate) mod spatial;
 pub mod validate;
 mod weld;
 
-#[cfg(test)]
-pub(crate) mod test_util;
+pub mod shapes;
 
 pub use attributes::{Channel, ChannelKind, WedgeAttributes};
 pub use build::{MeshInput, WeldOptions};

@@ -2,7 +2,7 @@
 
 use super::*;
 use crate::mesh::attributes::ChannelKind;
-use crate::mesh::test_util::{build, grid_input, icosphere_input};
+use crate::mesh::shapes::{build, grid_input, icosphere_input};
 
 fn edge_lengths(m: &SimMesh) -> Vec<f64> {
     m.halfedges()
@@ -186,7 +186,7 @@ fn curved_and_sharp_surfaces_stay_on_the_input() {
     }
     assert!(valence6_fraction(&r) > 0.6);
     // The cube.
-    let (c, _) = build(&crate::mesh::test_util::cube24_input());
+    let (c, _) = build(&crate::mesh::shapes::cube24_input());
     let (rc, rep) = remesh(
         &c,
         &RemeshOptions {

@@ -214,7 +214,7 @@ impl SimMesh {
 
 #[cfg(test)]
 mod tests {
-    use crate::mesh::test_util::{build, grid_input};
+    use crate::mesh::shapes::{build, grid_input};
     use crate::mesh::{MeshError, VertexId};
 
     fn expect_invariant(m: &crate::mesh::SimMesh, what: &str) {

@@ -350,7 +350,7 @@ fn point_update(pc: [f64; 3], pa: [f64; 3], da: f64, pb: [f64; 3], db: f64) -> O
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::mesh::test_util::{build, grid_input, Lcg};
+    use crate::mesh::shapes::{build, grid_input, Lcg};
     use crate::mesh::{HalfedgeId, MeshInput};
 
     /// An `n` x `n` grid (see [`grid_input`]) whose interior vertices are

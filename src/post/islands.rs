@@ -84,7 +84,7 @@ pub fn centroid(mesh: &SimMesh, faces: &[FaceId], positions: &[[f64; 3]]) -> [f6
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::mesh::test_util::{build, grid_input};
+    use crate::mesh::shapes::{build, grid_input};
 
     fn open_row(m: &mut SimMesh, y: f64, x0: usize, x1: usize) {
         for x in x0..x1 {

@@ -619,7 +619,7 @@ fn rotate(x: [f64; 3], a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::mesh::test_util::{build, grid_input};
+    use crate::mesh::shapes::{build, grid_input};
 
     /// A 6 x 6 grid with the interior edges along y = 3 opened from x = 0
     /// to x = 6 (a crack across the plate).

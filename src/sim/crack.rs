@@ -278,7 +278,7 @@ pub fn crack_node_avoiding(
 mod tests {
     use super::*;
     use crate::sim::forces::face_points;
-    use crate::sim::forces::tests::jittered_plate;
+    use crate::mesh::shapes::jittered_plate;
 
     fn node_at(mesh: &SimMesh, x: f64, y: f64) -> VertexId {
         mesh.vertices()
@@ -336,7 +336,7 @@ mod tests {
     #[test]
     fn splits_never_create_triangles_below_min_quality() {
         let rules = CrackRules::default();
-        let mut rng = crate::mesh::test_util::Lcg(11);
+        let mut rng = crate::mesh::shapes::Lcg(11);
         let mut mesh = jittered_plate(12, 0.35, 5);
         let area = mesh.total_area();
         let mut splits = 0;

@@ -3,7 +3,7 @@
 use super::*;
 use crate::math::{v3, Sym3};
 use crate::mesh::{SimMesh, VertexId};
-use crate::sim::forces::tests::jittered_plate;
+use crate::mesh::shapes::jittered_plate;
 use crate::sim::forces::{corner_forces, Fans};
 use crate::sim::integrate::{explicit::*, region::*};
 use crate::sim::load::*;
@@ -429,7 +429,7 @@ fn rkl_is_second_order_and_estimates_its_error() {
 fn rkl_never_raises_the_energy_on_slivers() {
     // Stiff nodes beside soft ones: the stages are capped and the
     // stiffest nodes slowed; every super-step still lowers the energy.
-    let mut input = crate::mesh::test_util::grid_input(12, 12);
+    let mut input = crate::mesh::shapes::grid_input(12, 12);
     for (i, p) in input.positions.iter_mut().enumerate() {
         let interior = p[0] > 0.0 && p[0] < 12.0 && p[1] > 0.0 && p[1] < 12.0;
         if interior && i % 13 == 0 {
@@ -714,8 +714,8 @@ fn paper_euler_above_the_stable_step_is_an_error() {
 #[test]
 fn same_result_at_any_scale() {
     let run_scaled = |s: f64| {
-        let mut input = crate::mesh::test_util::grid_input(10, 10);
-        let mut rng = crate::mesh::test_util::Lcg(3);
+        let mut input = crate::mesh::shapes::grid_input(10, 10);
+        let mut rng = crate::mesh::shapes::Lcg(3);
         for q in input.positions.iter_mut() {
             if q[0] > 0.0 && q[0] < 10.0 && q[1] > 0.0 && q[1] < 10.0 {
                 q[0] += 0.3 * (2.0 * rng.next_f64() - 1.0);
@@ -755,7 +755,7 @@ fn a_region_of_every_node_is_the_global_step() {
     let (mut st, _) = start(&mesh, &params, None).unwrap();
     let fans = Fans::new(&mesh);
     // Some stress to relax.
-    let mut rng = crate::mesh::test_util::Lcg(7);
+    let mut rng = crate::mesh::shapes::Lcg(7);
     for (s, el) in st.stress.iter_mut().zip(&st.els.elements) {
         let n = el.as_ref().unwrap().normal;
         *s = Sym3::tangent_identity(n, 1.0 + rng.next_f64());

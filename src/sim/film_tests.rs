@@ -2,7 +2,7 @@
 //! instead of the triangles.
 
 use crate::mesh::SimMesh;
-use crate::sim::forces::tests::jittered_plate;
+use crate::mesh::shapes::jittered_plate;
 use crate::sim::{relax_only, run, SimParams};
 
 /// A jittered plate `size` units across made of `n x n` cells.

@@ -317,24 +317,9 @@ fn separation_with(
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
-    use crate::mesh::test_util::{grid_input, Lcg};
-    use crate::mesh::{MeshInput, WeldOptions};
+    use crate::mesh::shapes::{jittered_plate, Lcg};
 
     /// An n x n plate of unit cells, interior nodes jittered by up to `jitter` cells.
-    pub(crate) fn jittered_plate(n: usize, jitter: f64, seed: u64) -> SimMesh {
-        let mut input: MeshInput = grid_input(n, n);
-        let mut rng = Lcg(seed);
-        for p in input.positions.iter_mut() {
-            let interior = p[0] > 0.0 && p[0] < n as f64 && p[1] > 0.0 && p[1] < n as f64;
-            if interior {
-                p[0] += jitter * (2.0 * rng.next_f64() - 1.0);
-                p[1] += jitter * (2.0 * rng.next_f64() - 1.0);
-            }
-        }
-        let (m, _) = SimMesh::build(&input, &WeldOptions::default()).unwrap();
-        m
-    }
-
     fn uniform(mesh: &SimMesh, els: &Elements, c: f64) -> Vec<Sym3> {
         mesh.faces()
             .map(|f| Sym3::tangent_identity(els.get(f).unwrap().normal, c))

@@ -700,7 +700,7 @@ mod tests {
     use super::*;
     use crate::math::Sym2;
     use crate::sim::forces::node_forces_fans;
-    use crate::sim::forces::tests::jittered_plate;
+    use crate::mesh::shapes::jittered_plate;
     use crate::sim::relax::{apply_virtual_displacement, energy};
 
     /// Solve `(I + dt K) x = rhs` with the block-Jacobi preconditioner.
@@ -726,7 +726,7 @@ mod tests {
     fn stressed() -> (crate::mesh::SimMesh, Elements, Vec<Sym3>) {
         let mesh = jittered_plate(10, 0.3, 3);
         let els = Elements::new(&mesh, f64::INFINITY);
-        let mut rng = crate::mesh::test_util::Lcg(9);
+        let mut rng = crate::mesh::shapes::Lcg(9);
         let stress = mesh
             .faces()
             .map(|f| {
@@ -758,7 +758,7 @@ mod tests {
             fixed: &fixed,
             interface: &[],
         };
-        let mut rng = crate::mesh::test_util::Lcg(21);
+        let mut rng = crate::mesh::shapes::Lcg(21);
         let v: Vec<[f64; 3]> = (0..mesh.n_vertices())
             .map(|_| {
                 [
@@ -792,7 +792,7 @@ mod tests {
             fixed: &fixed,
             interface: &[],
         };
-        let mut rng = crate::mesh::test_util::Lcg(4);
+        let mut rng = crate::mesh::shapes::Lcg(4);
         let mut rand = || -> Vec<[f64; 3]> {
             (0..mesh.n_vertices())
                 .map(|_| [rng.next_f64() - 0.5, rng.next_f64() - 0.5, 0.0])
@@ -1042,7 +1042,7 @@ mod tests {
             max_iter: 2000,
         };
         let f = op.forces(&stress, &mut Vec::new());
-        let mut rng = crate::mesh::test_util::Lcg(11);
+        let mut rng = crate::mesh::shapes::Lcg(11);
         let mut rhs_k = |k: f64| -> Vec<[f64; 3]> {
             f.iter()
                 .enumerate()

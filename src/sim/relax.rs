@@ -392,8 +392,8 @@ impl Rkl2 {
 mod tests {
     use super::*;
     use crate::math::Sym2;
-    use crate::mesh::test_util::Lcg;
-    use crate::sim::forces::tests::jittered_plate;
+    use crate::mesh::shapes::Lcg;
+    use crate::mesh::shapes::jittered_plate;
 
     /// A random in-plane tension in every face.
     fn random_tension(mesh: &SimMesh, els: &Elements, rng: &mut Lcg) -> Vec<Sym3> {
@@ -480,7 +480,7 @@ mod tests {
         // Squash a few interior nodes almost onto a neighbour: tiny, stiff
         // triangles. Steps of 1.9 / b_n per node (most nodes at the median's
         // step) must still never increase the energy.
-        let mut input = crate::mesh::test_util::grid_input(12, 12);
+        let mut input = crate::mesh::shapes::grid_input(12, 12);
         let mut rng = Lcg(21);
         for (i, p) in input.positions.iter_mut().enumerate() {
             let interior = p[0] > 0.0 && p[0] < 12.0 && p[1] > 0.0 && p[1] < 12.0;

@@ -518,7 +518,7 @@ pub fn run(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::sim::forces::tests::jittered_plate;
+    use crate::mesh::shapes::jittered_plate;
 
     /// A spring state without a mesh: nodes, springs `(a, b, k, rest)`,
     /// fixed flags, normal +z for every node.

@@ -502,7 +502,7 @@ impl StressField {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::sim::forces::tests::jittered_plate;
+    use crate::mesh::shapes::jittered_plate;
 
     fn eig(s: &Sym3) -> ([f64; 3], [[f64; 3]; 3]) {
         s.eigen()
@@ -618,13 +618,13 @@ mod tests {
 
     /// An `n` x `n` unit grid whose `TEXCOORD_0` spans [0, 1]^2.
     fn uv_plate(n: usize) -> SimMesh {
-        let mut input = crate::mesh::test_util::grid_input(n, n);
+        let mut input = crate::mesh::shapes::grid_input(n, n);
         let ch = &mut input.wedge_channels[0];
         ch.name = "TEXCOORD_0".into();
         for x in &mut ch.data {
             *x /= n as f64;
         }
-        crate::mesh::test_util::build(&input).0
+        crate::mesh::shapes::build(&input).0
     }
 
     /// Left half of the image black, right half white (2 x 1 pixels,
@@ -695,11 +695,11 @@ mod tests {
     fn curvature_term_on_a_sphere_is_the_tangent_identity() {
         // Radius 3: k1 = k2 = 1/3 everywhere; normalised by its RMS the
         // tensor is the tangent identity (trace 2, zero along the normal).
-        let mut input = crate::mesh::test_util::icosphere_input(3);
+        let mut input = crate::mesh::shapes::icosphere_input(3);
         for p in &mut input.positions {
             *p = v3::scale(*p, 3.0);
         }
-        let mesh = crate::mesh::test_util::build(&input).0;
+        let mesh = crate::mesh::shapes::build(&input).0;
         let t = Term {
             kind: TermKind::Curvature { scale: None },
             init: 1.0,
@@ -738,7 +738,7 @@ mod tests {
         // get factor m / mean (strength 1), the flat half 0; strength 0.5
         // halves the deviation from 1; max_factor clamps.
         let n = 16;
-        let mut input = crate::mesh::test_util::grid_input(n, 4);
+        let mut input = crate::mesh::shapes::grid_input(n, 4);
         for p in &mut input.positions {
             if p[0] > 8.0 {
                 // bend x in (8, 16] onto a circle of radius 4 (curvature 1/4)
@@ -746,7 +746,7 @@ mod tests {
                 *p = [8.0 + 4.0 * a.sin(), p[1], 4.0 - 4.0 * a.cos()];
             }
         }
-        let mesh = crate::mesh::test_util::build(&input).0;
+        let mesh = crate::mesh::shapes::build(&input).0;
         let k = crate::geometry::curvature::estimate(&mesh);
         let term = |strength: f64, max_factor: f64| Term {
             kind: TermKind::Curvature {

@@ -793,7 +793,7 @@ fn emit_triangle(out: &mut Walls, p: [P3; 3], uv: [[f64; 2]; 3], face: FaceId, s
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::mesh::test_util::{build, grid_input, icosphere_input, Lcg};
+    use crate::mesh::shapes::{build, grid_input, icosphere_input, Lcg};
     use crate::mesh::MeshInput;
     use std::collections::BTreeSet;
 

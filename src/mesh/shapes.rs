@@ -1,4 +1,6 @@
-//! Mesh generators and helpers shared by the mesh tests.
+//! Test shapes shared by unit tests, integration tests and benches: grids,
+//! jittered plates, icospheres and a cube, from a seeded generator (the same
+//! shape on every platform).
 
 use super::{Channel, ChannelKind, MeshInput, SimMesh, WeldOptions};
 
@@ -163,4 +165,30 @@ pub fn cube24_input() -> MeshInput {
         face_groups: (0..12).map(|t| t / 2).collect(),
         wedge_channels: vec![Channel::new("NORMAL", 3, ChannelKind::UnitVector, normals)],
     }
+}
+
+/// An `n` x `n` grid of unit quads over `[0, n]^2` at z = 0 ([`grid_input`],
+/// with its `uv`), interior vertices jittered in x and y by up to `jitter`
+/// cells from generator seed `seed`.
+pub fn jittered_plate_input(n: usize, jitter: f64, seed: u64) -> MeshInput {
+    let mut input = grid_input(n, n);
+    let mut rng = Lcg(seed);
+    for p in input.positions.iter_mut() {
+        let interior = p[0] > 0.0 && p[0] < n as f64 && p[1] > 0.0 && p[1] < n as f64;
+        if interior {
+            p[0] += jitter * (2.0 * rng.next_f64() - 1.0);
+            p[1] += jitter * (2.0 * rng.next_f64() - 1.0);
+        }
+    }
+    input
+}
+
+/// [`jittered_plate_input`] welded into a simulation mesh.
+///
+/// # Panics
+/// Never for `n >= 1` and `jitter < 0.5` (the plate is a valid mesh).
+pub fn jittered_plate(n: usize, jitter: f64, seed: u64) -> SimMesh {
+    let (m, _) = SimMesh::build(&jittered_plate_input(n, jitter, seed), &WeldOptions::default())
+        .expect("a jittered plate is a valid mesh");
+    m
 }
