@@ -6,7 +6,7 @@ use super::Post;
 use crate::bridge::{write_back_with, SimEntry};
 use crate::post::distance::{crack_vertices, distance_field};
 use crate::post::walls::{build_walls_uncrossed, WallOptions, Walls};
-use crate::post::width::{displace, turn_normals, WidthOptions};
+use crate::post::width::{displace, turn_normals};
 use crate::scene::{
     Geometry, Material, Primitive, RawAccessor, RawGeometry, Scene, TriGeometry, VertexAttribute,
 };
@@ -56,13 +56,7 @@ pub fn apply(
             let d = displace(
                 &e.sim,
                 &r.displacement,
-                &WidthOptions {
-                    scale: post.width,
-                    max_width: post.max_width,
-                    curl: post.curl,
-                    curl_rings: post.curl_rings,
-                    curl_falloff: post.curl_falloff,
-                },
+                post,
             );
             detail.insert(
                 "width".into(),

@@ -4,5 +4,8 @@
 
 pub mod distance;
 pub mod islands;
+mod options;
 pub mod walls;
 pub mod width;
+
+pub use options::Post;

@@ -15,6 +15,7 @@
 use crate::math::v3;
 use crate::mesh::{FaceId, SimMesh, VertexId};
 use crate::post::distance::crack_vertices;
+use crate::post::Post;
 
 /// How many times a node's move is halved before it is dropped.
 pub const MAX_HALVINGS: usize = 12;
@@ -22,22 +23,6 @@ pub const MAX_HALVINGS: usize = 12;
 /// A triangle whose area falls below this fraction of its rest area counts
 /// as collapsed.
 const MIN_AREA_FRACTION: f64 = 1e-3;
-
-/// Options of [`displace`].
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct WidthOptions {
-    /// Multiplier of the accumulated displacement (0: no width).
-    pub scale: f64,
-    /// Largest gap across a crack, in scene units (0: no limit).
-    pub max_width: f64,
-    /// Lift of crack nodes along the normal, as a fraction of how far they
-    /// moved (0: no curling).
-    pub curl: f64,
-    /// Rings of neighbours the lift falls off over.
-    pub curl_rings: usize,
-    /// Factor of the lift from one ring to the next, in [0, 1].
-    pub curl_falloff: f64,
-}
 
 /// The displaced surface and what it took.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -311,16 +296,16 @@ fn bad_face(mesh: &SimMesh, f: FaceId, positions: &[[f64; 3]]) -> bool {
     v3::dot(now, rest) <= MIN_AREA_FRACTION * rest_area * rest_area
 }
 
-/// Displace the nodes of `mesh` by `opts.scale` times `displacement` (scene
+/// Displace the nodes of `mesh` by `opts.width` times `displacement` (scene
 /// units, per vertex), limit the gaps to `opts.max_width`, curl the crack
 /// edges, and shorten moves that would flip a triangle.
-pub fn displace(mesh: &SimMesh, displacement: &[[f64; 3]], opts: &WidthOptions) -> Displaced {
+pub fn displace(mesh: &SimMesh, displacement: &[[f64; 3]], opts: &Post) -> Displaced {
     let rest: Vec<[f64; 3]> = mesh.positions().to_vec();
     let mut mv: Vec<[f64; 3]> = (0..mesh.n_vertices())
         .map(|i| {
             let d = displacement.get(i).copied().unwrap_or([0.0; 3]);
             if d.iter().all(|x| x.is_finite()) {
-                v3::scale(d, opts.scale)
+                v3::scale(d, opts.width)
             } else {
                 [0.0; 3]
             }
@@ -661,13 +646,10 @@ mod tests {
             .collect()
     }
 
-    fn opts(scale: f64) -> WidthOptions {
-        WidthOptions {
-            scale,
-            max_width: 0.0,
-            curl: 0.0,
-            curl_rings: 3,
-            curl_falloff: 0.5,
+    fn opts(width: f64) -> Post {
+        Post {
+            width,
+            ..Post::default()
         }
     }
 
@@ -697,7 +679,7 @@ mod tests {
         let out = displace(
             &m,
             &d,
-            &WidthOptions {
+            &Post {
                 max_width: 0.05,
                 ..opts(1.0)
             },
@@ -786,7 +768,7 @@ mod tests {
         let out = displace(
             &m,
             &d,
-            &WidthOptions {
+            &Post {
                 curl: 0.5,
                 ..opts(1.0)
             },
