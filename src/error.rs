@@ -1,27 +1,34 @@
-//! Errors of the library.
+//! The crate's error: every layer's error converts into it (`From`), and
+//! the run adds its own (what was asked cannot be done, a stage failed on
+//! a mesh). It sits in the top layer of the library, beside `pipeline`
+//! (ARCHITECTURE.md); [`PipelineError`] is defined here and re-exported by
+//! `pipeline`.
 
+use crate::io::IoError;
+use crate::mesh::MeshError;
+use crate::sim::SimError;
+use crate::stress::texture::TextureError;
 use std::path::PathBuf;
 
 /// Everything that can go wrong in the library.
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum Error {
-    /// A file could not be read or written.
-    #[error("{path}: {source}")]
-    Io {
-        /// The file.
-        path: PathBuf,
-        /// The OS error.
-        source: std::io::Error,
-    },
-    /// The input is malformed or not supported; the message names the element.
-    #[error("{path}: {message}")]
-    Input {
-        /// The file.
-        path: PathBuf,
-        /// What is wrong, naming the element.
-        message: String,
-    },
+    /// Reading or writing a file failed (the message names it).
+    #[error(transparent)]
+    File(#[from] IoError),
+    /// A simulation failed.
+    #[error(transparent)]
+    Sim(#[from] SimError),
+    /// A mesh could not be built or edited.
+    #[error(transparent)]
+    MeshEdit(#[from] MeshError),
+    /// A texture mask could not be made.
+    #[error(transparent)]
+    Texture(#[from] TextureError),
+    /// A pipeline is invalid (exit code 2 on the command line).
+    #[error(transparent)]
+    Pipeline(#[from] PipelineError),
     /// A configuration value is invalid.
     #[error("invalid configuration: {0}")]
     Config(String),
@@ -73,10 +80,7 @@ pub enum Error {
 impl Error {
     /// An input error for `path`.
     pub fn input(path: impl Into<PathBuf>, message: impl Into<String>) -> Self {
-        Error::Input {
-            path: path.into(),
-            message: message.into(),
-        }
+        Error::File(IoError::input(path, message))
     }
     /// A stage's failure on mesh `mesh` of `asset`.
     pub fn mesh(asset: &std::path::Path, mesh: &str, message: impl std::fmt::Display) -> Self {
@@ -86,13 +90,16 @@ impl Error {
             message: message.to_string(),
         }
     }
-    /// An I/O error for `path`.
-    pub fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
-        Error::Io {
-            path: path.into(),
-            source,
-        }
-    }
+}
+
+/// A pipeline error; the message names the file (or preset) and the key.
+#[derive(Debug, thiserror::Error, PartialEq)]
+#[error("{source_name}: {message}")]
+pub struct PipelineError {
+    /// File path or `preset NAME`.
+    pub source_name: String,
+    /// What is wrong, naming the key.
+    pub message: String,
 }
 
 /// Result with the library's error.

@@ -10,11 +10,11 @@ use std::path::{Path, PathBuf};
 /// The layers, top first. A module may import from its own layer (without
 /// a cycle) and from any layer below.
 const LAYERS: &[&[&str]] = &[
-    &["pipeline", "batch", "compare", "stats"],
+    &["pipeline", "batch", "compare", "stats", "error"],
     &["post", "sim", "io"],
     &["stress", "geometry", "bridge"],
     &["mesh", "scene"],
-    &["math", "error"],
+    &["math"],
 ];
 
 /// Most lines of a library source file (tests excluded).
@@ -261,4 +261,70 @@ fn the_command_line_is_small_and_library_files_are_readable() {
         "files too long to read in one sitting:\n{}",
         long.join("\n")
     );
+}
+
+/// Most lines of one function of the simulation core (ARCHITECTURE.md:
+/// about 150).
+const MAX_SIM_FUNCTION_LINES: usize = 160;
+
+/// `(name, lines)` of every function in `code`: from its `fn` line to the
+/// closing brace at the same indentation.
+fn function_lengths(code: &str) -> Vec<(String, usize)> {
+    let lines: Vec<&str> = code.lines().collect();
+    let mut out = Vec::new();
+    for (i, l) in lines.iter().enumerate() {
+        let t = l.trim_start();
+        let indent = l.len() - t.len();
+        let t = t
+            .strip_prefix("pub(in crate::sim) ")
+            .or_else(|| t.strip_prefix("pub(crate) "))
+            .or_else(|| t.strip_prefix("pub(super) "))
+            .or_else(|| t.strip_prefix("pub "))
+            .unwrap_or(t);
+        let Some(rest) = t.strip_prefix("fn ") else {
+            continue;
+        };
+        let name: String = rest
+            .chars()
+            .take_while(|c| c.is_ascii_alphanumeric() || *c == '_')
+            .collect();
+        let close = format!("{}}}", " ".repeat(indent));
+        if let Some(k) = lines[i + 1..]
+            .iter()
+            .position(|m| m.starts_with(&close) && m.len() == close.len())
+        {
+            out.push((name, k + 2));
+        }
+    }
+    out
+}
+
+#[test]
+fn no_function_of_the_simulation_is_longer_than_about_150_lines() {
+    assert_eq!(
+        function_lengths("fn a() {\n    x;\n}\n    fn b() {\n        y;\n        z;\n    }\n"),
+        [("a".to_string(), 3), ("b".to_string(), 4)]
+    );
+    let src = src_dir();
+    let mut files = Vec::new();
+    rs_files(&src.join("sim"), &mut files);
+    let mut long = Vec::new();
+    for f in &files {
+        let rel = f
+            .strip_prefix(&src)
+            .expect("inside src")
+            .display()
+            .to_string();
+        if rel.ends_with("_tests.rs") {
+            continue;
+        }
+        let text = std::fs::read_to_string(f).expect("readable");
+        for (name, n) in function_lengths(&code_of(&text)) {
+            if n > MAX_SIM_FUNCTION_LINES {
+                long.push(format!("{rel}: {name} has {n} lines"));
+            }
+        }
+    }
+    assert!(files.len() > 10, "the simulation's files were not found");
+    assert!(long.is_empty(), "functions too long:\n{}", long.join("\n"));
 }

@@ -188,7 +188,9 @@ pub fn exit_code(e: &anyhow::Error) -> u8 {
     if e.downcast_ref::<UsageError>().is_some()
         || matches!(
             e.downcast_ref::<crackle::Error>(),
-            Some(crackle::Error::Config(_) | crackle::Error::Usage(_))
+            Some(
+                crackle::Error::Config(_) | crackle::Error::Usage(_) | crackle::Error::Pipeline(_)
+            )
         )
     {
         2

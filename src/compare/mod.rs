@@ -142,7 +142,7 @@ fn read(path: &Path) -> Result<Scene> {
     crate::io::read(path).map_err(|e| {
         let msg = e.to_string();
         if msg.contains(&path.display().to_string()) {
-            e
+            Error::File(e)
         } else {
             Error::input(path, msg)
         }

@@ -8,9 +8,9 @@
 //! from inside the asset's folder, and every accessor is decoded with bounds
 //! checks ([`AccessorReader`]).
 
-use crate::error::{Error, Result};
 use crate::io::accessor::AccessorReader;
 use crate::io::paths::{resolve_file_inside, resolve_inside};
+use crate::io::{IoError as Error, IoResult as Result};
 use crate::scene::{
     mode, Geometry, Image, ImageSource, Material, Mesh, Node, Primitive, RawAccessor, RawGeometry,
     Scene, SceneRoot, Transform, TriGeometry, VertexAttribute,

@@ -1,14 +1,16 @@
 //! Reading and writing assets: OBJ (+MTL), glTF and GLB.
 
 pub mod accessor;
+mod error;
 pub mod gltf_read;
 pub mod gltf_write;
 pub mod image;
 pub mod obj;
 pub mod paths;
 
-use crate::error::{Error, Result};
 use crate::scene::Scene;
+pub use error::{IoError, IoResult};
+use error::{IoError as Error, IoResult as Result};
 use std::path::Path;
 
 /// Input formats, by file extension.

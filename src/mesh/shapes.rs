@@ -188,7 +188,10 @@ pub fn jittered_plate_input(n: usize, jitter: f64, seed: u64) -> MeshInput {
 /// # Panics
 /// Never for `n >= 1` and `jitter < 0.5` (the plate is a valid mesh).
 pub fn jittered_plate(n: usize, jitter: f64, seed: u64) -> SimMesh {
-    let (m, _) = SimMesh::build(&jittered_plate_input(n, jitter, seed), &WeldOptions::default())
-        .expect("a jittered plate is a valid mesh");
+    let (m, _) = SimMesh::build(
+        &jittered_plate_input(n, jitter, seed),
+        &WeldOptions::default(),
+    )
+    .expect("a jittered plate is a valid mesh");
     m
 }

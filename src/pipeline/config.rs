@@ -22,6 +22,7 @@
 //! checked before any work starts; mask images are decoded by
 //! [`Pipeline::load_images`] before the input is read.
 
+pub use crate::error::PipelineError;
 pub use crate::post::Post;
 use crate::scene::Scene;
 use crate::sim::SimParams;
@@ -212,16 +213,6 @@ pub const PRESETS: &[(&str, &str)] = &[
         include_str!("../../pipeline/impact-snapped.toml"),
     ),
 ];
-
-/// A pipeline error; the message names the file (or preset) and the key.
-#[derive(Debug, thiserror::Error, PartialEq)]
-#[error("{source_name}: {message}")]
-pub struct PipelineError {
-    /// File path or `preset NAME`.
-    pub source_name: String,
-    /// What is wrong, naming the key.
-    pub message: String,
-}
 
 /// The mesh's bounding box, for relative lengths and points.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -53,11 +53,7 @@ pub fn apply(
         let mut mean_gap = 0.0;
         if moves {
             let t = Instant::now();
-            let d = displace(
-                &e.sim,
-                &r.displacement,
-                post,
-            );
+            let d = displace(&e.sim, &r.displacement, post);
             detail.insert(
                 "width".into(),
                 json!({

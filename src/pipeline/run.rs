@@ -210,12 +210,16 @@ pub fn write_output(
     prefix_images: bool,
 ) -> Result<crate::io::gltf_write::WriteSummary> {
     if let Some(dir) = output.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir).map_err(|e| Error::Output {
+        std::fs::create_dir_all(dir).map_err(|e| crate::io::IoError::Output {
             path: dir.to_path_buf(),
             message: format!("cannot create the output folder: {e}"),
         })?;
     }
-    crate::io::gltf_write::write_scene_with(scene, output, prefix_images)
+    Ok(crate::io::gltf_write::write_scene_with(
+        scene,
+        output,
+        prefix_images,
+    )?)
 }
 
 /// Read `config.asset`, crack it and write `config.output`; the report

@@ -277,8 +277,8 @@ pub fn crack_node_avoiding(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::sim::forces::face_points;
     use crate::mesh::shapes::jittered_plate;
+    use crate::sim::forces::face_points;
 
     fn node_at(mesh: &SimMesh, x: f64, y: f64) -> VertexId {
         mesh.vertices()

@@ -120,99 +120,15 @@ pub fn run_with(
             queue.set(v as u32, *val, params.toughness);
         }
         // ---- crack while the top fails
-        let mut cracked_this_round = 0;
-        // With `to-end`, the tips of the crack being run come first.
-        let mut follow: Vec<VertexId> = Vec::new();
-        let mut chain = false;
-        // The nodes the current crack run touched (eigen-diffusion).
-        let mut run_nodes: Vec<VertexId> = Vec::new();
-        loop {
-            if follow.is_empty() {
-                // A crack run ended: diffuse before the next one.
-                if chain && params.relaxation == Relaxation::EigenDiffusion {
-                    let changed = eigen_diffusion_around(
-                        mesh,
-                        &mut st,
-                        params,
-                        &run_nodes,
-                        params.diffusion_passes,
-                    );
-                    for u in changed {
-                        let s = node_separation(mesh, &st, VertexId(u));
-                        queue.set(u, queue_value(s, params.toughness), params.toughness);
-                    }
-                }
-                run_nodes.clear();
-                chain = false;
-            }
-            // The round's cap ends a round between crack runs, never
-            // inside one.
-            if report.cracks >= params.max_cracks
-                || (follow.is_empty() && cracked_this_round >= per_round_cap)
-            {
-                break;
-            }
-            let v = match follow.pop() {
-                Some(v) => v,
-                None => match queue.pop() {
-                    Some((v, _)) => VertexId(v),
-                    None => break,
-                },
-            };
-            let (val, dir) = node_separation(mesh, &st, v).max_eigen();
-            if val.is_nan() || val <= params.toughness {
-                continue;
-            }
-            let run = st.film.as_mut().map_or(0, |film| film.run_at(v));
-            let ev = crack_node_avoiding(mesh, v, dir, &rules, &|m, w| {
-                crowded_junction(m, &st.crack_degree, w)
-            })
-            .map_err(SimError::Mesh)?;
-            st.residual[v.idx()] = Sym3::ZERO;
-            if let Some(fz) = &mut st.frozen {
-                // The crack releases the node's failing component.
-                let raw = fz[v.idx()];
-                let (l, e) = raw.max_eigen();
-                if l > 0.0 {
-                    fz[v.idx()] = raw - Sym3::m(e) * l;
-                }
-            }
-            if !apply_event(mesh, &mut st, params, &mut report, &ev) {
-                continue;
-            }
-            if let Some(film) = &mut st.film {
-                let ends: Vec<VertexId> = ev.segments.iter().flat_map(|&(a, b)| [a, b]).collect();
-                film.mark_around(mesh, &ends, run);
-            }
-            cracked_this_round += 1;
-            chain = true;
-            if params.propagation == Propagation::ToEnd {
-                follow.extend(ev.segments.iter().map(|&(_, tip)| tip).filter(|&tip| {
-                    !mesh.is_boundary_vertex(tip)
-                        || crate::sim::crack::crack_directions(mesh, tip).len() == 1
-                }));
-            } else if params.relaxation == Relaxation::EigenDiffusion {
-                // Each crack is its own run.
-                follow.clear();
-            }
-            // Residual propagation to the new crack tips.
-            let residual = val - params.toughness + params.residual_constant;
-            for &(_, tip) in &ev.segments {
-                if !mesh.is_boundary_vertex(tip)
-                    || crate::sim::crack::crack_directions(mesh, tip).len() == 1
-                {
-                    st.residual[tip.idx()] += Sym3::m(dir) * (params.alpha * residual);
-                }
-            }
-            // New and nearby nodes get their separation immediately.
-            for n in touched_nodes(mesh, &ev) {
-                if params.relaxation == Relaxation::EigenDiffusion {
-                    run_nodes.push(n);
-                }
-                let s = node_separation(mesh, &st, n);
-                queue.set(n.0, queue_value(s, params.toughness), params.toughness);
-            }
-        }
+        let cracked_this_round = crack_while_failing(
+            mesh,
+            &mut st,
+            params,
+            &mut report,
+            &mut queue,
+            &rules,
+            per_round_cap,
+        )?;
         hold = cracked_this_round >= per_round_cap;
         observer.round(
             round + 1,
@@ -244,6 +160,111 @@ pub fn run_with(
     report.crack_time = st.crack_time;
     report.diffusion_work = st.diffusion_work;
     Ok(report)
+}
+
+/// Crack while the top of the failure queue fails: each crack event is
+/// applied to the state, its tips get the residual, and the nodes it
+/// touched are queued again. Ends when nothing fails, at `max_cracks`, or
+/// (between crack runs) at `per_round_cap` cracks; returns the cracks made.
+#[allow(clippy::too_many_arguments)]
+fn crack_while_failing(
+    mesh: &mut SimMesh,
+    st: &mut State,
+    params: &SimParams,
+    report: &mut SimReport,
+    queue: &mut FailureQueue,
+    rules: &CrackRules,
+    per_round_cap: usize,
+) -> Result<usize, SimError> {
+    let mut cracked_this_round = 0;
+    // With `to-end`, the tips of the crack being run come first.
+    let mut follow: Vec<VertexId> = Vec::new();
+    let mut chain = false;
+    // The nodes the current crack run touched (eigen-diffusion).
+    let mut run_nodes: Vec<VertexId> = Vec::new();
+    loop {
+        if follow.is_empty() {
+            // A crack run ended: diffuse before the next one.
+            if chain && params.relaxation == Relaxation::EigenDiffusion {
+                let changed =
+                    eigen_diffusion_around(mesh, st, params, &run_nodes, params.diffusion_passes);
+                for u in changed {
+                    let s = node_separation(mesh, st, VertexId(u));
+                    queue.set(u, queue_value(s, params.toughness), params.toughness);
+                }
+            }
+            run_nodes.clear();
+            chain = false;
+        }
+        // The round's cap ends a round between crack runs, never
+        // inside one.
+        if report.cracks >= params.max_cracks
+            || (follow.is_empty() && cracked_this_round >= per_round_cap)
+        {
+            break;
+        }
+        let v = match follow.pop() {
+            Some(v) => v,
+            None => match queue.pop() {
+                Some((v, _)) => VertexId(v),
+                None => break,
+            },
+        };
+        let (val, dir) = node_separation(mesh, st, v).max_eigen();
+        if val.is_nan() || val <= params.toughness {
+            continue;
+        }
+        let run = st.film.as_mut().map_or(0, |film| film.run_at(v));
+        let ev = crack_node_avoiding(mesh, v, dir, rules, &|m, w| {
+            crowded_junction(m, &st.crack_degree, w)
+        })
+        .map_err(SimError::Mesh)?;
+        st.residual[v.idx()] = Sym3::ZERO;
+        if let Some(fz) = &mut st.frozen {
+            // The crack releases the node's failing component.
+            let raw = fz[v.idx()];
+            let (l, e) = raw.max_eigen();
+            if l > 0.0 {
+                fz[v.idx()] = raw - Sym3::m(e) * l;
+            }
+        }
+        if !apply_event(mesh, st, params, report, &ev) {
+            continue;
+        }
+        if let Some(film) = &mut st.film {
+            let ends: Vec<VertexId> = ev.segments.iter().flat_map(|&(a, b)| [a, b]).collect();
+            film.mark_around(mesh, &ends, run);
+        }
+        cracked_this_round += 1;
+        chain = true;
+        if params.propagation == Propagation::ToEnd {
+            follow.extend(ev.segments.iter().map(|&(_, tip)| tip).filter(|&tip| {
+                !mesh.is_boundary_vertex(tip)
+                    || crate::sim::crack::crack_directions(mesh, tip).len() == 1
+            }));
+        } else if params.relaxation == Relaxation::EigenDiffusion {
+            // Each crack is its own run.
+            follow.clear();
+        }
+        // Residual propagation to the new crack tips.
+        let residual = val - params.toughness + params.residual_constant;
+        for &(_, tip) in &ev.segments {
+            if !mesh.is_boundary_vertex(tip)
+                || crate::sim::crack::crack_directions(mesh, tip).len() == 1
+            {
+                st.residual[tip.idx()] += Sym3::m(dir) * (params.alpha * residual);
+            }
+        }
+        // New and nearby nodes get their separation immediately.
+        for n in touched_nodes(mesh, &ev) {
+            if params.relaxation == Relaxation::EigenDiffusion {
+                run_nodes.push(n);
+            }
+            let s = node_separation(mesh, st, n);
+            queue.set(n.0, queue_value(s, params.toughness), params.toughness);
+        }
+    }
+    Ok(cracked_this_round)
 }
 
 /// The cracking rules: the pipeline's, or with `remesh = false` ones that

@@ -2,8 +2,8 @@
 
 use super::*;
 use crate::math::{v3, Sym3};
-use crate::mesh::{SimMesh, VertexId};
 use crate::mesh::shapes::jittered_plate;
+use crate::mesh::{SimMesh, VertexId};
 use crate::sim::forces::{corner_forces, Fans};
 use crate::sim::integrate::{explicit::*, region::*};
 use crate::sim::load::*;

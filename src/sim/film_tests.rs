@@ -1,8 +1,8 @@
 //! Film runs: the shear-lag length, and patterns that follow the cell size
 //! instead of the triangles.
 
-use crate::mesh::SimMesh;
 use crate::mesh::shapes::jittered_plate;
+use crate::mesh::SimMesh;
 use crate::sim::{relax_only, run, SimParams};
 
 /// A jittered plate `size` units across made of `n x n` cells.

@@ -699,8 +699,8 @@ pub fn subspace_start(
 mod tests {
     use super::*;
     use crate::math::Sym2;
-    use crate::sim::forces::node_forces_fans;
     use crate::mesh::shapes::jittered_plate;
+    use crate::sim::forces::node_forces_fans;
     use crate::sim::relax::{apply_virtual_displacement, energy};
 
     /// Solve `(I + dt K) x = rhs` with the block-Jacobi preconditioner.

@@ -392,8 +392,8 @@ impl Rkl2 {
 mod tests {
     use super::*;
     use crate::math::Sym2;
-    use crate::mesh::shapes::Lcg;
     use crate::mesh::shapes::jittered_plate;
+    use crate::mesh::shapes::Lcg;
 
     /// A random in-plane tension in every face.
     fn random_tension(mesh: &SimMesh, els: &Elements, rng: &mut Lcg) -> Vec<Sym3> {

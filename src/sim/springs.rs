@@ -282,79 +282,8 @@ pub fn run(
             "the mesh has no edge of positive length".into(),
         ));
     }
-    let x0: Vec<[f64; 3]> = mesh
-        .positions()
-        .iter()
-        .map(|p| v3::scale(*p, 1.0 / unit))
-        .collect();
-    let n = x0.len();
-    // Springs: one per edge, drawn from the seed by the edge's input
-    // vertices (so the draw does not depend on halfedge numbering).
-    let mut springs = Vec::new();
-    for h in mesh.halfedges() {
-        if mesh.twin(h).is_some_and(|t| t.0 < h.0) {
-            continue;
-        }
-        let (a, b) = (mesh.origin(h), mesh.dest(h));
-        let rest0 = v3::norm(v3::sub(x0[b.idx()], x0[a.idx()]));
-        if rest0 <= 0.0 {
-            continue;
-        }
-        let key = {
-            let (i, j) = (u64::from(a.0.min(b.0)), u64::from(a.0.max(b.0)));
-            i.wrapping_mul(0x1_0000_0001) ^ j.rotate_left(29)
-        };
-        let draw = |r: [f64; 2], salt: u64| {
-            let u = 0.5 * (hash_unit(params.seed ^ salt, key) + 1.0);
-            r[0] + (r[1] - r[0]) * u
-        };
-        springs.push(Spring {
-            h,
-            a: a.0,
-            b: b.0,
-            k: draw(sp.stiffness, 0x51),
-            threshold: draw(sp.break_strain, 0xB7),
-            rest0,
-            rest: rest0,
-            broken: false,
-        });
-    }
-    let fixed: Vec<bool> = mesh
-        .vertices()
-        .map(|v| {
-            (params.fixed_boundary && mesh.is_boundary_vertex(v))
-                || (!params.fixed_groups.is_empty()
-                    && mesh
-                        .vertex_faces(v)
-                        .any(|f| params.fixed_groups.contains(&mesh.face_group(f))))
-        })
-        .collect();
-    let normals: Vec<[f64; 3]> = mesh
-        .vertices()
-        .map(|v| {
-            let mut nrm = [0.0; 3];
-            for f in mesh.vertex_faces(v) {
-                let [a, b, c] = mesh.face_vertices(f).map(|u| x0[u.idx()]);
-                nrm = v3::add(nrm, v3::cross(v3::sub(b, a), v3::sub(c, a)));
-            }
-            let l = v3::norm(nrm);
-            if l > 0.0 {
-                v3::scale(nrm, 1.0 / l)
-            } else {
-                [0.0; 3]
-            }
-        })
-        .collect();
-    let mut st = Springs {
-        springs,
-        x: x0.clone(),
-        x0,
-        v: vec![[0.0; 3]; n],
-        normals,
-        fixed,
-        crack_time: vec![f64::NAN; n],
-        adjacency: Vec::new(),
-    };
+    let mut st = Springs::new(mesh, params, unit);
+    let n = st.x.len();
     st.rebuild_adjacency(mesh);
     let stable = stable_dt(&st, sp.mass, sp.alpha);
     let (dt, substeps) = if sp.dt > 0.0 && sp.dt > stable {
@@ -434,42 +363,8 @@ pub fn run(
             if report.cracks >= params.max_cracks {
                 break;
             }
-            st.springs[i].broken = true;
             broke = true;
-            let h = st.springs[i].h;
-            let (a, b) = (mesh.origin(h), mesh.dest(h));
-            if mesh.twin(h).is_none() {
-                // A border edge (or a side of an earlier crack): nothing
-                // to open.
-                continue;
-            }
-            let opened = mesh.open_edge(h).map_err(SimError::Mesh)?;
-            for &(new, src) in &opened.new_vertices {
-                debug_assert_eq!(new.idx(), st.x.len());
-                let s = src.idx();
-                st.x.push(st.x[s]);
-                st.x0.push(st.x0[s]);
-                st.v.push(st.v[s]);
-                st.normals.push(st.normals[s]);
-                st.fixed.push(st.fixed[s]);
-                st.crack_time.push(st.crack_time[s]);
-            }
-            for u in [a, b] {
-                if st.crack_time[u.idx()].is_nan() {
-                    st.crack_time[u.idx()] = report.time;
-                }
-            }
-            for &(new, src) in &opened.new_vertices {
-                st.crack_time[new.idx()] = st.crack_time[src.idx()];
-            }
-            report.cracks += 1;
-            report.crack_length += st.springs[i].rest0 * unit;
-            report.first_crack_time.get_or_insert(report.time);
-            report.segments.push([
-                v3::scale(st.x0[a.idx()], unit),
-                v3::scale(st.x0[b.idx()], unit),
-            ]);
-            report.segment_times.push(report.time);
+            break_spring(mesh, &mut st, i, &mut report, unit)?;
         }
         if broke {
             st.rebuild_adjacency(mesh);
@@ -513,6 +408,138 @@ pub fn run(
             .collect();
     report.crack_time = st.crack_time;
     Ok(report)
+}
+
+impl Springs {
+    /// The spring state of `mesh` at rest, in units of `unit` (its mean
+    /// edge length): one spring per edge, its stiffness and breaking
+    /// strain drawn from the seed by the edge's input vertices (so the
+    /// draw does not depend on halfedge numbering); the fixed nodes and
+    /// the rest normals.
+    fn new(mesh: &SimMesh, params: &SimParams, unit: f64) -> Springs {
+        let sp = &params.springs;
+        let x0: Vec<[f64; 3]> = mesh
+            .positions()
+            .iter()
+            .map(|p| v3::scale(*p, 1.0 / unit))
+            .collect();
+        let n = x0.len();
+        // Springs: one per edge, drawn from the seed by the edge's input
+        // vertices (so the draw does not depend on halfedge numbering).
+        let mut springs = Vec::new();
+        for h in mesh.halfedges() {
+            if mesh.twin(h).is_some_and(|t| t.0 < h.0) {
+                continue;
+            }
+            let (a, b) = (mesh.origin(h), mesh.dest(h));
+            let rest0 = v3::norm(v3::sub(x0[b.idx()], x0[a.idx()]));
+            if rest0 <= 0.0 {
+                continue;
+            }
+            let key = {
+                let (i, j) = (u64::from(a.0.min(b.0)), u64::from(a.0.max(b.0)));
+                i.wrapping_mul(0x1_0000_0001) ^ j.rotate_left(29)
+            };
+            let draw = |r: [f64; 2], salt: u64| {
+                let u = 0.5 * (hash_unit(params.seed ^ salt, key) + 1.0);
+                r[0] + (r[1] - r[0]) * u
+            };
+            springs.push(Spring {
+                h,
+                a: a.0,
+                b: b.0,
+                k: draw(sp.stiffness, 0x51),
+                threshold: draw(sp.break_strain, 0xB7),
+                rest0,
+                rest: rest0,
+                broken: false,
+            });
+        }
+        let fixed: Vec<bool> = mesh
+            .vertices()
+            .map(|v| {
+                (params.fixed_boundary && mesh.is_boundary_vertex(v))
+                    || (!params.fixed_groups.is_empty()
+                        && mesh
+                            .vertex_faces(v)
+                            .any(|f| params.fixed_groups.contains(&mesh.face_group(f))))
+            })
+            .collect();
+        let normals: Vec<[f64; 3]> = mesh
+            .vertices()
+            .map(|v| {
+                let mut nrm = [0.0; 3];
+                for f in mesh.vertex_faces(v) {
+                    let [a, b, c] = mesh.face_vertices(f).map(|u| x0[u.idx()]);
+                    nrm = v3::add(nrm, v3::cross(v3::sub(b, a), v3::sub(c, a)));
+                }
+                let l = v3::norm(nrm);
+                if l > 0.0 {
+                    v3::scale(nrm, 1.0 / l)
+                } else {
+                    [0.0; 3]
+                }
+            })
+            .collect();
+        Springs {
+            springs,
+            x: x0.clone(),
+            x0,
+            v: vec![[0.0; 3]; n],
+            normals,
+            fixed,
+            crack_time: vec![f64::NAN; n],
+            adjacency: Vec::new(),
+        }
+    }
+}
+
+/// Break spring `i` at the report's time: open its edge (unless it is on
+/// the border already), give the new nodes their copies of the state, and
+/// record the crack.
+fn break_spring(
+    mesh: &mut SimMesh,
+    st: &mut Springs,
+    i: usize,
+    report: &mut SimReport,
+    unit: f64,
+) -> Result<(), SimError> {
+    st.springs[i].broken = true;
+    let h = st.springs[i].h;
+    let (a, b) = (mesh.origin(h), mesh.dest(h));
+    if mesh.twin(h).is_none() {
+        // A border edge (or a side of an earlier crack): nothing
+        // to open.
+        return Ok(());
+    }
+    let opened = mesh.open_edge(h).map_err(SimError::Mesh)?;
+    for &(new, src) in &opened.new_vertices {
+        debug_assert_eq!(new.idx(), st.x.len());
+        let s = src.idx();
+        st.x.push(st.x[s]);
+        st.x0.push(st.x0[s]);
+        st.v.push(st.v[s]);
+        st.normals.push(st.normals[s]);
+        st.fixed.push(st.fixed[s]);
+        st.crack_time.push(st.crack_time[s]);
+    }
+    for u in [a, b] {
+        if st.crack_time[u.idx()].is_nan() {
+            st.crack_time[u.idx()] = report.time;
+        }
+    }
+    for &(new, src) in &opened.new_vertices {
+        st.crack_time[new.idx()] = st.crack_time[src.idx()];
+    }
+    report.cracks += 1;
+    report.crack_length += st.springs[i].rest0 * unit;
+    report.first_crack_time.get_or_insert(report.time);
+    report.segments.push([
+        v3::scale(st.x0[a.idx()], unit),
+        v3::scale(st.x0[b.idx()], unit),
+    ]);
+    report.segment_times.push(report.time);
+    Ok(())
 }
 
 #[cfg(test)]

@@ -2,7 +2,7 @@
 
 #[allow(unused_imports)]
 use super::*;
-use crate::error::{Error, Result};
+use crate::io::{IoError as Error, IoResult as Result};
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 

@@ -7,10 +7,10 @@
 //! first written under a temporary name and renamed into place at the end, so
 //! a failure leaves no partial output.
 
-use crate::error::{Error, Result};
 use crate::io::accessor::vector_type;
 use crate::io::gltf_read::{mime_from_extension, sniff_mime};
 use crate::io::Format;
+use crate::io::{IoError as Error, IoResult as Result};
 use crate::scene::{Geometry, ImageSource, RawAccessor, Scene, Transform, TriGeometry};
 use serde_json::{json, Map, Value};
 use std::collections::{BTreeMap, BTreeSet};

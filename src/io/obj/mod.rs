@@ -12,8 +12,8 @@
 //! [`Primitive`] per (group, material) in order of first use, polygons
 //! triangulated with [`triangulate_polygon`] (correct for concave faces).
 
-use crate::error::Error;
 use crate::geometry::triangulate_polygon;
+use crate::io::IoError as Error;
 use crate::scene::{
     Geometry, Material, Mesh, Node, Primitive, Scene, SceneRoot, TriGeometry, VertexAttribute,
 };

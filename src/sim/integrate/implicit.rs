@@ -1,10 +1,13 @@
 //! Backward Euler and equilibrium: conjugate-gradient solves of `(I + dt K) du = dt f`.
 
 use crate::math::{v3, Sym3};
-use crate::sim::forces::gather;
+use crate::sim::forces::{gather, Fans};
+use crate::sim::implicit::{History, Operator};
+use crate::sim::integrate::region::Region;
 use crate::sim::integrate::{Round, RoundEnd, Scheme, EQUILIBRIUM_DT};
 use crate::sim::{load::*, params::*, report::*, state::*};
 use rayon::prelude::*;
+use std::borrow::Cow;
 
 /// Backward Euler and equilibrium: conjugate-gradient solves of `(I + dt K) du = dt f`.
 pub(in crate::sim) struct Implicit;
@@ -30,56 +33,21 @@ impl Scheme for Implicit {
             loading,
         } = *r;
         let mut out = RoundEnd::default();
-        let dt_req = if params.relax_dt > 0.0 {
-            params.relax_dt
-        } else {
-            params.relax_time
-        };
-        // Equilibrium: one solve per round with a step so long that
-        // `(I + dt K) du = dt f` is `K du = f` to working precision; the
-        // round's load goes in at once.
-        let (steps, dt, solve_dt) = if params.integrator == Integrator::Equilibrium {
-            (1, params.relax_time, EQUILIBRIUM_DT)
-        } else {
-            let (n, dt) = r.steps_for(dt_req);
-            (n, dt, dt)
-        };
-        // Outside a local region every node is held.
-        let held: Vec<bool>;
-        let fixed: &[bool] = match region {
-            Some(r) => {
-                held = st
-                    .fixed
-                    .iter()
-                    .zip(&r.inside)
-                    .map(|(&f, &i)| f || !i)
-                    .collect();
-                &held
-            }
-            None => &st.fixed,
-        };
+        let (steps, dt, solve_dt) = step_plan(r);
+        let fixed = held(&st.fixed, region);
         let op = crate::sim::implicit::Operator {
             fans,
             els: &st.els,
             normals,
-            fixed,
+            fixed: &fixed,
             interface: &[],
         };
         // The preconditioner, kept for the whole mesh's system.
-        let local_pre: Vec<Sym3>;
-        let pre: &[Sym3] = if region.is_some() {
-            local_pre = op.block_preconditioner(solve_dt);
-            &local_pre
-        } else {
-            if cache.pre.as_ref().is_none_or(|(d, _)| *d != solve_dt) {
-                cache.pre = Some((solve_dt, op.block_preconditioner(solve_dt)));
-            }
-            &cache.pre.as_ref().expect("set").1
-        };
+        let pre = preconditioner(&op, solve_dt, region.is_some(), &mut cache.pre);
         let shifted = crate::sim::implicit::Shifted {
             op: &op,
             dt: solve_dt,
-            pre,
+            pre: &pre,
             tol: params.tolerance,
             max_iter: 10_000,
         };
@@ -128,28 +96,16 @@ impl Scheme for Implicit {
         for _ in 0..steps {
             let load = r.load_for(loaded, dt);
             add_load(&mut stress, &st.els, &st.shrink_scale, &st.evolve, load);
-            let rhs = &mut bufs.rhs;
-            match (&force, load_force) {
-                (Some(f), Some(lf)) if load.dt > 0.0 => {
-                    rhs.resize(f.len(), [0.0; 3]);
-                    rhs.par_iter_mut()
-                        .zip(f.par_iter().zip(lf.par_iter()))
-                        .for_each(|(b, (f, l))| {
-                            *b = v3::scale(v3::add(*f, v3::scale(*l, load.dt)), solve_dt)
-                        });
-                }
-                (Some(f), _) => {
-                    rhs.resize(f.len(), [0.0; 3]);
-                    rhs.par_iter_mut()
-                        .zip(f.par_iter())
-                        .for_each(|(b, f)| *b = v3::scale(*f, solve_dt));
-                }
-                (None, _) => {
-                    *rhs = op.forces(&stress, &mut bufs.cg.corner);
-                    rhs.par_iter_mut()
-                        .for_each(|b| *b = v3::scale(*b, solve_dt));
-                }
-            }
+            right_hand_side(
+                &mut bufs.rhs,
+                force.as_deref(),
+                load_force,
+                load.dt,
+                solve_dt,
+                &op,
+                &stress,
+                &mut bufs.cg.corner,
+            );
             let rhs = &bufs.rhs;
             let history = cache.history.as_mut().filter(|_| carry).map(|h| &mut h.1);
             let started = history.as_deref().is_some_and(|h| {
@@ -171,44 +127,20 @@ impl Scheme for Implicit {
                 &mut st.corner,
                 &x,
             ));
-            let unit = st.unit;
-            match (history, &mut force) {
-                (Some(history), Some(f)) => {
-                    // One pass over the nodes: the displacement, the force
-                    // at the new stress (gathered afresh, never carried
-                    // over from the solver's residual, which drifts), and
-                    // `(x, A x)` for the history, with `A x = x + dt K x =
-                    // x + rhs - dt f_new` exact (the oldest entry's storage
-                    // reused when the history is full).
-                    let (mut hx, mut hax) = if history.len() == HISTORY {
-                        history.remove(0)
-                    } else {
-                        (Vec::new(), Vec::new())
-                    };
-                    hx.resize(x.len(), [0.0; 3]);
-                    hax.resize(x.len(), [0.0; 3]);
-                    let corner = &st.corner;
-                    st.displacement
-                        .par_iter_mut()
-                        .zip(f.par_iter_mut())
-                        .zip(hx.par_iter_mut().zip(hax.par_iter_mut()))
-                        .zip(x.par_iter().zip(rhs.par_iter()))
-                        .enumerate()
-                        .with_min_len(512)
-                        .for_each(|(n, (((d, f), (hx, hax)), (x, b)))| {
-                            *d = v3::add(*d, v3::scale(*x, unit));
-                            *f = op.project(n, gather(fans, corner, n));
-                            *hx = *x;
-                            *hax = v3::add(*x, v3::sub(*b, v3::scale(*f, solve_dt)));
-                        });
-                    history.push((hx, hax));
-                }
-                _ => st
-                    .displacement
-                    .par_iter_mut()
-                    .zip(x.par_iter())
-                    .for_each(|(d, x)| *d = v3::add(*d, v3::scale(*x, unit))),
-            }
+            advance(
+                &mut st.displacement,
+                &st.corner,
+                st.unit,
+                Step {
+                    x: &x,
+                    rhs,
+                    solve_dt,
+                },
+                history,
+                force.as_mut(),
+                &op,
+                fans,
+            );
         }
         st.stress = stress;
         st.warm = x;
@@ -228,4 +160,148 @@ impl Scheme for Implicit {
         phase.steps = steps;
         out
     }
+}
+
+/// The right-hand side `dt f` of one step into `rhs`: the carried force
+/// plus the force of the step's load (`load_dt` times a unit of load's),
+/// or the force at `stress` gathered afresh when none is carried.
+#[allow(clippy::too_many_arguments)]
+fn right_hand_side(
+    rhs: &mut Vec<[f64; 3]>,
+    force: Option<&[[f64; 3]]>,
+    load_force: Option<&[[f64; 3]]>,
+    load_dt: f64,
+    solve_dt: f64,
+    op: &Operator,
+    stress: &[Sym3],
+    corner: &mut Vec<[f64; 3]>,
+) {
+    match (force, load_force) {
+        (Some(f), Some(lf)) if load_dt > 0.0 => {
+            rhs.resize(f.len(), [0.0; 3]);
+            rhs.par_iter_mut()
+                .zip(f.par_iter().zip(lf.par_iter()))
+                .for_each(|(b, (f, l))| {
+                    *b = v3::scale(v3::add(*f, v3::scale(*l, load_dt)), solve_dt)
+                });
+        }
+        (Some(f), _) => {
+            rhs.resize(f.len(), [0.0; 3]);
+            rhs.par_iter_mut()
+                .zip(f.par_iter())
+                .for_each(|(b, f)| *b = v3::scale(*f, solve_dt));
+        }
+        (None, _) => {
+            *rhs = op.forces(stress, corner);
+            rhs.par_iter_mut()
+                .for_each(|b| *b = v3::scale(*b, solve_dt));
+        }
+    }
+}
+
+/// One solved step: the solution, its right-hand side and the step.
+struct Step<'a> {
+    x: &'a [[f64; 3]],
+    rhs: &'a [[f64; 3]],
+    solve_dt: f64,
+}
+
+/// After a solve for `x`: move the displacement by `x`; with a carried
+/// force and history, in the same pass over the nodes, the force at the
+/// new stress (gathered afresh, never carried over from the solver's
+/// residual, which drifts) and `(x, A x)` for the history, with
+/// `A x = x + dt K x = x + rhs - dt f_new` exact (the oldest entry's
+/// storage reused when the history is full).
+#[allow(clippy::too_many_arguments)]
+fn advance(
+    displacement: &mut [[f64; 3]],
+    corner: &[[f64; 3]],
+    unit: f64,
+    step: Step,
+    history: Option<&mut History>,
+    force: Option<&mut Vec<[f64; 3]>>,
+    op: &Operator,
+    fans: &Fans,
+) {
+    let Step { x, rhs, solve_dt } = step;
+    match (history, force) {
+        (Some(history), Some(f)) => {
+            let (mut hx, mut hax) = if history.len() == HISTORY {
+                history.remove(0)
+            } else {
+                (Vec::new(), Vec::new())
+            };
+            hx.resize(x.len(), [0.0; 3]);
+            hax.resize(x.len(), [0.0; 3]);
+            displacement
+                .par_iter_mut()
+                .zip(f.par_iter_mut())
+                .zip(hx.par_iter_mut().zip(hax.par_iter_mut()))
+                .zip(x.par_iter().zip(rhs.par_iter()))
+                .enumerate()
+                .with_min_len(512)
+                .for_each(|(n, (((d, f), (hx, hax)), (x, b)))| {
+                    *d = v3::add(*d, v3::scale(*x, unit));
+                    *f = op.project(n, gather(fans, corner, n));
+                    *hx = *x;
+                    *hax = v3::add(*x, v3::sub(*b, v3::scale(*f, solve_dt)));
+                });
+            history.push((hx, hax));
+        }
+        _ => displacement
+            .par_iter_mut()
+            .zip(x.par_iter())
+            .for_each(|(d, x)| *d = v3::add(*d, v3::scale(*x, unit))),
+    }
+}
+
+/// The steps of a round, their length and the step each solve uses.
+/// Equilibrium: one solve per round with a step so long that
+/// `(I + dt K) du = dt f` is `K du = f` to working precision; the round's
+/// load goes in at once.
+fn step_plan(r: &Round) -> (usize, f64, f64) {
+    let params = r.params;
+    let dt_req = if params.relax_dt > 0.0 {
+        params.relax_dt
+    } else {
+        params.relax_time
+    };
+    if params.integrator == Integrator::Equilibrium {
+        (1, params.relax_time, EQUILIBRIUM_DT)
+    } else {
+        let (n, dt) = r.steps_for(dt_req);
+        (n, dt, dt)
+    }
+}
+
+/// The nodes held in a solve: the fixed ones and, in a local round, every
+/// node outside the region.
+fn held<'a>(fixed: &'a [bool], region: Option<&Region>) -> Cow<'a, [bool]> {
+    match region {
+        Some(r) => Cow::Owned(
+            fixed
+                .iter()
+                .zip(&r.inside)
+                .map(|(&f, &i)| f || !i)
+                .collect(),
+        ),
+        None => Cow::Borrowed(fixed),
+    }
+}
+
+/// The block preconditioner of `op` for step `solve_dt`: the whole mesh's
+/// is kept in `kept` from round to round; a local round's is its own.
+fn preconditioner<'a>(
+    op: &Operator,
+    solve_dt: f64,
+    local: bool,
+    kept: &'a mut Option<(f64, Vec<Sym3>)>,
+) -> Cow<'a, [Sym3]> {
+    if local {
+        return Cow::Owned(op.block_preconditioner(solve_dt));
+    }
+    if kept.as_ref().is_none_or(|(d, _)| *d != solve_dt) {
+        *kept = Some((solve_dt, op.block_preconditioner(solve_dt)));
+    }
+    Cow::Borrowed(&kept.as_ref().expect("set").1)
 }

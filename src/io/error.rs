@@ -1,0 +1,54 @@
+//! Errors of reading and writing files.
+
+use std::path::PathBuf;
+
+/// A file could not be read, decoded or written; every message names the
+/// file.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum IoError {
+    /// A file could not be read or written.
+    #[error("{path}: {source}")]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The OS error.
+        source: std::io::Error,
+    },
+    /// The input is malformed or not supported; the message names the element.
+    #[error("{path}: {message}")]
+    Input {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong, naming the element.
+        message: String,
+    },
+    /// Output could not be produced.
+    #[error("{path}: cannot write: {message}")]
+    Output {
+        /// The file.
+        path: PathBuf,
+        /// What went wrong.
+        message: String,
+    },
+}
+
+impl IoError {
+    /// An input error for `path`.
+    pub fn input(path: impl Into<PathBuf>, message: impl Into<String>) -> Self {
+        IoError::Input {
+            path: path.into(),
+            message: message.into(),
+        }
+    }
+    /// An I/O error for `path`.
+    pub fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
+        IoError::Io {
+            path: path.into(),
+            source,
+        }
+    }
+}
+
+/// Result with the I/O layer's error.
+pub type IoResult<T, E = IoError> = std::result::Result<T, E>;
