@@ -316,3 +316,7 @@ pub(in crate::sim) fn touched_nodes(
     nodes.dedup();
     nodes
 }
+
+#[cfg(test)]
+#[path = "state_tests.rs"]
+mod tests;
