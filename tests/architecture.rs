@@ -328,3 +328,138 @@ fn no_function_of_the_simulation_is_longer_than_about_150_lines() {
     assert!(files.len() > 10, "the simulation's files were not found");
     assert!(long.is_empty(), "functions too long:\n{}", long.join("\n"));
 }
+
+/// The files of `src/sim` as modules (`driver`, `integrate::rkl`...) and
+/// the sibling modules each names through `crate::sim::` (names re-exported
+/// by `sim/mod.rs` count as their defining module).
+fn sim_file_graph() -> BTreeMap<String, BTreeSet<String>> {
+    let sim = src_dir().join("sim");
+    let mod_rs = std::fs::read_to_string(sim.join("mod.rs")).expect("sim/mod.rs");
+    // `pub use module::{A, b};` -> name -> module
+    let mut reexport: BTreeMap<String, String> = BTreeMap::new();
+    for stmt in mod_rs.split(';') {
+        let s = stmt.trim();
+        let Some(rest) = s.strip_prefix("pub use ") else {
+            continue;
+        };
+        let Some((module, names)) = rest.split_once("::") else {
+            continue;
+        };
+        for n in names.trim_matches(|c| c == '{' || c == '}').split(',') {
+            let n = n.trim();
+            if !n.is_empty() {
+                reexport.insert(n.to_string(), module.to_string());
+            }
+        }
+    }
+    let mut files = Vec::new();
+    rs_files(&sim, &mut files);
+    let mut graph = BTreeMap::new();
+    for f in files {
+        let rel = f
+            .strip_prefix(&sim)
+            .expect("inside sim")
+            .to_string_lossy()
+            .into_owned();
+        if rel == "mod.rs" || rel.ends_with("_tests.rs") {
+            continue;
+        }
+        let name = rel
+            .trim_end_matches(".rs")
+            .trim_end_matches("/mod")
+            .replace('/', "::");
+        let code = code_of(&std::fs::read_to_string(&f).expect("readable"));
+        let mut deps = BTreeSet::new();
+        let mut rest = code.as_str();
+        while let Some(k) = rest.find("crate::sim::") {
+            rest = &rest[k + "crate::sim::".len()..];
+            let mut items: Vec<String> = Vec::new();
+            if let Some(group) = rest.strip_prefix('{') {
+                let end = group.find('}').unwrap_or(group.len());
+                items.extend(group[..end].split(',').map(|s| s.trim().to_string()));
+            } else {
+                items.push(
+                    rest.chars()
+                        .take_while(|c| c.is_ascii_alphanumeric() || *c == '_' || *c == ':')
+                        .collect(),
+                );
+            }
+            for item in items {
+                let mut parts = item.split("::").filter(|p| !p.is_empty());
+                let Some(first) = parts.next() else { continue };
+                let module = if first == "integrate" {
+                    match parts.next() {
+                        Some(p)
+                            if p.chars().next().is_some_and(|c| c.is_ascii_lowercase())
+                                && !p.contains('(') =>
+                        {
+                            let candidate = format!("integrate::{p}");
+                            if sim.join("integrate").join(format!("{p}.rs")).exists() {
+                                candidate
+                            } else {
+                                "integrate".to_string()
+                            }
+                        }
+                        _ => "integrate".to_string(),
+                    }
+                } else if let Some(m) = reexport.get(first) {
+                    m.clone()
+                } else {
+                    first.to_string()
+                };
+                if module != name {
+                    deps.insert(module);
+                }
+            }
+        }
+        graph.insert(name, deps);
+    }
+    graph
+}
+
+#[test]
+fn the_simulation_files_import_each_other_without_a_cycle() {
+    let graph = sim_file_graph();
+    assert!(
+        graph
+            .get("driver")
+            .is_some_and(|d| d.contains("integrate") && d.contains("state")),
+        "the file graph missed the driver's imports: {graph:?}"
+    );
+    // Kahn's algorithm: what is left over lies on a cycle.
+    let mut indegree: BTreeMap<&str, usize> = graph.keys().map(|k| (k.as_str(), 0)).collect();
+    for deps in graph.values() {
+        for d in deps {
+            if let Some(n) = indegree.get_mut(d.as_str()) {
+                *n += 1;
+            }
+        }
+    }
+    let mut ready: Vec<&str> = indegree
+        .iter()
+        .filter(|(_, &n)| n == 0)
+        .map(|(k, _)| *k)
+        .collect();
+    let mut done = 0;
+    while let Some(m) = ready.pop() {
+        done += 1;
+        for d in &graph[m] {
+            if let Some(n) = indegree.get_mut(d.as_str()) {
+                *n -= 1;
+                if *n == 0 {
+                    ready.push(d.as_str());
+                }
+            }
+        }
+    }
+    let cyclic: Vec<&str> = indegree
+        .iter()
+        .filter(|(_, &n)| n > 0)
+        .map(|(k, _)| *k)
+        .collect();
+    assert_eq!(
+        done,
+        graph.len(),
+        "files on an import cycle: {cyclic:?}\n{graph:#?}"
+    );
+}

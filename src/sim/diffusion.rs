@@ -3,7 +3,9 @@
 
 use crate::math::Sym3;
 use crate::mesh::{SimMesh, VertexId};
-use crate::sim::{params::*, separation::*, state::*};
+use crate::sim::separation::node_separation;
+use crate::sim::state::State;
+use crate::sim::SimParams;
 use rayon::prelude::*;
 
 /// Eigen-diffusion passes (see [`Relaxation::EigenDiffusion`]): each node

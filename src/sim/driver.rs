@@ -10,13 +10,33 @@
 use crate::math::Sym3;
 use crate::mesh::{FaceId, SimMesh, VertexId};
 use crate::sim::crack::{crack_node_avoiding, CrackRules};
+use crate::sim::diffusion::eigen_diffusion_around;
+use crate::sim::finish::crowded_junction;
+use crate::sim::finish::finish_cracks;
 use crate::sim::forces::{separation_tensor, Elements};
+use crate::sim::integrate::relax_round;
+use crate::sim::integrate::resolve_integrator;
+use crate::sim::observer::Observer;
+use crate::sim::params::crack_rules;
 use crate::sim::queue::FailureQueue;
 use crate::sim::relax::energy;
-use crate::sim::{
-    diffusion::*, error::*, finish::*, integrate::*, observer::*, params::*, report::*,
-    separation::*, state::*,
-};
+use crate::sim::separation::node_separation;
+use crate::sim::separation::queue_value;
+use crate::sim::separation::separations;
+use crate::sim::state::apply_event;
+use crate::sim::state::observe;
+use crate::sim::state::touched_nodes;
+use crate::sim::state::ImplicitScratch;
+use crate::sim::state::RoundCache;
+use crate::sim::state::State;
+use crate::sim::Integrator;
+use crate::sim::Model;
+use crate::sim::Propagation;
+use crate::sim::Relaxation;
+use crate::sim::Relaxed;
+use crate::sim::SimError;
+use crate::sim::SimParams;
+use crate::sim::SimReport;
 use crate::stress::field::StressField;
 use rayon::prelude::*;
 
@@ -265,19 +285,6 @@ fn crack_while_failing(
         }
     }
     Ok(cracked_this_round)
-}
-
-/// The cracking rules: the pipeline's, or with `remesh = false` ones that
-/// always snap to the existing edge nearest the crack plane.
-pub(in crate::sim) fn crack_rules(params: &SimParams) -> CrackRules {
-    if params.remesh {
-        params.rules
-    } else {
-        CrackRules {
-            theta1: std::f64::consts::PI,
-            ..params.rules
-        }
-    }
 }
 
 /// The start state of a run: parameters and field checked, elements

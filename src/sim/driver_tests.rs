@@ -7,6 +7,7 @@ use crate::mesh::{SimMesh, VertexId};
 use crate::sim::forces::{corner_forces, Fans};
 use crate::sim::integrate::{explicit::*, region::*};
 use crate::sim::load::*;
+use crate::sim::{diffusion::*, finish::*, observer::*, params::*, report::*, state::*};
 
 #[test]
 fn alpha_above_one_is_refused() {

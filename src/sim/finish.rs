@@ -4,7 +4,19 @@
 use crate::math::{v3, Sym3};
 use crate::mesh::{SimMesh, VertexId};
 use crate::sim::crack::crack_node_avoiding;
-use crate::sim::{driver::*, error::*, integrate::*, observer::*, params::*, report::*, state::*};
+use crate::sim::integrate::relax_round;
+use crate::sim::observer::Observer;
+use crate::sim::params::crack_rules;
+use crate::sim::separation::separation_factor;
+use crate::sim::state::apply_event;
+use crate::sim::state::observe;
+use crate::sim::state::touched_nodes;
+use crate::sim::state::vertex_root;
+use crate::sim::state::State;
+use crate::sim::FinishReport;
+use crate::sim::SimError;
+use crate::sim::SimParams;
+use crate::sim::SimReport;
 
 /// The tips to finish, in id order, with the normal of the plane each
 /// cracks along.
@@ -30,23 +42,6 @@ pub(in crate::sim) fn tip_plane(mesh: &SimMesh, st: &State, v: VertexId) -> Opti
 /// below this: material a confining mask (or a curvature scale) keeps from
 /// cracking is not cracked by finishing either.
 pub(in crate::sim) const FINISH_MIN_FACTOR: f64 = 0.5;
-
-/// The mean separation factor of the faces around `v` (1 without one).
-pub(in crate::sim) fn separation_factor(mesh: &SimMesh, st: &State, v: VertexId) -> f64 {
-    if st.sep_scale.is_empty() {
-        return 1.0;
-    }
-    let (mut sum, mut n) = (0.0, 0usize);
-    for f in mesh.vertex_faces(v) {
-        sum += st.sep_scale[f.idx()];
-        n += 1;
-    }
-    if n > 0 {
-        sum / n as f64
-    } else {
-        1.0
-    }
-}
 
 /// [`tip_plane`] without the field's confinement.
 pub(in crate::sim) fn open_tip_plane(mesh: &SimMesh, st: &State, v: VertexId) -> Option<[f64; 3]> {
@@ -186,20 +181,6 @@ pub(in crate::sim) fn finish_cracks(
         })
         .count();
     Ok(fin)
-}
-
-/// The vertex `v`'s copies were all duplicated from (see
-/// [`SimMesh::vertex_parent`]).
-pub(in crate::sim) fn vertex_root(mesh: &SimMesh, v: VertexId) -> VertexId {
-    let mut r = v;
-    for _ in 0..64 {
-        let p = mesh.vertex_parent(r);
-        if p == r {
-            break;
-        }
-        r = p;
-    }
-    r
 }
 
 /// Whether a new crack should not end on `w`: three or more cracks meet

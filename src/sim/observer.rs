@@ -2,8 +2,6 @@
 //! asks, the state after it ([`Snapshot`], for time-lapse frames).
 
 use crate::mesh::SimMesh;
-use crate::sim::relax::energy;
-use crate::sim::{report::*, state::*};
 
 /// Progress reports from the loop (the CLI turns them into a progress bar).
 pub trait Observer {
@@ -41,24 +39,4 @@ pub struct Snapshot<'a> {
     pub segment_times: &'a [f64],
     /// Area-weighted stress energy `1/2 sum_e A_e |S_e|^2` now.
     pub energy: f64,
-}
-
-/// Tell `observer` the state, when it wants it.
-pub(in crate::sim) fn observe(
-    observer: &mut dyn Observer,
-    mesh: &SimMesh,
-    st: &State,
-    report: &SimReport,
-) {
-    if observer.wants_state() {
-        observer.state(&Snapshot {
-            mesh,
-            time: report.time,
-            displacement: &st.displacement,
-            crack_time: &st.crack_time,
-            segments: &report.segments,
-            segment_times: &report.segment_times,
-            energy: energy(&st.els, &st.stress),
-        });
-    }
 }

@@ -102,7 +102,7 @@ pub struct SimParams {
     /// neighbours per pass, in [0, 1]. Default 0.05.
     pub diffusion_fraction: f64,
     /// Parameters of `model = "springs"` (`[simulation.springs]`).
-    pub springs: crate::sim::springs::SpringParams,
+    pub springs: SpringParams,
     /// The pattern's cell size in scene units: the surface is a film bonded
     /// to its body ([`crate::sim::film`]) whose cells come out near this
     /// diameter, whatever the triangles. Give this or
@@ -377,4 +377,75 @@ impl SimParams {
         }
         Ok(())
     }
+}
+
+/// The cracking rules: the pipeline's, or with `remesh = false` ones that
+/// always snap to the existing edge nearest the crack plane.
+pub(in crate::sim) fn crack_rules(params: &SimParams) -> CrackRules {
+    if params.remesh {
+        params.rules
+    } else {
+        CrackRules {
+            theta1: std::f64::consts::PI,
+            ..params.rules
+        }
+    }
+}
+
+/// Parameters of the spring model (`[simulation.springs]`).
+#[derive(Clone, Debug, PartialEq, serde::Deserialize, serde::Serialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct SpringParams {
+    /// Range of spring stiffness (per unit strain), drawn per spring with
+    /// the seed. Default [1, 1].
+    pub stiffness: [f64; 2],
+    /// Range of breaking strain, drawn per spring. Default [0.04, 0.08].
+    pub break_strain: [f64; 2],
+    /// Rest lengths shrink toward `alpha L0`. In (0, 1]; default 0.85.
+    pub alpha: f64,
+    /// Shrink rate `s` per unit time. Default 0.02.
+    pub rate: f64,
+    /// Drying law. Default `relax`.
+    pub law: DryingLaw,
+    /// Velocity damping per unit time. Default 0.5.
+    pub damping: f64,
+    /// Node mass. Default 1.
+    pub mass: f64,
+    /// Time step; 0 picks the stable step of the stiffest node. A larger
+    /// one is split into stable sub-steps (reported). Default 0.
+    pub dt: f64,
+    /// Keep nodes on their tangent planes (the surface keeps its shape).
+    /// Default true.
+    pub tangent: bool,
+    /// Simulated time. Default 200.
+    pub max_time: f64,
+}
+
+impl Default for SpringParams {
+    fn default() -> Self {
+        SpringParams {
+            stiffness: [1.0, 1.0],
+            break_strain: [0.04, 0.08],
+            alpha: 0.85,
+            rate: 0.02,
+            law: DryingLaw::Relax,
+            damping: 0.5,
+            mass: 1.0,
+            dt: 0.0,
+            tangent: true,
+            max_time: 200.0,
+        }
+    }
+}
+
+/// How rest lengths shrink.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Deserialize, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum DryingLaw {
+    /// The text's law: `L -= (L - alpha L0) s dt` (fast at first, slowing
+    /// as the target nears).
+    #[default]
+    Relax,
+    /// At a constant rate, `L -= (1 - alpha) L0 s dt`, until `alpha L0`.
+    Linear,
 }

@@ -1,12 +1,10 @@
 //! The failure measure of each node: its separation tensor (film,
 //! frozen or element form), scaled, and its value in the failure queue.
 
-use crate::math::{v3, Sym3};
+use crate::math::Sym3;
 use crate::mesh::{SimMesh, VertexId};
-use crate::sim::forces::{
-    separation_tensor, separation_tensor_split, tensile_splits, Elements, Fans,
-};
-use crate::sim::{finish::*, state::*};
+use crate::sim::forces::{separation_tensor, separation_tensor_split, tensile_splits, Fans};
+use crate::sim::state::State;
 use rayon::prelude::*;
 
 /// Separation tensor of node `v`: the force-based tensor (eq. 3) plus the
@@ -120,23 +118,19 @@ pub(in crate::sim) fn queue_value(s: Sym3, threshold: f64) -> f64 {
     }
 }
 
-/// Unit area-weighted normal of every node (zero where undefined).
-pub(in crate::sim) fn node_normals(fans: &Fans, els: &Elements) -> Vec<[f64; 3]> {
-    (0..fans.n_vertices())
-        .into_par_iter()
-        .map(|v| {
-            let mut n = [0.0; 3];
-            for &(f, _) in fans.fan(v) {
-                if let Some(Some(el)) = els.elements.get(f as usize) {
-                    n = v3::add(n, v3::scale(el.normal, el.area));
-                }
-            }
-            let l = v3::norm(n);
-            if l > 0.0 {
-                v3::scale(n, 1.0 / l)
-            } else {
-                [0.0; 3]
-            }
-        })
-        .collect()
+/// The mean separation factor of the faces around `v` (1 without one).
+pub(in crate::sim) fn separation_factor(mesh: &SimMesh, st: &State, v: VertexId) -> f64 {
+    if st.sep_scale.is_empty() {
+        return 1.0;
+    }
+    let (mut sum, mut n) = (0.0, 0usize);
+    for f in mesh.vertex_faces(v) {
+        sum += st.sep_scale[f.idx()];
+        n += 1;
+    }
+    if n > 0 {
+        sum / n as f64
+    } else {
+        1.0
+    }
 }

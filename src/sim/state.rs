@@ -5,8 +5,13 @@
 use crate::geometry::element::Element;
 use crate::math::{hash_unit, v3, Sym3};
 use crate::mesh::{FaceId, SimMesh, VertexId};
+use crate::sim::energy;
 use crate::sim::forces::{face_points, Elements, Fans};
-use crate::sim::{finish::*, params::*, report::*, separation::*};
+use crate::sim::Observer;
+use crate::sim::SimParams;
+use crate::sim::SimReport;
+use crate::sim::Snapshot;
+use rayon::prelude::*;
 use std::sync::Arc;
 
 /// Simulation state that grows with the mesh.
@@ -315,6 +320,61 @@ pub(in crate::sim) fn touched_nodes(
     nodes.sort();
     nodes.dedup();
     nodes
+}
+
+/// The vertex `v`'s copies were all duplicated from (see
+/// [`SimMesh::vertex_parent`]).
+pub(in crate::sim) fn vertex_root(mesh: &SimMesh, v: VertexId) -> VertexId {
+    let mut r = v;
+    for _ in 0..64 {
+        let p = mesh.vertex_parent(r);
+        if p == r {
+            break;
+        }
+        r = p;
+    }
+    r
+}
+
+/// Unit area-weighted normal of every node (zero where undefined).
+pub(in crate::sim) fn node_normals(fans: &Fans, els: &Elements) -> Vec<[f64; 3]> {
+    (0..fans.n_vertices())
+        .into_par_iter()
+        .map(|v| {
+            let mut n = [0.0; 3];
+            for &(f, _) in fans.fan(v) {
+                if let Some(Some(el)) = els.elements.get(f as usize) {
+                    n = v3::add(n, v3::scale(el.normal, el.area));
+                }
+            }
+            let l = v3::norm(n);
+            if l > 0.0 {
+                v3::scale(n, 1.0 / l)
+            } else {
+                [0.0; 3]
+            }
+        })
+        .collect()
+}
+
+/// Tell `observer` the state, when it wants it.
+pub(in crate::sim) fn observe(
+    observer: &mut dyn Observer,
+    mesh: &SimMesh,
+    st: &State,
+    report: &SimReport,
+) {
+    if observer.wants_state() {
+        observer.state(&Snapshot {
+            mesh,
+            time: report.time,
+            displacement: &st.displacement,
+            crack_time: &st.crack_time,
+            segments: &report.segments,
+            segment_times: &report.segment_times,
+            energy: energy(&st.els, &st.stress),
+        });
+    }
 }
 
 #[cfg(test)]

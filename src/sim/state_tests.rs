@@ -133,7 +133,7 @@ fn crack_ends_get_the_time_and_their_degree() {
     for &(a, b) in &ev.segments {
         for v in [a, b] {
             assert_eq!(st.crack_time[v.idx()], 3.5);
-            assert!(st.crack_degree[crate::sim::finish::vertex_root(&mesh, v).idx()] >= 1);
+            assert!(st.crack_degree[crate::sim::state::vertex_root(&mesh, v).idx()] >= 1);
         }
     }
     // Nodes away from the crack keep no crack time.

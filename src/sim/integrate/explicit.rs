@@ -2,29 +2,21 @@
 //! the forces and one fused update of displacement and stress.
 
 use crate::math::v3;
-use crate::sim::forces::{corner_forces, gather, Fans};
-use crate::sim::integrate::{region::*, Round, RoundEnd, Scheme};
+use crate::sim::forces::{corner_forces, Fans};
+use crate::sim::integrate::region::node_velocity;
+use crate::sim::integrate::region::region_corner_forces;
+use crate::sim::integrate::region::relax_region;
+use crate::sim::integrate::scheme::{Round, RoundEnd, Scheme};
+use crate::sim::load::load_increment;
+use crate::sim::load::Load;
 use crate::sim::relax::apply_virtual_displacement_with_forces;
 use crate::sim::relax::node_bounds;
-use crate::sim::{load::*, params::*, report::*, state::*};
+use crate::sim::state::RoundCache;
+use crate::sim::state::State;
+use crate::sim::Integrator;
+use crate::sim::Phase;
+use crate::sim::SimReport;
 use rayon::prelude::*;
-
-/// Node `v`'s velocity in an explicit step: its net force from the corner
-/// forces, without its normal part on a bonded surface, times its mobility.
-#[inline]
-pub(in crate::sim) fn node_velocity(
-    fans: &Fans,
-    corner: &[[f64; 3]],
-    normals: &[[f64; 3]],
-    mobility: &[f64],
-    v: usize,
-) -> [f64; 3] {
-    let mut f = gather(fans, corner, v);
-    if let Some(n) = normals.get(v) {
-        f = v3::sub(f, v3::scale(*n, v3::dot(f, *n)));
-    }
-    v3::scale(f, mobility[v])
-}
 
 /// One forward-Euler relaxation step plus the load: in each face,
 /// `load.dt * shrink_scale[f] * (shrink_rate (I - n n^T) + evolve[f])`,

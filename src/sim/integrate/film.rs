@@ -4,8 +4,15 @@
 use crate::math::{v3, Sym3};
 use crate::mesh::SimMesh;
 use crate::sim::forces::Fans;
-use crate::sim::integrate::{region::*, Round, RoundEnd, Scheme, EQUILIBRIUM_DT};
-use crate::sim::{load::*, params::*, report::*, state::*};
+use crate::sim::integrate::region::Region;
+use crate::sim::integrate::scheme::{Round, RoundEnd, Scheme, EQUILIBRIUM_DT};
+use crate::sim::load::add_load;
+use crate::sim::load::Load;
+use crate::sim::state::RoundCache;
+use crate::sim::state::State;
+use crate::sim::Phase;
+use crate::sim::SimParams;
+use crate::sim::SimReport;
 use rayon::prelude::*;
 
 /// One relaxation round of a bonded film ([`crate::sim::film`]): the

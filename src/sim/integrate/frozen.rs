@@ -3,8 +3,12 @@
 use crate::math::Sym3;
 use crate::mesh::VertexId;
 use crate::sim::forces::{corner_forces, separation_tensor};
-use crate::sim::integrate::{Round, RoundEnd, Scheme};
-use crate::sim::{load::*, report::*, state::*};
+use crate::sim::integrate::scheme::{Round, RoundEnd, Scheme};
+use crate::sim::load::add_load;
+use crate::sim::state::RoundCache;
+use crate::sim::state::State;
+use crate::sim::Phase;
+use crate::sim::SimReport;
 use rayon::prelude::*;
 
 /// No tensor relaxation (eigenvalue diffusion): the round only adds its load, and the separation it adds goes into the frozen tensors.

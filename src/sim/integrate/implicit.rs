@@ -4,8 +4,16 @@ use crate::math::{v3, Sym3};
 use crate::sim::forces::{gather, Fans};
 use crate::sim::implicit::{History, Operator};
 use crate::sim::integrate::region::Region;
-use crate::sim::integrate::{Round, RoundEnd, Scheme, EQUILIBRIUM_DT};
-use crate::sim::{load::*, params::*, report::*, state::*};
+use crate::sim::integrate::scheme::{Round, RoundEnd, Scheme, EQUILIBRIUM_DT};
+use crate::sim::load::add_load;
+use crate::sim::load::load_increment;
+use crate::sim::load::Load;
+use crate::sim::state::RoundCache;
+use crate::sim::state::State;
+use crate::sim::state::HISTORY;
+use crate::sim::Integrator;
+use crate::sim::Phase;
+use crate::sim::SimReport;
 use rayon::prelude::*;
 use std::borrow::Cow;
 

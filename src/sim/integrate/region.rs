@@ -3,9 +3,9 @@
 
 use crate::math::{v3, Sym3};
 use crate::mesh::VertexId;
+use crate::sim::forces::gather;
 use crate::sim::forces::{element_corner_forces, element_strain, Elements, Fans};
-use crate::sim::integrate::explicit::*;
-use crate::sim::state::*;
+use crate::sim::state::State;
 use rayon::prelude::*;
 
 /// The nodes within some rings of a set of seed nodes and the faces around
@@ -127,4 +127,21 @@ pub(in crate::sim) fn relax_region(
             *s += element_strain(el, fans.corners(f), g, dt, Sym3::ZERO);
             element_corner_forces(el, s, c);
         });
+}
+
+/// Node `v`'s velocity in an explicit step: its net force from the corner
+/// forces, without its normal part on a bonded surface, times its mobility.
+#[inline]
+pub(in crate::sim) fn node_velocity(
+    fans: &Fans,
+    corner: &[[f64; 3]],
+    normals: &[[f64; 3]],
+    mobility: &[f64],
+    v: usize,
+) -> [f64; 3] {
+    let mut f = gather(fans, corner, v);
+    if let Some(n) = normals.get(v) {
+        f = v3::sub(f, v3::scale(*n, v3::dot(f, *n)));
+    }
+    v3::scale(f, mobility[v])
 }

@@ -5,9 +5,18 @@ use crate::geometry::element::Element;
 use crate::math::{v3, Sym3};
 use crate::sim::forces::{corner_forces, Fans};
 use crate::sim::forces::{element_corner_forces, element_strain};
-use crate::sim::integrate::{explicit::*, region::*, Round, RoundEnd, Scheme};
+use crate::sim::integrate::region::node_velocity;
+use crate::sim::integrate::region::region_corner_forces;
+use crate::sim::integrate::region::Region;
+use crate::sim::integrate::scheme::{Round, RoundEnd, Scheme};
+use crate::sim::load::load_increment;
+use crate::sim::load::Load;
+use crate::sim::params::RKL_MAX_STAGES;
 use crate::sim::relax::node_bounds;
-use crate::sim::{load::*, params::*, report::*, state::*};
+use crate::sim::state::RoundCache;
+use crate::sim::state::State;
+use crate::sim::Phase;
+use crate::sim::SimReport;
 use rayon::prelude::*;
 
 /// Rounds between two step-doubling error estimates of the RKL integrator
