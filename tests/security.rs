@@ -370,3 +370,19 @@ fn sparse_only_accessors_cannot_add_up_without_bound() {
     assert!(err.contains("104857600 bytes"), "{err}");
     assert!(!out.exists());
 }
+
+/// The memory limit is an option of each read, not a process-wide setting:
+/// in one process a read with a tiny limit is refused while the same file
+/// read with the default limit, before and after, succeeds.
+#[test]
+fn the_memory_limit_belongs_to_each_read() {
+    let path = common::fixture("textured_quad.gltf");
+    let tiny = crackle::io::ReadOptions { max_memory: 16 };
+    let default = crackle::io::ReadOptions::default();
+    assert_eq!(default.max_memory, crackle::io::DEFAULT_MAX_MEMORY);
+    assert!(crackle::io::read_with(&path, &default).is_ok());
+    let e = crackle::io::read_with(&path, &tiny).expect_err("a 16-byte budget refuses the quad");
+    assert!(e.to_string().contains("decoded data"), "{e}");
+    assert!(crackle::io::read_with(&path, &default).is_ok());
+    assert!(crackle::io::read(&path).is_ok());
+}

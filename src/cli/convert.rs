@@ -14,10 +14,11 @@ pub fn run(
     weld: &WeldOptions,
     as_json: bool,
     quiet: bool,
+    read: &crackle::io::ReadOptions,
 ) -> Result<()> {
     super::check_output_format(output)?;
     let t0 = Instant::now();
-    let mut scene = crackle::pipeline::read_crackable(input)?;
+    let mut scene = crackle::pipeline::read_crackable(input, read)?;
     let t_read = t0.elapsed();
     let t1 = Instant::now();
     let (entries, skipped) = build_sim_meshes(&scene, weld);

@@ -215,6 +215,8 @@ pub struct CrackArgs<'a> {
     /// Name a `.gltf` output's image files `<stem>_<name>` (a batch, where
     /// outputs share folders).
     pub prefix_images: bool,
+    /// How the input is read.
+    pub read: crackle::io::ReadOptions,
 }
 
 /// A batch's stage callback.
@@ -308,6 +310,7 @@ pub fn process(a: CrackArgs) -> Result<serde_json::Value> {
         asset: a.input.to_path_buf(),
         frames: a.frames,
         output: a.output.to_path_buf(),
+        read: a.read,
     };
     let mut progress = Progress {
         show: !a.quiet && std::io::stderr().is_terminal(),

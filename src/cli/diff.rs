@@ -14,6 +14,8 @@ pub struct DiffArgs<'a> {
     pub tolerance: f64,
     /// Print one JSON object instead of text.
     pub json: bool,
+    /// How the files are read.
+    pub read: crackle::io::ReadOptions,
 }
 
 /// Compare `a.a` with `a.b` and print the result on stdout.
@@ -21,7 +23,7 @@ pub struct DiffArgs<'a> {
 /// Returns Ok(true) when the files are equivalent, Ok(false) when they differ
 /// (the caller exits 1), Err on unreadable input (the message names the file).
 pub fn run(a: DiffArgs) -> Result<bool> {
-    let c = crackle::compare::compare_files(a.a, a.b, a.tolerance)?;
+    let c = crackle::compare::compare_files(a.a, a.b, a.tolerance, &a.read)?;
     if a.json {
         println!("{}", serde_json::to_string_pretty(&c.to_json(a.a, a.b))?);
     } else {

@@ -32,8 +32,13 @@ pub fn scene_summary(scene: &Scene) -> serde_json::Value {
     })
 }
 
-pub fn run(input: &Path, as_json: bool, weld: &WeldOptions) -> Result<()> {
-    let scene = crackle::io::read(input)?;
+pub fn run(
+    input: &Path,
+    as_json: bool,
+    weld: &WeldOptions,
+    read: &crackle::io::ReadOptions,
+) -> Result<()> {
+    let scene = crackle::io::read_with(input, read)?;
     let (entries, skipped) = build_sim_meshes(&scene, weld);
     let instances = |mi: usize| scene.nodes.iter().filter(|n| n.mesh == Some(mi)).count();
     let mut meshes = Vec::new();

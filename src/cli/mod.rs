@@ -250,7 +250,9 @@ fn parse_size(s: &str) -> Result<u64, String> {
 
 pub fn run(cli: Cli) -> anyhow::Result<u8> {
     let quiet = cli.quiet;
-    crackle::io::set_max_memory(cli.max_memory);
+    let read = crackle::io::ReadOptions {
+        max_memory: cli.max_memory,
+    };
     match cli.command {
         Command::Batch {
             inputs,
@@ -286,6 +288,7 @@ pub fn run(cli: Cli) -> anyhow::Result<u8> {
                 weld_tolerance,
                 weld,
                 quiet,
+                read,
             });
         }
         Command::Diff {
@@ -299,23 +302,24 @@ pub fn run(cli: Cli) -> anyhow::Result<u8> {
                 b: &b,
                 tolerance,
                 json,
+                read,
             })?;
             return Ok(if same { 0 } else { 1 });
         }
         _ => {}
     }
-    run_other(cli.command, quiet).map(|()| 0)
+    run_other(cli.command, quiet, &read).map(|()| 0)
 }
 
-fn run_other(command: Command, quiet: bool) -> anyhow::Result<()> {
+fn run_other(command: Command, quiet: bool, read: &crackle::io::ReadOptions) -> anyhow::Result<()> {
     match command {
         Command::Batch { .. } | Command::Diff { .. } => unreachable!("handled by run"),
         Command::Info {
             input,
             json,
             weld_tolerance,
-        } => info::run(&input, json, &weld_options(weld_tolerance)?),
-        Command::Stats { file, input, json } => stats::run(&file, input.as_deref(), json),
+        } => info::run(&input, json, &weld_options(weld_tolerance)?, read),
+        Command::Stats { file, input, json } => stats::run(&file, input.as_deref(), json, read),
         Command::Crack {
             input,
             output,
@@ -335,6 +339,7 @@ fn run_other(command: Command, quiet: bool) -> anyhow::Result<()> {
                 quiet,
                 on_stage: None,
                 prefix_images: false,
+                read: *read,
                 frames: frames
                     .map(|v| crackle::pipeline::Frames::parse(&v))
                     .transpose()
@@ -359,13 +364,21 @@ fn run_other(command: Command, quiet: bool) -> anyhow::Result<()> {
             repeat,
             full,
             weld: weld_options(weld_tolerance)?,
+            read: *read,
         }),
         Command::Convert {
             input,
             output,
             weld_tolerance,
             json,
-        } => convert::run(&input, &output, &weld_options(weld_tolerance)?, json, quiet),
+        } => convert::run(
+            &input,
+            &output,
+            &weld_options(weld_tolerance)?,
+            json,
+            quiet,
+            read,
+        ),
     }
 }
 

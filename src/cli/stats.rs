@@ -4,15 +4,22 @@ use anyhow::{Context, Result};
 use crackle::stats::{pattern_stats, PatternInput, ReferenceEdges};
 use std::path::Path;
 
-pub fn run(file: &Path, input: Option<&Path>, as_json: bool) -> Result<()> {
-    let scene = crackle::io::read(file).with_context(|| format!("{}", file.display()))?;
+pub fn run(
+    file: &Path,
+    input: Option<&Path>,
+    as_json: bool,
+    read: &crackle::io::ReadOptions,
+) -> Result<()> {
+    let scene =
+        crackle::io::read_with(file, read).with_context(|| format!("{}", file.display()))?;
     let pattern = PatternInput::from_scene(&scene);
     if pattern.triangles.is_empty() {
         anyhow::bail!("{}: no triangles to measure", file.display());
     }
     let reference = match input {
         Some(path) => {
-            let s = crackle::io::read(path).with_context(|| format!("{}", path.display()))?;
+            let s = crackle::io::read_with(path, read)
+                .with_context(|| format!("{}", path.display()))?;
             let p = PatternInput::from_scene(&s);
             Some(ReferenceEdges::new(&p.positions, &p.triangles))
         }

@@ -35,6 +35,8 @@ pub struct StudyArgs<'a> {
     pub repeat: usize,
     pub full: bool,
     pub weld: crackle::mesh::WeldOptions,
+    /// How the input is read.
+    pub read: crackle::io::ReadOptions,
 }
 
 /// One measured configuration.
@@ -127,7 +129,7 @@ pub fn run(mut a: StudyArgs) -> anyhow::Result<()> {
             .map_err(|e| super::UsageError(e.to_string()))?;
     }
     let pipe = &a.pipeline;
-    let scene = crackle::pipeline::read_crackable(a.input)?;
+    let scene = crackle::pipeline::read_crackable(a.input, &a.read)?;
     let (entries, _) = build_sim_meshes(&scene, &a.weld);
     let Some(e) = entries
         .iter()

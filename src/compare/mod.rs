@@ -126,20 +126,25 @@ pub fn compare(sa: &Scene, sb: &Scene, tolerance: f64) -> Comparison {
 /// # Errors
 /// [`Error::Usage`] for a tolerance that is not a finite number >= 0, and
 /// an unreadable file (the message names it).
-pub fn compare_files(a: &Path, b: &Path, tolerance: f64) -> Result<Comparison> {
+pub fn compare_files(
+    a: &Path,
+    b: &Path,
+    tolerance: f64,
+    options: &crate::io::ReadOptions,
+) -> Result<Comparison> {
     if !(tolerance.is_finite() && tolerance >= 0.0) {
         return Err(Error::Usage(format!(
             "--tolerance {tolerance} must be a finite number >= 0"
         )));
     }
-    let sa = read(a)?;
-    let sb = read(b)?;
+    let sa = read(a, options)?;
+    let sb = read(b, options)?;
     Ok(compare(&sa, &sb, tolerance))
 }
 
 /// Read an asset; the error names the file.
-fn read(path: &Path) -> Result<Scene> {
-    crate::io::read(path).map_err(|e| {
+fn read(path: &Path, options: &crate::io::ReadOptions) -> Result<Scene> {
+    crate::io::read_with(path, options).map_err(|e| {
         let msg = e.to_string();
         if msg.contains(&path.display().to_string()) {
             Error::File(e)

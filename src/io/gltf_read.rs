@@ -42,16 +42,37 @@ fn required_extension_supported(name: &str) -> bool {
 /// (Draco, meshopt...), a buffer or image outside the asset's folder or
 /// missing, a declared size larger than the data.
 pub fn read_gltf(path: &Path) -> Result<Scene> {
+    read_gltf_with(path, &crate::io::ReadOptions::default())
+}
+
+/// [`read_gltf`] with `options`.
+///
+/// # Errors
+/// Those of [`read_gltf`].
+pub fn read_gltf_with(path: &Path, options: &crate::io::ReadOptions) -> Result<Scene> {
     let bytes =
         crate::io::paths::read_capped(path, crate::io::paths::MAX_MODEL_BYTES, "model file")
             .map_err(|e| Error::io(path, e))?;
     let base_dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
-    read_gltf_bytes(&bytes, &base_dir, path)
+    read_gltf_bytes_with(&bytes, &base_dir, path, options)
 }
 
 /// Read a glTF or GLB document held in memory; external files are resolved
 /// inside `base_dir`, and `path` names the asset in messages.
 pub fn read_gltf_bytes(bytes: &[u8], base_dir: &Path, path: &Path) -> Result<Scene> {
+    read_gltf_bytes_with(bytes, base_dir, path, &crate::io::ReadOptions::default())
+}
+
+/// [`read_gltf_bytes`] with `options`.
+///
+/// # Errors
+/// Those of [`read_gltf`].
+pub fn read_gltf_bytes_with(
+    bytes: &[u8],
+    base_dir: &Path,
+    path: &Path,
+    options: &crate::io::ReadOptions,
+) -> Result<Scene> {
     let err = |m: String| Error::input(path, m);
     let (json_bytes, bin): (Vec<u8>, Option<Vec<u8>>) = if bytes.starts_with(b"glTF") {
         let glb = gltf::binary::Glb::from_slice(bytes)
@@ -99,7 +120,7 @@ pub fn read_gltf_bytes(bytes: &[u8], base_dir: &Path, path: &Path) -> Result<Sce
             .flatten()
             .map(|b| b.len() as u64)
             .sum::<u64>();
-    let budget = crate::io::accessor::decode_budget(real_bytes, crate::io::max_memory());
+    let budget = crate::io::accessor::decode_budget(real_bytes, options.max_memory);
     let mut reader = SceneReader {
         root: &root,
         acc: AccessorReader::with_budget(&root, &buffers, budget),

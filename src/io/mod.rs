@@ -43,23 +43,25 @@ impl Format {
     }
 }
 
-/// Default of [`set_max_memory`]: 8 GiB.
+/// Default of [`ReadOptions::max_memory`]: 8 GiB.
 pub const DEFAULT_MAX_MEMORY: u64 = 8 << 30;
 
-static MAX_MEMORY: std::sync::atomic::AtomicU64 =
-    std::sync::atomic::AtomicU64::new(DEFAULT_MAX_MEMORY);
-
-/// Most bytes one glTF document's decoded accessors may take, for every
-/// read that follows (the CLI's `--max-memory`); each document's own
-/// budget is also bounded by its real size
-/// ([`accessor::decode_budget`]).
-pub fn set_max_memory(bytes: u64) {
-    MAX_MEMORY.store(bytes, std::sync::atomic::Ordering::Relaxed);
+/// How assets are read.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ReadOptions {
+    /// Most bytes one glTF document's decoded accessors may take (the
+    /// CLI's `--max-memory`); each document's own budget is also bounded
+    /// by its real size ([`accessor::decode_budget`]). Default
+    /// [`DEFAULT_MAX_MEMORY`].
+    pub max_memory: u64,
 }
 
-/// The limit [`set_max_memory`] set.
-pub fn max_memory() -> u64 {
-    MAX_MEMORY.load(std::sync::atomic::Ordering::Relaxed)
+impl Default for ReadOptions {
+    fn default() -> Self {
+        ReadOptions {
+            max_memory: DEFAULT_MAX_MEMORY,
+        }
+    }
 }
 
 /// Read an asset (OBJ, glTF or GLB, by extension).
@@ -68,8 +70,16 @@ pub fn max_memory() -> u64 {
 /// A clear [`Error`] naming the file and element when the file cannot be read,
 /// is malformed, or needs an extension the tool cannot decode.
 pub fn read(path: &Path) -> Result<Scene> {
+    read_with(path, &ReadOptions::default())
+}
+
+/// [`read`] with `options`.
+///
+/// # Errors
+/// Those of [`read`].
+pub fn read_with(path: &Path, options: &ReadOptions) -> Result<Scene> {
     match Format::from_path(path)? {
         Format::Obj => obj::read_obj(path),
-        Format::Gltf | Format::Glb => gltf_read::read_gltf(path),
+        Format::Gltf | Format::Glb => gltf_read::read_gltf_with(path, options),
     }
 }

@@ -32,6 +32,8 @@ pub struct Config {
     pub frames: Option<Frames>,
     /// Where the cracked scene will be written (frames are named after it).
     pub output: PathBuf,
+    /// How the asset is read (the memory its decoded data may take).
+    pub read: crate::io::ReadOptions,
 }
 
 /// Told what a run is doing, for progress displays. Every method has an
@@ -180,8 +182,8 @@ pub struct CrackReport {
 ///
 /// # Errors
 /// The reader's errors, and [`Error::NothingToCrack`].
-pub fn read_crackable(input: &Path) -> Result<Scene> {
-    let scene = crate::io::read(input)?;
+pub fn read_crackable(input: &Path, options: &crate::io::ReadOptions) -> Result<Scene> {
+    let scene = crate::io::read_with(input, options)?;
     for w in &scene.warnings {
         log::warn!("{}: {w}", input.display());
     }
@@ -246,7 +248,7 @@ pub fn crack_file(
     }
     let t = Instant::now();
     observer.stage("read");
-    let mut scene = read_crackable(&config.asset)?;
+    let mut scene = read_crackable(&config.asset, &config.read)?;
     let read = Stage::new("read", t.elapsed().as_secs_f64());
     // The written scene: `run` post-processes `scene` in place; frames
     // are written inside it.

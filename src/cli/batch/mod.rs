@@ -76,6 +76,8 @@ pub struct BatchArgs<'a> {
     pub weld_tolerance: f64,
     pub weld: WeldOptions,
     pub quiet: bool,
+    /// How inputs are read.
+    pub read: crackle::io::ReadOptions,
 }
 
 /// What to do with an asset.
@@ -469,6 +471,7 @@ fn run_asset(
                 frames: None,
                 on_stage: Some(on_stage),
                 prefix_images: a.format == OutFormat::Gltf,
+                read: a.read,
             })?;
             let sources = report["sources"]
                 .as_array()
