@@ -126,7 +126,11 @@ impl SimArgs {
         preset: Option<&str>,
         extra: &[String],
     ) -> Result<Pipeline> {
-        let sets = self.overrides(extra);
+        // The rules' keys and `--set` go through the pipeline's TOML; the
+        // flags then set their typed fields, except where a `--set` names
+        // the same key (it comes last on the command line and wins).
+        let mut sets: Vec<String> = extra.to_vec();
+        sets.extend(self.sets.iter().cloned());
         let usage = |e: crackle::pipeline::PipelineError| super::UsageError(e.to_string());
         let mut p = match (file, preset) {
             (Some(path), _) => {
@@ -138,8 +142,80 @@ impl SimArgs {
             (None, Some(name)) => Pipeline::preset(name, &sets).map_err(usage)?,
             (None, None) => Pipeline::parse("", "defaults", &sets).map_err(usage)?,
         };
+        self.apply_flags(&mut p).map_err(super::UsageError)?;
+        p.check_all().map_err(usage)?;
         p.select.fix.extend(self.fix.iter().cloned());
         Ok(p)
+    }
+
+    /// Whether a `--set` names `key` (or its `_relative` alternative).
+    fn set_names(&self, key: &str) -> bool {
+        let alt = match key.strip_suffix("_relative") {
+            Some(base) => base.to_string(),
+            None => format!("{key}_relative"),
+        };
+        self.sets.iter().any(|s| {
+            let k = s.split_once('=').map_or(s.as_str(), |(k, _)| k).trim();
+            k == key || k == alt
+        })
+    }
+
+    /// Set the typed field of every flag given, unless a `--set` names it.
+    fn apply_flags(&self, p: &mut Pipeline) -> Result<(), String> {
+        macro_rules! flag {
+            ($field:ident) => {
+                if let Some(v) = self.$field.clone() {
+                    if !self.set_names(concat!("simulation.", stringify!($field))) {
+                        p.simulation.$field = v;
+                    }
+                }
+            };
+        }
+        flag!(max_triangles);
+        flag!(toughness);
+        flag!(alpha);
+        flag!(residual_constant);
+        flag!(shrink_rate);
+        flag!(load_time);
+        flag!(noise);
+        flag!(seed);
+        flag!(relax_time);
+        flag!(relax_dt);
+        flag!(relax_steps);
+        flag!(tolerance);
+        flag!(finish_rings);
+        flag!(max_rounds);
+        flag!(max_cracks);
+        flag!(max_cracks_per_round);
+        flag!(clamp_factor);
+        let s = &mut p.simulation;
+        if let Some(x) = self.cell_size {
+            if !self.set_names("simulation.cell_size") {
+                (s.cell_size, s.cell_size_relative) = (Some(x), None);
+            }
+        }
+        if let Some(x) = self.cell_size_relative {
+            if !self.set_names("simulation.cell_size_relative") {
+                (s.cell_size, s.cell_size_relative) = (None, Some(x));
+            }
+        }
+        if let Some(name) = &self.integrator {
+            if !self.set_names("simulation.integrator") {
+                s.integrator = name
+                    .parse()
+                    .map_err(|e| format!("{}: simulation.integrator: {e}", p.source_name))?;
+            }
+        }
+        if self.unbonded && !self.set_names("simulation.bonded") {
+            p.simulation.bonded = false;
+        }
+        if self.fixed_boundary && !self.set_names("select.fixed_boundary") {
+            p.select.fixed_boundary = true;
+        }
+        if self.split_islands && !self.set_names("post.split_islands") {
+            p.post.split_islands = true;
+        }
+        Ok(())
     }
 
     /// Every override as a `--set KEY=VALUE` string: `extra` first, then
@@ -324,4 +400,95 @@ pub fn process(a: CrackArgs) -> Result<serde_json::Value> {
         &mut progress,
     )?;
     Ok(serde_json::to_value(&report)?)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+
+    #[derive(Parser)]
+    struct Args {
+        #[command(flatten)]
+        sim: SimArgs,
+    }
+
+    fn args(a: &[&str]) -> SimArgs {
+        let mut v = vec!["crackle"];
+        v.extend_from_slice(a);
+        Args::try_parse_from(v).expect("valid arguments").sim
+    }
+
+    /// The old way, for comparison: every flag as a `--set` string.
+    fn through_strings(s: &SimArgs, preset: Option<&str>) -> Pipeline {
+        let sets = s.overrides(&[]);
+        let mut p = match preset {
+            Some(name) => Pipeline::preset(name, &sets),
+            None => Pipeline::parse("", "defaults", &sets),
+        }
+        .expect("valid");
+        p.select.fix.extend(s.fix_names().iter().cloned());
+        p
+    }
+
+    #[test]
+    fn flags_set_the_typed_fields() {
+        let s = args(&[
+            "--toughness",
+            "3",
+            "--integrator",
+            "rkl",
+            "--cell-size",
+            "0.5",
+            "--seed",
+            "9",
+            "--unbonded",
+            "--fixed-boundary",
+            "--split-islands",
+        ]);
+        let p = s.pipeline().expect("valid");
+        assert_eq!(p.simulation.toughness, 3.0);
+        assert_eq!(p.simulation.integrator, crackle::sim::Integrator::Rkl);
+        assert_eq!(p.simulation.cell_size, Some(0.5));
+        assert_eq!(p.simulation.cell_size_relative, None);
+        assert_eq!(p.simulation.seed, 9);
+        assert!(!p.simulation.bonded && p.select.fixed_boundary && p.post.split_islands);
+        // The same pipeline as the flags written as `--set` strings.
+        assert_eq!(p, through_strings(&s, None));
+    }
+
+    #[test]
+    fn a_set_of_the_same_key_wins_over_the_flag() {
+        let s = args(&[
+            "--preset",
+            "glaze",
+            "--toughness",
+            "3",
+            "--set",
+            "simulation.toughness=4",
+            "--cell-size",
+            "0.5",
+            "--set",
+            "simulation.cell_size_relative=0.1",
+        ]);
+        let p = s.pipeline().expect("valid");
+        assert_eq!(p.simulation.toughness, 4.0);
+        assert_eq!(p.simulation.cell_size, None);
+        assert_eq!(p.simulation.cell_size_relative, Some(0.1));
+        assert_eq!(p, through_strings(&s, Some("glaze")));
+    }
+
+    #[test]
+    fn a_bad_flag_value_is_refused_with_its_key() {
+        let e = args(&["--alpha", "1.5"]).pipeline().expect_err("alpha > 1");
+        assert!(e.to_string().contains("alpha"), "{e}");
+        let e = args(&["--integrator", "rk4"])
+            .pipeline()
+            .expect_err("no rk4");
+        assert!(e.to_string().contains("rk4"), "{e}");
+        for i in ["local-euler", "euler", "backward-euler", "rkl", "auto"] {
+            let p = args(&["--integrator", i]).pipeline().expect("known");
+            assert_eq!(p.simulation.integrator.name(), i);
+        }
+    }
 }

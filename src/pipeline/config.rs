@@ -363,6 +363,17 @@ impl Pipeline {
         Pipeline::parse(text, &format!("preset {name}"), sets)
     }
 
+    /// Every value checked again (after fields were set directly).
+    ///
+    /// # Errors
+    /// The first bad value, naming the pipeline and the key.
+    pub fn check_all(&self) -> Result<(), PipelineError> {
+        self.check().map_err(|message| PipelineError {
+            source_name: self.source_name.clone(),
+            message,
+        })
+    }
+
     /// Every value checked, naming the key.
     fn check(&self) -> Result<(), String> {
         self.params(&[]).validate()?;

@@ -449,3 +449,16 @@ pub enum DryingLaw {
     /// At a constant rate, `L -= (1 - alpha) L0 s dt`, until `alpha L0`.
     Linear,
 }
+
+impl std::str::FromStr for Integrator {
+    type Err = String;
+
+    /// An integrator by its pipeline name (`local-euler`, `backward-euler`...).
+    fn from_str(s: &str) -> Result<Self, String> {
+        use serde::Deserialize;
+        Integrator::deserialize(
+            serde::de::value::StrDeserializer::<serde::de::value::Error>::new(s),
+        )
+        .map_err(|e| e.to_string())
+    }
+}
