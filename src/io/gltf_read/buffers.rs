@@ -1,0 +1,164 @@
+//! A glTF document's buffers: data URIs decoded, external files read inside the asset's folder with a size cap, the binary chunk, and the checks made before any accessor is read (positions present, schema).
+
+#[allow(unused_imports)]
+use super::*;
+use crate::io::paths::resolve_file_inside;
+use base64::Engine;
+use serde_json::Value;
+use std::io::Read;
+use std::path::Path;
+
+/// POSITION accessor indices must exist before the `gltf` crate's schema check
+/// looks them up (it indexes without checking).
+pub(super) fn precheck_positions(root: &Value) -> std::result::Result<(), String> {
+    let n_acc = arr(root, "accessors").len();
+    for (mi, m) in arr(root, "meshes").iter().enumerate() {
+        for (pi, p) in arr(m, "primitives").iter().enumerate() {
+            let pos = p.get("attributes").and_then(|a| a.get("POSITION"));
+            if let Some(pos) = pos {
+                match pos.as_u64() {
+                    Some(i) if (i as usize) < n_acc => {}
+                    _ => {
+                        return Err(format!(
+                            "mesh {mi} primitive {pi}: POSITION accessor {pos} does not exist ({n_acc} accessors)"
+                        ))
+                    }
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Structural validation by the `gltf` crate's schema (indices in range,
+/// required fields), ignoring its refusal of extensions we handle ourselves.
+pub(super) fn validate_schema(json: &[u8]) -> std::result::Result<(), String> {
+    use gltf::json::validation::{Error as VErr, Validate};
+    let root: gltf::json::Root =
+        gltf::json::deserialize::from_slice(json).map_err(|e| format!("invalid glTF JSON: {e}"))?;
+    let mut errors = Vec::new();
+    root.validate(&root, gltf::json::Path::new, &mut |path, e| {
+        if e != VErr::Unsupported {
+            errors.push(format!("{}: {e}", path()));
+        }
+    });
+    if errors.is_empty() {
+        Ok(())
+    } else {
+        let n = errors.len();
+        errors.truncate(5);
+        Err(format!(
+            "invalid glTF ({n} error{}): {}",
+            if n > 1 { "s" } else { "" },
+            errors.join("; ")
+        ))
+    }
+}
+
+pub(super) fn decode_data_uri(uri: &str) -> Option<std::result::Result<DataUri, String>> {
+    let rest = uri.strip_prefix("data:")?;
+    Some((|| {
+        let (meta, data) = rest.split_once(',').ok_or("malformed data URI")?;
+        let mime = meta
+            .split(';')
+            .next()
+            .filter(|m| !m.is_empty())
+            .map(str::to_string);
+        if !meta.ends_with(";base64") {
+            return Err("data URI is not base64".to_string());
+        }
+        let bytes = base64::engine::general_purpose::STANDARD
+            .decode(data.trim())
+            .map_err(|e| format!("invalid base64 in data URI: {e}"))?;
+        Ok((mime, bytes))
+    })())
+}
+
+/// Load every buffer that some buffer view uses.
+pub(super) fn load_buffers(
+    root: &Value,
+    mut bin: Option<Vec<u8>>,
+    base_dir: &Path,
+) -> std::result::Result<Vec<Option<Vec<u8>>>, String> {
+    let bufs = arr(root, "buffers");
+    let mut used = vec![false; bufs.len()];
+    if let Some(views) = root.get("bufferViews").and_then(Value::as_array) {
+        for v in views {
+            if let Some(b) = v.get("buffer").and_then(Value::as_u64) {
+                if let Some(u) = used.get_mut(b as usize) {
+                    *u = true;
+                }
+            }
+        }
+    }
+    let mut out = Vec::with_capacity(bufs.len());
+    for (i, b) in bufs.iter().enumerate() {
+        if !used[i] {
+            out.push(None);
+            continue;
+        }
+        let declared = b
+            .get("byteLength")
+            .and_then(Value::as_u64)
+            .ok_or(format!("buffer {i}: missing byteLength"))?;
+        let data = match b.get("uri").and_then(Value::as_str) {
+            None => {
+                if i != 0 {
+                    return Err(format!(
+                        "buffer {i} has no uri (only buffer 0 may refer to the GLB binary chunk)"
+                    ));
+                }
+                let data = bin.take().ok_or(format!(
+                    "buffer {i} has no uri and the file has no GLB binary chunk"
+                ))?;
+                if (data.len() as u64) < declared {
+                    return Err(format!(
+                        "buffer {i}: GLB binary chunk holds {} bytes but byteLength declares {declared}",
+                        data.len()
+                    ));
+                }
+                data
+            }
+            Some(uri) => {
+                if let Some(r) = decode_data_uri(uri) {
+                    // Check the declared size against the encoded size before decoding.
+                    if (uri.len() as u64) < declared.saturating_mul(4) / 3 {
+                        return Err(format!("buffer {i}: data URI is shorter than the declared byteLength {declared}"));
+                    }
+                    let (_, data) = r.map_err(|e| format!("buffer {i}: {e}"))?;
+                    if (data.len() as u64) < declared {
+                        return Err(format!(
+                            "buffer {i}: data URI holds {} bytes, byteLength declares {declared}",
+                            data.len()
+                        ));
+                    }
+                    data
+                } else {
+                    let file = resolve_file_inside(base_dir, uri)
+                        .map_err(|e| format!("buffer {i}: {e}"))?;
+                    let meta = std::fs::metadata(&file).map_err(|e| {
+                        format!("buffer {i}: cannot open '{}': {e}", file.display())
+                    })?;
+                    if meta.len() < declared {
+                        return Err(format!(
+                            "buffer {i}: '{}' has {} bytes but byteLength declares {declared}",
+                            file.display(),
+                            meta.len()
+                        ));
+                    }
+                    let mut data = Vec::with_capacity(declared as usize);
+                    std::fs::File::open(&file)
+                        .and_then(|f| f.take(declared).read_to_end(&mut data))
+                        .map_err(|e| {
+                            format!("buffer {i}: cannot read '{}': {e}", file.display())
+                        })?;
+                    data
+                }
+            }
+        };
+        let mut data = data;
+        data.truncate(declared as usize);
+        out.push(Some(data));
+    }
+    Ok(out)
+}
