@@ -1,6 +1,5 @@
 //! Geometry of two primitives compared: triangle attributes in order or by a canonical vertex matching, and raw LINES by segment count and length.
 
-#[allow(unused_imports)]
 use super::*;
 use crate::io::accessor::decode_raw as decode;
 use crate::scene::{mode, RawGeometry, Scene, TriGeometry};

@@ -40,8 +40,7 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 mod geometry;
-#[allow(unused_imports)]
-pub use geometry::*;
+use geometry::*;
 
 /// Most differences listed in the text output.
 const MAX_LINES: usize = 20;

@@ -250,8 +250,7 @@ pub fn crack_file(
     observer.stage("read");
     let mut scene = read_crackable(&config.asset, &config.read)?;
     let read = Stage::new("read", t.elapsed().as_secs_f64());
-    // The written scene: `run` post-processes `scene` in place; frames
-    // are written inside it.
+    // `run` post-processes `scene` in place (and writes the frames).
     let mut run = run(&mut scene, &config, observer)?;
     if let Some(s) = run.stages.iter_mut().find(|s| s.name == "texture") {
         s.seconds += image_seconds;
@@ -261,7 +260,8 @@ pub fn crack_file(
     observer.stage("write");
     let summary = write_output(&scene, &config.output, prefix_images)?;
     let write = Stage::new("write", t.elapsed().as_secs_f64());
-    // The frames were written after the output: their stage goes last.
+    // `run` wrote the frames before this write; the report keeps listing
+    // the write before the frames, as it always has.
     match run.stages.iter().position(|s| s.name == "frames") {
         Some(k) => run.stages.insert(k, write),
         None => run.stages.push(write),

@@ -90,6 +90,88 @@ struct Springs {
 }
 
 impl Springs {
+    /// The spring state of `mesh` at rest, in units of `unit` (its mean
+    /// edge length): one spring per edge, its stiffness and breaking
+    /// strain drawn from the seed by the edge's input vertices (so the
+    /// draw does not depend on halfedge numbering); the fixed nodes and
+    /// the rest normals.
+    fn new(mesh: &SimMesh, params: &SimParams, unit: f64) -> Springs {
+        let sp = &params.springs;
+        let x0: Vec<[f64; 3]> = mesh
+            .positions()
+            .iter()
+            .map(|p| v3::scale(*p, 1.0 / unit))
+            .collect();
+        let n = x0.len();
+        // Springs: one per edge, drawn from the seed by the edge's input
+        // vertices (so the draw does not depend on halfedge numbering).
+        let mut springs = Vec::new();
+        for h in mesh.halfedges() {
+            if mesh.twin(h).is_some_and(|t| t.0 < h.0) {
+                continue;
+            }
+            let (a, b) = (mesh.origin(h), mesh.dest(h));
+            let rest0 = v3::norm(v3::sub(x0[b.idx()], x0[a.idx()]));
+            if rest0 <= 0.0 {
+                continue;
+            }
+            let key = {
+                let (i, j) = (u64::from(a.0.min(b.0)), u64::from(a.0.max(b.0)));
+                i.wrapping_mul(0x1_0000_0001) ^ j.rotate_left(29)
+            };
+            let draw = |r: [f64; 2], salt: u64| {
+                let u = 0.5 * (hash_unit(params.seed ^ salt, key) + 1.0);
+                r[0] + (r[1] - r[0]) * u
+            };
+            springs.push(Spring {
+                h,
+                a: a.0,
+                b: b.0,
+                k: draw(sp.stiffness, 0x51),
+                threshold: draw(sp.break_strain, 0xB7),
+                rest0,
+                rest: rest0,
+                broken: false,
+            });
+        }
+        let fixed: Vec<bool> = mesh
+            .vertices()
+            .map(|v| {
+                (params.fixed_boundary && mesh.is_boundary_vertex(v))
+                    || (!params.fixed_groups.is_empty()
+                        && mesh
+                            .vertex_faces(v)
+                            .any(|f| params.fixed_groups.contains(&mesh.face_group(f))))
+            })
+            .collect();
+        let normals: Vec<[f64; 3]> = mesh
+            .vertices()
+            .map(|v| {
+                let mut nrm = [0.0; 3];
+                for f in mesh.vertex_faces(v) {
+                    let [a, b, c] = mesh.face_vertices(f).map(|u| x0[u.idx()]);
+                    nrm = v3::add(nrm, v3::cross(v3::sub(b, a), v3::sub(c, a)));
+                }
+                let l = v3::norm(nrm);
+                if l > 0.0 {
+                    v3::scale(nrm, 1.0 / l)
+                } else {
+                    [0.0; 3]
+                }
+            })
+            .collect();
+        Springs {
+            springs,
+            x: x0.clone(),
+            x0,
+            v: vec![[0.0; 3]; n],
+            normals,
+            fixed,
+            crack_time: vec![f64::NAN; n],
+            adjacency: Vec::new(),
+        }
+    }
+
     /// Rebuild the node-to-spring lists (after the mesh changed).
     fn rebuild_adjacency(&mut self, mesh: &SimMesh) {
         for s in &mut self.springs {
@@ -351,90 +433,6 @@ pub fn run(
             .collect();
     report.crack_time = st.crack_time;
     Ok(report)
-}
-
-impl Springs {
-    /// The spring state of `mesh` at rest, in units of `unit` (its mean
-    /// edge length): one spring per edge, its stiffness and breaking
-    /// strain drawn from the seed by the edge's input vertices (so the
-    /// draw does not depend on halfedge numbering); the fixed nodes and
-    /// the rest normals.
-    fn new(mesh: &SimMesh, params: &SimParams, unit: f64) -> Springs {
-        let sp = &params.springs;
-        let x0: Vec<[f64; 3]> = mesh
-            .positions()
-            .iter()
-            .map(|p| v3::scale(*p, 1.0 / unit))
-            .collect();
-        let n = x0.len();
-        // Springs: one per edge, drawn from the seed by the edge's input
-        // vertices (so the draw does not depend on halfedge numbering).
-        let mut springs = Vec::new();
-        for h in mesh.halfedges() {
-            if mesh.twin(h).is_some_and(|t| t.0 < h.0) {
-                continue;
-            }
-            let (a, b) = (mesh.origin(h), mesh.dest(h));
-            let rest0 = v3::norm(v3::sub(x0[b.idx()], x0[a.idx()]));
-            if rest0 <= 0.0 {
-                continue;
-            }
-            let key = {
-                let (i, j) = (u64::from(a.0.min(b.0)), u64::from(a.0.max(b.0)));
-                i.wrapping_mul(0x1_0000_0001) ^ j.rotate_left(29)
-            };
-            let draw = |r: [f64; 2], salt: u64| {
-                let u = 0.5 * (hash_unit(params.seed ^ salt, key) + 1.0);
-                r[0] + (r[1] - r[0]) * u
-            };
-            springs.push(Spring {
-                h,
-                a: a.0,
-                b: b.0,
-                k: draw(sp.stiffness, 0x51),
-                threshold: draw(sp.break_strain, 0xB7),
-                rest0,
-                rest: rest0,
-                broken: false,
-            });
-        }
-        let fixed: Vec<bool> = mesh
-            .vertices()
-            .map(|v| {
-                (params.fixed_boundary && mesh.is_boundary_vertex(v))
-                    || (!params.fixed_groups.is_empty()
-                        && mesh
-                            .vertex_faces(v)
-                            .any(|f| params.fixed_groups.contains(&mesh.face_group(f))))
-            })
-            .collect();
-        let normals: Vec<[f64; 3]> = mesh
-            .vertices()
-            .map(|v| {
-                let mut nrm = [0.0; 3];
-                for f in mesh.vertex_faces(v) {
-                    let [a, b, c] = mesh.face_vertices(f).map(|u| x0[u.idx()]);
-                    nrm = v3::add(nrm, v3::cross(v3::sub(b, a), v3::sub(c, a)));
-                }
-                let l = v3::norm(nrm);
-                if l > 0.0 {
-                    v3::scale(nrm, 1.0 / l)
-                } else {
-                    [0.0; 3]
-                }
-            })
-            .collect();
-        Springs {
-            springs,
-            x: x0.clone(),
-            x0,
-            v: vec![[0.0; 3]; n],
-            normals,
-            fixed,
-            crack_time: vec![f64::NAN; n],
-            adjacency: Vec::new(),
-        }
-    }
 }
 
 /// Break spring `i` at the report's time: open its edge (unless it is on

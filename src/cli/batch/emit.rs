@@ -1,6 +1,5 @@
 //! --emit ninja|make: the batch as a build file, one edge per asset.
 
-#[allow(unused_imports)]
 use super::*;
 use crate::cli::UsageError;
 use std::collections::BTreeMap;

@@ -1,6 +1,5 @@
 //! The assets of a batch: inputs walked (links out of the tree not followed), globs, the rules file, shards, and the files an asset refers to.
 
-#[allow(unused_imports)]
 use super::*;
 use crate::cli::crack::SimArgs;
 use crate::cli::UsageError;

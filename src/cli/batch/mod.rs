@@ -22,20 +22,16 @@ use std::sync::Mutex;
 use std::time::Instant;
 
 mod emit;
-#[allow(unused_imports)]
-pub use emit::*;
+use emit::*;
 
 mod progress;
-#[allow(unused_imports)]
-pub use progress::*;
+use progress::*;
 
 mod state;
-#[allow(unused_imports)]
-pub use state::*;
+use state::*;
 
 mod inputs;
-#[allow(unused_imports)]
-pub use inputs::*;
+use inputs::*;
 
 /// Name of the state file in the output folder.
 pub const STATE_FILE: &str = ".crackle-batch.json";

@@ -1,6 +1,5 @@
 //! A batch's progress display and its report file.
 
-#[allow(unused_imports)]
 use super::*;
 use serde_json::{json, Value};
 use std::io::IsTerminal;

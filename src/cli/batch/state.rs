@@ -1,6 +1,5 @@
 //! What a batch remembers between runs: each asset's key (its content, its sources' and the action's fingerprint), the state file and its lock, and atomic copies.
 
-#[allow(unused_imports)]
 use super::*;
 use crackle::io::paths::{read_capped, real_file_inside, MAX_MODEL_BYTES};
 use sha2::{Digest, Sha256};

@@ -1,6 +1,5 @@
 //! A glTF document's buffers: data URIs decoded, external files read inside the asset's folder with a size cap, the binary chunk, and the checks made before any accessor is read (positions present, schema).
 
-#[allow(unused_imports)]
 use super::*;
 use crate::io::paths::resolve_file_inside;
 use base64::Engine;

@@ -20,8 +20,7 @@ use std::collections::{BTreeMap, HashMap};
 use std::path::Path;
 
 mod buffers;
-#[allow(unused_imports)]
-pub use buffers::*;
+use buffers::*;
 
 /// Extensions that, when required, this reader can still honour: quantized
 /// attributes are decoded to floats; the others are material or texture data

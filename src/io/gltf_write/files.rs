@@ -1,6 +1,5 @@
 //! The files of an output: temporary names, side files named by a content tag, stale side files and temporaries removed, and the commit of every file as a unit.
 
-#[allow(unused_imports)]
 use super::*;
 use crate::io::{IoError as Error, IoResult as Result};
 use serde_json::Value;

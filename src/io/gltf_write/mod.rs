@@ -17,7 +17,6 @@ use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 
 mod files;
-#[allow(unused_imports)]
 pub use files::*;
 
 const ARRAY_BUFFER: u32 = 34962;

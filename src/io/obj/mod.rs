@@ -24,8 +24,7 @@ use std::io::Cursor;
 use std::path::{Path, PathBuf};
 
 mod mtl;
-#[allow(unused_imports)]
-pub use mtl::*;
+use mtl::*;
 
 /// Read an OBJ file (and the MTL libraries and textures it names, all inside
 /// its folder) into a [`Scene`].

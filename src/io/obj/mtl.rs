@@ -1,6 +1,5 @@
 //! Material libraries (MTL) of an OBJ: the statements crackle keeps, texture maps with their options, and the glTF materials built from them.
 
-#[allow(unused_imports)]
 use super::*;
 use crate::io::paths::{locate_inside, read_capped, resolve_inside, Located, MAX_MTL_BYTES};
 use crate::scene::{Image, ImageSource, Material, Scene};

@@ -115,7 +115,6 @@ use crate::math::v3;
 use crate::mesh::{FaceId, HalfedgeId, SimMesh, VertexId};
 
 mod uncross;
-#[allow(unused_imports)]
 pub use uncross::*;
 
 /// A point or vector.

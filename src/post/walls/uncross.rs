@@ -1,6 +1,5 @@
 //! Walls that do not cross: the bottoms pulled back where walls of different cracks would intersect, and the triangle intersection tests that find such pairs.
 
-#[allow(unused_imports)]
 use super::*;
 use crate::math::v3;
 use crate::mesh::{FaceId, SimMesh, VertexId};
