@@ -67,6 +67,10 @@ pub enum Error {
         /// Why (the reader's warnings, or that it has no triangle mesh).
         why: String,
     },
+    /// A batch could not read an input folder or write its outputs, copies
+    /// or state (the message names the file).
+    #[error("{0}")]
+    Batch(String),
     /// Output could not be produced.
     #[error("{path}: cannot write: {message}")]
     Output {

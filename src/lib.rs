@@ -6,6 +6,7 @@
 //! The library does no printing; the binary owns files, progress and exit codes.
 #![warn(missing_docs)]
 
+pub mod batch;
 pub mod bridge;
 pub mod compare;
 pub mod error;
@@ -19,5 +20,6 @@ pub mod scene;
 pub mod sim;
 pub mod stats;
 pub mod stress;
+pub mod study;
 
 pub use error::{Error, Result};

@@ -10,7 +10,7 @@ use std::path::{Path, PathBuf};
 /// The layers, top first. A module may import from its own layer (without
 /// a cycle) and from any layer below.
 const LAYERS: &[&[&str]] = &[
-    &["pipeline", "batch", "compare", "stats", "error"],
+    &["pipeline", "batch", "study", "compare", "stats", "error"],
     &["post", "sim", "io"],
     &["stress", "geometry", "bridge"],
     &["mesh", "scene"],

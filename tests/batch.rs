@@ -955,3 +955,84 @@ fn a_reference_that_appears_later_rebuilds_and_copies_need_no_decoding() {
         );
     }
 }
+
+/// The library runs a batch on its own: plan, triage, execute with an
+/// observer, the report; a second triage finds everything up to date.
+#[test]
+fn the_library_runs_a_batch_without_the_command_line() {
+    use crackle::batch::{self, BatchObserver, Choice, Options, PipeSpec, Status};
+    use std::sync::atomic::{AtomicUsize, Ordering};
+    let dir = tempfile::tempdir().unwrap();
+    let input = dir.path().join("in");
+    copy(&common::fixture("icosphere.obj"), &input.join("a/ball.obj"));
+    copy(&common::fixture("torus.obj"), &input.join("ring.obj"));
+    std::fs::write(input.join("notes.txt"), "not an asset").unwrap();
+    let out = dir.path().join("out");
+    let options = Options {
+        inputs: vec![p(&input).to_string()],
+        out: out.clone(),
+        recursive: true,
+        format: batch::OutFormat::Glb,
+        jobs: 2,
+        fail_fast: false,
+        force: false,
+        shard: None,
+        weld: crackle::mesh::WeldOptions::default(),
+        read: crackle::io::ReadOptions::default(),
+    };
+    let choice = || {
+        let pipeline = crackle::pipeline::Pipeline::preset("glaze", &[]).unwrap();
+        let spec = PipeSpec::new("preset glaze".into(), None, None, vec![], pipeline, None);
+        Choice::One(Box::new(spec.unwrap()))
+    };
+    let plan = batch::plan(&options, choice()).unwrap();
+    let rels: Vec<&str> = plan.assets.iter().map(|a| a.rel.as_str()).collect();
+    assert_eq!(rels, ["a/ball.obj", "ring.obj"]);
+    assert_eq!(plan.assets[0].output, out.join("a/ball.glb"));
+
+    #[derive(Default)]
+    struct Count {
+        started: AtomicUsize,
+        stages: AtomicUsize,
+        done: AtomicUsize,
+    }
+    impl BatchObserver for Count {
+        fn start(&self, _: usize, _: &batch::Asset) {
+            self.started.fetch_add(1, Ordering::SeqCst);
+        }
+        fn stage(&self, _: usize, _: &batch::Asset, _: &str) {
+            self.stages.fetch_add(1, Ordering::SeqCst);
+        }
+        fn done(&self, _: usize, _: &batch::Asset, _: &batch::Outcome) {
+            self.done.fetch_add(1, Ordering::SeqCst);
+        }
+    }
+    let count = Count::default();
+    let triage = batch::triage(&plan, &options, true);
+    assert_eq!(triage.todo, [0, 1]);
+    let (outcomes, seconds) = batch::execute(&plan, &options, triage, &count).unwrap();
+    assert!(seconds > 0.0);
+    assert_eq!(count.started.load(Ordering::SeqCst), 2);
+    assert_eq!(count.done.load(Ordering::SeqCst), 2);
+    assert!(count.stages.load(Ordering::SeqCst) >= 2 * 4, "read, weld, simulate, write...");
+    assert!(outcomes.iter().all(|o| o.status == Status::Cracked), "{outcomes:?}");
+    for a in &plan.assets {
+        assert!(a.output.is_file(), "{}", a.output.display());
+    }
+    let report = batch::BatchReport::new(&plan, &out, None, &outcomes, seconds);
+    assert_eq!(report.totals.cracked, 2);
+    let cracks: usize = report.assets.iter().map(|r| r.cracks.unwrap()).sum();
+    assert!(cracks > 0 && cracks == report.totals.cracks);
+
+    // The state file makes the next triage find both up to date; a forced
+    // one redoes both.
+    let plan = batch::plan(&options, choice()).unwrap();
+    let again = batch::triage(&plan, &options, true);
+    assert!(again.todo.is_empty());
+    assert!(again.outcomes.iter().all(|o| o.status == Status::UpToDate));
+    let forced = Options {
+        force: true,
+        ..options.clone()
+    };
+    assert_eq!(batch::triage(&plan, &forced, false).todo, [0, 1]);
+}

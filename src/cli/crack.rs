@@ -80,6 +80,30 @@ pub struct SimArgs {
     split_islands: bool,
 }
 
+/// The flags that set the simulation key of their name as they are, listed
+/// once for [`SimArgs::apply_flags`] and [`SimArgs::overrides`].
+macro_rules! plain_sim_flags {
+    ($m:ident) => {
+        $m!(max_triangles);
+        $m!(toughness);
+        $m!(alpha);
+        $m!(residual_constant);
+        $m!(shrink_rate);
+        $m!(load_time);
+        $m!(noise);
+        $m!(seed);
+        $m!(relax_time);
+        $m!(relax_dt);
+        $m!(relax_steps);
+        $m!(tolerance);
+        $m!(finish_rings);
+        $m!(max_rounds);
+        $m!(max_cracks);
+        $m!(max_cracks_per_round);
+        $m!(clamp_factor);
+    };
+}
+
 impl SimArgs {
     /// The folder of the pipeline file (relative mask images are found
     /// there); `None` for a preset or the defaults.
@@ -171,23 +195,7 @@ impl SimArgs {
                 }
             };
         }
-        flag!(max_triangles);
-        flag!(toughness);
-        flag!(alpha);
-        flag!(residual_constant);
-        flag!(shrink_rate);
-        flag!(load_time);
-        flag!(noise);
-        flag!(seed);
-        flag!(relax_time);
-        flag!(relax_dt);
-        flag!(relax_steps);
-        flag!(tolerance);
-        flag!(finish_rings);
-        flag!(max_rounds);
-        flag!(max_cracks);
-        flag!(max_cracks_per_round);
-        flag!(clamp_factor);
+        plain_sim_flags!(flag);
         let s = &mut p.simulation;
         if let Some(x) = self.cell_size {
             if !self.set_names("simulation.cell_size") {
@@ -232,30 +240,13 @@ impl SimArgs {
             "cell_size_relative",
             self.cell_size_relative.map(|x| format!("{x:?}")),
         );
-        set("max_triangles", self.max_triangles.map(|x| x.to_string()));
-        set("toughness", self.toughness.map(|x| format!("{x:?}")));
-        set("alpha", self.alpha.map(|x| format!("{x:?}")));
-        set(
-            "residual_constant",
-            self.residual_constant.map(|x| format!("{x:?}")),
-        );
-        set("shrink_rate", self.shrink_rate.map(|x| format!("{x:?}")));
-        set("load_time", self.load_time.map(|x| format!("{x:?}")));
-        set("noise", self.noise.map(|x| format!("{x:?}")));
-        set("seed", self.seed.map(|x| x.to_string()));
-        set("relax_time", self.relax_time.map(|x| format!("{x:?}")));
-        set("relax_dt", self.relax_dt.map(|x| format!("{x:?}")));
-        set("relax_steps", self.relax_steps.map(|x| x.to_string()));
+        macro_rules! flag {
+            ($field:ident) => {
+                set(stringify!($field), self.$field.map(|x| format!("{x:?}")));
+            };
+        }
+        plain_sim_flags!(flag);
         set("integrator", self.integrator.clone());
-        set("tolerance", self.tolerance.map(|x| format!("{x:?}")));
-        set("finish_rings", self.finish_rings.map(|x| x.to_string()));
-        set("max_rounds", self.max_rounds.map(|x| x.to_string()));
-        set("max_cracks", self.max_cracks.map(|x| x.to_string()));
-        set(
-            "max_cracks_per_round",
-            self.max_cracks_per_round.map(|x| x.to_string()),
-        );
-        set("clamp_factor", self.clamp_factor.map(|x| format!("{x:?}")));
         set("bonded", self.unbonded.then(|| "false".to_string()));
         if self.fixed_boundary {
             sets.push("select.fixed_boundary=true".into());
@@ -285,36 +276,19 @@ pub struct CrackArgs<'a> {
     pub quiet: bool,
     /// `--frames N DIR`.
     pub frames: Option<Frames>,
-    /// Told what the run is doing (`read`, `weld`, `simulate <mesh> round
-    /// 3/200`...), for a batch's progress display.
-    pub on_stage: Option<&'a (dyn Fn(&str) + Sync)>,
-    /// Name a `.gltf` output's image files `<stem>_<name>` (a batch, where
-    /// outputs share folders).
-    pub prefix_images: bool,
     /// How the input is read.
     pub read: crackle::io::ReadOptions,
 }
 
-/// A batch's stage callback.
-type StageFn<'a> = &'a (dyn Fn(&str) + Sync);
-
-/// The progress a run shows: a bar per simulated mesh on a terminal, a log
-/// line per round (`-v`), and a batch's stage callback.
-struct Progress<'a> {
+/// The progress a run shows: a bar per simulated mesh on a terminal and a
+/// log line per round (`-v`).
+struct Progress {
     /// Whether to draw bars.
     show: bool,
     bar: Option<indicatif::ProgressBar>,
-    /// The batch's stage callback.
-    stage: Option<StageFn<'a>>,
 }
 
-impl crackle::pipeline::Observer for Progress<'_> {
-    fn stage(&mut self, name: &str) {
-        if let Some(f) = self.stage {
-            f(name);
-        }
-    }
-
+impl crackle::pipeline::Observer for Progress {
     fn simulate_start(&mut self, mesh: &str, max_rounds: usize) {
         self.bar = self.show.then(|| {
             let b = indicatif::ProgressBar::new(max_rounds as u64);
@@ -343,9 +317,6 @@ impl crackle::pipeline::Observer for Progress<'_> {
             b.set_position(round as u64);
             b.set_message(format!("{cracks} cracks"));
         }
-        if let Some(f) = self.stage {
-            f(&format!("simulate {mesh}: round {round}, {cracks} cracks"));
-        }
     }
 
     fn simulate_end(&mut self, _mesh: &str) {
@@ -355,31 +326,9 @@ impl crackle::pipeline::Observer for Progress<'_> {
     }
 }
 
-/// `crackle crack`: process, write the report, print the summary line.
+/// `crackle crack`: read, crack and write one asset, write the report,
+/// print the summary line.
 pub fn run(a: CrackArgs) -> Result<()> {
-    let (input, output, report_path, quiet) = (a.input, a.output, a.report, a.quiet);
-    let report = process(a)?;
-    if let Some(p) = report_path {
-        std::fs::write(p, serde_json::to_vec_pretty(&report)?)
-            .map_err(|e| anyhow::anyhow!("{}: cannot write the report: {e}", p.display()))?;
-    }
-    if !quiet {
-        eprintln!(
-            "{} -> {}: {} cracks, crack length {:.3}, {} -> {} triangles, {} relaxation steps",
-            input.display(),
-            output.display(),
-            report["cracks"],
-            report["crack_length"].as_f64().unwrap_or(0.0),
-            report["triangles"]["before"],
-            report["triangles"]["after"],
-            report["relaxation_steps"]
-        );
-    }
-    Ok(())
-}
-
-/// Read, crack and write one asset; returns its report as JSON.
-pub fn process(a: CrackArgs) -> Result<serde_json::Value> {
     let config = Config {
         pipeline: a.pipeline,
         weld: a.weld,
@@ -391,15 +340,27 @@ pub fn process(a: CrackArgs) -> Result<serde_json::Value> {
     let mut progress = Progress {
         show: !a.quiet && std::io::stderr().is_terminal(),
         bar: None,
-        stage: a.on_stage,
     };
-    let report = crackle::pipeline::crack_file(
-        config,
-        a.pipeline_dir.as_deref(),
-        a.prefix_images,
-        &mut progress,
-    )?;
-    Ok(serde_json::to_value(&report)?)
+    let report =
+        crackle::pipeline::crack_file(config, a.pipeline_dir.as_deref(), false, &mut progress)?;
+    if let Some(p) = a.report {
+        std::fs::write(p, serde_json::to_vec_pretty(&report)?)
+            .map_err(|e| anyhow::anyhow!("{}: cannot write the report: {e}", p.display()))?;
+    }
+    if !a.quiet {
+        let run = &report.run;
+        eprintln!(
+            "{} -> {}: {} cracks, crack length {:.3}, {} -> {} triangles, {} relaxation steps",
+            a.input.display(),
+            a.output.display(),
+            run.cracks,
+            run.crack_length,
+            run.triangles.before,
+            run.triangles.after,
+            run.relaxation_steps
+        );
+    }
+    Ok(())
 }
 
 #[cfg(test)]

@@ -285,7 +285,6 @@ pub fn run(cli: Cli) -> anyhow::Result<u8> {
                 dry_run,
                 shard: shard.as_deref(),
                 emit,
-                weld_tolerance,
                 weld,
                 quiet,
                 read,
@@ -337,13 +336,10 @@ fn run_other(command: Command, quiet: bool, read: &crackle::io::ReadOptions) -> 
                 pipeline: sim.pipeline()?,
                 pipeline_dir: sim.pipeline_dir(),
                 quiet,
-                on_stage: None,
-                prefix_images: false,
                 read: *read,
                 frames: frames
                     .map(|v| crackle::pipeline::Frames::parse(&v))
-                    .transpose()
-                    .map_err(UsageError)?,
+                    .transpose()?,
             })
         }
         Command::Presets { show } => presets(show.as_deref()),

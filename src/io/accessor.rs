@@ -7,6 +7,17 @@
 
 use serde_json::Value;
 
+/// An accessor that cannot be decoded; the message names it and why.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("{0}")]
+pub struct AccessorError(pub String);
+
+impl From<AccessorError> for String {
+    fn from(e: AccessorError) -> String {
+        e.0
+    }
+}
+
 /// Most bytes a zero-initialised accessor (no bufferView) may claim: 256 MiB.
 const MAX_ZERO_ACCESSOR_BYTES: u64 = 256 << 20;
 
@@ -151,7 +162,11 @@ impl<'a> AccessorReader<'a> {
     }
 
     /// Describe accessor `index`, checking its fields.
-    pub fn info(&self, index: usize) -> Result<AccessorInfo, String> {
+    pub fn info(&self, index: usize) -> Result<AccessorInfo, AccessorError> {
+        self.info_msg(index).map_err(AccessorError)
+    }
+
+    fn info_msg(&self, index: usize) -> Result<AccessorInfo, String> {
         let a = self.accessor_json(index)?;
         let ct = get_usize(a, "componentType")?
             .ok_or_else(|| format!("accessor {index}: missing componentType"))?
@@ -221,8 +236,12 @@ impl<'a> AccessorReader<'a> {
     }
 
     /// Tightly packed element bytes of accessor `index` (sparse substitution applied).
-    pub fn read_packed(&self, index: usize) -> Result<(AccessorInfo, Vec<u8>), String> {
-        let info = self.info(index)?;
+    pub fn read_packed(&self, index: usize) -> Result<(AccessorInfo, Vec<u8>), AccessorError> {
+        self.read_packed_msg(index).map_err(AccessorError)
+    }
+
+    fn read_packed_msg(&self, index: usize) -> Result<(AccessorInfo, Vec<u8>), String> {
+        let info = self.info_msg(index)?;
         let a = self.accessor_json(index)?;
         let es = info.element_size;
         let total = info
@@ -365,8 +384,12 @@ impl<'a> AccessorReader<'a> {
 
     /// Accessor `index` as `f32` components (normalized integers are mapped to
     /// `[0,1]` or `[-1,1]`, other integers converted). Matrices are refused.
-    pub fn read_f32(&self, index: usize) -> Result<(AccessorInfo, Vec<f32>), String> {
-        let (info, bytes) = self.read_packed(index)?;
+    pub fn read_f32(&self, index: usize) -> Result<(AccessorInfo, Vec<f32>), AccessorError> {
+        self.read_f32_msg(index).map_err(AccessorError)
+    }
+
+    fn read_f32_msg(&self, index: usize) -> Result<(AccessorInfo, Vec<f32>), String> {
+        let (info, bytes) = self.read_packed_msg(index)?;
         if info.kind.starts_with("MAT") {
             return Err(format!(
                 "accessor {index}: matrix accessor where a vector was expected"
@@ -425,8 +448,12 @@ impl<'a> AccessorReader<'a> {
     }
 
     /// An index accessor as `u32` values (SCALAR, unsigned byte/short/int, not normalized).
-    pub fn read_indices(&self, index: usize) -> Result<Vec<u32>, String> {
-        let (info, bytes) = self.read_packed(index)?;
+    pub fn read_indices(&self, index: usize) -> Result<Vec<u32>, AccessorError> {
+        self.read_indices_msg(index).map_err(AccessorError)
+    }
+
+    fn read_indices_msg(&self, index: usize) -> Result<Vec<u32>, String> {
+        let (info, bytes) = self.read_packed_msg(index)?;
         self.charge(index, 4 * info.count)?;
         if info.kind != "SCALAR" || info.normalized {
             return Err(format!(
@@ -533,7 +560,7 @@ mod tests {
         let (_, v) = r.read_f32(0).unwrap();
         assert_eq!(v, vec![0.0, 10.0, 1.0, 11.0, -1.0, -2.0]);
         let e = r.read_f32(1).unwrap_err();
-        assert!(e.contains("do not fit"), "{e}");
+        assert!(e.0.contains("do not fit"), "{e}");
     }
 
     #[test]

@@ -4,6 +4,12 @@
 use std::io::Read;
 use std::path::{Component, Path, PathBuf};
 
+/// A file reference that is refused or cannot be followed; the message
+/// names the reference and why ("not found" for a missing file).
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("{0}")]
+pub struct PathError(pub String);
+
 /// Largest model file (OBJ, glTF, GLB) or external glTF buffer read: 4 GiB.
 pub const MAX_MODEL_BYTES: u64 = 4 << 30;
 /// Largest MTL material library read: 64 MiB (a library of text lines).
@@ -17,9 +23,13 @@ pub const MAX_IMAGE_BYTES: u64 = 1 << 30;
 /// (not a folder, FIFO, socket or device). Returns the real path. Errors
 /// name the reference; a missing file gives an error whose text contains
 /// "not found".
-pub fn resolve_file_inside(base_dir: &Path, reference: &str) -> Result<PathBuf, String> {
-    let path = resolve_inside(base_dir, reference)?;
-    real_file_inside(base_dir, &path, reference)
+pub fn resolve_file_inside(base_dir: &Path, reference: &str) -> Result<PathBuf, PathError> {
+    resolve_file_inside_msg(base_dir, reference).map_err(PathError)
+}
+
+fn resolve_file_inside_msg(base_dir: &Path, reference: &str) -> Result<PathBuf, String> {
+    let path = resolve_inside_msg(base_dir, reference)?;
+    real_file_inside_msg(base_dir, &path, reference)
 }
 
 /// Where a reference leads: the real path of a regular file inside the
@@ -34,17 +44,29 @@ pub enum Located {
 
 /// [`resolve_file_inside`], telling a missing file (often only a warning)
 /// apart from one that is refused.
-pub fn locate_inside(base_dir: &Path, reference: &str) -> Result<Located, String> {
-    let path = resolve_inside(base_dir, reference)?;
+pub fn locate_inside(base_dir: &Path, reference: &str) -> Result<Located, PathError> {
+    locate_inside_msg(base_dir, reference).map_err(PathError)
+}
+
+fn locate_inside_msg(base_dir: &Path, reference: &str) -> Result<Located, String> {
+    let path = resolve_inside_msg(base_dir, reference)?;
     if std::fs::symlink_metadata(&path).is_err() {
         return Ok(Located::Missing(path));
     }
-    real_file_inside(base_dir, &path, reference).map(Located::Found)
+    real_file_inside_msg(base_dir, &path, reference).map(Located::Found)
 }
 
 /// The real path of `path` (a file under `base_dir` by its text), checked
 /// as [`resolve_file_inside`] does; `reference` names it in errors.
-pub fn real_file_inside(base_dir: &Path, path: &Path, reference: &str) -> Result<PathBuf, String> {
+pub fn real_file_inside(
+    base_dir: &Path,
+    path: &Path,
+    reference: &str,
+) -> Result<PathBuf, PathError> {
+    real_file_inside_msg(base_dir, path, reference).map_err(PathError)
+}
+
+fn real_file_inside_msg(base_dir: &Path, path: &Path, reference: &str) -> Result<PathBuf, String> {
     let base = if base_dir.as_os_str().is_empty() {
         Path::new(".")
     } else {
@@ -145,7 +167,11 @@ pub fn read_capped(path: &Path, cap: u64, what: &str) -> std::io::Result<Vec<u8>
 /// (`.\tex\a.png`). Absolute paths, drive letters, URI schemes other than a
 /// plain relative path, and any `..` component are refused with a message, so
 /// an asset never makes the tool read outside its own folder.
-pub fn resolve_inside(base_dir: &Path, reference: &str) -> Result<PathBuf, String> {
+pub fn resolve_inside(base_dir: &Path, reference: &str) -> Result<PathBuf, PathError> {
+    resolve_inside_msg(base_dir, reference).map_err(PathError)
+}
+
+fn resolve_inside_msg(base_dir: &Path, reference: &str) -> Result<PathBuf, String> {
     let decoded = percent_decode(reference)
         .ok_or_else(|| format!("invalid percent-escape in reference '{reference}'"))?;
     let normalized = decoded.replace('\\', "/");

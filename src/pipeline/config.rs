@@ -271,17 +271,15 @@ impl Placement {
 
     /// A mesh drawn with the world matrix `mesh_to_world` (column-major).
     ///
-    /// # Errors
-    /// A matrix that is not invertible (zero scale) or not finite.
-    pub fn new(bounds: Bounds, mesh_to_world: &[f64; 16]) -> Result<Placement, String> {
+    /// `None` when the matrix is not invertible (zero scale) or not finite.
+    pub fn new(bounds: Bounds, mesh_to_world: &[f64; 16]) -> Option<Placement> {
         let m = nalgebra::Matrix4::from_column_slice(mesh_to_world);
         let inv = m
             .try_inverse()
-            .filter(|i| i.iter().all(|x| x.is_finite()))
-            .ok_or("the mesh's world transform is not invertible (a zero scale?)")?;
+            .filter(|i| i.iter().all(|x| x.is_finite()))?;
         let mut world_to_mesh = [0.0; 16];
         world_to_mesh.copy_from_slice(inv.as_slice());
-        Ok(Placement {
+        Some(Placement {
             bounds,
             world_to_mesh,
         })
@@ -376,8 +374,8 @@ impl Pipeline {
 
     /// Every value checked, naming the key.
     fn check(&self) -> Result<(), String> {
-        self.params(&[]).validate()?;
-        self.post.check()?;
+        self.params(&[]).validate().map_err(|e| e.0)?;
+        self.post.check().map_err(|e| e.0)?;
         let unit_box = Placement::local(Bounds {
             min: [0.0; 3],
             max: [1.0; 3],
@@ -473,7 +471,15 @@ impl Pipeline {
     /// # Errors
     /// An image mask not loaded yet, a material name the scene does not have
     /// (the message lists the names), or a texture that cannot be used.
-    pub fn masks_for(&self, scene: &Scene, asset_dir: &Path) -> Result<Masks, String> {
+    pub fn masks_for(&self, scene: &Scene, asset_dir: &Path) -> Result<Masks, PipelineError> {
+        self.masks_in(scene, asset_dir)
+            .map_err(|message| PipelineError {
+                source_name: self.source_name.clone(),
+                message,
+            })
+    }
+
+    fn masks_in(&self, scene: &Scene, asset_dir: &Path) -> Result<Masks, String> {
         let mut out = Vec::with_capacity(self.stress.len());
         for (i, e) in self.stress.iter().enumerate() {
             let label = format!("stress[{i}] ({}): mask", e.kind);
@@ -936,7 +942,7 @@ mod tests {
             }
             k => panic!("{k:?}"),
         }
-        assert!(Placement::new(b, &[0.0; 16]).is_err());
+        assert!(Placement::new(b, &[0.0; 16]).is_none());
         let e = Pipeline::parse(
             "[[stress]]\nkind = \"directional\"\ninit = 1\nmesh_axis = \"w\"\n",
             "y.toml",

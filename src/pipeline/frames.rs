@@ -85,7 +85,14 @@ pub struct Frames {
 
 impl Frames {
     /// From the two command-line values `N DIR`.
-    pub fn parse(values: &[String]) -> Result<Self, String> {
+    ///
+    /// # Errors
+    /// [`crate::Error::Usage`] naming the bad value.
+    pub fn parse(values: &[String]) -> crate::Result<Self> {
+        Self::parse_values(values).map_err(crate::Error::Usage)
+    }
+
+    fn parse_values(values: &[String]) -> Result<Self, String> {
         let [n, dir] = values else {
             return Err("--frames takes two values: N DIR".into());
         };

@@ -12,6 +12,7 @@ mod run;
 pub use config::*;
 pub use frames::Frames;
 pub use run::{
-    crack_file, fixed_groups, read_crackable, run, stress_field, write_output, BeforeAfter, Config,
-    CrackReport, FramesReport, MeshRun, Observer, Remeshed, RunReport, Stage, StartEnd,
+    crack_file, fixed_groups, prepare, read_crackable, run, stress_field, write_output,
+    BeforeAfter, Config, CrackReport, FramesReport, MeshRun, Observer, Prepared, Remeshed,
+    RunReport, Stage, StartEnd,
 };

@@ -284,15 +284,29 @@ pub fn crack_file(
     })
 }
 
-/// Crack every crackable mesh of `scene` as `config` says and write the
-/// results back into it (post-processed, with crack lines and attributes
-/// as the pipeline asks). The pipeline's mask images must be loaded.
+/// The simulation meshes of a scene, ready to crack: welded, selected,
+/// given their parameters, remeshed to the cell size, with their stress
+/// fields ([`prepare`]).
+pub struct Prepared {
+    /// The simulation meshes.
+    pub entries: Vec<SimEntry>,
+    /// Each mesh's parameters.
+    pub params: Vec<SimParams>,
+    /// Each mesh's stress field (none without stress terms).
+    pub fields: Vec<Option<StressField>>,
+    /// The stages that ran (`texture`, `weld`, `remesh`, `curvature`,
+    /// `stress`).
+    pub stages: Vec<Stage>,
+}
+
+/// Everything [`run`] does before the simulation: mask textures, welding
+/// and selection, each mesh's parameters, remeshing to the cell size,
+/// curvature and stress. `crackle study` starts from here.
 ///
 /// # Errors
-/// [`Error::Usage`] for a request the input cannot meet (a mesh or group
-/// name it does not have, a cell size above the triangle budget, a bad
-/// mask), [`Error::Mesh`] when a stage fails on a mesh.
-pub fn run(scene: &mut Scene, config: &Config, observer: &mut dyn Observer) -> Result<RunReport> {
+/// [`Error::Usage`] for names the asset does not have, a bad mask or a
+/// cell size over the triangle budget; a stage's error on a mesh.
+pub fn prepare(scene: &Scene, config: &Config, observer: &mut dyn Observer) -> Result<Prepared> {
     let pipe = &config.pipeline;
     let input = config.asset.as_path();
     let mut stages = Vec::new();
@@ -304,7 +318,7 @@ pub fn run(scene: &mut Scene, config: &Config, observer: &mut dyn Observer) -> R
             .unwrap_or(Path::new("."));
         let masks = pipe
             .masks_for(scene, asset_dir)
-            .map_err(|m| Error::Usage(format!("{}: {m}", input.display())))?;
+            .map_err(|e| Error::Usage(format!("{}: {}", input.display(), e.message)))?;
         stages.push(Stage::new("texture", t.elapsed().as_secs_f64()));
         masks
     } else {
@@ -341,6 +355,31 @@ pub fn run(scene: &mut Scene, config: &Config, observer: &mut dyn Observer) -> R
         }
         stages.push(Stage::new("stress", t.elapsed().as_secs_f64()));
     }
+    Ok(Prepared {
+        entries,
+        params: params_of,
+        fields,
+        stages,
+    })
+}
+
+/// Crack every crackable mesh of `scene` as `config` says and write the
+/// results back into it (post-processed, with crack lines and attributes
+/// as the pipeline asks). The pipeline's mask images must be loaded.
+///
+/// # Errors
+/// [`Error::Usage`] for a request the input cannot meet (a mesh or group
+/// name it does not have, a cell size above the triangle budget, a bad
+/// mask), [`Error::Mesh`] when a stage fails on a mesh.
+pub fn run(scene: &mut Scene, config: &Config, observer: &mut dyn Observer) -> Result<RunReport> {
+    let pipe = &config.pipeline;
+    let input = config.asset.as_path();
+    let Prepared {
+        mut entries,
+        params: params_of,
+        fields,
+        mut stages,
+    } = prepare(scene, config, observer)?;
     // Frames replay each mesh from its start.
     let starts = config.frames.as_ref().map(|_| entries.clone());
     let t = Instant::now();
@@ -692,7 +731,13 @@ pub fn stress_field(
             );
         }
         match worlds.first() {
-            Some(w) => Placement::new(bounds, w).map_err(|m| Error::mesh(input, &e.label, m))?,
+            Some(w) => Placement::new(bounds, w).ok_or_else(|| {
+                Error::mesh(
+                    input,
+                    &e.label,
+                    "the mesh's world transform is not invertible (a zero scale?)",
+                )
+            })?,
             None => Placement::local(bounds),
         }
     } else {

@@ -8,4 +8,4 @@ mod options;
 pub mod walls;
 pub mod width;
 
-pub use options::Post;
+pub use options::{OptionsError, Post};

@@ -69,9 +69,19 @@ impl Default for Post {
     }
 }
 
+/// An invalid post-processing option; the message names the key and its
+/// value.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[error("{0}")]
+pub struct OptionsError(pub String);
+
 impl Post {
     /// Every value checked, naming the key.
-    pub fn check(&self) -> Result<(), String> {
+    pub fn check(&self) -> Result<(), OptionsError> {
+        self.check_values().map_err(OptionsError)
+    }
+
+    fn check_values(&self) -> Result<(), String> {
         let nonneg = |k: &str, x: f64| {
             if x.is_finite() && x >= 0.0 {
                 Ok(())

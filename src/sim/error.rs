@@ -2,6 +2,11 @@
 
 use crate::mesh::MeshError;
 
+/// An invalid simulation parameter; the message names it and its value.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[error("{0}")]
+pub struct ParamError(pub String);
+
 /// Errors of a simulation run.
 #[derive(Debug, thiserror::Error)]
 pub enum SimError {

@@ -293,7 +293,11 @@ impl SimParams {
     }
 
     /// Check every value, naming the parameter that is wrong.
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), super::ParamError> {
+        self.check_values().map_err(super::ParamError)
+    }
+
+    fn check_values(&self) -> Result<(), String> {
         let finite_pos = |name: &str, x: f64| {
             if x.is_finite() && x > 0.0 {
                 Ok(())
@@ -302,7 +306,7 @@ impl SimParams {
             }
         };
         if self.model == Model::Springs {
-            self.springs.validate()?;
+            self.springs.validate().map_err(|e| e.0)?;
             if self.finish {
                 return Err("post.finish runs the quasistatic engine's tips on; it does not apply to model = \"springs\"".into());
             }
@@ -451,14 +455,14 @@ pub enum DryingLaw {
 }
 
 impl std::str::FromStr for Integrator {
-    type Err = String;
+    type Err = super::ParamError;
 
     /// An integrator by its pipeline name (`local-euler`, `backward-euler`...).
-    fn from_str(s: &str) -> Result<Self, String> {
+    fn from_str(s: &str) -> Result<Self, super::ParamError> {
         use serde::Deserialize;
         Integrator::deserialize(
             serde::de::value::StrDeserializer::<serde::de::value::Error>::new(s),
         )
-        .map_err(|e| e.to_string())
+        .map_err(|e| super::ParamError(e.to_string()))
     }
 }

@@ -17,7 +17,11 @@ use crate::sim::{Observer, SimError, SimParams, SimReport, Snapshot};
 
 impl SpringParams {
     /// Check every value, naming the key.
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), crate::sim::ParamError> {
+        self.check_values().map_err(crate::sim::ParamError)
+    }
+
+    fn check_values(&self) -> Result<(), String> {
         let range = |name: &str, r: [f64; 2], lo_ok: f64| {
             if r.iter().all(|x| x.is_finite()) && r[0] >= lo_ok && r[0] <= r[1] {
                 Ok(())
@@ -300,7 +304,7 @@ pub fn run(
     observer: &mut dyn Observer,
 ) -> Result<SimReport, SimError> {
     let sp = &params.springs;
-    params.validate().map_err(SimError::Param)?;
+    params.validate().map_err(|e| SimError::Param(e.0))?;
     let unit = mesh.mean_edge_length();
     if !(unit > 0.0 && unit.is_finite()) {
         return Err(SimError::Param(

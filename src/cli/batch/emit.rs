@@ -2,6 +2,7 @@
 
 use super::*;
 use crate::cli::UsageError;
+use crackle::batch::{canonical_or_lexical, scan_references, source_rel};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
@@ -53,7 +54,7 @@ pub(super) fn crack_args(a: &BatchArgs, spec: &PipeSpec) -> Vec<String> {
         args.push(f.clone());
     }
     args.push("--weld-tolerance".into());
-    args.push(format!("{:?}", a.weld_tolerance));
+    args.push(format!("{:?}", a.weld.relative_tolerance));
     args.push("-q".into());
     args
 }

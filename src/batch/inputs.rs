@@ -1,29 +1,16 @@
-//! The assets of a batch: inputs walked (links out of the tree not followed), globs, the rules file, shards, and the files an asset refers to.
+//! The assets of a batch: inputs walked (links out of the tree not
+//! followed), globs, output collisions, and the files an asset refers to.
 
-use super::*;
-use crate::cli::crack::SimArgs;
-use crate::cli::UsageError;
-use crackle::io::paths::{read_capped, real_file_inside, MAX_MODEL_BYTES, MAX_MTL_BYTES};
-use crackle::pipeline::Pipeline;
+use super::{Action, Asset};
+use crate::io::paths::{read_capped, real_file_inside, MAX_MODEL_BYTES, MAX_MTL_BYTES};
+use crate::{Error, Result};
 use serde_json::Value;
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Component, Path, PathBuf};
 
-/// `K/N` with 1 <= K <= N.
-pub(super) fn parse_shard(s: &str) -> Result<(usize, usize), String> {
-    let bad = || format!("--shard '{s}': expected K/N with 1 <= K <= N, e.g. 2/4");
-    let (k, n) = s.split_once('/').ok_or_else(bad)?;
-    let (k, n): (usize, usize) = (
-        k.trim().parse().map_err(|_| bad())?,
-        n.trim().parse().map_err(|_| bad())?,
-    );
-    if k == 0 || n == 0 || k > n {
-        return Err(bad());
-    }
-    Ok((k, n))
-}
-
-pub(super) fn canonical_or_lexical(p: &Path) -> PathBuf {
+/// A path made absolute and canonical; when it is not there yet, its
+/// nearest existing ancestor, canonical, plus the rest.
+pub fn canonical_or_lexical(p: &Path) -> PathBuf {
     if let Ok(c) = p.canonicalize() {
         return c;
     }
@@ -53,7 +40,7 @@ pub(super) fn canonical_or_lexical(p: &Path) -> PathBuf {
     }
 }
 
-pub(super) fn is_mesh_file(p: &Path) -> bool {
+pub(crate) fn is_mesh_file(p: &Path) -> bool {
     matches!(
         p.extension()
             .and_then(|e| e.to_str())
@@ -63,12 +50,12 @@ pub(super) fn is_mesh_file(p: &Path) -> bool {
     )
 }
 
-pub(super) fn has_glob_chars(s: &str) -> bool {
+pub(crate) fn has_glob_chars(s: &str) -> bool {
     s.contains(['*', '?', '['])
 }
 
 /// `/`-separated form of a relative path.
-pub(super) fn slash_path(p: &Path) -> String {
+pub fn slash_path(p: &Path) -> String {
     p.components()
         .filter_map(|c| match c {
             Component::Normal(s) => Some(s.to_string_lossy().into_owned()),
@@ -82,30 +69,25 @@ pub(super) fn slash_path(p: &Path) -> String {
 /// out `skip` (the output folder) and hidden files.
 /// A link (to a file or a folder) whose target lies outside `dir` is not
 /// followed, with a warning: nothing outside the folders given is read.
-pub(super) fn walk(
-    dir: &Path,
-    recursive: bool,
-    skip: &Path,
-    out: &mut Vec<PathBuf>,
-) -> anyhow::Result<()> {
+pub(crate) fn walk(dir: &Path, recursive: bool, skip: &Path, out: &mut Vec<PathBuf>) -> Result<()> {
     let root = canonical_or_lexical(dir);
     walk_seen(dir, recursive, skip, out, &mut (root, BTreeSet::new()))
 }
 
 /// [`walk`], entering each real folder once (folder links may loop);
 /// `seen` holds the real root and the real folders entered.
-pub(super) fn walk_seen(
+pub(crate) fn walk_seen(
     dir: &Path,
     recursive: bool,
     skip: &Path,
     out: &mut Vec<PathBuf>,
     seen: &mut (PathBuf, BTreeSet<PathBuf>),
-) -> anyhow::Result<()> {
+) -> Result<()> {
     if !seen.1.insert(canonical_or_lexical(dir)) {
         return Ok(());
     }
     let mut entries: Vec<PathBuf> = std::fs::read_dir(dir)
-        .map_err(|e| anyhow::anyhow!("{}: cannot read the folder: {e}", dir.display()))?
+        .map_err(|e| Error::Batch(format!("{}: cannot read the folder: {e}", dir.display())))?
         .filter_map(|e| e.ok().map(|e| e.path()))
         .collect();
     entries.sort();
@@ -146,13 +128,15 @@ pub(super) fn walk_seen(
 
 /// The assets named by the inputs, each with its path relative to the root
 /// it was found under, sorted by that path.
-pub(super) fn collect_inputs(
+pub(crate) fn collect_inputs(
     inputs: &[String],
     recursive: bool,
     out_canon: &Path,
-) -> anyhow::Result<Vec<Asset>> {
+) -> Result<Vec<Asset>> {
     if inputs.is_empty() {
-        return Err(UsageError("no input: give files, folders or globs".into()).into());
+        return Err(Error::Usage(
+            "no input: give files, folders or globs".into(),
+        ));
     }
     let mut assets: Vec<Asset> = Vec::new();
     // The same file under the same relative path once (a link to a file
@@ -177,7 +161,9 @@ pub(super) fn collect_inputs(
                 .map(|n| n.to_string_lossy().into_owned())
                 .unwrap_or_default();
             if !is_mesh_file(path) {
-                return Err(UsageError(format!("{spec}: not an .obj, .gltf or .glb file")).into());
+                return Err(Error::Usage(format!(
+                    "{spec}: not an .obj, .gltf or .glb file"
+                )));
             }
             push(path.to_path_buf(), rel, &mut assets);
         } else if path.is_dir() {
@@ -209,7 +195,7 @@ pub(super) fn collect_inputs(
             let glob = globset::GlobBuilder::new(&pattern_parts.join("/"))
                 .literal_separator(true)
                 .build()
-                .map_err(|e| UsageError(format!("{spec}: invalid glob: {e}")))?
+                .map_err(|e| Error::Usage(format!("{spec}: invalid glob: {e}")))?
                 .compile_matcher();
             let mut files = Vec::new();
             if base_dir.is_dir() {
@@ -227,165 +213,15 @@ pub(super) fn collect_inputs(
                 log::warn!("{spec}: no .obj, .gltf or .glb file matches");
             }
         } else {
-            return Err(UsageError(format!("{spec}: no such file or folder")).into());
+            return Err(Error::Usage(format!("{spec}: no such file or folder")));
         }
     }
     assets.sort_by(|a, b| a.rel.cmp(&b.rel).then(a.input.cmp(&b.input)));
     Ok(assets)
 }
 
-/// A rule's matcher: a glob without `/` matches the file name at any depth,
-/// one with `/` the whole relative path.
-pub(super) struct RuleGlob {
-    pub(super) matcher: globset::GlobMatcher,
-    pub(super) name_only: bool,
-}
-
-impl RuleGlob {
-    pub(super) fn matches(&self, rel: &str) -> bool {
-        if self.name_only {
-            let name = rel.rsplit('/').next().unwrap_or(rel);
-            self.matcher.is_match(name)
-        } else {
-            self.matcher.is_match(rel)
-        }
-    }
-}
-
-pub(super) type Rules = (Vec<PipeSpec>, Vec<(RuleGlob, Action)>, Action);
-
-pub(super) fn load_rules(path: &Path, sim: &SimArgs) -> anyhow::Result<Rules> {
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| UsageError(format!("{}: cannot read the rules: {e}", path.display())))?;
-    let file: RulesFile =
-        toml::from_str(&text).map_err(|e| UsageError(format!("{}: {e}", path.display())))?;
-    let dir = path
-        .parent()
-        .filter(|d| !d.as_os_str().is_empty())
-        .unwrap_or(Path::new("."));
-    let unmatched = match file.unmatched.as_deref() {
-        None | Some("skip") => Action::Skip,
-        Some("copy") => Action::Copy,
-        Some(x) => {
-            return Err(UsageError(format!(
-                "{}: unmatched = \"{x}\": expected \"skip\" or \"copy\"",
-                path.display()
-            ))
-            .into())
-        }
-    };
-    let mut pipes: Vec<PipeSpec> = Vec::new();
-    let mut rules = Vec::new();
-    for (i, r) in file.rules.iter().enumerate() {
-        let at = |m: String| {
-            UsageError(format!(
-                "{}: rule {} ('{}'): {m}",
-                path.display(),
-                i + 1,
-                r.glob
-            ))
-        };
-        let pattern = r.glob.trim_start_matches("./");
-        let matcher = globset::GlobBuilder::new(pattern)
-            .literal_separator(true)
-            .build()
-            .map_err(|e| at(format!("invalid glob: {e}")))?
-            .compile_matcher();
-        let glob = RuleGlob {
-            matcher,
-            name_only: !pattern.contains('/'),
-        };
-        let action = match r.action.as_deref().unwrap_or("crack") {
-            "crack" => {
-                if r.preset.is_some() && r.pipeline.is_some() {
-                    return Err(at("give preset or pipeline, not both".into()).into());
-                }
-                let file_path = r.pipeline.as_ref().map(|p| dir.join(p));
-                let pipeline = sim
-                    .pipeline_with(file_path.as_deref(), r.preset.as_deref(), &r.set)
-                    .map_err(|e| at(format!("{e:#}")))?;
-                let label = match (&r.preset, &file_path) {
-                    (Some(p), _) => format!("preset {p}"),
-                    (None, Some(f)) => format!("pipeline {}", f.display()),
-                    (None, None) => "defaults".to_string(),
-                };
-                let pdir = file_path.as_ref().map(|f| {
-                    f.parent()
-                        .filter(|d| !d.as_os_str().is_empty())
-                        .unwrap_or(Path::new("."))
-                        .to_path_buf()
-                });
-                pipes.push(pipe_spec(
-                    label,
-                    file_path,
-                    r.preset.clone(),
-                    r.set.clone(),
-                    pipeline,
-                    pdir,
-                )?);
-                Action::Crack(pipes.len() - 1)
-            }
-            "copy" | "skip" if r.preset.is_some() || r.pipeline.is_some() || !r.set.is_empty() => {
-                return Err(
-                    at("a copy or skip rule takes no preset, pipeline or set".into()).into(),
-                )
-            }
-            "copy" => Action::Copy,
-            "skip" => Action::Skip,
-            x => {
-                return Err(at(format!(
-                    "action = \"{x}\": expected \"crack\", \"copy\" or \"skip\""
-                ))
-                .into())
-            }
-        };
-        rules.push((glob, action));
-    }
-    Ok((pipes, rules, unmatched))
-}
-
-pub(super) fn pipe_spec(
-    label: String,
-    file: Option<PathBuf>,
-    preset: Option<String>,
-    sets: Vec<String>,
-    pipeline: Pipeline,
-    dir: Option<PathBuf>,
-) -> anyhow::Result<PipeSpec> {
-    // The parsed pipeline (every key, defaults filled in) and the bytes of
-    // the mask images it reads.
-    let mut anonymous = pipeline.clone();
-    anonymous.source_name.clear();
-    anonymous.description.clear();
-    let mut fingerprint = format!("{anonymous:?}").into_bytes();
-    for e in &pipeline.stress {
-        if let Some(image) = e.mask.as_ref().and_then(|m| m.image.as_ref()) {
-            if image.starts_with("builtin:") {
-                continue;
-            }
-            let p = match &dir {
-                Some(d) if Path::new(image).is_relative() => d.join(image),
-                _ => PathBuf::from(image),
-            };
-            fingerprint.extend(
-                read_capped(&p, crackle::io::paths::MAX_IMAGE_BYTES, "mask image")
-                    .map_err(|e| UsageError(format!("{label}: mask image {}: {e}", p.display())))?,
-            );
-        }
-    }
-    Ok(PipeSpec {
-        label,
-        file,
-        preset,
-        sets,
-        pipeline,
-        dir,
-        fingerprint,
-    })
-}
-
 /// Refuse outputs that would overwrite an input or each other.
-pub(super) fn check_outputs(assets: &[Asset]) -> anyhow::Result<()> {
+pub(crate) fn check_outputs(assets: &[Asset]) -> Result<()> {
     let inputs: BTreeMap<PathBuf, &Asset> = assets
         .iter()
         .map(|a| (canonical_or_lexical(&a.input), a))
@@ -394,21 +230,19 @@ pub(super) fn check_outputs(assets: &[Asset]) -> anyhow::Result<()> {
     for a in assets.iter().filter(|a| a.action != Action::Skip) {
         let o = canonical_or_lexical(&a.output);
         if inputs.contains_key(&o) {
-            return Err(UsageError(format!(
+            return Err(Error::Usage(format!(
                 "{}: the output {} is an input; choose another --out",
                 a.input.display(),
                 a.output.display()
-            ))
-            .into());
+            )));
         }
         if let Some(other) = outputs.insert(o, a) {
-            return Err(UsageError(format!(
+            return Err(Error::Usage(format!(
                 "{} and {} would both write {}; rename one or split the batch",
                 other.input.display(),
                 a.input.display(),
                 a.output.display()
-            ))
-            .into());
+            )));
         }
     }
     Ok(())
@@ -417,8 +251,8 @@ pub(super) fn check_outputs(assets: &[Asset]) -> anyhow::Result<()> {
 /// The files an asset refers to, found without decoding it: a glTF's
 /// external buffers and images, an OBJ's material libraries and their
 /// texture maps. Only references inside the asset's folder are returned.
-pub(super) fn scan_references(input: &Path) -> Vec<PathBuf> {
-    use crackle::io::paths::resolve_inside;
+pub fn scan_references(input: &Path) -> Vec<PathBuf> {
+    use crate::io::paths::resolve_inside;
     let dir = input.parent().unwrap_or(Path::new("."));
     let mut out = Vec::new();
     let ext = input
@@ -473,7 +307,7 @@ pub(super) fn scan_references(input: &Path) -> Vec<PathBuf> {
             serde_json::from_slice(&bytes).ok()
         };
         if let Some(json) = json {
-            for uri in crackle::io::gltf_read::file_uris(&json) {
+            for uri in crate::io::gltf_read::file_uris(&json) {
                 out.extend(resolve_inside(dir, uri).ok());
             }
         }
@@ -481,4 +315,13 @@ pub(super) fn scan_references(input: &Path) -> Vec<PathBuf> {
     out.sort();
     out.dedup();
     out
+}
+
+/// A referenced file's path relative to the asset's folder.
+pub fn source_rel(input: &Path, source: &Path) -> Option<String> {
+    let dir = input.parent().unwrap_or(Path::new("."));
+    source.strip_prefix(dir).ok().map(slash_path).or_else(|| {
+        let (d, s) = (canonical_or_lexical(dir), canonical_or_lexical(source));
+        s.strip_prefix(&d).ok().map(slash_path)
+    })
 }

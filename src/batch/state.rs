@@ -1,7 +1,8 @@
 //! What a batch remembers between runs: each asset's key (its content, its sources' and the action's fingerprint), the state file and its lock, and atomic copies.
 
-use super::*;
-use crackle::io::paths::{read_capped, real_file_inside, MAX_MODEL_BYTES};
+use super::{Action, Asset, OutFormat, PipeSpec};
+use crate::io::paths::{read_capped, real_file_inside, MAX_MODEL_BYTES};
+use crate::{Error, Result};
 use sha2::{Digest, Sha256};
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
@@ -9,7 +10,7 @@ use std::time::Instant;
 
 /// 64-bit FNV-1a: the shard of an asset is the hash of its relative path,
 /// so adding or removing assets does not move the others between shards.
-pub(super) fn fnv1a(bytes: &[u8]) -> u64 {
+pub(crate) fn fnv1a(bytes: &[u8]) -> u64 {
     let mut h: u64 = 0xcbf2_9ce4_8422_2325;
     for &b in bytes {
         h ^= u64::from(b);
@@ -19,7 +20,7 @@ pub(super) fn fnv1a(bytes: &[u8]) -> u64 {
 }
 
 /// What, besides the input files, decides the asset's output.
-pub(super) fn action_fingerprint(
+pub(crate) fn action_fingerprint(
     asset: &Asset,
     pipes: &[PipeSpec],
     format: OutFormat,
@@ -44,7 +45,7 @@ pub(super) fn action_fingerprint(
 
 /// A hash of this executable: a rebuilt tool (new code, same version
 /// number) does not take older outputs as its own.
-pub(super) fn tool_id() -> &'static str {
+pub(crate) fn tool_id() -> &'static str {
     static ID: std::sync::OnceLock<String> = std::sync::OnceLock::new();
     ID.get_or_init(|| {
         std::env::current_exe()
@@ -56,7 +57,7 @@ pub(super) fn tool_id() -> &'static str {
 
 /// Hash of the action, the input's bytes and each source's relative path
 /// and bytes; `None` when the input cannot be read.
-pub(super) fn asset_key(input: &Path, sources: &[String], fingerprint: &[u8]) -> Option<String> {
+pub(crate) fn asset_key(input: &Path, sources: &[String], fingerprint: &[u8]) -> Option<String> {
     let mut h = Sha256::new();
     h.update((fingerprint.len() as u64).to_le_bytes());
     h.update(fingerprint);
@@ -84,19 +85,23 @@ pub(super) fn asset_key(input: &Path, sources: &[String], fingerprint: &[u8]) ->
 }
 
 /// Copy through a temporary file and a rename.
-pub(super) fn copy_atomic(from: &Path, to: &Path) -> anyhow::Result<()> {
+pub(crate) fn copy_atomic(from: &Path, to: &Path) -> Result<()> {
     if let Some(d) = to.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(d)
-            .map_err(|e| anyhow::anyhow!("{}: cannot create the folder: {e}", d.display()))?;
+            .map_err(|e| Error::Batch(format!("{}: cannot create the folder: {e}", d.display())))?;
     }
-    let tmp = crackle::io::gltf_write::temp_path(to);
+    let tmp = crate::io::gltf_write::temp_path(to);
     std::fs::copy(from, &tmp).map_err(|e| {
         let _ = std::fs::remove_file(&tmp);
-        anyhow::anyhow!("{}: cannot copy to {}: {e}", from.display(), to.display())
+        Error::Batch(format!(
+            "{}: cannot copy to {}: {e}",
+            from.display(),
+            to.display()
+        ))
     })?;
     std::fs::rename(&tmp, to).map_err(|e| {
         let _ = std::fs::remove_file(&tmp);
-        anyhow::anyhow!("{}: cannot write: {e}", to.display())
+        Error::Batch(format!("{}: cannot write: {e}", to.display()))
     })?;
     Ok(())
 }
@@ -104,28 +109,28 @@ pub(super) fn copy_atomic(from: &Path, to: &Path) -> anyhow::Result<()> {
 /// What the state file records of an asset (paths relative to the output
 /// folder; sources relative to the asset's folder).
 #[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
-pub(super) struct StateEntry {
-    pub(super) key: String,
-    pub(super) sources: Vec<String>,
-    pub(super) outputs: Vec<String>,
+pub(crate) struct StateEntry {
+    pub(crate) key: String,
+    pub(crate) sources: Vec<String>,
+    pub(crate) outputs: Vec<String>,
 }
 
 /// The state file: per output path, the key of its last successful build.
 #[derive(Default, serde::Serialize, serde::Deserialize)]
-pub(super) struct State {
-    pub(super) version: u32,
-    pub(super) assets: BTreeMap<String, StateEntry>,
+pub(crate) struct State {
+    pub(crate) version: u32,
+    pub(crate) assets: BTreeMap<String, StateEntry>,
     /// Entries this run set (merged into the file as it is on disk, so
     /// batches sharing an output folder keep each other's entries).
     #[serde(skip)]
-    pub(super) updated: BTreeSet<String>,
+    pub(crate) updated: BTreeSet<String>,
     /// When this run last wrote the file.
     #[serde(skip)]
-    pub(super) saved: Option<Instant>,
+    pub(crate) saved: Option<Instant>,
 }
 
 impl State {
-    pub(super) fn load(path: &Path) -> State {
+    pub(crate) fn load(path: &Path) -> State {
         std::fs::read(path)
             .ok()
             .and_then(|b| serde_json::from_slice::<State>(&b).ok())
@@ -136,11 +141,11 @@ impl State {
             })
     }
 
-    pub(super) fn entry(&self, output: &str) -> Option<&StateEntry> {
+    pub(crate) fn entry(&self, output: &str) -> Option<&StateEntry> {
         self.assets.get(output)
     }
 
-    pub(super) fn set(
+    pub(crate) fn set(
         &mut self,
         output: String,
         key: String,
@@ -161,7 +166,7 @@ impl State {
     /// [`State::save`] unless the last save was under a second ago (the
     /// file is rewritten whole: saving after every one of many small assets
     /// would cost more than the assets).
-    pub(super) fn save_soon(&mut self, path: &Path) -> anyhow::Result<()> {
+    pub(crate) fn save_soon(&mut self, path: &Path) -> Result<()> {
         if self.saved.is_some_and(|t| t.elapsed().as_secs_f64() < 1.0) {
             return Ok(());
         }
@@ -172,9 +177,12 @@ impl State {
     /// write it through a temporary file and a rename, so a killed batch
     /// leaves the last complete state and concurrent batches (shards into
     /// one folder) lose nothing.
-    pub(super) fn save(&mut self, path: &Path) -> anyhow::Result<()> {
+    pub(crate) fn save(&mut self, path: &Path) -> Result<()> {
         let err = |e: std::io::Error| {
-            anyhow::anyhow!("{}: cannot write the batch state: {e}", path.display())
+            Error::Batch(format!(
+                "{}: cannot write the batch state: {e}",
+                path.display()
+            ))
         };
         let _lock = StateLock::acquire(path).map_err(err)?;
         let mut merged = State::load(path);
@@ -183,8 +191,13 @@ impl State {
                 merged.assets.insert(k.clone(), e.clone());
             }
         }
-        let bytes = serde_json::to_vec_pretty(&merged)?;
-        let tmp = crackle::io::gltf_write::temp_path(path);
+        let bytes = serde_json::to_vec_pretty(&merged).map_err(|e| {
+            Error::Batch(format!(
+                "{}: cannot write the batch state: {e}",
+                path.display()
+            ))
+        })?;
+        let tmp = crate::io::gltf_write::temp_path(path);
         let result = std::fs::write(&tmp, bytes).and_then(|_| std::fs::rename(&tmp, path));
         if result.is_err() {
             let _ = std::fs::remove_file(&tmp);
@@ -198,10 +211,10 @@ impl State {
 /// An exclusive lock on a state file: a lock file created with
 /// `create_new` (atomic), removed when dropped. A lock older than a minute
 /// is taken to be left by a killed run and removed.
-pub(super) struct StateLock(PathBuf);
+pub(crate) struct StateLock(PathBuf);
 
 impl StateLock {
-    pub(super) fn acquire(state: &Path) -> std::io::Result<StateLock> {
+    pub(crate) fn acquire(state: &Path) -> std::io::Result<StateLock> {
         let path = state.with_file_name(".crackle-batch.lock");
         let start = Instant::now();
         loop {

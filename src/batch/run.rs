@@ -1,0 +1,331 @@
+//! A batch's run: what is up to date ([`triage`]), and the rest cracked or
+//! copied in parallel ([`execute`]), each asset's failure its own.
+
+use super::inputs::{scan_references, slash_path, source_rel};
+use super::state::{action_fingerprint, asset_key, copy_atomic, State};
+use super::{Action, Asset, Options, Outcome, Plan, Produced, Status, STATE_FILE};
+use crate::pipeline::{crack_file, Config};
+use crate::{Error, Result};
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Mutex;
+use std::time::Instant;
+
+/// Told what a batch is doing, from its worker threads. Every method has
+/// an empty default.
+pub trait BatchObserver: Sync {
+    /// Worker `worker` starts `asset`.
+    fn start(&self, _worker: usize, _asset: &Asset) {}
+    /// A stage of `asset` starts (`read`, `simulate body: round 3, 120
+    /// cracks`, `copy`...).
+    fn stage(&self, _worker: usize, _asset: &Asset, _stage: &str) {}
+    /// `asset` ended.
+    fn done(&self, _worker: usize, _asset: &Asset, _outcome: &Outcome) {}
+}
+
+impl BatchObserver for () {}
+
+/// The state of the output folder and what is left to do.
+pub struct Triage {
+    /// Indices of the assets to run, in plan order.
+    pub todo: Vec<usize>,
+    /// One per asset: skipped and up-to-date ones decided, the rest
+    /// pending.
+    pub outcomes: Vec<Outcome>,
+    state: State,
+}
+
+/// Decide which assets are up to date (their outputs there, their key in
+/// the state file unchanged) unless `force`. With `sweep`, first remove the
+/// temporary files a killed run left in the output folder.
+pub fn triage(plan: &Plan, options: &Options, sweep: bool) -> Triage {
+    let out = &options.out;
+    if sweep {
+        crate::io::gltf_write::remove_stale_temps(out, true);
+    }
+    let state = State::load(&out.join(STATE_FILE));
+    let mut todo: Vec<usize> = Vec::new();
+    let mut outcomes: Vec<Outcome> = vec![Outcome::default(); plan.assets.len()];
+    for (i, asset) in plan.assets.iter().enumerate() {
+        if asset.action == Action::Skip {
+            outcomes[i].status = Status::Skipped;
+            continue;
+        }
+        let fp = fingerprint(plan, options, asset);
+        let fresh = (!options.force)
+            .then(|| state.entry(&out_rel(out, &asset.output)))
+            .flatten()
+            .filter(|e| {
+                e.outputs.iter().all(|o| out.join(o).is_file())
+                    && asset_key(&asset.input, &e.sources, &fp).as_deref() == Some(e.key.as_str())
+            })
+            .is_some();
+        if fresh {
+            outcomes[i].status = Status::UpToDate;
+        } else {
+            todo.push(i);
+        }
+    }
+    Triage {
+        todo,
+        outcomes,
+        state,
+    }
+}
+
+fn fingerprint(plan: &Plan, options: &Options, asset: &Asset) -> Vec<u8> {
+    action_fingerprint(
+        asset,
+        &plan.pipes,
+        options.format,
+        options.weld.relative_tolerance,
+    )
+}
+
+/// Run the assets `triage` left to do on `options.jobs` threads (0: one
+/// per core), recording each success in the state file; returns every
+/// asset's outcome and the run's wall-clock seconds. An asset's failure
+/// (or a panic, which is a bug) fails that asset, not the batch; under
+/// `fail_fast` no asset starts after one failed.
+///
+/// # Errors
+/// [`Error::Batch`] when the output folder cannot be made or the threads
+/// cannot be started.
+pub fn execute(
+    plan: &Plan,
+    options: &Options,
+    triage: Triage,
+    observer: &dyn BatchObserver,
+) -> Result<(Vec<Outcome>, f64)> {
+    let out = &options.out;
+    std::fs::create_dir_all(out).map_err(|e| {
+        Error::Batch(format!(
+            "{}: cannot create the output folder: {e}",
+            out.display()
+        ))
+    })?;
+    let started = Instant::now();
+    let jobs = match options.jobs {
+        0 => std::thread::available_parallelism().map_or(1, |n| n.get()),
+        n => n,
+    };
+    let Triage {
+        todo,
+        outcomes,
+        state,
+    } = triage;
+    let state_path = out.join(STATE_FILE);
+    let state = Mutex::new(state);
+    let outcomes_m = Mutex::new(outcomes);
+    let stop = AtomicBool::new(false);
+    // `jobs` threads in all: assets are tasks of one pool, and an asset's
+    // own parallel loops run on the same threads, so they help when fewer
+    // assets than threads are left.
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(jobs)
+        .build()
+        .map_err(|e| Error::Batch(format!("cannot start {jobs} worker threads: {e}")))?;
+    pool.install(|| {
+        use rayon::prelude::*;
+        todo.par_iter().with_max_len(1).for_each(|&i| {
+            if stop.load(Ordering::SeqCst) {
+                return;
+            }
+            let worker = rayon::current_thread_index().unwrap_or(0) % jobs;
+            let asset = &plan.assets[i];
+            observer.start(worker, asset);
+            let t0 = Instant::now();
+            let on_stage = |s: &str| observer.stage(worker, asset, s);
+            // A panic is a bug; it fails this asset, not the batch.
+            let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+                run_asset(asset, plan, options, &on_stage)
+            }))
+            .unwrap_or_else(|p| {
+                let what = p
+                    .downcast_ref::<&str>()
+                    .map(|s| s.to_string())
+                    .or_else(|| p.downcast_ref::<String>().cloned())
+                    .unwrap_or_default();
+                Err(format!("internal error (please report it): {what}"))
+            });
+            let seconds = t0.elapsed().as_secs_f64();
+            let outcome = match result {
+                Ok(done) => {
+                    let fp = fingerprint(plan, options, asset);
+                    if let Some(key) = asset_key(&asset.input, &done.sources, &fp) {
+                        let mut st = state.lock().unwrap_or_else(|p| p.into_inner());
+                        let outputs = done
+                            .outputs
+                            .iter()
+                            .map(|o| out_rel(out, Path::new(o)))
+                            .collect();
+                        st.set(out_rel(out, &asset.output), key, done.sources, outputs);
+                        if let Err(e) = st.save_soon(&state_path) {
+                            log::warn!("{e}");
+                        }
+                    }
+                    Outcome {
+                        status: done.status,
+                        error: None,
+                        seconds,
+                        produced: done.produced,
+                    }
+                }
+                Err(e) => {
+                    if options.fail_fast {
+                        stop.store(true, Ordering::SeqCst);
+                    }
+                    Outcome {
+                        status: Status::Failed,
+                        error: Some(e),
+                        seconds,
+                        produced: Produced::Nothing,
+                    }
+                }
+            };
+            observer.done(worker, asset, &outcome);
+            outcomes_m.lock().unwrap_or_else(|p| p.into_inner())[i] = outcome;
+        });
+    });
+    let mut state = state.into_inner().unwrap_or_else(|p| p.into_inner());
+    if !state.updated.is_empty() {
+        if let Err(e) = state.save(&state_path) {
+            log::warn!("{e}");
+        }
+    }
+    let mut outcomes = outcomes_m.into_inner().unwrap_or_else(|p| p.into_inner());
+    for &i in &todo {
+        if outcomes[i].status == Status::Pending {
+            outcomes[i].status = Status::NotRun;
+        }
+    }
+    Ok((outcomes, started.elapsed().as_secs_f64()))
+}
+
+/// A written file's path relative to the output folder (as given when it
+/// is not inside it).
+fn out_rel(out: &Path, file: &Path) -> String {
+    match file.strip_prefix(out) {
+        Ok(r) => slash_path(r),
+        Err(_) => file.display().to_string(),
+    }
+}
+
+/// What one asset's run did.
+struct Done {
+    status: Status,
+    produced: Produced,
+    /// The files it read, relative to its folder.
+    sources: Vec<String>,
+    /// The files it wrote.
+    outputs: Vec<String>,
+}
+
+/// Forwards a run's stages and rounds to a batch's stage callback.
+struct Stages<'a>(&'a dyn Fn(&str));
+
+impl crate::pipeline::Observer for Stages<'_> {
+    fn stage(&mut self, name: &str) {
+        (self.0)(name);
+    }
+
+    fn round(&mut self, mesh: &str, round: usize, _max: usize, cracks: usize, _steps: usize) {
+        (self.0)(&format!("simulate {mesh}: round {round}, {cracks} cracks"));
+    }
+}
+
+/// Error text: the error and its causes, as `a: b: c`.
+fn chain(e: &Error) -> String {
+    let mut s = e.to_string();
+    let mut cause = std::error::Error::source(e);
+    while let Some(c) = cause {
+        s.push_str(&format!(": {c}"));
+        cause = c.source();
+    }
+    s
+}
+
+/// Crack or copy one asset.
+fn run_asset(
+    asset: &Asset,
+    plan: &Plan,
+    options: &Options,
+    on_stage: &dyn Fn(&str),
+) -> std::result::Result<Done, String> {
+    match &asset.action {
+        Action::Crack(k) => {
+            let spec = &plan.pipes[*k];
+            let config = Config {
+                pipeline: spec.pipeline.clone(),
+                weld: options.weld.clone(),
+                asset: asset.input.clone(),
+                frames: None,
+                output: asset.output.clone(),
+                read: options.read,
+            };
+            let prefix_images = options.format == super::OutFormat::Gltf;
+            let report = crack_file(
+                config,
+                spec.dir.as_deref(),
+                prefix_images,
+                &mut Stages(on_stage),
+            )
+            .map_err(|e| chain(&e))?;
+            let sources = report
+                .sources
+                .iter()
+                .filter_map(|s| source_rel(&asset.input, Path::new(s)))
+                .collect();
+            let outputs = report.files.clone();
+            Ok(Done {
+                status: Status::Cracked,
+                produced: Produced::Cracked(Box::new(report)),
+                sources,
+                outputs,
+            })
+        }
+        Action::Copy => {
+            on_stage("copy");
+            copy_asset(asset).map_err(|e| chain(&e))
+        }
+        Action::Skip => Ok(Done {
+            status: Status::Skipped,
+            produced: Produced::Nothing,
+            sources: Vec::new(),
+            outputs: Vec::new(),
+        }),
+    }
+}
+
+/// Copy an asset and every file it references, to the same places
+/// relative to it (found without decoding the asset, so assets crackle
+/// cannot read, compressed ones say, are copied too).
+fn copy_asset(asset: &Asset) -> Result<Done> {
+    let sources: Vec<String> = scan_references(&asset.input)
+        .iter()
+        .filter(|s| s.is_file())
+        .filter_map(|s| source_rel(&asset.input, s))
+        .collect();
+    let out_dir = asset.output.parent().unwrap_or(Path::new("."));
+    let in_dir = asset.input.parent().unwrap_or(Path::new("."));
+    let mut files: Vec<(PathBuf, PathBuf)> = vec![(asset.input.clone(), asset.output.clone())];
+    for s in &sources {
+        files.push((in_dir.join(s), out_dir.join(s)));
+    }
+    let mut outputs = Vec::new();
+    let mut bytes = 0u64;
+    for (from, to) in &files {
+        copy_atomic(from, to)?;
+        bytes += std::fs::metadata(to).map(|m| m.len()).unwrap_or(0);
+        outputs.push(to.display().to_string());
+    }
+    Ok(Done {
+        status: Status::Copied,
+        produced: Produced::Copied {
+            files: outputs.clone(),
+            bytes,
+        },
+        sources,
+        outputs,
+    })
+}
