@@ -191,12 +191,12 @@ pub fn study(scene: &Scene, config: &Config, options: &StudyOptions) -> Result<S
     let mesh = &e.sim;
     let rounds = a_rounds.max(1);
     let repeat = a_repeat.max(1);
-    let with = |integrator: Integrator, dt: f64, tolerance: f64| SimParams {
-        integrator,
-        relax_dt: dt,
-        tolerance,
-        relax_steps: 0,
-        ..base.clone()
+    let setup = Setup {
+        mesh,
+        base: &base,
+        field,
+        input,
+        label: &e.label,
     };
     log::info!(
         "{}: {} ({} triangles), {} rounds of relaxation time {}",
@@ -207,17 +207,56 @@ pub fn study(scene: &Scene, config: &Config, options: &StudyOptions) -> Result<S
         base.relax_time
     );
 
+    let (mut rows, h, change) = relaxation_rows(&setup, rounds, repeat)?;
+    if a_full {
+        rows.extend(full_rows(&setup, h)?);
+    }
+    let rt = base.relax_time;
+    Ok(Study {
+        mesh: e.label.clone(),
+        triangles: mesh.n_faces(),
+        rounds,
+        relax_time: rt,
+        stable_dt: h,
+        reference_change: change,
+        rows,
+    })
+}
+
+/// What every row runs on.
+struct Setup<'a> {
+    mesh: &'a crate::mesh::SimMesh,
+    base: &'a SimParams,
+    field: Option<&'a crate::stress::StressField>,
+    input: &'a std::path::Path,
+    label: &'a str,
+}
+
+impl Setup<'_> {
+    /// The base parameters with this integrator, step and tolerance.
+    fn with(&self, integrator: Integrator, dt: f64, tolerance: f64) -> SimParams {
+        SimParams {
+            integrator,
+            relax_dt: dt,
+            tolerance,
+            relax_steps: 0,
+            ..self.base.clone()
+        }
+    }
+}
+
+/// The relaxation rows, the stable step and how much the reference
+/// changed over the run.
+fn relaxation_rows(s: &Setup, rounds: usize, repeat: usize) -> Result<(Vec<Row>, f64, f64)> {
+    let (mesh, field, input) = (s.mesh, s.field, s.input);
+    let with = |i, dt, tol| s.with(i, dt, tol);
     // The stable step, from a stable-step Euler run (also a study row).
     let euler = relax_only(mesh, &with(Integrator::Euler, 0.0, 1e-4), field, rounds)?;
     let h = euler.report.stable_dt;
     if !(h.is_finite() && h > 0.0) {
-        return Err(Error::mesh(
-            input,
-            &e.label,
-            "no stable step (no elements?)",
-        ));
+        return Err(Error::mesh(input, s.label, "no stable step (no elements?)"));
     }
-    let rt = base.relax_time;
+    let rt = s.base.relax_time;
     // Every relaxation row: (integrator, dt, tolerance). The first two are
     // the reference's.
     let mut configs: Vec<(Integrator, f64, f64)> = vec![
@@ -315,102 +354,99 @@ pub fn study(scene: &Scene, config: &Config, options: &StudyOptions) -> Result<S
             extra: Value::Null,
         });
     }
+    Ok((rows, h, change))
+}
 
-    // Full runs with cracking against the paper's scheme at h / 2.
-    if a_full {
-        let full = |p: &SimParams| -> Result<(Value, f64, Vec<f64>)> {
-            let mut m = mesh.clone();
-            let t = Instant::now();
-            let r = crate::sim::run_with(&mut m, p, field, &mut ())?;
-            let s = t.elapsed().as_secs_f64();
-            let cells = face_islands(&m).count;
-            let hist = junction_histogram(&r.segments);
-            let cg: usize = r.phases.iter().map(|p| p.cg_iterations).sum();
-            Ok((
-                json!({"cracks": r.cracks, "crack_length": r.crack_length, "cells": cells, "relax_steps": r.relax_steps, "cg_iterations": cg}),
-                s,
-                hist,
-            ))
-        };
-        let configs: Vec<(Integrator, f64, f64)> = vec![
-            (Integrator::PaperEuler, h / 2.0, 1e-4),
-            (Integrator::Euler, 0.0, 1e-4),
-            (Integrator::LocalEuler, 0.0, 1e-4),
-            (Integrator::BackwardEuler, rt / 8.0, 1e-4),
-            (Integrator::BackwardEuler, rt / 2.0, 1e-4),
-            (Integrator::BackwardEuler, rt, 1e-4),
-            (Integrator::Rkl, rt, 1e-4),
-            (Integrator::Rkl, rt / 4.0, 1e-4),
-        ];
-        // Each run, plus local-euler with the finishing passes relaxing the
-        // whole mesh instead of the rings around their cracks (when the
-        // pipeline finishes cracks).
-        let mut runs: Vec<(&'static str, SimParams, f64, f64)> = configs
-            .iter()
-            .map(|&(i, dt, tol)| (i.name(), with(i, dt, tol), dt, tol))
-            .collect();
-        if base.finish && base.finish_rings > 0 {
-            runs.push((
-                "local-euler global-finishing",
-                SimParams {
-                    finish_rings: 0,
-                    ..with(Integrator::LocalEuler, 0.0, 1e-4)
-                },
-                0.0,
-                1e-4,
-            ));
-        }
-        let mut reference: Option<(Value, Vec<f64>)> = None;
-        for (name, params, dt, tol) in runs {
-            let (stats, seconds, hist) = full(&params)?;
-            let (rs, rh) = reference
-                .get_or_insert_with(|| (stats.clone(), hist.clone()))
-                .clone();
-            let rel = |k: &str| {
-                let (x, y) = (
-                    stats[k].as_f64().unwrap_or(0.0),
-                    rs[k].as_f64().unwrap_or(0.0),
-                );
-                if y != 0.0 {
-                    (x - y).abs() / y.abs()
-                } else {
-                    (x - y).abs()
-                }
-            };
-            let hist_dist: f64 = 0.5
-                * hist
-                    .iter()
-                    .zip(&rh)
-                    .map(|(p, q)| (p - q).abs())
-                    .sum::<f64>();
-            let error = rel("cracks").max(rel("crack_length"));
-            rows.push(Row {
-                kind: "full",
-                integrator: name,
-                dt,
-                tolerance: tol,
-                seconds,
-                error,
-                change_error: f64::NAN,
-                steps: stats["relax_steps"].as_u64().unwrap_or(0) as usize,
-                cg_iterations: stats["cg_iterations"].as_u64().unwrap_or(0) as usize,
-                extra: json!({
-                    "stats": stats,
-                    "crack_count_difference": rel("cracks"),
-                    "crack_length_difference": rel("crack_length"),
-                    "cells_difference": rel("cells"),
-                    "junction_angle_distance": hist_dist,
-                }),
-            });
-        }
+/// Full runs with cracking against the paper's scheme at `h / 2`.
+fn full_rows(s: &Setup, h: f64) -> Result<Vec<Row>> {
+    let (mesh, field, base) = (s.mesh, s.field, s.base);
+    let with = |i, dt, tol| s.with(i, dt, tol);
+    let rt = base.relax_time;
+    let mut rows = Vec::new();
+    let full = |p: &SimParams| -> Result<(Value, f64, Vec<f64>)> {
+        let mut m = mesh.clone();
+        let t = Instant::now();
+        let r = crate::sim::run_with(&mut m, p, field, &mut ())?;
+        let s = t.elapsed().as_secs_f64();
+        let cells = face_islands(&m).count;
+        let hist = junction_histogram(&r.segments);
+        let cg: usize = r.phases.iter().map(|p| p.cg_iterations).sum();
+        Ok((
+            json!({"cracks": r.cracks, "crack_length": r.crack_length, "cells": cells, "relax_steps": r.relax_steps, "cg_iterations": cg}),
+            s,
+            hist,
+        ))
+    };
+    let configs: Vec<(Integrator, f64, f64)> = vec![
+        (Integrator::PaperEuler, h / 2.0, 1e-4),
+        (Integrator::Euler, 0.0, 1e-4),
+        (Integrator::LocalEuler, 0.0, 1e-4),
+        (Integrator::BackwardEuler, rt / 8.0, 1e-4),
+        (Integrator::BackwardEuler, rt / 2.0, 1e-4),
+        (Integrator::BackwardEuler, rt, 1e-4),
+        (Integrator::Rkl, rt, 1e-4),
+        (Integrator::Rkl, rt / 4.0, 1e-4),
+    ];
+    // Each run, plus local-euler with the finishing passes relaxing the
+    // whole mesh instead of the rings around their cracks (when the
+    // pipeline finishes cracks).
+    let mut runs: Vec<(&'static str, SimParams, f64, f64)> = configs
+        .iter()
+        .map(|&(i, dt, tol)| (i.name(), with(i, dt, tol), dt, tol))
+        .collect();
+    if base.finish && base.finish_rings > 0 {
+        runs.push((
+            "local-euler global-finishing",
+            SimParams {
+                finish_rings: 0,
+                ..with(Integrator::LocalEuler, 0.0, 1e-4)
+            },
+            0.0,
+            1e-4,
+        ));
     }
-    Ok(Study {
-        mesh: e.label.clone(),
-        triangles: mesh.n_faces(),
-        rounds,
-        relax_time: rt,
-        stable_dt: h,
-        reference_change: change,
-        rows,
-    })
+    let mut reference: Option<(Value, Vec<f64>)> = None;
+    for (name, params, dt, tol) in runs {
+        let (stats, seconds, hist) = full(&params)?;
+        let (rs, rh) = reference
+            .get_or_insert_with(|| (stats.clone(), hist.clone()))
+            .clone();
+        let rel = |k: &str| {
+            let (x, y) = (
+                stats[k].as_f64().unwrap_or(0.0),
+                rs[k].as_f64().unwrap_or(0.0),
+            );
+            if y != 0.0 {
+                (x - y).abs() / y.abs()
+            } else {
+                (x - y).abs()
+            }
+        };
+        let hist_dist: f64 = 0.5
+            * hist
+                .iter()
+                .zip(&rh)
+                .map(|(p, q)| (p - q).abs())
+                .sum::<f64>();
+        let error = rel("cracks").max(rel("crack_length"));
+        rows.push(Row {
+            kind: "full",
+            integrator: name,
+            dt,
+            tolerance: tol,
+            seconds,
+            error,
+            change_error: f64::NAN,
+            steps: stats["relax_steps"].as_u64().unwrap_or(0) as usize,
+            cg_iterations: stats["cg_iterations"].as_u64().unwrap_or(0) as usize,
+            extra: json!({
+                "stats": stats,
+                "crack_count_difference": rel("cracks"),
+                "crack_length_difference": rel("crack_length"),
+                "cells_difference": rel("cells"),
+                "junction_angle_distance": hist_dist,
+            }),
+        });
+    }
+    Ok(rows)
 }

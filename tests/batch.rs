@@ -1014,8 +1014,14 @@ fn the_library_runs_a_batch_without_the_command_line() {
     assert!(seconds > 0.0);
     assert_eq!(count.started.load(Ordering::SeqCst), 2);
     assert_eq!(count.done.load(Ordering::SeqCst), 2);
-    assert!(count.stages.load(Ordering::SeqCst) >= 2 * 4, "read, weld, simulate, write...");
-    assert!(outcomes.iter().all(|o| o.status == Status::Cracked), "{outcomes:?}");
+    assert!(
+        count.stages.load(Ordering::SeqCst) >= 2 * 4,
+        "read, weld, simulate, write..."
+    );
+    assert!(
+        outcomes.iter().all(|o| o.status == Status::Cracked),
+        "{outcomes:?}"
+    );
     for a in &plan.assets {
         assert!(a.output.is_file(), "{}", a.output.display());
     }
