@@ -739,6 +739,57 @@ impl Work {
 
     /// The result as a mesh input: every output vertex once per distinct
     /// set of corner values (evaluated on the input in each face's chart).
+    /// The live faces along a Morton curve through their centroids (ties
+    /// by index): the output's faces, and so its vertices (numbered as
+    /// they first appear), are stored near their neighbours, which keeps
+    /// the simulation's passes over elements and nodes in cache. Splits
+    /// append their faces at the end; without this order a remeshed
+    /// surface is scattered through memory.
+    fn spatial_order(&self) -> Vec<usize> {
+        let live: Vec<usize> = (0..self.faces.len()).filter(|&f| self.alive[f]).collect();
+        let centroid = |f: usize| -> [f64; 3] {
+            let t = self.faces[f];
+            std::array::from_fn(|k| {
+                (self.pos[t[0] as usize][k]
+                    + self.pos[t[1] as usize][k]
+                    + self.pos[t[2] as usize][k])
+                    / 3.0
+            })
+        };
+        let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+        for &f in &live {
+            let c = centroid(f);
+            for k in 0..3 {
+                lo[k] = lo[k].min(c[k]);
+                hi[k] = hi[k].max(c[k]);
+            }
+        }
+        let span = (0..3).map(|k| hi[k] - lo[k]).fold(0.0, f64::max);
+        if !(span > 0.0 && span.is_finite()) {
+            return live;
+        }
+        // 21 bits per axis, interleaved.
+        let spread = |x: u64| -> u64 {
+            let mut x = x & 0x1f_ffff;
+            x = (x | x << 32) & 0x1f_0000_0000_ffff;
+            x = (x | x << 16) & 0x1f_0000_ff00_00ff;
+            x = (x | x << 8) & 0x100f_00f0_0f00_f00f;
+            x = (x | x << 4) & 0x10c3_0c30_c30c_30c3;
+            (x | x << 2) & 0x1249_2492_4924_9249
+        };
+        let scale = ((1u64 << 21) - 1) as f64 / span;
+        let mut keyed: Vec<(u64, usize)> = live
+            .iter()
+            .map(|&f| {
+                let c = centroid(f);
+                let q = |k: usize| ((c[k] - lo[k]) * scale) as u64;
+                (spread(q(0)) | spread(q(1)) << 1 | spread(q(2)) << 2, f)
+            })
+            .collect();
+        keyed.sort_unstable();
+        keyed.into_iter().map(|(_, f)| f).collect()
+    }
+
     fn to_input(&self, mesh: &SimMesh, input: &Input) -> MeshInput {
         let wedges = mesh.wedges();
         let channels = wedges.channels();
@@ -748,10 +799,8 @@ impl Work {
         let mut triangles = Vec::new();
         let mut groups = Vec::new();
         let mut slot: HashMap<(u32, Vec<u64>), u32> = HashMap::new();
-        for (f, t) in self.faces.iter().enumerate() {
-            if !self.alive[f] {
-                continue;
-            }
+        for f in self.spatial_order() {
+            let t = &self.faces[f];
             let chart = self.chart[f];
             let mut tri = [0u32; 3];
             let mut group = 0;

@@ -258,3 +258,50 @@ fn tangent_signs_stay_signs() {
         assert!((v[0] - 1.0).abs() < 1e-12 && v[1].abs() < 1e-12, "{v:?}");
     }
 }
+
+/// A remeshed surface is stored in spatial order: consecutive faces lie a
+/// few edges apart, and a face's vertices have nearby numbers (splits
+/// append their faces and vertices at the end, which without the order
+/// would scatter neighbours through memory).
+#[test]
+fn remeshed_faces_and_vertices_are_stored_near_their_neighbours() {
+    let (m, _) = build(&icosphere_input(2));
+    let target = m.mean_edge_length() / 8.0;
+    let (r, _) = remesh(
+        &m,
+        &RemeshOptions {
+            target_edge: target,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    assert!(r.n_faces() > 10_000, "{}", r.n_faces());
+    let centroid = |f: FaceId| {
+        let p = r.face_vertices(f).map(|v| r.position(v));
+        std::array::from_fn::<f64, 3, _>(|k| (p[0][k] + p[1][k] + p[2][k]) / 3.0)
+    };
+    let faces: Vec<FaceId> = r.faces().collect();
+    let step: f64 = faces
+        .windows(2)
+        .map(|w| crate::math::v3::norm(crate::math::v3::sub(centroid(w[0]), centroid(w[1]))))
+        .sum::<f64>()
+        / (faces.len() - 1) as f64;
+    assert!(
+        step < 3.0 * target,
+        "consecutive faces {step} apart, edge {target}"
+    );
+    // The vertex numbers of a face span a small part of the numbering.
+    let spread: f64 = faces
+        .iter()
+        .map(|&f| {
+            let v = r.face_vertices(f).map(|v| v.0 as f64);
+            v.iter().cloned().fold(f64::MIN, f64::max) - v.iter().cloned().fold(f64::MAX, f64::min)
+        })
+        .sum::<f64>()
+        / faces.len() as f64;
+    assert!(
+        spread < 0.05 * r.n_vertices() as f64,
+        "mean index spread {spread} of {} vertices",
+        r.n_vertices()
+    );
+}
