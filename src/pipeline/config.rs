@@ -553,7 +553,7 @@ impl Pipeline {
         &self,
         place: &Placement,
         masks: &[Option<Arc<Mask>>],
-    ) -> Result<Vec<Term>, String> {
+    ) -> Result<Vec<Term>, PipelineError> {
         self.stress
             .iter()
             .enumerate()
@@ -564,7 +564,11 @@ impl Pipeline {
                 }
                 e.term(place, mask)
             })
-            .collect()
+            .collect::<Result<Vec<Term>, String>>()
+            .map_err(|message| PipelineError {
+                source_name: self.source_name.clone(),
+                message,
+            })
     }
 }
 

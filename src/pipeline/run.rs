@@ -745,7 +745,7 @@ pub fn stress_field(
     };
     let terms = pipe
         .terms(&place, masks)
-        .map_err(|m| Error::Usage(format!("stress: {m}")))?;
+        .map_err(|e| Error::Usage(format!("stress: {}", e.message)))?;
     StressField::build_with(&e.sim, &terms, seed, curvature)
         .map_err(|err| Error::mesh(input, &e.label, err))
 }
