@@ -187,10 +187,9 @@ pub fn study(scene: &Scene, config: &Config, options: &StudyOptions) -> Result<S
     let e = &prepared.entries[k];
     let base = prepared.params[k].clone();
     let field = prepared.fields[k].as_ref();
-    let (a_rounds, a_repeat, a_full) = (options.rounds, options.repeat, options.full);
     let mesh = &e.sim;
-    let rounds = a_rounds.max(1);
-    let repeat = a_repeat.max(1);
+    let rounds = options.rounds.max(1);
+    let repeat = options.repeat.max(1);
     let setup = Setup {
         mesh,
         base: &base,
@@ -208,7 +207,7 @@ pub fn study(scene: &Scene, config: &Config, options: &StudyOptions) -> Result<S
     );
 
     let (mut rows, h, change) = relaxation_rows(&setup, rounds, repeat)?;
-    if a_full {
+    if options.full {
         rows.extend(full_rows(&setup, h)?);
     }
     let rt = base.relax_time;

@@ -982,7 +982,7 @@ fn the_library_runs_a_batch_without_the_command_line() {
     };
     let choice = || {
         let pipeline = crackle::pipeline::Pipeline::preset("glaze", &[]).unwrap();
-        let spec = PipeSpec::new("preset glaze".into(), None, None, vec![], pipeline, None);
+        let spec = PipeSpec::new(None, Some("glaze".into()), vec![], pipeline);
         Choice::One(Box::new(spec.unwrap()))
     };
     let plan = batch::plan(&options, choice()).unwrap();

@@ -78,6 +78,16 @@ pub struct Options {
     pub read: ReadOptions,
 }
 
+impl Options {
+    /// The worker threads: `jobs`, or one per core when it is 0.
+    pub fn workers(&self) -> usize {
+        match self.jobs {
+            0 => std::thread::available_parallelism().map_or(1, |n| n.get()),
+            n => n,
+        }
+    }
+}
+
 /// How the assets' pipelines are chosen.
 pub enum Choice {
     /// One pipeline for every asset.
@@ -122,7 +132,7 @@ impl Action {
     }
 }
 
-/// A pipeline an action uses.
+/// A pipeline an action uses ([`PipeSpec::new`]).
 #[derive(Clone, Debug)]
 pub struct PipeSpec {
     /// How the user named it (`preset mud`, `pipeline rules/glaze.toml`).

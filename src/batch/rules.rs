@@ -109,24 +109,11 @@ pub fn load_rules(path: &Path, make: &MakePipeline) -> Result<Rules> {
                 let file_path = r.pipeline.as_ref().map(|p| dir.join(p));
                 let pipeline = make(file_path.as_deref(), r.preset.as_deref(), &r.set)
                     .map_err(|e| at(e.to_string()))?;
-                let label = match (&r.preset, &file_path) {
-                    (Some(p), _) => format!("preset {p}"),
-                    (None, Some(f)) => format!("pipeline {}", f.display()),
-                    (None, None) => "defaults".to_string(),
-                };
-                let pdir = file_path.as_ref().map(|f| {
-                    f.parent()
-                        .filter(|d| !d.as_os_str().is_empty())
-                        .unwrap_or(Path::new("."))
-                        .to_path_buf()
-                });
                 pipes.push(PipeSpec::new(
-                    label,
                     file_path,
                     r.preset.clone(),
                     r.set.clone(),
                     pipeline,
-                    pdir,
                 )?);
                 Action::Crack(pipes.len() - 1)
             }
@@ -160,13 +147,23 @@ impl PipeSpec {
     /// # Errors
     /// [`Error::Usage`] when a mask image cannot be read.
     pub fn new(
-        label: String,
         file: Option<PathBuf>,
         preset: Option<String>,
         sets: Vec<String>,
         pipeline: Pipeline,
-        dir: Option<PathBuf>,
     ) -> Result<PipeSpec> {
+        let label = match (&file, &preset) {
+            (Some(f), _) => format!("pipeline {}", f.display()),
+            (None, Some(p)) => format!("preset {p}"),
+            (None, None) => "defaults".to_string(),
+        };
+        // Relative mask images are found beside the pipeline file.
+        let dir = file.as_ref().map(|f| {
+            f.parent()
+                .filter(|d| !d.as_os_str().is_empty())
+                .unwrap_or(Path::new("."))
+                .to_path_buf()
+        });
         // The parsed pipeline (every key, defaults filled in) and the bytes of
         // the mask images it reads.
         let mut anonymous = pipeline.clone();

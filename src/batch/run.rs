@@ -105,10 +105,7 @@ pub fn execute(
         ))
     })?;
     let started = Instant::now();
-    let jobs = match options.jobs {
-        0 => std::thread::available_parallelism().map_or(1, |n| n.get()),
-        n => n,
-    };
+    let jobs = options.workers();
     let Triage {
         todo,
         outcomes,

@@ -747,18 +747,20 @@ impl Work {
     /// surface is scattered through memory.
     fn spatial_order(&self) -> Vec<usize> {
         let live: Vec<usize> = (0..self.faces.len()).filter(|&f| self.alive[f]).collect();
-        let centroid = |f: usize| -> [f64; 3] {
-            let t = self.faces[f];
-            std::array::from_fn(|k| {
-                (self.pos[t[0] as usize][k]
-                    + self.pos[t[1] as usize][k]
-                    + self.pos[t[2] as usize][k])
-                    / 3.0
+        let centroids: Vec<[f64; 3]> = live
+            .iter()
+            .map(|&f| {
+                let t = self.faces[f];
+                std::array::from_fn(|k| {
+                    (self.pos[t[0] as usize][k]
+                        + self.pos[t[1] as usize][k]
+                        + self.pos[t[2] as usize][k])
+                        / 3.0
+                })
             })
-        };
+            .collect();
         let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
-        for &f in &live {
-            let c = centroid(f);
+        for c in &centroids {
             for k in 0..3 {
                 lo[k] = lo[k].min(c[k]);
                 hi[k] = hi[k].max(c[k]);
@@ -780,8 +782,8 @@ impl Work {
         let scale = ((1u64 << 21) - 1) as f64 / span;
         let mut keyed: Vec<(u64, usize)> = live
             .iter()
-            .map(|&f| {
-                let c = centroid(f);
+            .zip(&centroids)
+            .map(|(&f, c)| {
                 let q = |k: usize| ((c[k] - lo[k]) * scale) as u64;
                 (spread(q(0)) | spread(q(1)) << 1 | spread(q(2)) << 2, f)
             })

@@ -91,13 +91,7 @@ fn choice(a: &BatchArgs) -> anyhow::Result<Choice> {
     let pipeline = a.sim.pipeline()?;
     let file = a.sim.pipeline_file().map(Path::to_path_buf);
     let preset = a.sim.preset_name().map(str::to_owned);
-    let label = match (&file, &preset) {
-        (Some(f), _) => format!("pipeline {}", f.display()),
-        (None, Some(p)) => format!("preset {p}"),
-        (None, None) => "defaults".to_string(),
-    };
-    let dir = a.sim.pipeline_dir();
-    let spec = PipeSpec::new(label, file, preset, Vec::new(), pipeline, dir)?;
+    let spec = PipeSpec::new(file, preset, Vec::new(), pipeline)?;
     Ok(Choice::One(Box::new(spec)))
 }
 
@@ -155,11 +149,7 @@ pub fn run(a: BatchArgs) -> anyhow::Result<u8> {
         write_report(a.report, &plan, &options, &triage.outcomes, 0.0)?;
         return Ok(3);
     }
-    let jobs = match a.jobs {
-        0 => std::thread::available_parallelism().map_or(1, |n| n.get()),
-        n => n,
-    };
-    let progress = Progress::new(triage.todo.len(), jobs, a.quiet);
+    let progress = Progress::new(triage.todo.len(), options.workers(), a.quiet);
     let (outcomes, seconds) = batch::execute(&plan, &options, triage, &progress)?;
     progress.finish();
     write_report(a.report, &plan, &options, &outcomes, seconds)?;
