@@ -20,6 +20,7 @@ pub mod report;
 mod separation;
 pub mod springs;
 mod state;
+pub mod tangent;
 
 pub use crack::{crack_node, CrackEvent, CrackRules};
 pub use driver::{relax_only, run, run_with};

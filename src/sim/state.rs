@@ -59,6 +59,7 @@ pub(in crate::sim) struct State {
 #[derive(Default)]
 pub(in crate::sim) struct ImplicitScratch {
     pub(in crate::sim) cg: crate::sim::implicit::CgScratch,
+    pub(in crate::sim) tangent: crate::sim::tangent::TangentSystem,
     pub(in crate::sim) rhs: Vec<[f64; 3]>,
     pub(in crate::sim) r: Vec<[f64; 3]>,
     pub(in crate::sim) ax: Vec<[f64; 3]>,

@@ -27,7 +27,6 @@ pub(in crate::sim) fn relax_film_round(
     mesh: &SimMesh,
     st: &mut State,
     params: &SimParams,
-    cache: &mut RoundCache,
     fans: &Fans,
     normals: &[[f64; 3]],
     region: Option<&Region>,
@@ -58,25 +57,9 @@ pub(in crate::sim) fn relax_film_round(
         fixed,
         interface: &film.interface,
     };
-    let local_pre: Vec<Sym3>;
-    let pre: &[Sym3] = if region.is_some() {
-        local_pre = op.block_preconditioner(EQUILIBRIUM_DT);
-        &local_pre
-    } else {
-        if cache.pre.as_ref().is_none_or(|(d, _)| *d != EQUILIBRIUM_DT) {
-            cache.pre = Some((EQUILIBRIUM_DT, op.block_preconditioner(EQUILIBRIUM_DT)));
-        }
-        &cache.pre.as_ref().expect("set").1
-    };
     // The failure test needs the stress to about 1e-3: a film's solves stop
     // at ten times the backward-Euler tolerance.
-    let shifted = crate::sim::implicit::Shifted {
-        op: &op,
-        dt: EQUILIBRIUM_DT,
-        pre,
-        tol: (10.0 * params.tolerance).min(0.1),
-        max_iter: 10_000,
-    };
+    let tol = (10.0 * params.tolerance).min(0.1);
     let unit = st.unit;
     let mut bufs = std::mem::take(&mut st.implicit);
     // The out-of-balance force: the stress's and the interface's pull
@@ -95,12 +78,13 @@ pub(in crate::sim) fn relax_film_round(
     let mut rhs = residual(&op, &st.stress, &st.displacement, &mut bufs.cg.corner);
     rhs.par_iter_mut()
         .for_each(|b| *b = v3::scale(*b, EQUILIBRIUM_DT));
-    // Each solve starts from rest: a start from the last round's solution
-    // is often already at the tolerance's rounding floor, where conjugate
-    // gradients stall.
+    // Solved in the nodes' tangent planes, assembled once for the solve.
+    bufs.tangent.assemble(&op, EQUILIBRIUM_DT);
+    let (mut b, mut y) = (Vec::new(), Vec::new());
+    bufs.tangent.restrict(&rhs, &mut b);
+    let cg = bufs.tangent.solve(&b, &mut y, tol, 10_000);
     let mut x = std::mem::take(&mut st.warm);
-    x.clear();
-    let cg = shifted.solve(&rhs, &mut x, None, &mut bufs.r, &mut bufs.cg);
+    bufs.tangent.extend(&y, &mut x);
     phase.cg_iterations += cg.iterations;
     if !cg.converged {
         report.cg_unconverged += 1;
@@ -132,7 +116,7 @@ impl Scheme for Film {
         &self,
         r: &Round,
         st: &mut State,
-        cache: &mut RoundCache,
+        _cache: &mut RoundCache,
         _known_force: &mut Option<Vec<[f64; 3]>>,
         loaded: &mut f64,
         _g: &mut Vec<[f64; 3]>,
@@ -149,9 +133,8 @@ impl Scheme for Film {
         } = *r;
         let mut out = RoundEnd::default();
         let load = r.load_for(loaded, params.relax_time);
-        let (energy, force) = relax_film_round(
-            mesh, st, params, cache, fans, normals, region, load, report, phase,
-        );
+        let (energy, force) =
+            relax_film_round(mesh, st, params, fans, normals, region, load, report, phase);
         out.end_energy = Some(energy);
         out.end_force = Some(force);
         report.time += params.relax_time;

@@ -1,0 +1,598 @@
+//! The bonded film's system assembled in the nodes' tangent planes.
+//!
+//! A bonded node moves only in its tangent plane, so each has two unknowns
+//! in an orthonormal basis `T_n = [t1 t2]` of that plane (none when it is
+//! fixed). The shifted system `(I + dt K) x = b` of [`crate::sim::implicit`]
+//! restricted to those coordinates is `(I + dt T^T K T) y = T^T b`, with the
+//! same solution `x = T y`. Its 2x2 node blocks are assembled once per solve
+//! into compressed rows: face `e` couples its corners `a` and `b` by
+//!
+//! `K_ab = A_e / 2 (g_b g_a^T + (g_a . g_b) P_e)`
+//!
+//! (`g` the corners' barycentric gradients, `P_e` the face's tangent
+//! projector; the derivative of [`crate::sim::forces::element_strain`]'s
+//! corner forces), plus the interface term `k_n I` on the diagonal. One
+//! product is then a single pass over the rows with two-vectors: about a
+//! third of the memory traffic of the matrix-free product's two passes over
+//! faces and nodes, which bounds the film's solves. Conjugate gradients
+//! with the inverse diagonal blocks as preconditioner (the block-Jacobi
+//! preconditioner of [`crate::sim::implicit::preconditioner`] in these
+//! coordinates) run as in [`crate::sim::implicit::Shifted::solve`]: every
+//! dot product sums fixed chunks in order, so the result does not depend
+//! on the thread count.
+
+use crate::math::v3;
+use crate::sim::implicit::{CgReport, Operator};
+use rayon::prelude::*;
+
+/// Chunk length of the deterministic dot products and of assembly.
+const CHUNK: usize = 4096;
+
+/// A node's two tangent coordinates.
+pub type V2 = [f64; 2];
+
+/// A 2x2 block, row major.
+type Block = [f64; 4];
+
+/// The shifted system in tangent coordinates, with its working memory (kept
+/// between solves so its memory is not paged in anew).
+#[derive(Default)]
+pub struct TangentSystem {
+    /// Per node: its tangent basis (zero for a fixed node).
+    basis: Vec<[[f64; 3]; 2]>,
+    /// Row `n`'s entries are `offsets[n]..offsets[n + 1]`.
+    offsets: Vec<u32>,
+    cols: Vec<u32>,
+    blocks: Vec<Block>,
+    /// Per node: the inverse of its diagonal block (`[a, b, c]` for
+    /// `[[a, b], [b, c]]`).
+    pre: Vec<[f64; 3]>,
+    r: Vec<V2>,
+    z: Vec<V2>,
+    p: Vec<V2>,
+    ap: Vec<V2>,
+}
+
+/// An orthonormal basis of the plane normal to the unit vector `n`.
+fn plane_basis(n: [f64; 3]) -> [[f64; 3]; 2] {
+    // The coordinate axis least aligned with `n` gives a well-conditioned
+    // first tangent.
+    let a = n.map(f64::abs);
+    let axis = if a[0] <= a[1] && a[0] <= a[2] {
+        [1.0, 0.0, 0.0]
+    } else if a[1] <= a[2] {
+        [0.0, 1.0, 0.0]
+    } else {
+        [0.0, 0.0, 1.0]
+    };
+    let t1 = v3::unit(v3::cross(n, axis)).unwrap_or([0.0; 3]);
+    [t1, v3::cross(n, t1)]
+}
+
+/// The inverse of the symmetric part of a 2x2 block (the identity when it
+/// is not positive definite).
+fn sym_inverse2(m: Block) -> [f64; 3] {
+    let (a, b, c) = (m[0], 0.5 * (m[1] + m[2]), m[3]);
+    let det = a * c - b * b;
+    if !(det > 0.0 && det.is_finite() && a > 0.0) {
+        return [1.0, 0.0, 1.0];
+    }
+    [c / det, -b / det, a / det]
+}
+
+#[inline]
+fn mul_block(m: &Block, x: V2) -> V2 {
+    [m[0] * x[0] + m[1] * x[1], m[2] * x[0] + m[3] * x[1]]
+}
+
+#[inline]
+fn mul_pre(m: &[f64; 3], x: V2) -> V2 {
+    [m[0] * x[0] + m[1] * x[1], m[1] * x[0] + m[2] * x[1]]
+}
+
+#[inline]
+fn dot2(a: V2, b: V2) -> f64 {
+    a[0] * b[0] + a[1] * b[1]
+}
+
+/// `sum_n a_n . b_n`, summed in fixed chunks combined in order.
+fn dot(a: &[V2], b: &[V2]) -> f64 {
+    let parts: Vec<f64> = a
+        .par_chunks(CHUNK)
+        .zip(b.par_chunks(CHUNK))
+        .map(|(x, y)| x.iter().zip(y).map(|(p, q)| dot2(*p, *q)).sum::<f64>())
+        .collect();
+    parts.iter().fold(0.0, |a, b| a + b)
+}
+
+/// One assembled row: the node's columns and blocks.
+type Row = (Vec<u32>, Vec<Block>);
+
+impl TangentSystem {
+    /// Assemble `I + dt K` of `op` (a bonded operator: its node normals
+    /// given) in tangent coordinates, reusing this system's memory.
+    pub fn assemble(&mut self, op: &Operator, dt: f64) {
+        let n_nodes = op.fans.n_vertices();
+        assert_eq!(op.normals.len(), n_nodes, "a bonded operator");
+        let fixed = |n: usize| op.fixed[n];
+        op.normals
+            .par_iter()
+            .enumerate()
+            .map(|(n, &nrm)| {
+                if fixed(n) {
+                    [[0.0; 3]; 2]
+                } else {
+                    plane_basis(nrm)
+                }
+            })
+            .collect_into_vec(&mut self.basis);
+        let basis = &self.basis;
+        // Rows in blocks of nodes, joined in node order.
+        let parts: Vec<(Vec<u32>, Row)> = (0..n_nodes.div_ceil(CHUNK))
+            .into_par_iter()
+            .map(|c| {
+                let range = c * CHUNK..((c + 1) * CHUNK).min(n_nodes);
+                let mut ends = Vec::with_capacity(range.len());
+                let mut cols = Vec::with_capacity(range.len() * 7);
+                let mut blocks = Vec::with_capacity(range.len() * 7);
+                for a in range {
+                    let start = cols.len();
+                    cols.push(a as u32);
+                    blocks.push([0.0; 4]);
+                    if !fixed(a) {
+                        let ba = basis[a];
+                        for &(f, k) in op.fans.fan(a) {
+                            let Some(Some(el)) = op.els.elements.get(f as usize) else {
+                                continue;
+                            };
+                            let corners = op.fans.corners(f as usize);
+                            let ga = el.grads[k as usize];
+                            let ne = el.normal;
+                            let half = 0.5 * el.area;
+                            let an = [v3::dot(ba[0], ne), v3::dot(ba[1], ne)];
+                            for (j, &b) in corners.iter().enumerate() {
+                                let b = b as usize;
+                                if fixed(b) {
+                                    continue;
+                                }
+                                let gb = el.grads[j];
+                                let bb = basis[b];
+                                let gab = v3::dot(ga, gb);
+                                let agb = [v3::dot(ba[0], gb), v3::dot(ba[1], gb)];
+                                let bga = [v3::dot(bb[0], ga), v3::dot(bb[1], ga)];
+                                let bn = [v3::dot(bb[0], ne), v3::dot(bb[1], ne)];
+                                let mut blk = [0.0; 4];
+                                for i in 0..2 {
+                                    for m in 0..2 {
+                                        let proj = v3::dot(ba[i], bb[m]) - an[i] * bn[m];
+                                        blk[2 * i + m] = half * (agb[i] * bga[m] + gab * proj);
+                                    }
+                                }
+                                let slot = match cols[start..].iter().position(|&c| c as usize == b)
+                                {
+                                    Some(s) => start + s,
+                                    None => {
+                                        cols.push(b as u32);
+                                        blocks.push([0.0; 4]);
+                                        cols.len() - 1
+                                    }
+                                };
+                                for (o, v) in blocks[slot].iter_mut().zip(blk) {
+                                    *o += v;
+                                }
+                            }
+                        }
+                        if let Some(&k) = op.interface.get(a) {
+                            blocks[start][0] += k;
+                            blocks[start][3] += k;
+                        }
+                        for blk in &mut blocks[start..] {
+                            for v in blk.iter_mut() {
+                                *v *= dt;
+                            }
+                        }
+                    }
+                    blocks[start][0] += 1.0;
+                    blocks[start][3] += 1.0;
+                    ends.push(cols.len() as u32);
+                }
+                (ends, (cols, blocks))
+            })
+            .collect();
+        self.offsets.clear();
+        self.cols.clear();
+        self.blocks.clear();
+        self.offsets.push(0);
+        for (ends, (cols, blocks)) in parts {
+            let base = self.cols.len() as u32;
+            self.offsets.extend(ends.iter().map(|e| base + e));
+            self.cols.extend_from_slice(&cols);
+            self.blocks.extend_from_slice(&blocks);
+        }
+        // The diagonal block is each row's first.
+        let (offsets, blocks) = (&self.offsets, &self.blocks);
+        (0..n_nodes)
+            .into_par_iter()
+            .map(|n| sym_inverse2(blocks[offsets[n] as usize]))
+            .collect_into_vec(&mut self.pre);
+    }
+
+    /// Number of nodes.
+    pub fn n_nodes(&self) -> usize {
+        self.basis.len()
+    }
+
+    /// `T^T f`: a node vector in tangent coordinates (zero at fixed nodes).
+    pub fn restrict(&self, f: &[[f64; 3]], out: &mut Vec<V2>) {
+        f.par_iter()
+            .zip(self.basis.par_iter())
+            .map(|(f, b)| [v3::dot(b[0], *f), v3::dot(b[1], *f)])
+            .collect_into_vec(out);
+    }
+
+    /// `T y`: tangent coordinates back to node vectors.
+    pub fn extend(&self, y: &[V2], out: &mut Vec<[f64; 3]>) {
+        y.par_iter()
+            .zip(self.basis.par_iter())
+            .map(|(y, b)| v3::add(v3::scale(b[0], y[0]), v3::scale(b[1], y[1])))
+            .collect_into_vec(out);
+    }
+
+    /// Row `n` of the product with `x`.
+    #[inline]
+    fn row(&self, n: usize, x: &[V2]) -> V2 {
+        let (s, e) = (self.offsets[n] as usize, self.offsets[n + 1] as usize);
+        let mut y = [0.0; 2];
+        for (c, m) in self.cols[s..e].iter().zip(&self.blocks[s..e]) {
+            let v = mul_block(m, x[*c as usize]);
+            y = [y[0] + v[0], y[1] + v[1]];
+        }
+        y
+    }
+
+    /// `out = (I + dt K) x` in tangent coordinates.
+    pub fn apply(&self, x: &[V2], out: &mut Vec<V2>) {
+        (0..self.n_nodes())
+            .into_par_iter()
+            .with_min_len(512)
+            .map(|n| self.row(n, x))
+            .collect_into_vec(out);
+    }
+
+    /// Solve `(I + dt K) y = rhs` from zero by preconditioned conjugate
+    /// gradients to relative residual `tol` in at most `max_iter`
+    /// iterations, into `y`.
+    pub fn solve(&mut self, rhs: &[V2], y: &mut Vec<V2>, tol: f64, max_iter: usize) -> CgReport {
+        let n = self.n_nodes();
+        assert_eq!(rhs.len(), n, "one right-hand side per node");
+        let mut r = std::mem::take(&mut self.r);
+        let mut z = std::mem::take(&mut self.z);
+        let mut p = std::mem::take(&mut self.p);
+        let mut ap = std::mem::take(&mut self.ap);
+        y.clear();
+        y.resize(n, [0.0; 2]);
+        r.clear();
+        r.extend_from_slice(rhs);
+        for v in [&mut z, &mut p, &mut ap] {
+            v.clear();
+            v.resize(n, [0.0; 2]);
+        }
+        let report = self.iterate(rhs, y, &mut r, &mut z, &mut p, &mut ap, tol, max_iter);
+        (self.r, self.z, self.p, self.ap) = (r, z, p, ap);
+        report
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn iterate(
+        &self,
+        rhs: &[V2],
+        y: &mut [V2],
+        r: &mut [V2],
+        z: &mut [V2],
+        p: &mut [V2],
+        ap: &mut [V2],
+        tol: f64,
+        max_iter: usize,
+    ) -> CgReport {
+        let mut report = CgReport::default();
+        let norm_b = dot(rhs, rhs).sqrt();
+        if !(norm_b > 0.0 && norm_b.is_finite()) {
+            report.converged = norm_b == 0.0;
+            return report;
+        }
+        report.relative_residual = 1.0;
+        let pre = &self.pre;
+        z.par_iter_mut()
+            .zip(r.par_iter().zip(pre.par_iter()))
+            .for_each(|(z, (r, m))| *z = mul_pre(m, *r));
+        p.copy_from_slice(z);
+        let mut rz = dot(r, z);
+        let sum = |parts: Vec<f64>| parts.iter().sum::<f64>();
+        for it in 0..max_iter {
+            // ap = A p and p . ap in one pass over the rows.
+            let p_ro = &*p;
+            let pap = sum(ap
+                .par_chunks_mut(CHUNK)
+                .enumerate()
+                .map(|(c, a)| {
+                    let mut s = 0.0;
+                    for (i, a) in a.iter_mut().enumerate() {
+                        let n = c * CHUNK + i;
+                        *a = self.row(n, p_ro);
+                        s += dot2(p_ro[n], *a);
+                    }
+                    s
+                })
+                .collect());
+            if !(pap > 0.0 && pap.is_finite()) {
+                report.iterations = it;
+                break;
+            }
+            let alpha = rz / pap;
+            // y += alpha p, r -= alpha ap, z = M^-1 r; r . r and r . z.
+            let parts: Vec<(f64, f64)> = y
+                .par_chunks_mut(CHUNK)
+                .zip(r.par_chunks_mut(CHUNK))
+                .zip(z.par_chunks_mut(CHUNK))
+                .zip(p.par_chunks(CHUNK).zip(ap.par_chunks(CHUNK)))
+                .zip(pre.par_chunks(CHUNK))
+                .map(|((((y, r), z), (p, ap)), pre)| {
+                    let (mut rr, mut rz) = (0.0, 0.0);
+                    for i in 0..y.len() {
+                        y[i] = [y[i][0] + alpha * p[i][0], y[i][1] + alpha * p[i][1]];
+                        r[i] = [r[i][0] - alpha * ap[i][0], r[i][1] - alpha * ap[i][1]];
+                        z[i] = mul_pre(&pre[i], r[i]);
+                        rr += dot2(r[i], r[i]);
+                        rz += dot2(r[i], z[i]);
+                    }
+                    (rr, rz)
+                })
+                .collect();
+            let rr: f64 = parts.iter().map(|x| x.0).sum();
+            let rel = rr.sqrt() / norm_b;
+            report.iterations = it + 1;
+            report.relative_residual = rel;
+            if rel <= tol {
+                report.converged = true;
+                break;
+            }
+            let rz_new: f64 = parts.iter().map(|x| x.1).sum();
+            let beta = rz_new / rz;
+            rz = rz_new;
+            p.par_iter_mut()
+                .zip(z.par_iter())
+                .for_each(|(p, z)| *p = [z[0] + beta * p[0], z[1] + beta * p[1]]);
+        }
+        report
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::math::Sym3;
+    use crate::mesh::shapes::{jittered_plate, Lcg};
+    use crate::sim::forces::{Elements, Fans};
+    use crate::sim::implicit::{preconditioner, CgScratch, Shifted};
+
+    /// A curved, partly fixed film on a jittered plate: tilted unit
+    /// normals, every seventh node fixed, a face without an element, an
+    /// interface term at every node.
+    struct Setting {
+        fans: Fans,
+        els: Elements,
+        normals: Vec<[f64; 3]>,
+        fixed: Vec<bool>,
+        interface: Vec<f64>,
+    }
+
+    fn setting() -> Setting {
+        let mesh = jittered_plate(12, 0.3, 5);
+        let mut els = Elements::new(&mesh, f64::INFINITY);
+        els.elements[11] = None;
+        let n = mesh.n_vertices();
+        let normals = (0..n)
+            .map(|i| {
+                let v = [0.3 * (i as f64).sin(), 0.2 * (i as f64 * 0.7).cos(), 1.0];
+                v3::scale(v, 1.0 / v3::norm(v))
+            })
+            .collect();
+        Setting {
+            fans: Fans::new(&mesh),
+            els,
+            normals,
+            fixed: (0..n).map(|i| i % 7 == 3).collect(),
+            interface: (0..n).map(|i| 0.002 * (1.0 + (i % 5) as f64)).collect(),
+        }
+    }
+
+    impl Setting {
+        fn op(&self) -> Operator<'_> {
+            Operator {
+                fans: &self.fans,
+                els: &self.els,
+                normals: &self.normals,
+                fixed: &self.fixed,
+                interface: &self.interface,
+            }
+        }
+    }
+
+    fn random(n: usize, seed: u64) -> Vec<V2> {
+        let mut rng = Lcg(seed);
+        (0..n)
+            .map(|_| [rng.next_f64() - 0.5, rng.next_f64() - 0.5])
+            .collect()
+    }
+
+    fn norm(v: &[[f64; 3]]) -> f64 {
+        v.iter().map(|x| v3::dot(*x, *x)).sum::<f64>().sqrt()
+    }
+
+    /// The assembled product is the matrix-free operator's `T^T (I + dt K) T`.
+    #[test]
+    fn the_assembled_product_is_the_operators_in_tangent_coordinates() {
+        let s = setting();
+        let op = s.op();
+        let dt = 1e6;
+        let mut sys = TangentSystem::default();
+        sys.assemble(&op, dt);
+        let y = random(sys.n_nodes(), 4);
+        let mut ay = Vec::new();
+        sys.apply(&y, &mut ay);
+        // The same through the matrix-free operator.
+        let mut x = Vec::new();
+        sys.extend(&y, &mut x);
+        let pre = preconditioner(&op.blocks(), dt);
+        let shifted = Shifted {
+            op: &op,
+            dt,
+            pre: &pre,
+            tol: 1e-12,
+            max_iter: 1,
+        };
+        let mut ax = vec![[0.0; 3]; x.len()];
+        shifted.apply(&x, &mut Vec::new(), &mut ax);
+        let mut want = Vec::new();
+        sys.restrict(&ax, &mut want);
+        let scale = want.iter().map(|v| dot2(*v, *v)).sum::<f64>().sqrt();
+        assert!(scale > 1.0);
+        for (n, (a, w)) in ay.iter().zip(&want).enumerate() {
+            if s.fixed[n] {
+                // A fixed node keeps its (zero) coordinates: the identity row.
+                assert_eq!(*a, y[n]);
+                continue;
+            }
+            for c in 0..2 {
+                assert!(
+                    (a[c] - w[c]).abs() < 1e-12 * scale,
+                    "node {n}: {a:?} vs {w:?}"
+                );
+            }
+        }
+        // A tangent vector round-trips, and the normal part is dropped.
+        let mut back = Vec::new();
+        sys.restrict(&x, &mut back);
+        for (n, (b, y)) in back.iter().zip(&y).enumerate() {
+            if !s.fixed[n] {
+                assert!((b[0] - y[0]).abs() < 1e-14 && (b[1] - y[1]).abs() < 1e-14);
+                assert!(v3::dot(x[n], s.normals[n]).abs() < 1e-14);
+            }
+        }
+    }
+
+    /// The tangent solve reaches the matrix-free solve's solution, in about
+    /// as many iterations (the same preconditioner), bit for bit the same at
+    /// any thread count. (At a film's step of 1e12 the matrix-free solve's
+    /// 3x3 preconditioner inverts blocks of eigenvalues 1e12 and 1, which
+    /// costs it four digits; the tangent blocks have no normal direction to
+    /// lose them to. `solve_at_a_films_step` checks that one.)
+    #[test]
+    fn the_tangent_solve_matches_the_matrix_free_solve() {
+        let s = setting();
+        let op = s.op();
+        let dt = 1e4;
+        let mut rng = Lcg(8);
+        let stress: Vec<Sym3> = (0..s.els.elements.len())
+            .map(|_| Sym3 {
+                xx: 1.0 + rng.next_f64(),
+                yy: 1.0 + rng.next_f64(),
+                xy: rng.next_f64() - 0.5,
+                ..Sym3::ZERO
+            })
+            .collect();
+        let rhs: Vec<[f64; 3]> = op
+            .forces(&stress, &mut Vec::new())
+            .iter()
+            .map(|f| v3::scale(*f, dt))
+            .collect();
+        let pre = preconditioner(&op.blocks(), dt);
+        let shifted = Shifted {
+            op: &op,
+            dt,
+            pre: &pre,
+            tol: 1e-10,
+            max_iter: 2000,
+        };
+        let mut want = Vec::new();
+        let free = shifted.solve(
+            &rhs,
+            &mut want,
+            None,
+            &mut Vec::new(),
+            &mut CgScratch::default(),
+        );
+        assert!(free.converged);
+        let solve = || {
+            let mut sys = TangentSystem::default();
+            sys.assemble(&op, dt);
+            let (mut b, mut y, mut x) = (Vec::new(), Vec::new(), Vec::new());
+            sys.restrict(&rhs, &mut b);
+            let report = sys.solve(&b, &mut y, 1e-10, 2000);
+            sys.extend(&y, &mut x);
+            (report, x)
+        };
+        let (report, x) = solve();
+        assert!(report.converged && report.relative_residual <= 1e-10);
+        assert!(
+            report.iterations.abs_diff(free.iterations) <= 2,
+            "{} vs {} iterations",
+            report.iterations,
+            free.iterations
+        );
+        let diff: Vec<[f64; 3]> = x.iter().zip(&want).map(|(a, b)| v3::sub(*a, *b)).collect();
+        assert!(norm(&want) > 0.0);
+        assert!(
+            norm(&diff) < 1e-8 * norm(&want),
+            "{}",
+            norm(&diff) / norm(&want)
+        );
+        for (n, x) in x.iter().enumerate() {
+            if s.fixed[n] {
+                assert_eq!(*x, [0.0; 3]);
+            }
+        }
+        let run = |threads| {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap()
+                .install(solve)
+        };
+        let (one, many) = (run(1), run(4));
+        assert_eq!(one.0, many.0);
+        assert_eq!(one.1, many.1);
+    }
+
+    /// At a film's step (1e12, which makes the system the equilibrium's)
+    /// the solve's own residual is the true one: `A y - b` by the assembled
+    /// product is within the tolerance.
+    #[test]
+    fn solve_at_a_films_step() {
+        let s = setting();
+        let op = s.op();
+        let dt = 1e12;
+        let mut sys = TangentSystem::default();
+        sys.assemble(&op, dt);
+        let mut b = random(sys.n_nodes(), 12);
+        for (n, b) in b.iter_mut().enumerate() {
+            if s.fixed[n] {
+                *b = [0.0; 2];
+            } else {
+                *b = [b[0] * dt, b[1] * dt];
+            }
+        }
+        let mut y = Vec::new();
+        let report = sys.solve(&b, &mut y, 1e-10, 2000);
+        assert!(report.converged, "{report:?}");
+        let mut ay = Vec::new();
+        sys.apply(&y, &mut ay);
+        let r: Vec<V2> = ay
+            .iter()
+            .zip(&b)
+            .map(|(a, b)| [a[0] - b[0], a[1] - b[1]])
+            .collect();
+        let true_residual = dot(&r, &r).sqrt() / dot(&b, &b).sqrt();
+        assert!(true_residual < 1e-9, "{true_residual}");
+    }
+}
