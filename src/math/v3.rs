@@ -46,3 +46,19 @@ pub fn unit(a: [f64; 3]) -> Option<[f64; 3]> {
     let n = norm(a);
     (n > 0.0 && n.is_finite()).then(|| scale(a, 1.0 / n))
 }
+
+/// An orthonormal basis `[t1, t2]` of the plane normal to the unit vector
+/// `n`, with `t1 x t2 = n`; the first tangent is taken across the
+/// coordinate axis least aligned with `n`, so it is well conditioned.
+pub fn plane_basis(n: [f64; 3]) -> [[f64; 3]; 2] {
+    let a = n.map(f64::abs);
+    let axis = if a[0] <= a[1] && a[0] <= a[2] {
+        [1.0, 0.0, 0.0]
+    } else if a[1] <= a[2] {
+        [0.0, 1.0, 0.0]
+    } else {
+        [0.0, 0.0, 1.0]
+    };
+    let t1 = unit(cross(n, axis)).unwrap_or([0.0; 3]);
+    [t1, cross(n, t1)]
+}
