@@ -28,11 +28,12 @@ t = open(tim).read()
 wall = re.search(r"Elapsed \(wall clock\) time.*: (.*)", t).group(1)
 rss = int(re.search(r"Maximum resident set size \(kbytes\): (\d+)", t).group(1))
 stages = ", ".join(f"{s['name']} {s['seconds']:.2f}" for s in r["stages"])
-remeshed = [m["report"]["triangles"][1] for s in r["stages"] if s["name"] == "remesh"
+remeshed = [m["report"]["triangles"] for s in r["stages"] if s["name"] == "remesh"
             for m in s.get("meshes", []) if m["report"].get("remeshed")]
 if remeshed:
-    stages += f"; remeshed to {sum(remeshed)} triangles"
-print(f"{name}: {r['triangles']['before']} triangles, {r['cracks']} cracks, "
+    stages += (f"; remeshed from {sum(t[0] for t in remeshed)} "
+               f"to {sum(t[1] for t in remeshed)} triangles")
+print(f"{name}: {r['triangles']['before']} simulated triangles, {r['cracks']} cracks, "
       f"{r['relaxation_steps']} relaxation steps; wall {wall}, peak {rss / 1024:.0f} MiB; {stages}")
 PY
 }
