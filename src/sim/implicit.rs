@@ -27,8 +27,8 @@ use crate::math::{v3, Sym3};
 use crate::sim::forces::{element_corner_forces, element_strain, gather, Elements, Fans};
 use rayon::prelude::*;
 
-/// Chunk length of the deterministic dot products.
-const CHUNK: usize = 4096;
+pub use crate::sim::cg::CgReport;
+use crate::sim::cg::CHUNK;
 
 /// What one face contributes to `K v`, packed for the solver's inner loop
 /// (104 of an [`Element`]'s 168 bytes, and the face's corners beside
@@ -83,12 +83,7 @@ impl Packed {
 
 /// `sum_n a_n . b_n`, summed in fixed chunks combined in order.
 pub fn dot(a: &[[f64; 3]], b: &[[f64; 3]]) -> f64 {
-    let parts: Vec<f64> = a
-        .par_chunks(CHUNK)
-        .zip(b.par_chunks(CHUNK))
-        .map(|(x, y)| x.iter().zip(y).map(|(p, q)| v3::dot(*p, *q)).sum::<f64>())
-        .collect();
-    parts.iter().fold(0.0, |a, b| a + b)
+    crate::sim::cg::dot(a, b)
 }
 
 /// The projected stiffness `K = P B^T A B P` of a mesh state.
@@ -375,17 +370,6 @@ fn sym_inverse(m: Sym3) -> Sym3 {
     }
 }
 
-/// What a solve did.
-#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
-pub struct CgReport {
-    /// Iterations used.
-    pub iterations: usize,
-    /// Final residual norm over the right-hand side's norm.
-    pub relative_residual: f64,
-    /// Whether it reached the tolerance.
-    pub converged: bool,
-}
-
 /// A shifted system `(I + dt K) x = rhs` and how to solve it: conjugate
 /// gradients preconditioned by `pre` ([`preconditioner`]), to relative
 /// residual `tol`, in at most `max_iter` iterations.
@@ -475,22 +459,16 @@ impl Shifted<'_> {
             report.converged = true;
             return report;
         }
-        // Every pass below works on fixed chunks and sums each chunk's part
-        // of a dot product in order, so the sums are those of [`dot`].
+        // The start's product is known; the iteration packs the faces once.
         let pre = self.pre;
-        z.par_iter_mut()
-            .zip(r.par_iter().zip(pre.par_iter()))
-            .for_each(|(z, (r, m))| *z = m.mul_vec(*r));
-        p.copy_from_slice(z);
-        let mut rz = dot(r, z);
-        let sum = |parts: Vec<f64>| parts.iter().sum::<f64>();
         op.pack(packed);
-        for it in 0..self.max_iter {
+        let packed = &*packed;
+        let product = |p: &[[f64; 3]], kp: &mut [[f64; 3]]| {
             // kp = (I + dt K) p, and p . kp, in one pass over the nodes
             // after the elements'.
             op.packed_strain_forces(packed, p, corner);
             let cf = &*corner;
-            let pap = sum(kp
+            let parts: Vec<f64> = kp
                 .par_chunks_mut(CHUNK)
                 .zip(p.par_chunks(CHUNK))
                 .enumerate()
@@ -504,46 +482,19 @@ impl Shifted<'_> {
                     }
                     s
                 })
-                .collect());
-            if !(pap > 0.0 && pap.is_finite()) {
-                report.iterations = it;
-                break;
-            }
-            let alpha = rz / pap;
-            // x += alpha p, r -= alpha kp, z = M^-1 r; r . r and r . z.
-            let parts: Vec<(f64, f64)> = x
-                .par_chunks_mut(CHUNK)
-                .zip(r.par_chunks_mut(CHUNK))
-                .zip(z.par_chunks_mut(CHUNK))
-                .zip(p.par_chunks(CHUNK).zip(kp.par_chunks(CHUNK)))
-                .zip(pre.par_chunks(CHUNK))
-                .map(|((((x, r), z), (p, kp)), pre)| {
-                    let (mut rr, mut rz) = (0.0, 0.0);
-                    for i in 0..x.len() {
-                        x[i] = v3::add(x[i], v3::scale(p[i], alpha));
-                        r[i] = v3::sub(r[i], v3::scale(kp[i], alpha));
-                        z[i] = pre[i].mul_vec(r[i]);
-                        rr += v3::dot(r[i], r[i]);
-                        rz += v3::dot(r[i], z[i]);
-                    }
-                    (rr, rz)
-                })
                 .collect();
-            let rr: f64 = parts.iter().map(|x| x.0).sum();
-            let rel = rr.sqrt() / norm_b;
-            report.iterations = it + 1;
-            report.relative_residual = rel;
-            if rel <= tol {
-                report.converged = true;
-                break;
-            }
-            let rz_new: f64 = parts.iter().map(|x| x.1).sum();
-            let beta = rz_new / rz;
-            rz = rz_new;
-            p.par_iter_mut()
-                .zip(z.par_iter())
-                .for_each(|(p, z)| *p = v3::add(*z, v3::scale(*p, beta)));
-        }
+            parts.iter().sum::<f64>()
+        };
+        let vectors = crate::sim::cg::Vectors { x, r, z, p, ap: kp };
+        crate::sim::cg::iterate(
+            product,
+            |n, r| pre[n].mul_vec(r),
+            vectors,
+            norm_b,
+            tol,
+            self.max_iter,
+            &mut report,
+        );
         report
     }
 }

@@ -22,11 +22,9 @@
 //! on the thread count.
 
 use crate::math::v3;
-use crate::sim::implicit::{CgReport, Operator};
+use crate::sim::cg::{dot, iterate, CgReport, Vectors, CHUNK};
+use crate::sim::implicit::Operator;
 use rayon::prelude::*;
-
-/// Chunk length of the deterministic dot products and of assembly.
-const CHUNK: usize = 4096;
 
 /// A node's two tangent coordinates.
 pub type V2 = [f64; 2];
@@ -77,16 +75,6 @@ fn mul_pre(m: &[f64; 3], x: V2) -> V2 {
 #[inline]
 fn dot2(a: V2, b: V2) -> f64 {
     a[0] * b[0] + a[1] * b[1]
-}
-
-/// `sum_n a_n . b_n`, summed in fixed chunks combined in order.
-fn dot(a: &[V2], b: &[V2]) -> f64 {
-    let parts: Vec<f64> = a
-        .par_chunks(CHUNK)
-        .zip(b.par_chunks(CHUNK))
-        .map(|(x, y)| x.iter().zip(y).map(|(p, q)| dot2(*p, *q)).sum::<f64>())
-        .collect();
-    parts.iter().fold(0.0, |a, b| a + b)
 }
 
 /// One assembled row: the node's columns and blocks.
@@ -261,92 +249,48 @@ impl TangentSystem {
             v.clear();
             v.resize(n, [0.0; 2]);
         }
-        let report = self.iterate(rhs, y, &mut r, &mut z, &mut p, &mut ap, tol, max_iter);
-        (self.r, self.z, self.p, self.ap) = (r, z, p, ap);
-        report
-    }
-
-    #[allow(clippy::too_many_arguments)]
-    fn iterate(
-        &self,
-        rhs: &[V2],
-        y: &mut [V2],
-        r: &mut [V2],
-        z: &mut [V2],
-        p: &mut [V2],
-        ap: &mut [V2],
-        tol: f64,
-        max_iter: usize,
-    ) -> CgReport {
         let mut report = CgReport::default();
         let norm_b = dot(rhs, rhs).sqrt();
-        if !(norm_b > 0.0 && norm_b.is_finite()) {
+        if norm_b > 0.0 && norm_b.is_finite() {
+            report.relative_residual = 1.0;
+            let product = |p: &[V2], ap: &mut [V2]| {
+                // ap = A p and p . ap in one pass over the rows.
+                let parts: Vec<f64> = ap
+                    .par_chunks_mut(CHUNK)
+                    .enumerate()
+                    .map(|(c, a)| {
+                        let mut s = 0.0;
+                        for (i, a) in a.iter_mut().enumerate() {
+                            let n = c * CHUNK + i;
+                            *a = self.row(n, p);
+                            s += dot2(p[n], *a);
+                        }
+                        s
+                    })
+                    .collect();
+                parts.iter().sum::<f64>()
+            };
+            let vectors = Vectors {
+                x: y,
+                r: &mut r,
+                z: &mut z,
+                p: &mut p,
+                ap: &mut ap,
+            };
+            let pre = &self.pre;
+            iterate(
+                product,
+                |n, r| mul_pre(&pre[n], r),
+                vectors,
+                norm_b,
+                tol,
+                max_iter,
+                &mut report,
+            );
+        } else {
             report.converged = norm_b == 0.0;
-            return report;
         }
-        report.relative_residual = 1.0;
-        let pre = &self.pre;
-        z.par_iter_mut()
-            .zip(r.par_iter().zip(pre.par_iter()))
-            .for_each(|(z, (r, m))| *z = mul_pre(m, *r));
-        p.copy_from_slice(z);
-        let mut rz = dot(r, z);
-        let sum = |parts: Vec<f64>| parts.iter().sum::<f64>();
-        for it in 0..max_iter {
-            // ap = A p and p . ap in one pass over the rows.
-            let p_ro = &*p;
-            let pap = sum(ap
-                .par_chunks_mut(CHUNK)
-                .enumerate()
-                .map(|(c, a)| {
-                    let mut s = 0.0;
-                    for (i, a) in a.iter_mut().enumerate() {
-                        let n = c * CHUNK + i;
-                        *a = self.row(n, p_ro);
-                        s += dot2(p_ro[n], *a);
-                    }
-                    s
-                })
-                .collect());
-            if !(pap > 0.0 && pap.is_finite()) {
-                report.iterations = it;
-                break;
-            }
-            let alpha = rz / pap;
-            // y += alpha p, r -= alpha ap, z = M^-1 r; r . r and r . z.
-            let parts: Vec<(f64, f64)> = y
-                .par_chunks_mut(CHUNK)
-                .zip(r.par_chunks_mut(CHUNK))
-                .zip(z.par_chunks_mut(CHUNK))
-                .zip(p.par_chunks(CHUNK).zip(ap.par_chunks(CHUNK)))
-                .zip(pre.par_chunks(CHUNK))
-                .map(|((((y, r), z), (p, ap)), pre)| {
-                    let (mut rr, mut rz) = (0.0, 0.0);
-                    for i in 0..y.len() {
-                        y[i] = [y[i][0] + alpha * p[i][0], y[i][1] + alpha * p[i][1]];
-                        r[i] = [r[i][0] - alpha * ap[i][0], r[i][1] - alpha * ap[i][1]];
-                        z[i] = mul_pre(&pre[i], r[i]);
-                        rr += dot2(r[i], r[i]);
-                        rz += dot2(r[i], z[i]);
-                    }
-                    (rr, rz)
-                })
-                .collect();
-            let rr: f64 = parts.iter().map(|x| x.0).sum();
-            let rel = rr.sqrt() / norm_b;
-            report.iterations = it + 1;
-            report.relative_residual = rel;
-            if rel <= tol {
-                report.converged = true;
-                break;
-            }
-            let rz_new: f64 = parts.iter().map(|x| x.1).sum();
-            let beta = rz_new / rz;
-            rz = rz_new;
-            p.par_iter_mut()
-                .zip(z.par_iter())
-                .for_each(|(p, z)| *p = [z[0] + beta * p[0], z[1] + beta * p[1]]);
-        }
+        (self.r, self.z, self.p, self.ap) = (r, z, p, ap);
         report
     }
 }

@@ -1,0 +1,149 @@
+//! The preconditioned conjugate-gradient iteration shared by the
+//! matrix-free solve of [`crate::sim::implicit`] (three unknowns a node)
+//! and the assembled tangent-plane solve of [`crate::sim::tangent`] (two).
+//! Every pass works on fixed chunks of nodes and sums each chunk's part of
+//! a dot product in order, so results do not depend on the thread count.
+
+use rayon::prelude::*;
+
+/// Chunk length of the deterministic dot products.
+pub const CHUNK: usize = 4096;
+
+/// What one solve did.
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+pub struct CgReport {
+    /// Iterations used.
+    pub iterations: usize,
+    /// Final residual norm over the right-hand side's norm.
+    pub relative_residual: f64,
+    /// Whether it reached the tolerance.
+    pub converged: bool,
+}
+
+/// A node's unknowns.
+pub trait NodeVector: Copy + Send + Sync {
+    /// `self + a p`.
+    fn add_scaled(self, a: f64, p: Self) -> Self;
+    /// `self - a p`.
+    fn sub_scaled(self, a: f64, p: Self) -> Self;
+    /// `self . o`.
+    fn dot(self, o: Self) -> f64;
+}
+
+impl NodeVector for [f64; 3] {
+    #[inline]
+    fn add_scaled(self, a: f64, p: Self) -> Self {
+        [self[0] + p[0] * a, self[1] + p[1] * a, self[2] + p[2] * a]
+    }
+    #[inline]
+    fn sub_scaled(self, a: f64, p: Self) -> Self {
+        [self[0] - p[0] * a, self[1] - p[1] * a, self[2] - p[2] * a]
+    }
+    #[inline]
+    fn dot(self, o: Self) -> f64 {
+        self[0] * o[0] + self[1] * o[1] + self[2] * o[2]
+    }
+}
+
+impl NodeVector for [f64; 2] {
+    #[inline]
+    fn add_scaled(self, a: f64, p: Self) -> Self {
+        [self[0] + p[0] * a, self[1] + p[1] * a]
+    }
+    #[inline]
+    fn sub_scaled(self, a: f64, p: Self) -> Self {
+        [self[0] - p[0] * a, self[1] - p[1] * a]
+    }
+    #[inline]
+    fn dot(self, o: Self) -> f64 {
+        self[0] * o[0] + self[1] * o[1]
+    }
+}
+
+/// `sum_n a_n . b_n`, summed in fixed chunks combined in order.
+pub fn dot<V: NodeVector>(a: &[V], b: &[V]) -> f64 {
+    let parts: Vec<f64> = a
+        .par_chunks(CHUNK)
+        .zip(b.par_chunks(CHUNK))
+        .map(|(x, y)| x.iter().zip(y).map(|(p, q)| p.dot(*q)).sum::<f64>())
+        .collect();
+    parts.iter().fold(0.0, |a, b| a + b)
+}
+
+/// The working vectors of one iteration (each one per node).
+pub struct Vectors<'a, V> {
+    /// The solution, updated in place.
+    pub x: &'a mut [V],
+    /// The residual on entry (for `x`), updated by the recurrence.
+    pub r: &'a mut [V],
+    /// Scratch: the preconditioned residual.
+    pub z: &'a mut [V],
+    /// Scratch: the search direction.
+    pub p: &'a mut [V],
+    /// Scratch: the product with the search direction.
+    pub ap: &'a mut [V],
+}
+
+/// Conjugate gradients from the residual in `v.r` until the residual's norm
+/// is `tol` times `norm_b` or `max_iter` iterations have run. `product(p,
+/// ap)` writes `A p` into `ap` and returns `p . A p` (summed in fixed chunks);
+/// `precondition(n, r)` is the preconditioner's block at node `n` applied to
+/// `r`. The report's residual is the recurrence's.
+pub fn iterate<V: NodeVector>(
+    mut product: impl FnMut(&[V], &mut [V]) -> f64,
+    precondition: impl Fn(usize, V) -> V + Sync,
+    v: Vectors<'_, V>,
+    norm_b: f64,
+    tol: f64,
+    max_iter: usize,
+    report: &mut CgReport,
+) {
+    let Vectors { x, r, z, p, ap } = v;
+    z.par_iter_mut()
+        .zip(r.par_iter())
+        .enumerate()
+        .for_each(|(n, (z, r))| *z = precondition(n, *r));
+    p.copy_from_slice(z);
+    let mut rz = dot(r, z);
+    for it in 0..max_iter {
+        let pap = product(p, ap);
+        if !(pap > 0.0 && pap.is_finite()) {
+            report.iterations = it;
+            break;
+        }
+        let alpha = rz / pap;
+        // x += alpha p, r -= alpha ap, z = M^-1 r; r . r and r . z.
+        let parts: Vec<(f64, f64)> = x
+            .par_chunks_mut(CHUNK)
+            .zip(r.par_chunks_mut(CHUNK))
+            .zip(z.par_chunks_mut(CHUNK))
+            .zip(p.par_chunks(CHUNK).zip(ap.par_chunks(CHUNK)))
+            .enumerate()
+            .map(|(c, (((x, r), z), (p, ap)))| {
+                let (mut rr, mut rz) = (0.0, 0.0);
+                for i in 0..x.len() {
+                    x[i] = x[i].add_scaled(alpha, p[i]);
+                    r[i] = r[i].sub_scaled(alpha, ap[i]);
+                    z[i] = precondition(c * CHUNK + i, r[i]);
+                    rr += r[i].dot(r[i]);
+                    rz += r[i].dot(z[i]);
+                }
+                (rr, rz)
+            })
+            .collect();
+        let rr: f64 = parts.iter().map(|x| x.0).sum();
+        let rel = rr.sqrt() / norm_b;
+        report.iterations = it + 1;
+        report.relative_residual = rel;
+        if rel <= tol {
+            report.converged = true;
+            break;
+        }
+        let rz_new: f64 = parts.iter().map(|x| x.1).sum();
+        let beta = rz_new / rz;
+        rz = rz_new;
+        p.par_iter_mut()
+            .zip(z.par_iter())
+            .for_each(|(p, z)| *p = z.add_scaled(beta, *p));
+    }
+}
