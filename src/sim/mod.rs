@@ -2,7 +2,7 @@
 //! simulation mesh, node forces, separation tensors and stress relaxation.
 //! No I/O and no printing here.
 
-mod cg;
+pub mod cg;
 pub mod crack;
 mod diffusion;
 pub mod driver;

@@ -15,11 +15,11 @@
 //! product is then a single pass over the rows with two-vectors: about a
 //! third of the memory traffic of the matrix-free product's two passes over
 //! faces and nodes, which bounds the film's solves. Conjugate gradients
-//! with the inverse diagonal blocks as preconditioner (the block-Jacobi
-//! preconditioner of [`crate::sim::implicit::preconditioner`] in these
-//! coordinates) run as in [`crate::sim::implicit::Shifted::solve`]: every
-//! dot product sums fixed chunks in order, so the result does not depend
-//! on the thread count.
+//! ([`crate::sim::cg::iterate`]) with the inverse diagonal blocks as
+//! preconditioner (the block-Jacobi preconditioner of
+//! [`Operator::block_preconditioner`] in these coordinates) sum every dot
+//! product in fixed chunks in order, and each row is assembled on its own,
+//! so the result does not depend on the thread count.
 
 use crate::math::v3;
 use crate::sim::cg::{dot, iterate, CgReport, Vectors, CHUNK};
