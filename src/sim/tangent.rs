@@ -21,6 +21,7 @@
 //! product in fixed chunks in order, and each row is assembled on its own,
 //! so the result does not depend on the thread count.
 
+use crate::geometry::element::Element;
 use crate::math::v3;
 use crate::sim::cg::{dot, iterate, CgReport, Vectors, CHUNK};
 use crate::sim::implicit::Operator;
@@ -80,18 +81,97 @@ fn dot2(a: V2, b: V2) -> f64 {
 /// One assembled row: the node's columns and blocks.
 type Row = (Vec<u32>, Vec<Block>);
 
+/// Face `el`'s coupling `T_a^T K_ab T_b` of its corners `a` and `b` (their
+/// gradients `ga`, `gb` and tangent bases `ba`, `bb`), before the step.
+#[inline]
+fn face_block(
+    el: &Element,
+    ga: [f64; 3],
+    ba: [[f64; 3]; 2],
+    gb: [f64; 3],
+    bb: [[f64; 3]; 2],
+) -> Block {
+    let ne = el.normal;
+    let half = 0.5 * el.area;
+    let an = [v3::dot(ba[0], ne), v3::dot(ba[1], ne)];
+    let gab = v3::dot(ga, gb);
+    let agb = [v3::dot(ba[0], gb), v3::dot(ba[1], gb)];
+    let bga = [v3::dot(bb[0], ga), v3::dot(bb[1], ga)];
+    let bn = [v3::dot(bb[0], ne), v3::dot(bb[1], ne)];
+    let mut blk = [0.0; 4];
+    for i in 0..2 {
+        for m in 0..2 {
+            let proj = v3::dot(ba[i], bb[m]) - an[i] * bn[m];
+            blk[2 * i + m] = half * (agb[i] * bga[m] + gab * proj);
+        }
+    }
+    blk
+}
+
+/// Append node `a`'s row of `I + dt K` to `cols` and `blocks`: the
+/// diagonal block first, then each other free corner of its fan once, in
+/// the order the fan meets them. A fixed node's row is the identity alone.
+fn push_row(
+    op: &Operator,
+    basis: &[[[f64; 3]; 2]],
+    a: usize,
+    dt: f64,
+    cols: &mut Vec<u32>,
+    blocks: &mut Vec<Block>,
+) {
+    let start = cols.len();
+    cols.push(a as u32);
+    blocks.push([0.0; 4]);
+    if !op.fixed[a] {
+        for &(f, k) in op.fans.fan(a) {
+            let Some(Some(el)) = op.els.elements.get(f as usize) else {
+                continue;
+            };
+            let ga = el.grads[k as usize];
+            for (j, &b) in op.fans.corners(f as usize).iter().enumerate() {
+                let b = b as usize;
+                if op.fixed[b] {
+                    continue;
+                }
+                let blk = face_block(el, ga, basis[a], el.grads[j], basis[b]);
+                let slot = match cols[start..].iter().position(|&c| c as usize == b) {
+                    Some(s) => start + s,
+                    None => {
+                        cols.push(b as u32);
+                        blocks.push([0.0; 4]);
+                        cols.len() - 1
+                    }
+                };
+                for (o, v) in blocks[slot].iter_mut().zip(blk) {
+                    *o += v;
+                }
+            }
+        }
+        if let Some(&k) = op.interface.get(a) {
+            blocks[start][0] += k;
+            blocks[start][3] += k;
+        }
+        for blk in &mut blocks[start..] {
+            for v in blk.iter_mut() {
+                *v *= dt;
+            }
+        }
+    }
+    blocks[start][0] += 1.0;
+    blocks[start][3] += 1.0;
+}
+
 impl TangentSystem {
     /// Assemble `I + dt K` of `op` (a bonded operator: its node normals
     /// given) in tangent coordinates, reusing this system's memory.
     pub fn assemble(&mut self, op: &Operator, dt: f64) {
         let n_nodes = op.fans.n_vertices();
         assert_eq!(op.normals.len(), n_nodes, "a bonded operator");
-        let fixed = |n: usize| op.fixed[n];
         op.normals
             .par_iter()
             .enumerate()
             .map(|(n, &nrm)| {
-                if fixed(n) {
+                if op.fixed[n] {
                     [[0.0; 3]; 2]
                 } else {
                     v3::plane_basis(nrm)
@@ -108,64 +188,7 @@ impl TangentSystem {
                 let mut cols = Vec::with_capacity(range.len() * 7);
                 let mut blocks = Vec::with_capacity(range.len() * 7);
                 for a in range {
-                    let start = cols.len();
-                    cols.push(a as u32);
-                    blocks.push([0.0; 4]);
-                    if !fixed(a) {
-                        let ba = basis[a];
-                        for &(f, k) in op.fans.fan(a) {
-                            let Some(Some(el)) = op.els.elements.get(f as usize) else {
-                                continue;
-                            };
-                            let corners = op.fans.corners(f as usize);
-                            let ga = el.grads[k as usize];
-                            let ne = el.normal;
-                            let half = 0.5 * el.area;
-                            let an = [v3::dot(ba[0], ne), v3::dot(ba[1], ne)];
-                            for (j, &b) in corners.iter().enumerate() {
-                                let b = b as usize;
-                                if fixed(b) {
-                                    continue;
-                                }
-                                let gb = el.grads[j];
-                                let bb = basis[b];
-                                let gab = v3::dot(ga, gb);
-                                let agb = [v3::dot(ba[0], gb), v3::dot(ba[1], gb)];
-                                let bga = [v3::dot(bb[0], ga), v3::dot(bb[1], ga)];
-                                let bn = [v3::dot(bb[0], ne), v3::dot(bb[1], ne)];
-                                let mut blk = [0.0; 4];
-                                for i in 0..2 {
-                                    for m in 0..2 {
-                                        let proj = v3::dot(ba[i], bb[m]) - an[i] * bn[m];
-                                        blk[2 * i + m] = half * (agb[i] * bga[m] + gab * proj);
-                                    }
-                                }
-                                let slot = match cols[start..].iter().position(|&c| c as usize == b)
-                                {
-                                    Some(s) => start + s,
-                                    None => {
-                                        cols.push(b as u32);
-                                        blocks.push([0.0; 4]);
-                                        cols.len() - 1
-                                    }
-                                };
-                                for (o, v) in blocks[slot].iter_mut().zip(blk) {
-                                    *o += v;
-                                }
-                            }
-                        }
-                        if let Some(&k) = op.interface.get(a) {
-                            blocks[start][0] += k;
-                            blocks[start][3] += k;
-                        }
-                        for blk in &mut blocks[start..] {
-                            for v in blk.iter_mut() {
-                                *v *= dt;
-                            }
-                        }
-                    }
-                    blocks[start][0] += 1.0;
-                    blocks[start][3] += 1.0;
+                    push_row(op, basis, a, dt, &mut cols, &mut blocks);
                     ends.push(cols.len() as u32);
                 }
                 (ends, (cols, blocks))
