@@ -737,8 +737,6 @@ impl Work {
         }
     }
 
-    /// The result as a mesh input: every output vertex once per distinct
-    /// set of corner values (evaluated on the input in each face's chart).
     /// The live faces along a Morton curve through their centroids (ties
     /// by index): the output's faces, and so its vertices (numbered as
     /// they first appear), are stored near their neighbours, which keeps
@@ -792,6 +790,9 @@ impl Work {
         keyed.into_iter().map(|(_, f)| f).collect()
     }
 
+    /// The result as a mesh input: every output vertex once per distinct
+    /// set of corner values (evaluated on the input in each face's chart),
+    /// faces in [`spatial_order`](Self::spatial_order).
     fn to_input(&self, mesh: &SimMesh, input: &Input) -> MeshInput {
         let wedges = mesh.wedges();
         let channels = wedges.channels();

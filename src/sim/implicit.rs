@@ -14,7 +14,10 @@
 //! energy never rises when nothing loads. The system is solved matrix-free
 //! (`K v` costs one pass over the elements and one over the nodes, as an
 //! explicit step) by conjugate gradients with the block-Jacobi
-//! preconditioner `(I + dt K_nn)^-1` (each node's own 3x3 block). A solve
+//! preconditioner `(I + dt K_nn)^-1` (each node's own 3x3 block, inverted
+//! in the tangent plane when bonded; the loop is [`crate::sim::cg`]). A
+//! bonded film's equilibrium is solved on an assembled system instead
+//! ([`crate::sim::tangent`]). A solve
 //! can start from the best combination of earlier solutions of the same
 //! system ([`subspace_start`]), and leaves its residual `r` (as the
 //! iteration updated it: it drifts from `rhs - A x` by rounding, so callers
@@ -338,10 +341,10 @@ impl Operator<'_> {
     }
 }
 
-/// The block-Jacobi preconditioner of `I + dt K`: the inverse of
-/// `I + dt K_nn` per node (`blocks` from [`Operator::blocks`]). It maps
-/// each node's tangent plane to itself, so preconditioned residuals keep to
-/// the allowed motion.
+/// The plain 3x3 inverses of `I + dt K_nn` per node (`blocks` from
+/// [`Operator::blocks`]): the block-Jacobi preconditioner of a free surface.
+/// A bonded one takes [`Operator::block_preconditioner`], which inverts in
+/// the tangent planes and keeps residuals to the allowed motion.
 pub fn preconditioner(blocks: &[Sym3], dt: f64) -> Vec<Sym3> {
     blocks
         .par_iter()
@@ -371,14 +374,14 @@ fn sym_inverse(m: Sym3) -> Sym3 {
 }
 
 /// A shifted system `(I + dt K) x = rhs` and how to solve it: conjugate
-/// gradients preconditioned by `pre` ([`preconditioner`]), to relative
+/// gradients preconditioned by `pre` ([`Operator::block_preconditioner`]), to relative
 /// residual `tol`, in at most `max_iter` iterations.
 pub struct Shifted<'a> {
     /// The stiffness.
     pub op: &'a Operator<'a>,
     /// The step.
     pub dt: f64,
-    /// Per-node inverse blocks from [`preconditioner`] for this `dt`.
+    /// Per-node inverse blocks from [`Operator::block_preconditioner`] for this `dt`.
     pub pre: &'a [Sym3],
     /// Relative residual to reach.
     pub tol: f64,
@@ -459,7 +462,7 @@ impl Shifted<'_> {
             report.converged = true;
             return report;
         }
-        // The start's product is known; the iteration packs the faces once.
+        // The products read the faces packed once for the solve.
         let pre = self.pre;
         op.pack(packed);
         let packed = &*packed;
