@@ -46,6 +46,8 @@ pub struct TangentSystem {
     /// Per node: the inverse of its diagonal block (`[a, b, c]` for
     /// `[[a, b], [b, c]]`).
     pre: Vec<[f64; 3]>,
+    b: Vec<V2>,
+    y: Vec<V2>,
     r: Vec<V2>,
     z: Vec<V2>,
     p: Vec<V2>,
@@ -252,6 +254,24 @@ impl TangentSystem {
             .with_min_len(512)
             .map(|n| self.row(n, x))
             .collect_into_vec(out);
+    }
+
+    /// [`solve`](Self::solve) for node vectors: `x = T y` with `(I + dt K)
+    /// y = T^T rhs` (the right-hand side and the coordinates kept in this
+    /// system's memory).
+    pub fn solve_nodes(
+        &mut self,
+        rhs: &[[f64; 3]],
+        x: &mut Vec<[f64; 3]>,
+        tol: f64,
+        max_iter: usize,
+    ) -> CgReport {
+        let (mut b, mut y) = (std::mem::take(&mut self.b), std::mem::take(&mut self.y));
+        self.restrict(rhs, &mut b);
+        let report = self.solve(&b, &mut y, tol, max_iter);
+        self.extend(&y, x);
+        (self.b, self.y) = (b, y);
+        report
     }
 
     /// Solve `(I + dt K) y = rhs` from zero by preconditioned conjugate
@@ -474,10 +494,8 @@ mod tests {
         let solve = || {
             let mut sys = TangentSystem::default();
             sys.assemble(&op, dt);
-            let (mut b, mut y, mut x) = (Vec::new(), Vec::new(), Vec::new());
-            sys.restrict(&rhs, &mut b);
-            let report = sys.solve(&b, &mut y, 1e-10, 2000);
-            sys.extend(&y, &mut x);
+            let mut x = Vec::new();
+            let report = sys.solve_nodes(&rhs, &mut x, 1e-10, 2000);
             (report, x)
         };
         let (report, x) = solve();

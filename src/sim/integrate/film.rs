@@ -80,11 +80,8 @@ pub(in crate::sim) fn relax_film_round(
         .for_each(|b| *b = v3::scale(*b, EQUILIBRIUM_DT));
     // Solved in the nodes' tangent planes, assembled once for the solve.
     bufs.tangent.assemble(&op, EQUILIBRIUM_DT);
-    let (mut b, mut y) = (Vec::new(), Vec::new());
-    bufs.tangent.restrict(&rhs, &mut b);
-    let cg = bufs.tangent.solve(&b, &mut y, tol, 10_000);
     let mut x = std::mem::take(&mut st.warm);
-    bufs.tangent.extend(&y, &mut x);
+    let cg = bufs.tangent.solve_nodes(&rhs, &mut x, tol, 10_000);
     phase.cg_iterations += cg.iterations;
     if !cg.converged {
         report.cg_unconverged += 1;
