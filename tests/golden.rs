@@ -74,7 +74,12 @@ fn crack_preset_with(preset: &str, fixture: &Path, out: &Path, extra: &[&str]) {
 
 /// The golden runs ask for a coarse cell size (15% of the diagonal), so
 /// that the remeshed fixtures, and the golden files, stay small.
-const GOLDEN_CELL: [&str; 2] = ["--cell-size-relative", "0.15"];
+const GOLDEN_CELL: [&str; 4] = [
+    "--cell-size-relative",
+    "0.15",
+    "--set",
+    "post.bake_size=256",
+];
 
 /// Every built-in preset with the fixture its description names ("try it
 /// on fixtures/NAME").

@@ -55,59 +55,75 @@ pub fn with_generated_tangents(geo: &TriGeometry, uv_semantic: &str) -> Option<T
     if !mikktspace::generate_tangents(&mut c) {
         return None;
     }
-    let tangents = c.out;
-    // One output vertex per (input vertex, tangent bits).
-    let mut out = TriGeometry {
-        group: geo.group.clone(),
-        ..Default::default()
-    };
-    let mut attrs: Vec<VertexAttribute> = geo
-        .attributes
+    let tangents: Vec<f32> = c
+        .out
         .iter()
-        .map(|a| VertexAttribute {
-            semantic: a.semantic.clone(),
-            components: a.components,
-            data: Vec::new(),
-        })
-        .collect();
-    let mut targets: Vec<Vec<VertexAttribute>> = geo
-        .targets
-        .iter()
-        .map(|t| {
-            t.iter()
-                .map(|a| VertexAttribute {
-                    semantic: a.semantic.clone(),
-                    components: a.components,
-                    data: Vec::new(),
-                })
-                .collect()
-        })
-        .collect();
-    let mut tangent = VertexAttribute {
-        semantic: "TANGENT".into(),
-        components: 4,
-        data: Vec::new(),
-    };
-    let mut map: HashMap<(u32, [u32; 4]), u32> = HashMap::new();
-    for (f, tri) in geo.triangles.iter().enumerate() {
-        let mut new_tri = [0u32; 3];
-        for k in 0..3 {
-            let v = tri[k];
-            let mut t = tangents[f * 3 + k];
+        .enumerate()
+        .flat_map(|(corner, &t)| {
+            let mut t = t;
             let l = (t[0] * t[0] + t[1] * t[1] + t[2] * t[2]).sqrt();
             if l.is_finite() && l > 1e-12 {
                 t[0] /= l;
                 t[1] /= l;
                 t[2] /= l;
             } else {
-                t = orthogonal(normal.get(v as usize));
+                t = orthogonal(normal.get(geo.triangles[corner / 3][corner % 3] as usize));
             }
             t[3] = if t[3] < 0.0 { -1.0 } else { 1.0 };
-            let key = (v, t.map(f32::to_bits));
+            t
+        })
+        .collect();
+    Some(with_corner_attribute(geo, "TANGENT", 4, &tangents))
+}
+
+/// A copy of `geo` with one more attribute, `semantic`, given per triangle
+/// corner (`components` values a corner, corners in triangle order).
+/// Vertices whose corners get different values are split; a vertex keeps
+/// its other attributes and morph-target values. An attribute of that name
+/// already present is replaced.
+pub fn with_corner_attribute(
+    geo: &TriGeometry,
+    semantic: &str,
+    components: usize,
+    corners: &[f32],
+) -> TriGeometry {
+    let kept: Vec<&VertexAttribute> = geo
+        .attributes
+        .iter()
+        .filter(|a| a.semantic != semantic)
+        .collect();
+    let empty = |a: &VertexAttribute| VertexAttribute {
+        semantic: a.semantic.clone(),
+        components: a.components,
+        data: Vec::new(),
+    };
+    let mut out = TriGeometry {
+        group: geo.group.clone(),
+        ..Default::default()
+    };
+    let mut attrs: Vec<VertexAttribute> = kept.iter().map(|a| empty(a)).collect();
+    let mut targets: Vec<Vec<VertexAttribute>> = geo
+        .targets
+        .iter()
+        .map(|t| t.iter().map(empty).collect())
+        .collect();
+    let mut added = VertexAttribute {
+        semantic: semantic.into(),
+        components,
+        data: Vec::new(),
+    };
+    // One output vertex per (input vertex, value bits).
+    let mut map: HashMap<(u32, Vec<u32>), u32> = HashMap::new();
+    for (f, tri) in geo.triangles.iter().enumerate() {
+        let mut new_tri = [0u32; 3];
+        for k in 0..3 {
+            let v = tri[k];
+            let value = &corners[(f * 3 + k) * components..(f * 3 + k + 1) * components];
+            let key = (v, value.iter().map(|x| x.to_bits()).collect());
             let next = out.positions.len() as u32;
             new_tri[k] = *map.entry(key).or_insert_with(|| {
                 out.positions.push(geo.positions[v as usize]);
-                for (src, dst) in geo.attributes.iter().zip(attrs.iter_mut()) {
+                for (src, dst) in kept.iter().zip(attrs.iter_mut()) {
                     dst.data.extend_from_slice(src.get(v as usize));
                 }
                 for (st, dt) in geo.targets.iter().zip(targets.iter_mut()) {
@@ -115,16 +131,16 @@ pub fn with_generated_tangents(geo: &TriGeometry, uv_semantic: &str) -> Option<T
                         dst.data.extend_from_slice(src.get(v as usize));
                     }
                 }
-                tangent.data.extend_from_slice(&t);
+                added.data.extend_from_slice(value);
                 next
             });
         }
         out.triangles.push(new_tri);
     }
-    attrs.push(tangent);
+    attrs.push(added);
     out.attributes = attrs;
     out.targets = targets;
-    Some(out)
+    out
 }
 
 /// A unit vector orthogonal to `n` (w = 1), for corners MikkTSpace could not handle.

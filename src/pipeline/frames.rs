@@ -146,6 +146,12 @@ pub fn write_frames(
     replays: Vec<Replay>,
     post: &Post,
 ) -> crate::Result<Vec<PathBuf>> {
+    // Frames carry the cracks as lines and attributes: a 2048 bake per
+    // frame would cost more than the rest of the frame.
+    let post = &Post {
+        bake: false,
+        ..post.clone()
+    };
     let n = frames.count;
     std::fs::create_dir_all(&frames.dir).map_err(|e| {
         crate::Error::Frames(format!(

@@ -173,6 +173,17 @@ pub fn apply(
         if post.lines {
             add_crack_lines(scene, e.mesh_index, &segments, &times);
         }
+        if post.bake {
+            let t = Instant::now();
+            let b = super::bake::bake_mesh(scene, e.mesh_index, &e.label, &segments, &times, post)?;
+            let seconds = t.elapsed().as_secs_f64();
+            if let Value::Object(d) = detail {
+                let mut b = b;
+                b["seconds"] = json!(seconds);
+                d.insert("bake".into(), b);
+            }
+            timing.time("bake", seconds);
+        }
         if post.split_islands {
             let t = Instant::now();
             let wall_material = &post.wall_material;

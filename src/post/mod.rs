@@ -2,6 +2,7 @@
 //! sec. 5): crack width and curling, side walls, and per-vertex shader
 //! attributes. Pure geometry: no I/O, nothing printed.
 
+pub mod bake;
 pub mod distance;
 pub mod islands;
 mod options;

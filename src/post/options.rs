@@ -47,6 +47,39 @@ pub struct Post {
     /// Write each piece the cracks cut the surface into as its own mesh on
     /// its own node, with its pivot at the piece's centroid. Default false.
     pub split_islands: bool,
+    /// Bake crack maps (base colour, groove normal map, occlusion) into the
+    /// mesh's UVs and give its material a variant that uses them, so any
+    /// viewer shows the cracks ([`crate::post::bake`]). Default false.
+    pub bake: bool,
+    /// Width and height of the baked maps in texels. Default 2048.
+    pub bake_size: u32,
+    /// The UV set to bake into (`TEXCOORD_n`). Default 0.
+    pub bake_texcoord: u32,
+    /// When to make an automatic atlas (a new UV set): `auto` when the mesh
+    /// lacks the UV set or its UVs overlap, `always`, or `never` (then such
+    /// a mesh is an error). Default `auto`.
+    pub bake_atlas: String,
+    /// Crack width in the maps, in scene units (0: use
+    /// `bake_width_relative`). Default 0.
+    pub bake_width: f64,
+    /// Crack width as a fraction of the mesh's bounding-box diagonal, when
+    /// `bake_width` is 0. Default 0.002.
+    pub bake_width_relative: f64,
+    /// Colour inside a crack, linear RGB in [0, 1]. Default a dark brown.
+    pub crack_color: [f64; 3],
+    /// Depth over half-width of the groove the normal map draws (1: walls
+    /// at 45 degrees). Default 1.
+    pub bake_groove_slope: f64,
+    /// How much the occlusion map darkens along the cracks, in [0, 1].
+    /// Default 0.8.
+    pub bake_occlusion: f64,
+    /// Fade with age: a crack that formed at fraction `t` of the run is
+    /// `1 - bake_fade_age * t` as wide (the first cracks widest), in [0, 1].
+    /// Default 0.
+    pub bake_fade_age: f64,
+    /// Texels the maps' islands are grown by, so filtering never reads
+    /// background. Default 8.
+    pub bake_dilate: u32,
 }
 
 impl Default for Post {
@@ -65,6 +98,17 @@ impl Default for Post {
             lines: true,
             attributes: false,
             split_islands: false,
+            bake: false,
+            bake_size: 2048,
+            bake_texcoord: 0,
+            bake_atlas: "auto".into(),
+            bake_width: 0.0,
+            bake_width_relative: 0.002,
+            crack_color: [0.02, 0.015, 0.01],
+            bake_groove_slope: 1.0,
+            bake_occlusion: 0.8,
+            bake_fade_age: 0.0,
+            bake_dilate: 8,
         }
     }
 }
@@ -107,6 +151,48 @@ impl Post {
             return Err(
                 "post.walls needs post.width > 0 (without width there is no gap to fill)".into(),
             );
+        }
+        nonneg("bake_width", self.bake_width)?;
+        nonneg("bake_width_relative", self.bake_width_relative)?;
+        nonneg("bake_groove_slope", self.bake_groove_slope)?;
+        let unit = |k: &str, x: f64| {
+            if (0.0..=1.0).contains(&x) {
+                Ok(())
+            } else {
+                Err(format!("post.{k} must be in [0, 1], got {x}"))
+            }
+        };
+        unit("bake_occlusion", self.bake_occlusion)?;
+        unit("bake_fade_age", self.bake_fade_age)?;
+        for (i, c) in self.crack_color.iter().enumerate() {
+            unit(&format!("crack_color[{i}]"), *c)?;
+        }
+        if !(16..=8192).contains(&self.bake_size) {
+            return Err(format!(
+                "post.bake_size must be between 16 and 8192 texels, got {}",
+                self.bake_size
+            ));
+        }
+        if self.bake_texcoord > 7 {
+            return Err(format!(
+                "post.bake_texcoord must be a UV set 0..7, got {}",
+                self.bake_texcoord
+            ));
+        }
+        if !["auto", "always", "never"].contains(&self.bake_atlas.as_str()) {
+            return Err(format!(
+                "post.bake_atlas must be \"auto\", \"always\" or \"never\", got \"{}\"",
+                self.bake_atlas
+            ));
+        }
+        if self.bake_dilate > 64 {
+            return Err(format!(
+                "post.bake_dilate must be at most 64 texels, got {}",
+                self.bake_dilate
+            ));
+        }
+        if self.bake && self.bake_width == 0.0 && self.bake_width_relative == 0.0 {
+            return Err("post.bake needs bake_width or bake_width_relative > 0".into());
         }
         if self.wall_material.is_empty() {
             return Err("post.wall_material must not be empty".into());

@@ -167,7 +167,7 @@ impl Wrap {
 
     /// Bring a coordinate into a small range without changing what it
     /// samples (so texel indices stay small integers). Not finite: 0.
-    fn reduce(self, t: f64) -> f64 {
+    pub fn reduce(self, t: f64) -> f64 {
         if !t.is_finite() {
             return 0.0;
         }
@@ -180,7 +180,7 @@ impl Wrap {
 
     /// The texel an integer texel index `i` reads in an image `n` texels wide
     /// (OpenGL's wrap of texel coordinates).
-    fn texel(self, i: i64, n: i64) -> usize {
+    pub fn texel(self, i: i64, n: i64) -> usize {
         let k = match self {
             Wrap::Repeat => i.rem_euclid(n),
             Wrap::ClampToEdge => i.clamp(0, n - 1),
@@ -298,25 +298,12 @@ impl GreyImage {
     /// [`TextureError::Decode`] when the bytes are not a PNG or JPEG or do not
     /// decode.
     pub fn decode(bytes: &[u8], name: &str) -> Result<GreyImage, TextureError> {
-        if bytes.starts_with(b"\x89PNG\r\n\x1a\n") {
-            decode_png(bytes, name)
-        } else if bytes.starts_with(&[0xFF, 0xD8, 0xFF]) {
-            decode_jpeg(bytes, name)
-        } else {
-            let what = if bytes.len() >= 12 && &bytes[..4] == b"RIFF" && &bytes[8..12] == b"WEBP" {
-                "a WebP image"
-            } else if bytes.starts_with(b"\xABKTX 20\xBB") {
-                "a KTX2 texture"
-            } else if bytes.is_empty() {
-                "empty"
-            } else {
-                "not an image format this tool knows"
-            };
-            Err(TextureError::Decode {
-                image: name.to_string(),
-                reason: format!("{what}; masks must be PNG or JPEG"),
-            })
-        }
+        let (width, height, data) = decode_channels(bytes, name, Channels::Luma)?;
+        Ok(GreyImage {
+            width,
+            height,
+            data,
+        })
     }
 
     /// The luminance of texel `(x, y)` (`y = 0` is the top row), or `None`
@@ -357,6 +344,57 @@ impl GreyImage {
     }
 }
 
+/// What a decoded pixel becomes: its luminance (one value), or its red,
+/// green, blue and alpha (four values, alpha 1 when the image has none).
+/// Values are the stored ones scaled to [0, 1] (no sRGB decoding).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Channels {
+    /// Rec. 709 luma of the stored values (grey images: their value).
+    Luma,
+    /// RGBA (grey images: grey in R, G and B).
+    Rgba,
+}
+
+impl Channels {
+    fn count(self) -> usize {
+        match self {
+            Channels::Luma => 1,
+            Channels::Rgba => 4,
+        }
+    }
+}
+
+/// Decode a PNG or JPEG (as [`GreyImage::decode`]) into `(width, height,
+/// values)`, [`Channels::count`] values a pixel, row 0 at the top.
+///
+/// # Errors
+/// Those of [`GreyImage::decode`].
+pub fn decode_channels(
+    bytes: &[u8],
+    name: &str,
+    channels: Channels,
+) -> Result<(u32, u32, Vec<f32>), TextureError> {
+    if bytes.starts_with(b"\x89PNG\r\n\x1a\n") {
+        decode_png(bytes, name, channels)
+    } else if bytes.starts_with(&[0xFF, 0xD8, 0xFF]) {
+        decode_jpeg(bytes, name, channels)
+    } else {
+        let what = if bytes.len() >= 12 && &bytes[..4] == b"RIFF" && &bytes[8..12] == b"WEBP" {
+            "a WebP image"
+        } else if bytes.starts_with(b"\xABKTX 20\xBB") {
+            "a KTX2 texture"
+        } else if bytes.is_empty() {
+            "empty"
+        } else {
+            "not an image format this tool knows"
+        };
+        Err(TextureError::Decode {
+            image: name.to_string(),
+            reason: format!("{what}; masks must be PNG or JPEG"),
+        })
+    }
+}
+
 /// Rec. 709 luma weights on the stored (not linearised) values.
 fn luma(r: f64, g: f64, b: f64) -> f64 {
     0.2126 * r + 0.7152 * g + 0.0722 * b
@@ -387,7 +425,11 @@ fn size_mismatch(name: &str, detail: String) -> TextureError {
     }
 }
 
-fn decode_png(bytes: &[u8], name: &str) -> Result<GreyImage, TextureError> {
+fn decode_png(
+    bytes: &[u8],
+    name: &str,
+    out: Channels,
+) -> Result<(u32, u32, Vec<f32>), TextureError> {
     let fail = |e: png::DecodingError| TextureError::Decode {
         image: name.to_string(),
         reason: match e {
@@ -445,22 +487,22 @@ fn decode_png(bytes: &[u8], name: &str) -> Result<GreyImage, TextureError> {
     }
     // Reserve at most 4 Mi pixels up front: a tiny file that declares a big
     // image and then holds no data costs no big allocation.
-    let mut data = Vec::with_capacity(pixels.min(1 << 22));
+    let mut data = Vec::with_capacity(pixels.min(1 << 22) * out.count());
     if reader.info().interlaced {
         // Adam7: the decoder assembles the whole frame.
         let mut buf = vec![0u8; expected];
-        let out = reader.next_frame(&mut buf).map_err(fail)?;
-        if out.width != width || out.height != height || out.line_size != line {
+        let frame = reader.next_frame(&mut buf).map_err(fail)?;
+        if frame.width != width || frame.height != height || frame.line_size != line {
             return Err(size_mismatch(
                 name,
                 format!(
                     "frame {} x {} with {}-byte rows, expected {width} x {height} with {line}-byte rows",
-                    out.width, out.height, out.line_size
+                    frame.width, frame.height, frame.line_size
                 ),
             ));
         }
         for row in buf.chunks_exact(line) {
-            push_row(row, channels, bytes_per_sample, &mut data);
+            push_row(row, channels, bytes_per_sample, out, &mut data);
         }
     } else {
         // Row by row: no buffer of the raw image is ever held.
@@ -476,25 +518,30 @@ fn decode_png(bytes: &[u8], name: &str) -> Result<GreyImage, TextureError> {
                     ),
                 ));
             }
-            push_row(row, channels, bytes_per_sample, &mut data);
+            push_row(row, channels, bytes_per_sample, out, &mut data);
             rows += 1;
         }
     }
-    if data.len() != pixels {
+    if data.len() != pixels * out.count() {
         return Err(size_mismatch(
             name,
-            format!("{} pixels decoded, expected {pixels}", data.len()),
+            format!(
+                "{} pixels decoded, expected {pixels}",
+                data.len() / out.count()
+            ),
         ));
     }
-    Ok(GreyImage {
-        width,
-        height,
-        data,
-    })
+    Ok((width, height, data))
 }
 
-/// Append the luminance of one decoded PNG row.
-fn push_row(row: &[u8], channels: usize, bytes_per_sample: usize, out: &mut Vec<f32>) {
+/// Append the luminance (or RGBA) of one decoded PNG row.
+fn push_row(
+    row: &[u8],
+    channels: usize,
+    bytes_per_sample: usize,
+    kind: Channels,
+    out: &mut Vec<f32>,
+) {
     let sample = |k: usize| -> f64 {
         if bytes_per_sample == 1 {
             f64::from(row[k]) / 255.0
@@ -503,6 +550,19 @@ fn push_row(row: &[u8], channels: usize, bytes_per_sample: usize, out: &mut Vec<
         }
     };
     let n = row.len() / (channels * bytes_per_sample);
+    if kind == Channels::Rgba {
+        for p in 0..n {
+            let k = p * channels;
+            let rgba = match channels {
+                1 => [sample(k), sample(k), sample(k), 1.0],
+                2 => [sample(k), sample(k), sample(k), sample(k + 1)],
+                3 => [sample(k), sample(k + 1), sample(k + 2), 1.0],
+                _ => [sample(k), sample(k + 1), sample(k + 2), sample(k + 3)],
+            };
+            out.extend(rgba.map(|c| c.clamp(0.0, 1.0) as f32));
+        }
+        return;
+    }
     out.extend((0..n).map(|p| {
         let k = p * channels;
         let l = if channels >= 3 {
@@ -514,7 +574,11 @@ fn push_row(row: &[u8], channels: usize, bytes_per_sample: usize, out: &mut Vec<
     }));
 }
 
-fn decode_jpeg(bytes: &[u8], name: &str) -> Result<GreyImage, TextureError> {
+fn decode_jpeg(
+    bytes: &[u8],
+    name: &str,
+    out: Channels,
+) -> Result<(u32, u32, Vec<f32>), TextureError> {
     use zune_jpeg::zune_core::bytestream::ZCursor;
     use zune_jpeg::zune_core::colorspace::ColorSpace;
     use zune_jpeg::zune_core::options::DecoderOptions;
@@ -547,18 +611,20 @@ fn decode_jpeg(bytes: &[u8], name: &str) -> Result<GreyImage, TextureError> {
     }
     let mut buf = vec![0u8; expected];
     decoder.decode_into(&mut buf).map_err(fail)?;
-    let data = buf
-        .chunks_exact(3)
-        .map(|p| {
-            let [r, g, b] = [p[0], p[1], p[2]].map(|c| f64::from(c) / 255.0);
-            luma(r, g, b).clamp(0.0, 1.0) as f32
-        })
-        .collect();
-    Ok(GreyImage {
-        width: w as u32,
-        height: h as u32,
-        data,
-    })
+    let data = match out {
+        Channels::Luma => buf
+            .chunks_exact(3)
+            .map(|p| {
+                let [r, g, b] = [p[0], p[1], p[2]].map(|c| f64::from(c) / 255.0);
+                luma(r, g, b).clamp(0.0, 1.0) as f32
+            })
+            .collect(),
+        Channels::Rgba => buf
+            .chunks_exact(3)
+            .flat_map(|p| [p[0], p[1], p[2], 255].map(|c| f32::from(c) / 255.0))
+            .collect(),
+    };
+    Ok((w as u32, h as u32, data))
 }
 
 /// Where a material mask's image files come from. This layer does no I/O:
@@ -669,6 +735,61 @@ pub fn mask_from_material(
     invert: bool,
     files: &dyn ImageFiles,
 ) -> Result<Mask, TextureError> {
+    let t = texture_of_material(scene, material, slot)?;
+    let bytes = t.bytes(scene, files)?;
+    Ok(Mask {
+        image: GreyImage::decode(&bytes, &t.name)?,
+        wrap_s: t.wrap_s,
+        wrap_t: t.wrap_t,
+        transform: t.transform,
+        invert,
+        tex_coord: t.tex_coord,
+        confine: false,
+    })
+}
+
+/// Where a material's texture in one slot samples from: its image, sampler
+/// wraps, UV transform and UV set.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TextureRef {
+    /// Index into [`Scene::images`].
+    pub image: usize,
+    /// The image, named for messages.
+    pub name: String,
+    /// Wrap in `u`.
+    pub wrap_s: Wrap,
+    /// Wrap in `v`.
+    pub wrap_t: Wrap,
+    /// The textureInfo's `KHR_texture_transform` (identity without one).
+    pub transform: UvTransform,
+    /// The `TEXCOORD_n` set (the transform's `texCoord` overrides the
+    /// textureInfo's).
+    pub tex_coord: u32,
+}
+
+impl TextureRef {
+    /// The image's encoded bytes (a file is read through `files`).
+    ///
+    /// # Errors
+    /// What `files` returns for an image file.
+    pub fn bytes(&self, scene: &Scene, files: &dyn ImageFiles) -> Result<Vec<u8>, TextureError> {
+        match &scene.images[self.image].source {
+            ImageSource::Bytes(b) => Ok(b.clone()),
+            ImageSource::File(path) => files.read(path, &self.name),
+        }
+    }
+}
+
+/// The texture `material` has in `slot` (one of [`SLOTS`]), its references
+/// checked, as [`mask_from_material`] describes.
+///
+/// # Errors
+/// Those of [`mask_from_material`] except the image's reading and decoding.
+pub fn texture_of_material(
+    scene: &Scene,
+    material: usize,
+    slot: &str,
+) -> Result<TextureRef, TextureError> {
     if !SLOTS.contains(&slot) {
         return Err(TextureError::UnknownSlot {
             slot: slot.to_string(),
@@ -795,19 +916,13 @@ pub fn mask_from_material(
             ),
         )
     })?;
-    let name = image_label(source, img);
-    let image = match &img.source {
-        ImageSource::Bytes(b) => GreyImage::decode(b, &name)?,
-        ImageSource::File(path) => GreyImage::decode(&files.read(path, &name)?, &name)?,
-    };
-    Ok(Mask {
-        image,
+    Ok(TextureRef {
+        image: source,
+        name: image_label(source, img),
         wrap_s,
         wrap_t,
         transform,
-        invert,
         tex_coord,
-        confine: false,
     })
 }
 

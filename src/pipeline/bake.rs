@@ -1,0 +1,461 @@
+//! The `bake` post stage: per cracked mesh and material, crack maps baked
+//! into the mesh's UV set (or an automatic atlas) and a material variant
+//! that uses them (see [`crate::post::bake`]).
+
+use crate::geometry::tangents::{with_corner_attribute, with_generated_tangents};
+use crate::io::image::Files;
+use crate::math::v3;
+use crate::post::bake::{self, atlas, Cracks, Layer, Look, Profile, Surface};
+use crate::post::Post;
+use crate::scene::{Geometry, Image, ImageSource, Material, Scene, TriGeometry};
+use crate::stress::texture::{decode_channels, texture_of_material, Channels, TextureError};
+use serde_json::{json, Map, Value};
+use std::collections::BTreeMap;
+
+/// Share of covered texels that may lie under two triangles before the UV
+/// set counts as overlapping (mirrored, stacked or tiled islands).
+const MAX_OVERLAP: f64 = 0.01;
+
+/// Gutter between automatic atlas charts, in texels at 2048 (scaled with
+/// the map size, at least 2).
+const ATLAS_PADDING_2048: u32 = 8;
+
+/// Bake crack maps for mesh `mesh_index` of `scene` (its cracked
+/// primitives; `segments` in the mesh's frame, `times` their formation
+/// times in [0, 1]). Returns the report's details.
+///
+/// # Errors
+/// A mesh without the UV set asked for when `bake_atlas = "never"`, an
+/// atlas that does not fit, a material texture that does not decode, all
+/// naming the mesh (`label`).
+pub fn bake_mesh(
+    scene: &mut Scene,
+    mesh_index: usize,
+    label: &str,
+    segments: &[[[f64; 3]; 2]],
+    times: &[f64],
+    post: &Post,
+) -> crate::Result<Value> {
+    let fail = |message: String| crate::Error::Internal {
+        mesh: label.to_string(),
+        message,
+    };
+    let mut groups: BTreeMap<Option<usize>, Vec<usize>> = BTreeMap::new();
+    for (i, p) in scene.meshes[mesh_index].primitives.iter().enumerate() {
+        if let Geometry::Triangles(t) = &p.geometry {
+            if !t.triangles.is_empty() {
+                groups.entry(p.material).or_default().push(i);
+            }
+        }
+    }
+    let widths: Vec<f64> = times
+        .iter()
+        .map(|t| 1.0 - post.bake_fade_age * t.clamp(0.0, 1.0))
+        .collect();
+    let mut details = Vec::new();
+    for (material, prims) in groups {
+        let d = bake_group(scene, mesh_index, material, &prims, segments, &widths, post)
+            .map_err(&fail)?;
+        details.push(d);
+    }
+    Ok(json!({ "materials": details }))
+}
+
+/// One material's primitives of a mesh.
+fn bake_group(
+    scene: &mut Scene,
+    mesh_index: usize,
+    material: Option<usize>,
+    prims: &[usize],
+    segments: &[[[f64; 3]; 2]],
+    widths: &[f64],
+    post: &Post,
+) -> Result<Value, String> {
+    let size = post.bake_size;
+    let dilate = post.bake_dilate;
+    let mat_json = material
+        .and_then(|m| scene.materials.get(m))
+        .map(|m| m.json.clone())
+        .unwrap_or_default();
+    // Flat normals where a primitive has none (what a viewer would draw),
+    // so tangents can be made.
+    for &p in prims {
+        let geo = tri_geometry(scene, mesh_index, p);
+        if geo.attribute("NORMAL").is_none() {
+            let corners: Vec<f32> = geo
+                .triangles
+                .iter()
+                .flat_map(|t| {
+                    let [a, b, c] = t.map(|i| geo.positions[i as usize].map(f64::from));
+                    let n = v3::unit(v3::cross(v3::sub(b, a), v3::sub(c, a)))
+                        .unwrap_or([0.0, 0.0, 1.0]);
+                    [n; 3].into_iter().flatten().map(|x| x as f32)
+                })
+                .collect();
+            let with = with_corner_attribute(geo, "NORMAL", 3, &corners);
+            set_geometry(scene, mesh_index, p, with);
+        }
+    }
+    // The UV set: the one asked for, unless missing or overlapping.
+    let asked = post.bake_texcoord;
+    let has_set = prims.iter().all(|&p| {
+        tri_geometry(scene, mesh_index, p)
+            .attribute(&set_name(asked))
+            .is_some()
+    });
+    let mut why_atlas = None;
+    if !has_set {
+        why_atlas = Some(format!("the mesh has no {}", set_name(asked)));
+    } else if post.bake_atlas == "always" {
+        why_atlas = Some("bake_atlas = \"always\"".to_string());
+    } else {
+        let (uvs, tris) = gather_uvs(scene, mesh_index, prims, asked);
+        let r = bake::rasterize(&uvs, &tris, size, 0);
+        if r.overlap_fraction() > MAX_OVERLAP {
+            why_atlas = Some(format!(
+                "{} overlaps itself on {:.1}% of its texels (mirrored, stacked or tiled islands)",
+                set_name(asked),
+                100.0 * r.overlap_fraction()
+            ));
+        }
+    }
+    let mut set = asked;
+    let mut atlas_report = Value::Null;
+    if let Some(why) = &why_atlas {
+        if post.bake_atlas == "never" {
+            return Err(format!(
+                "cannot bake crack maps: {why}, and post.bake_atlas = \"never\" (give the mesh UVs or allow an automatic atlas)"
+            ));
+        }
+        // A new set after every set the primitives have.
+        set = (0..8u32)
+            .find(|k| {
+                prims.iter().all(|&p| {
+                    tri_geometry(scene, mesh_index, p)
+                        .attribute(&set_name(*k))
+                        .is_none()
+                })
+            })
+            .ok_or("every TEXCOORD_0..7 set is taken; no room for an automatic atlas")?;
+        let (positions, tris) = gather_positions(scene, mesh_index, prims);
+        let padding = (ATLAS_PADDING_2048 * size / 2048).max(2);
+        let a = atlas::atlas(&positions, &tris, size, padding).map_err(|e| e.to_string())?;
+        let mut corner = 0;
+        for &p in prims {
+            let geo = tri_geometry(scene, mesh_index, p);
+            let n = geo.triangles.len() * 3;
+            let values: Vec<f32> = a.uvs[corner..corner + n]
+                .iter()
+                .flat_map(|uv| uv.map(|x| x as f32))
+                .collect();
+            corner += n;
+            let with = with_corner_attribute(geo, &set_name(set), 2, &values);
+            set_geometry(scene, mesh_index, p, with);
+        }
+        atlas_report = json!({"reason": why, "charts": a.charts, "texels_per_unit": a.density, "texcoord": set});
+    }
+    // Tangents: of the material's own normal map's set when it has one (the
+    // combined map stays in its frame), else of the baked set.
+    let tangent_set = mat_json
+        .get("normalTexture")
+        .and_then(|n| n.get("texCoord"))
+        .and_then(Value::as_u64)
+        .map_or(set, |s| s as u32);
+    for &p in prims {
+        let geo = tri_geometry(scene, mesh_index, p);
+        if let Some(with) = with_generated_tangents(geo, &set_name(tangent_set)) {
+            set_geometry(scene, mesh_index, p, with);
+        }
+    }
+    let own = material_layers(scene, material, &mat_json).map_err(|e| e.to_string())?;
+    let sets: Vec<u32> = [
+        Some(set),
+        own.base.as_ref().map(|l| l.tex_coord),
+        own.normal.as_ref().map(|l| l.0.tex_coord),
+        own.occlusion.as_ref().map(|l| l.0.tex_coord),
+    ]
+    .into_iter()
+    .flatten()
+    .collect();
+    let arrays = Arrays::gather(scene, mesh_index, prims, &sets);
+    let surface = Surface {
+        positions: &arrays.positions,
+        normals: &arrays.normals,
+        tangents: &arrays.tangents,
+        uvs: &arrays.uvs[&set],
+        triangles: &arrays.triangles,
+    };
+    let raster = bake::rasterize(surface.uvs, surface.triangles, size, dilate);
+    let diagonal = diagonal(&arrays.positions);
+    let width = if post.bake_width > 0.0 {
+        post.bake_width
+    } else {
+        post.bake_width_relative * diagonal
+    };
+    let profile = Profile {
+        half_width: 0.5 * width,
+        slope: post.bake_groove_slope,
+        shadow: 1.5,
+    };
+    let cracks = Cracks { segments, widths };
+    let texels = bake::crack_texels(&surface, &raster, &cracks, &profile);
+    let look = Look {
+        crack_color: post.crack_color,
+        occlusion: post.bake_occlusion,
+    };
+    let uv_of = |s: u32, v: usize| arrays.uvs.get(&s).map_or([0.0; 2], |u| u[v]);
+    let maps = bake::compose(&arrays.triangles, &raster, &texels, &own, &look, &uv_of);
+    // Images, textures and the material variant.
+    let base_name = mat_json
+        .get("name")
+        .and_then(Value::as_str)
+        .map_or_else(|| "material".to_string(), str::to_string);
+    let mesh_name = scene.meshes[mesh_index]
+        .name
+        .clone()
+        .unwrap_or_else(|| format!("mesh{mesh_index}"));
+    let stem = format!("{mesh_name}_{base_name}_cracked");
+    let opaque = maps.base.iter().all(|p| p[3] == 255 || p == &[0, 0, 0, 0]);
+    let base_png = if opaque {
+        let rgb: Vec<u8> = maps.base.iter().flat_map(|p| [p[0], p[1], p[2]]).collect();
+        bake::encode_png(size, 3, &rgb)
+    } else {
+        bake::encode_png(size, 4, &maps.base.concat())
+    }
+    .map_err(|e| e.to_string())?;
+    let normal_png = bake::encode_png(size, 3, &maps.normal.concat()).map_err(|e| e.to_string())?;
+    let occl_png = bake::encode_png(size, 1, &maps.occlusion).map_err(|e| e.to_string())?;
+    let bytes = base_png.len() + normal_png.len() + occl_png.len();
+    let tex_base = add_texture(scene, &format!("{stem}_basecolor"), base_png);
+    let tex_normal = add_texture(scene, &format!("{stem}_normal"), normal_png);
+    let tex_occl = add_texture(scene, &format!("{stem}_occlusion"), occl_png);
+    let mut m: Map<String, Value> = mat_json.clone();
+    m.insert("name".into(), json!(stem));
+    let pbr = m
+        .entry("pbrMetallicRoughness")
+        .or_insert_with(|| json!({}))
+        .as_object_mut()
+        .ok_or("the material's pbrMetallicRoughness is not an object")?;
+    pbr.insert("baseColorFactor".into(), json!([1.0, 1.0, 1.0, 1.0]));
+    pbr.insert(
+        "baseColorTexture".into(),
+        json!({"index": tex_base, "texCoord": set}),
+    );
+    if material.is_none() {
+        // glTF's default material: metal 1, rough 1; a plain surface reads better.
+        pbr.entry("metallicFactor").or_insert(json!(0.0));
+    }
+    m.insert(
+        "normalTexture".into(),
+        json!({"index": tex_normal, "texCoord": set}),
+    );
+    m.insert(
+        "occlusionTexture".into(),
+        json!({"index": tex_occl, "texCoord": set}),
+    );
+    scene.materials.push(Material { json: m });
+    let variant = scene.materials.len() - 1;
+    for &p in prims {
+        scene.meshes[mesh_index].primitives[p].material = Some(variant);
+    }
+    Ok(json!({
+        "material": base_name,
+        "variant": stem,
+        "size": size,
+        "texcoord": set,
+        "atlas": atlas_report,
+        "crack_width": width,
+        "covered_texels": raster.covered,
+        "dilated_texels": raster.dilated,
+        "crack_texels": maps.crack_texels,
+        "png_bytes": bytes,
+    }))
+}
+
+/// The material's base colour, normal and occlusion textures, decoded.
+fn material_layers(
+    scene: &Scene,
+    material: Option<usize>,
+    json: &Map<String, Value>,
+) -> Result<bake::Material, TextureError> {
+    let factor = json
+        .get("pbrMetallicRoughness")
+        .and_then(|p| p.get("baseColorFactor"))
+        .and_then(Value::as_array)
+        .filter(|a| a.len() == 4)
+        .map(|a| std::array::from_fn(|i| a[i].as_f64().unwrap_or(1.0)))
+        .unwrap_or([1.0; 4]);
+    let mut out = bake::Material {
+        base_factor: factor,
+        ..Default::default()
+    };
+    let Some(m) = material else {
+        return Ok(out);
+    };
+    let has = |slot: &str| match slot {
+        "baseColorTexture" => json
+            .get("pbrMetallicRoughness")
+            .and_then(|p| p.get(slot))
+            .is_some(),
+        _ => json.get(slot).is_some(),
+    };
+    let files = Files::default();
+    let layer = |slot: &str| -> Result<Option<Layer>, TextureError> {
+        if !has(slot) {
+            return Ok(None);
+        }
+        let t = texture_of_material(scene, m, slot)?;
+        let bytes = t.bytes(scene, &files)?;
+        let (width, height, rgba) = decode_channels(&bytes, &t.name, Channels::Rgba)?;
+        Ok(Some(Layer {
+            width,
+            height,
+            rgba,
+            wrap_s: t.wrap_s,
+            wrap_t: t.wrap_t,
+            transform: t.transform,
+            tex_coord: t.tex_coord,
+        }))
+    };
+    let number = |slot: &str, key: &str| {
+        json.get(slot)
+            .and_then(|s| s.get(key))
+            .and_then(Value::as_f64)
+            .unwrap_or(1.0)
+    };
+    out.base = layer("baseColorTexture")?;
+    out.normal = layer("normalTexture")?.map(|l| (l, number("normalTexture", "scale")));
+    out.occlusion = layer("occlusionTexture")?.map(|l| (l, number("occlusionTexture", "strength")));
+    Ok(out)
+}
+
+/// An image of PNG `bytes` and a texture showing it; the texture's index.
+fn add_texture(scene: &mut Scene, name: &str, bytes: Vec<u8>) -> usize {
+    scene.images.push(Image {
+        name: Some(name.to_string()),
+        mime_type: Some("image/png".into()),
+        source: ImageSource::Bytes(bytes),
+        file_name: format!("{name}.png"),
+        rest: Map::new(),
+    });
+    scene
+        .textures
+        .push(json!({"source": scene.images.len() - 1, "name": name}));
+    scene.textures.len() - 1
+}
+
+fn set_name(k: u32) -> String {
+    format!("TEXCOORD_{k}")
+}
+
+fn tri_geometry(scene: &Scene, mesh: usize, prim: usize) -> &TriGeometry {
+    match &scene.meshes[mesh].primitives[prim].geometry {
+        Geometry::Triangles(t) => t,
+        Geometry::Raw(_) => unreachable!("bake groups hold triangle primitives only"),
+    }
+}
+
+fn set_geometry(scene: &mut Scene, mesh: usize, prim: usize, geo: TriGeometry) {
+    scene.meshes[mesh].primitives[prim].geometry = Geometry::Triangles(geo);
+}
+
+/// The primitives' UV set `set` and triangles, one index space.
+fn gather_uvs(
+    scene: &Scene,
+    mesh: usize,
+    prims: &[usize],
+    set: u32,
+) -> (Vec<[f64; 2]>, Vec<[u32; 3]>) {
+    let mut uvs = Vec::new();
+    let mut tris = Vec::new();
+    for &p in prims {
+        let geo = tri_geometry(scene, mesh, p);
+        let base = uvs.len() as u32;
+        if let Some(a) = geo.attribute(&set_name(set)) {
+            uvs.extend((0..a.len()).map(|i| {
+                let v = a.get(i);
+                [f64::from(v[0]), f64::from(v[1])]
+            }));
+        }
+        tris.extend(geo.triangles.iter().map(|t| t.map(|i| i + base)));
+    }
+    (uvs, tris)
+}
+
+/// The primitives' positions and triangles, one index space.
+fn gather_positions(scene: &Scene, mesh: usize, prims: &[usize]) -> (Vec<[f64; 3]>, Vec<[u32; 3]>) {
+    let mut pos = Vec::new();
+    let mut tris = Vec::new();
+    for &p in prims {
+        let geo = tri_geometry(scene, mesh, p);
+        let base = pos.len() as u32;
+        pos.extend(geo.positions.iter().map(|q| q.map(f64::from)));
+        tris.extend(geo.triangles.iter().map(|t| t.map(|i| i + base)));
+    }
+    (pos, tris)
+}
+
+/// Per-vertex arrays of a material's primitives, in f64, one index space.
+struct Arrays {
+    positions: Vec<[f64; 3]>,
+    normals: Vec<[f64; 3]>,
+    tangents: Vec<[f64; 4]>,
+    uvs: BTreeMap<u32, Vec<[f64; 2]>>,
+    triangles: Vec<[u32; 3]>,
+}
+
+impl Arrays {
+    fn gather(scene: &Scene, mesh: usize, prims: &[usize], sets: &[u32]) -> Arrays {
+        let (positions, triangles) = gather_positions(scene, mesh, prims);
+        let mut normals = Vec::with_capacity(positions.len());
+        let mut tangents = Vec::with_capacity(positions.len());
+        let mut uvs: BTreeMap<u32, Vec<[f64; 2]>> = BTreeMap::new();
+        for &p in prims {
+            let geo = tri_geometry(scene, mesh, p);
+            let n = geo.positions.len();
+            let get = |sem: &str, i: usize, k: usize, default: f64| {
+                geo.attribute(sem)
+                    .filter(|a| a.components > k)
+                    .map_or(default, |a| f64::from(a.get(i)[k]))
+            };
+            for i in 0..n {
+                normals.push(std::array::from_fn(|k| {
+                    get("NORMAL", i, k, [0.0, 0.0, 1.0][k])
+                }));
+                tangents.push(std::array::from_fn(|k| {
+                    get("TANGENT", i, k, [0.0, 0.0, 0.0, 1.0][k])
+                }));
+            }
+            for &s in sets {
+                let out = uvs.entry(s).or_default();
+                for i in 0..n {
+                    out.push([get(&set_name(s), i, 0, 0.0), get(&set_name(s), i, 1, 0.0)]);
+                }
+            }
+        }
+        Arrays {
+            positions,
+            normals,
+            tangents,
+            uvs,
+            triangles,
+        }
+    }
+}
+
+/// The bounding-box diagonal of `points`.
+fn diagonal(points: &[[f64; 3]]) -> f64 {
+    let mut lo = [f64::INFINITY; 3];
+    let mut hi = [f64::NEG_INFINITY; 3];
+    for p in points {
+        for k in 0..3 {
+            lo[k] = lo[k].min(p[k]);
+            hi[k] = hi[k].max(p[k]);
+        }
+    }
+    if points.is_empty() {
+        0.0
+    } else {
+        v3::norm(v3::sub(hi, lo))
+    }
+}

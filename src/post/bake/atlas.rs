@@ -1,0 +1,356 @@
+//! An automatic UV atlas for meshes that have no UV set to bake into (or
+//! whose UVs overlap): the surface is cut into charts of nearly the same
+//! direction, each chart is projected onto the plane across its first
+//! triangle's normal, turned to its principal axes, and the charts are
+//! packed into the square at one texel density (world units per texel the
+//! same everywhere) with a gutter of texels between them.
+//!
+//! Charts grow across edges of coincident positions, so the two sides of a
+//! crack (split vertices at the same place) share a chart and their UVs. A
+//! triangle joins a chart when its normal is within [`MAX_ANGLE_COS`] of
+//! the chart's first normal: projecting then never flips a triangle and
+//! stretches it at most `1 / MAX_ANGLE_COS` times. Deterministic and
+//! linear in the triangle count (apart from sorting).
+
+use crate::math::v3;
+use std::collections::VecDeque;
+
+/// Cosine of the largest angle between a chart's triangles and its first.
+pub const MAX_ANGLE_COS: f64 = 0.7;
+
+/// An atlas: a UV per triangle corner (corners in triangle order).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Atlas {
+    /// UV of each corner, in [0, 1].
+    pub uvs: Vec<[f64; 2]>,
+    /// Number of charts.
+    pub charts: usize,
+    /// Texels per world unit.
+    pub density: f64,
+}
+
+/// Why no atlas could be made.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum AtlasError {
+    /// The charts with their gutters do not fit the map at any density.
+    #[error("{charts} charts with {padding}-texel gutters do not fit a {size} x {size} map")]
+    TooManyCharts {
+        /// Charts.
+        charts: usize,
+        /// Gutter.
+        padding: u32,
+        /// Map size.
+        size: u32,
+    },
+    /// No triangle has an area.
+    #[error("the surface has no area")]
+    NoArea,
+}
+
+/// Cut `triangles` into charts and pack them into a `size` map with
+/// `padding` texels around each chart.
+///
+/// # Errors
+/// [`AtlasError`] when the charts cannot fit or there is no area.
+pub fn atlas(
+    positions: &[[f64; 3]],
+    triangles: &[[u32; 3]],
+    size: u32,
+    padding: u32,
+) -> Result<Atlas, AtlasError> {
+    let welded = weld(positions);
+    let neighbours = neighbours(&welded, triangles);
+    let normals: Vec<Option<[f64; 3]>> = triangles
+        .iter()
+        .map(|t| {
+            let [a, b, c] = t.map(|i| positions[i as usize]);
+            v3::unit(v3::cross(v3::sub(b, a), v3::sub(c, a)))
+        })
+        .collect();
+    let (chart_of, charts) = grow_charts(&normals, &neighbours);
+    // Project each chart.
+    let mut corner_xy = vec![[0.0f64; 2]; triangles.len() * 3];
+    let mut boxes: Vec<[f64; 4]> = Vec::with_capacity(charts.len());
+    for faces in &charts {
+        let seed = normals[faces[0] as usize].unwrap_or([0.0, 0.0, 1.0]);
+        let [e1, e2] = v3::plane_basis(seed);
+        let project = |p: [f64; 3]| [v3::dot(p, e1), v3::dot(p, e2)];
+        // Principal axes of the projected corners.
+        let pts: Vec<[f64; 2]> = faces
+            .iter()
+            .flat_map(|&f| triangles[f as usize].map(|i| project(positions[i as usize])))
+            .collect();
+        let n = pts.len() as f64;
+        let m = pts
+            .iter()
+            .fold([0.0, 0.0], |a, p| [a[0] + p[0] / n, a[1] + p[1] / n]);
+        let (mut sxx, mut sxy, mut syy) = (0.0, 0.0, 0.0);
+        for p in &pts {
+            let (x, y) = (p[0] - m[0], p[1] - m[1]);
+            sxx += x * x;
+            sxy += x * y;
+            syy += y * y;
+        }
+        let angle = 0.5 * (2.0 * sxy).atan2(sxx - syy);
+        let (s, c) = angle.sin_cos();
+        let mut bx = [
+            f64::INFINITY,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::NEG_INFINITY,
+        ];
+        for &f in faces {
+            for k in 0..3 {
+                let p = project(positions[triangles[f as usize][k] as usize]);
+                let (x, y) = (p[0] - m[0], p[1] - m[1]);
+                let q = [c * x + s * y, -s * x + c * y];
+                corner_xy[f as usize * 3 + k] = q;
+                bx = [
+                    bx[0].min(q[0]),
+                    bx[1].min(q[1]),
+                    bx[2].max(q[0]),
+                    bx[3].max(q[1]),
+                ];
+            }
+        }
+        boxes.push(bx);
+    }
+    let dims: Vec<[f64; 2]> = boxes.iter().map(|b| [b[2] - b[0], b[3] - b[1]]).collect();
+    let (density, places) = pack(&dims, size, padding).ok_or(AtlasError::TooManyCharts {
+        charts: charts.len(),
+        padding,
+        size,
+    })?;
+    if !(density.is_finite() && density > 0.0) {
+        return Err(AtlasError::NoArea);
+    }
+    let s = f64::from(size);
+    let mut uvs = vec![[0.0; 2]; triangles.len() * 3];
+    for (f, &ch) in chart_of.iter().enumerate() {
+        let b = boxes[ch as usize];
+        let at = places[ch as usize];
+        for k in 0..3 {
+            let q = corner_xy[f * 3 + k];
+            uvs[f * 3 + k] = [
+                (at[0] + (q[0] - b[0]) * density) / s,
+                (at[1] + (q[1] - b[1]) * density) / s,
+            ];
+        }
+    }
+    Ok(Atlas {
+        uvs,
+        charts: charts.len(),
+        density,
+    })
+}
+
+/// A vertex id per position: equal positions get the same id.
+fn weld(positions: &[[f64; 3]]) -> Vec<u32> {
+    let mut order: Vec<u32> = (0..positions.len() as u32).collect();
+    let key = |i: u32| positions[i as usize].map(|x| (x + 0.0).to_bits());
+    order.sort_by_key(|&i| (key(i), i));
+    let mut id = vec![0u32; positions.len()];
+    let mut current = 0u32;
+    for (k, &i) in order.iter().enumerate() {
+        if k > 0 && key(order[k - 1]) == key(i) {
+            id[i as usize] = id[order[k - 1] as usize];
+        } else {
+            id[i as usize] = current;
+            current += 1;
+        }
+    }
+    id
+}
+
+/// Per triangle, its neighbours across edges two triangles share (welded).
+fn neighbours(welded: &[u32], triangles: &[[u32; 3]]) -> Vec<[u32; 3]> {
+    let mut edges: Vec<((u32, u32), u32, u8)> = Vec::with_capacity(triangles.len() * 3);
+    for (f, t) in triangles.iter().enumerate() {
+        for k in 0..3 {
+            let a = welded[t[k] as usize];
+            let b = welded[t[(k + 1) % 3] as usize];
+            if a != b {
+                edges.push(((a.min(b), a.max(b)), f as u32, k as u8));
+            }
+        }
+    }
+    edges.sort_unstable();
+    let mut out = vec![[u32::MAX; 3]; triangles.len()];
+    let mut i = 0;
+    while i < edges.len() {
+        let mut j = i + 1;
+        while j < edges.len() && edges[j].0 == edges[i].0 {
+            j += 1;
+        }
+        if j - i == 2 {
+            let (_, f, k) = edges[i];
+            let (_, g, l) = edges[i + 1];
+            out[f as usize][k as usize] = g;
+            out[g as usize][l as usize] = f;
+        }
+        i = j;
+    }
+    out
+}
+
+/// Charts grown breadth-first from the lowest unassigned triangle; returns
+/// each triangle's chart and each chart's triangles (first: the seed).
+fn grow_charts(normals: &[Option<[f64; 3]>], neighbours: &[[u32; 3]]) -> (Vec<u32>, Vec<Vec<u32>>) {
+    let mut chart_of = vec![u32::MAX; normals.len()];
+    let mut charts: Vec<Vec<u32>> = Vec::new();
+    let mut queue = VecDeque::new();
+    for seed in 0..normals.len() {
+        if chart_of[seed] != u32::MAX {
+            continue;
+        }
+        let id = charts.len() as u32;
+        let dir = normals[seed];
+        let mut faces = vec![seed as u32];
+        chart_of[seed] = id;
+        queue.push_back(seed as u32);
+        while let Some(f) = queue.pop_front() {
+            for &g in &neighbours[f as usize] {
+                if g == u32::MAX || chart_of[g as usize] != u32::MAX {
+                    continue;
+                }
+                let joins = match (dir, normals[g as usize]) {
+                    (Some(d), Some(n)) => v3::dot(d, n) >= MAX_ANGLE_COS,
+                    // Triangles without area go with a neighbour.
+                    (_, None) => true,
+                    (None, Some(_)) => false,
+                };
+                if joins {
+                    chart_of[g as usize] = id;
+                    faces.push(g);
+                    queue.push_back(g);
+                }
+            }
+        }
+        charts.push(faces);
+    }
+    (chart_of, charts)
+}
+
+/// Shelf-pack boxes of world size `dims` into a `size` square at the
+/// highest density (texels per world unit) that fits, with `padding`
+/// texels around each. Returns the density and each box's corner (texels).
+fn pack(dims: &[[f64; 2]], size: u32, padding: u32) -> Option<(f64, Vec<[f64; 2]>)> {
+    let s = f64::from(size);
+    let pad = f64::from(padding);
+    let mut order: Vec<usize> = (0..dims.len()).collect();
+    order.sort_by(|&a, &b| dims[b][1].total_cmp(&dims[a][1]).then(a.cmp(&b)));
+    let place = |k: f64| -> Option<Vec<[f64; 2]>> {
+        let mut at = vec![[0.0; 2]; dims.len()];
+        let (mut x, mut y, mut shelf) = (0.0f64, 0.0f64, 0.0f64);
+        for &i in &order {
+            let w = (dims[i][0] * k).ceil().max(1.0) + 2.0 * pad;
+            let h = (dims[i][1] * k).ceil().max(1.0) + 2.0 * pad;
+            if w > s {
+                return None;
+            }
+            if x + w > s {
+                y += shelf;
+                x = 0.0;
+                shelf = 0.0;
+            }
+            if y + h > s {
+                return None;
+            }
+            at[i] = [x + pad, y + pad];
+            x += w;
+            shelf = shelf.max(h);
+        }
+        Some(at)
+    };
+    let area: f64 = dims.iter().map(|d| d[0] * d[1]).sum();
+    let widest = dims.iter().map(|d| d[0].max(d[1])).fold(0.0, f64::max);
+    if !(area > 0.0 && widest > 0.0) {
+        return None;
+    }
+    let mut hi = (s / area.sqrt()).min(s / widest);
+    let mut lo = 0.0;
+    if let Some(at) = place(hi) {
+        return Some((hi, at));
+    }
+    for _ in 0..50 {
+        let mid = 0.5 * (lo + hi);
+        if place(mid).is_some() {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    if lo <= 0.0 {
+        return None;
+    }
+    place(lo).map(|at| (lo, at))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A closed cube of 12 triangles, corners not shared between faces.
+    fn cube() -> (Vec<[f64; 3]>, Vec<[u32; 3]>) {
+        let mut p = Vec::new();
+        let mut t = Vec::new();
+        for axis in 0..3 {
+            for side in [0.0, 1.0] {
+                let base = p.len() as u32;
+                for (u, v) in [(0.0, 0.0), (1.0, 0.0), (1.0, 1.0), (0.0, 1.0)] {
+                    let mut q = [0.0; 3];
+                    q[axis] = side;
+                    q[(axis + 1) % 3] = u;
+                    q[(axis + 2) % 3] = v;
+                    p.push(q);
+                }
+                if side == 1.0 {
+                    t.push([base, base + 1, base + 2]);
+                    t.push([base, base + 2, base + 3]);
+                } else {
+                    t.push([base, base + 2, base + 1]);
+                    t.push([base, base + 3, base + 2]);
+                }
+            }
+        }
+        (p, t)
+    }
+
+    #[test]
+    fn a_cube_gets_six_charts_that_do_not_overlap() {
+        let (p, t) = cube();
+        let a = atlas(&p, &t, 256, 4).unwrap();
+        assert_eq!(a.charts, 6);
+        let r = super::super::raster::rasterize(&a.uvs_flat(), &a.corner_triangles(), 256, 0);
+        assert_eq!(r.overlapping, 0);
+        // Every face is a unit square: the same texel count each.
+        assert!(r.covered > 6 * 50 * 50, "{}", r.covered);
+        // One density: every triangle's UV area over its world area is the same.
+        for f in 0..t.len() {
+            let uv = &a.uvs[f * 3..f * 3 + 3];
+            let area = 0.5
+                * ((uv[1][0] - uv[0][0]) * (uv[2][1] - uv[0][1])
+                    - (uv[1][1] - uv[0][1]) * (uv[2][0] - uv[0][0]))
+                    .abs()
+                * 256.0
+                * 256.0;
+            let ratio = area / (a.density * a.density * 0.5);
+            assert!((ratio - 1.0).abs() < 1e-9, "triangle {f}: {ratio}");
+        }
+        assert!(a
+            .uvs
+            .iter()
+            .all(|uv| (0.0..=1.0).contains(&uv[0]) && (0.0..=1.0).contains(&uv[1])));
+    }
+
+    impl Atlas {
+        fn uvs_flat(&self) -> Vec<[f64; 2]> {
+            self.uvs.clone()
+        }
+        fn corner_triangles(&self) -> Vec<[u32; 3]> {
+            (0..self.uvs.len() as u32 / 3)
+                .map(|f| [3 * f, 3 * f + 1, 3 * f + 2])
+                .collect()
+        }
+    }
+}

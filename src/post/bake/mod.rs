@@ -1,0 +1,253 @@
+//! Baked crack maps: the crack network drawn into a mesh's UV space as a
+//! base-colour map (the material's own colour with the cracks darkened), a
+//! tangent-space normal map of V-shaped grooves (over the material's own
+//! normal map) and an occlusion map, so any glTF viewer shows the cracks.
+//!
+//! [`raster`] finds what each texel shows (and grows the islands by a band
+//! so filtering never reads background), [`field`] measures the cracks in
+//! world units from each texel, [`atlas`] makes a UV set for meshes without
+//! a usable one, and [`compose`] mixes the result into the material's
+//! textures. Pure computation: the caller decodes and encodes the images'
+//! files.
+
+pub mod atlas;
+pub mod field;
+pub mod raster;
+
+pub use field::{crack_texels, CrackTexel, Cracks, Profile, Surface};
+pub use raster::{rasterize, Raster, Texel, EMPTY};
+
+use crate::stress::texture::{UvTransform, Wrap};
+use rayon::prelude::*;
+
+/// A decoded texture of the material, with how it is sampled.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Layer {
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+    /// RGBA in [0, 1] as stored (no sRGB decoding), row 0 at the top.
+    pub rgba: Vec<f32>,
+    /// Wrap in `u`.
+    pub wrap_s: Wrap,
+    /// Wrap in `v`.
+    pub wrap_t: Wrap,
+    /// `KHR_texture_transform`.
+    pub transform: UvTransform,
+    /// The UV set it reads.
+    pub tex_coord: u32,
+}
+
+impl Layer {
+    /// Bilinear RGBA at `uv` (after the transform), as [`crate::stress::texture::GreyImage::sample`].
+    pub fn sample(&self, uv: [f64; 2]) -> [f64; 4] {
+        let (w, h) = (self.width as usize, self.height as usize);
+        if w == 0 || h == 0 || self.rgba.len() != 4 * w * h {
+            return [1.0; 4];
+        }
+        let uv = self.transform.apply(uv);
+        let x = self.wrap_s.reduce(uv[0]) * w as f64 - 0.5;
+        let y = self.wrap_t.reduce(uv[1]) * h as f64 - 0.5;
+        let (x0, y0) = (x.floor(), y.floor());
+        let (fx, fy) = (x - x0, y - y0);
+        let i = [
+            self.wrap_s.texel(x0 as i64, w as i64),
+            self.wrap_s.texel(x0 as i64 + 1, w as i64),
+        ];
+        let j = [
+            self.wrap_t.texel(y0 as i64, h as i64),
+            self.wrap_t.texel(y0 as i64 + 1, h as i64),
+        ];
+        let px = |i: usize, j: usize, c: usize| f64::from(self.rgba[(j * w + i) * 4 + c]);
+        std::array::from_fn(|c| {
+            let top = px(i[0], j[0], c) * (1.0 - fx) + px(i[1], j[0], c) * fx;
+            let bottom = px(i[0], j[1], c) * (1.0 - fx) + px(i[1], j[1], c) * fx;
+            top * (1.0 - fy) + bottom * fy
+        })
+    }
+}
+
+/// What the material brings to the maps.
+#[derive(Clone, Debug, Default)]
+pub struct Material {
+    /// Base colour factor (linear RGBA).
+    pub base_factor: [f64; 4],
+    /// Base colour texture (sRGB).
+    pub base: Option<Layer>,
+    /// Normal texture and its `scale`.
+    pub normal: Option<(Layer, f64)>,
+    /// Occlusion texture (red channel) and its `strength`.
+    pub occlusion: Option<(Layer, f64)>,
+}
+
+/// How cracks look in the maps.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Look {
+    /// Colour inside a crack (linear RGB).
+    pub crack_color: [f64; 3],
+    /// How much the shadow band darkens the occlusion map, in [0, 1].
+    pub occlusion: f64,
+}
+
+/// The three maps, row-major, 8 bits a channel.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Maps {
+    /// Width and height.
+    pub size: u32,
+    /// Base colour, sRGB, RGBA.
+    pub base: Vec<[u8; 4]>,
+    /// Tangent-space normal, RGB.
+    pub normal: Vec<[u8; 3]>,
+    /// Occlusion, grey.
+    pub occlusion: Vec<u8>,
+    /// Texels a crack covers at least half.
+    pub crack_texels: usize,
+}
+
+/// The maps: per texel, the material's own values at its point (textures
+/// sampled through `uv(set, vertex)`) with `cracks` mixed in.
+pub fn compose(
+    triangles: &[[u32; 3]],
+    raster: &Raster,
+    cracks: &[CrackTexel],
+    material: &Material,
+    look: &Look,
+    uv: &(dyn Fn(u32, usize) -> [f64; 2] + Sync),
+) -> Maps {
+    let n = raster.size as usize;
+    let texel_uv = |t: &Texel, set: u32| {
+        let w = t.weights();
+        let corners = triangles[t.tri as usize];
+        let mut acc = [0.0; 2];
+        for k in 0..3 {
+            let p = uv(set, corners[k] as usize);
+            acc[0] += w[k] * p[0];
+            acc[1] += w[k] * p[1];
+        }
+        acc
+    };
+    let mut out = Maps {
+        size: raster.size,
+        base: vec![[0; 4]; n * n],
+        normal: vec![[0; 3]; n * n],
+        occlusion: vec![0; n * n],
+        crack_texels: 0,
+    };
+    let counts: usize = out
+        .base
+        .par_chunks_mut(n)
+        .zip(out.normal.par_chunks_mut(n))
+        .zip(out.occlusion.par_chunks_mut(n))
+        .enumerate()
+        .map(|(y, ((base, normal), occl))| {
+            let mut count = 0;
+            for x in 0..n {
+                let k = y * n + x;
+                let t = &raster.texels[k];
+                let c = cracks[k];
+                if t.tri == EMPTY {
+                    // Background: no island within the band reaches here.
+                    base[x] = [0, 0, 0, 0];
+                    normal[x] = [128, 128, 255];
+                    occl[x] = 255;
+                    continue;
+                }
+                let here = |layer: &Layer| Some(layer.sample(texel_uv(t, layer.tex_coord)));
+                // Base colour, mixed in linear light.
+                let f = material.base_factor;
+                let tex = material.base.as_ref().and_then(here).unwrap_or([1.0; 4]);
+                let lin: [f64; 3] = std::array::from_fn(|i| srgb_to_linear(tex[i]) * f[i]);
+                let cov = f64::from(c.coverage);
+                let mixed: [f64; 3] =
+                    std::array::from_fn(|i| lin[i] + (look.crack_color[i] - lin[i]) * cov);
+                let a = (tex[3] * f[3]).clamp(0.0, 1.0);
+                base[x] = [
+                    to_u8(linear_to_srgb(mixed[0])),
+                    to_u8(linear_to_srgb(mixed[1])),
+                    to_u8(linear_to_srgb(mixed[2])),
+                    to_u8(a),
+                ];
+                // Normal: the groove over the material's own (whiteout blend).
+                let own = material
+                    .normal
+                    .as_ref()
+                    .and_then(|(l, scale)| here(l).map(|s| (s, *scale)))
+                    .map(|(s, scale)| {
+                        let v = [
+                            (2.0 * s[0] - 1.0) * scale,
+                            (2.0 * s[1] - 1.0) * scale,
+                            2.0 * s[2] - 1.0,
+                        ];
+                        crate::math::v3::unit(v).unwrap_or([0.0, 0.0, 1.0])
+                    })
+                    .unwrap_or([0.0, 0.0, 1.0]);
+                let g = c.normal.map(f64::from);
+                let nrm = crate::math::v3::unit([own[0] + g[0], own[1] + g[1], own[2] * g[2]])
+                    .unwrap_or([0.0, 0.0, 1.0]);
+                normal[x] = nrm.map(|v| to_u8(0.5 * v + 0.5));
+                // Occlusion.
+                let ao = material
+                    .occlusion
+                    .as_ref()
+                    .and_then(|(l, strength)| here(l).map(|s| 1.0 + strength * (s[0] - 1.0)))
+                    .unwrap_or(1.0);
+                occl[x] = to_u8(ao * (1.0 - look.occlusion * f64::from(c.shadow)));
+                if c.coverage >= 0.5 {
+                    count += 1;
+                }
+            }
+            count
+        })
+        .sum();
+    out.crack_texels = counts;
+    out
+}
+
+fn to_u8(x: f64) -> u8 {
+    (x.clamp(0.0, 1.0) * 255.0).round() as u8
+}
+
+/// sRGB transfer function, decoding.
+pub fn srgb_to_linear(c: f64) -> f64 {
+    if c <= 0.04045 {
+        c / 12.92
+    } else {
+        ((c + 0.055) / 1.055).powf(2.4)
+    }
+}
+
+/// sRGB transfer function, encoding.
+pub fn linear_to_srgb(c: f64) -> f64 {
+    let c = c.clamp(0.0, 1.0);
+    if c <= 0.003_130_8 {
+        12.92 * c
+    } else {
+        1.055 * c.powf(1.0 / 2.4) - 0.055
+    }
+}
+
+/// A PNG of `size` x `size` pixels of `channels` (1: grey, 3: RGB, 4: RGBA)
+/// 8-bit samples.
+///
+/// # Errors
+/// The encoder's, when `data` does not hold `size * size * channels` bytes.
+pub fn encode_png(size: u32, channels: usize, data: &[u8]) -> Result<Vec<u8>, png::EncodingError> {
+    let mut out = Vec::new();
+    {
+        let mut enc = png::Encoder::new(&mut out, size, size);
+        enc.set_color(match channels {
+            1 => png::ColorType::Grayscale,
+            3 => png::ColorType::Rgb,
+            _ => png::ColorType::Rgba,
+        });
+        enc.set_depth(png::BitDepth::Eight);
+        enc.set_compression(png::Compression::Fast);
+        let mut w = enc.write_header()?;
+        w.write_image_data(data)?;
+    }
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests;

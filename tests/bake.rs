@@ -1,0 +1,240 @@
+//! Baked crack maps (`[post] bake`): the output carries a material variant
+//! with base-colour, normal and occlusion maps drawn from the cracks, in the
+//! mesh's UVs or an automatic atlas; the stage is in the report only when
+//! it runs; the bytes do not depend on the thread count.
+
+mod common;
+
+use crackle::scene::{Geometry, ImageSource, Scene};
+use crackle::stress::texture::{decode_channels, Channels};
+use std::path::Path;
+use std::process::Command;
+
+fn read(path: &Path) -> Scene {
+    crackle::io::read(path).unwrap()
+}
+
+/// The decoded RGBA of the texture `slot` of material `m`.
+fn texture(scene: &Scene, m: usize, slot: &str) -> (u32, u32, Vec<f32>) {
+    let t = crackle::stress::texture::texture_of_material(scene, m, slot).unwrap();
+    let bytes = match &scene.images[t.image].source {
+        ImageSource::Bytes(b) => b.clone(),
+        ImageSource::File(p) => std::fs::read(p).unwrap(),
+    };
+    decode_channels(&bytes, &t.name, Channels::Rgba).unwrap()
+}
+
+fn bake_detail(report: &serde_json::Value) -> serde_json::Value {
+    report["meshes"][0]["post"]["bake"].clone()
+}
+
+#[test]
+fn glaze_bakes_visible_maps_into_an_atlas() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("ico.glb");
+    let o = common::crack(
+        &common::fixture("icosphere.obj"),
+        &out,
+        &["--preset", "glaze", "--set", "post.bake_size=512", "-q"],
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let r = common::report(&out);
+    assert!(
+        common::stages(&r).contains(&"bake".to_string()),
+        "{:?}",
+        common::stages(&r)
+    );
+    let d = bake_detail(&r);
+    let m = &d["materials"][0];
+    assert_eq!(m["size"], 512, "{d}");
+    assert!(
+        m["atlas"]["reason"]
+            .as_str()
+            .unwrap()
+            .contains("no TEXCOORD_0"),
+        "the icosphere has no UVs: the report says an atlas was made: {d}"
+    );
+    assert!(m["crack_texels"].as_u64().unwrap() > 1000, "{d}");
+    let scene = read(&out);
+    // One variant material with the three maps, used by the surface.
+    let (mi, _) = scene
+        .materials
+        .iter()
+        .enumerate()
+        .find(|(_, m)| m.name().is_some_and(|n| n.ends_with("_cracked")))
+        .expect("a _cracked material");
+    let prim = scene.meshes[0]
+        .primitives
+        .iter()
+        .find(|p| matches!(p.geometry, Geometry::Triangles(_)))
+        .unwrap();
+    assert_eq!(prim.material, Some(mi));
+    let Geometry::Triangles(t) = &prim.geometry else {
+        unreachable!()
+    };
+    assert!(t.attribute("TEXCOORD_0").is_some() && t.attribute("TANGENT").is_some());
+    let (w, h, base) = texture(&scene, mi, "baseColorTexture");
+    assert_eq!((w, h), (512, 512));
+    let (_, _, normal) = texture(&scene, mi, "normalTexture");
+    let (_, _, occl) = texture(&scene, mi, "occlusionTexture");
+    // Dark crack texels, tilted normals and occluded texels, but most of
+    // the surface as it was.
+    // (Background texels outside the islands are black.)
+    let dark = base.chunks(4).filter(|p| p[0] > 0.0 && p[0] < 0.75).count();
+    let light = base.chunks(4).filter(|p| p[3] > 0.5 && p[0] > 0.9).count();
+    let tilted = normal
+        .chunks(4)
+        .filter(|p| (p[0] - 0.5).abs() > 0.1)
+        .count();
+    let shaded = occl.chunks(4).filter(|p| p[0] < 0.7).count();
+    assert!(dark > 500 && light > 3 * dark, "dark {dark}, light {light}");
+    assert!(
+        tilted > 200 && shaded > 500,
+        "tilted {tilted}, shaded {shaded}"
+    );
+    if let Some(v) = common::validator() {
+        v.assert_clean(&out);
+    }
+}
+
+#[test]
+fn the_bake_stage_is_reported_only_when_it_runs() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("mud.glb");
+    let o = common::crack(
+        &common::fixture("plate_jittered.obj"),
+        &out,
+        &["--preset", "mud", "--cell-size-relative", "0.15", "-q"],
+    );
+    assert!(o.status.success());
+    let r = common::report(&out);
+    assert!(!common::stages(&r).contains(&"bake".to_string()));
+    assert!(bake_detail(&r).is_null());
+    assert!(read(&out).images.is_empty());
+}
+
+#[test]
+fn a_mesh_without_uvs_is_refused_when_no_atlas_is_allowed() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("ico.glb");
+    let o = common::crack(
+        &common::fixture("icosphere.obj"),
+        &out,
+        &[
+            "--preset",
+            "glaze",
+            "--cell-size-relative",
+            "0.15",
+            "--set",
+            "post.bake_atlas=\"never\"",
+            "-q",
+        ],
+    );
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("icosphere") && err.contains("TEXCOORD_0") && err.contains("bake_atlas"),
+        "{err}"
+    );
+    assert!(!out.exists(), "no partial output");
+}
+
+#[test]
+fn baked_outputs_do_not_depend_on_the_thread_count() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = |threads: &str| {
+        let out = dir.path().join(format!("t{threads}.glb"));
+        let o = Command::new(common::crackle_bin())
+            .env("RAYON_NUM_THREADS", threads)
+            .args([
+                "crack",
+                "-q",
+                "--preset",
+                "glass-impact",
+                "--cell-size-relative",
+                "0.1",
+            ])
+            .args(["--set", "post.bake_size=512"])
+            .arg(common::fixture("plate_jittered.obj"))
+            .arg(&out)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        std::fs::read(&out).unwrap()
+    };
+    let one = run("1");
+    assert!(one == run("3"), "1 and 3 threads give different bytes");
+}
+
+/// Nearest texel of an RGBA image at `uv`.
+fn at(img: &(u32, u32, Vec<f32>), uv: &[f32]) -> [f32; 4] {
+    let (w, h, data) = img;
+    let x = ((uv[0].rem_euclid(1.0) * *w as f32) as usize).min(*w as usize - 1);
+    let y = ((uv[1].rem_euclid(1.0) * *h as f32) as usize).min(*h as usize - 1);
+    let k = 4 * (y * *w as usize + x);
+    [data[k], data[k + 1], data[k + 2], data[k + 3]]
+}
+
+#[test]
+fn the_ducks_own_texture_is_kept_under_the_cracks() {
+    let Some(duck) = common::eval_data("gltf/Duck/Duck.glb") else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("duck.glb");
+    let o = common::crack(&duck, &out, &["--preset", "glaze", "-q"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    // The Duck's UVs mirror its two halves onto one texture: cracks baked
+    // there would show on both sides, so it gets an atlas (TEXCOORD_1).
+    let d = bake_detail(&common::report(&out));
+    let reason = d["materials"][0]["atlas"]["reason"].as_str().unwrap_or("");
+    assert!(reason.contains("overlaps itself"), "{d}");
+    let input = read(&duck);
+    let scene = read(&out);
+    let mi = scene
+        .materials
+        .iter()
+        .position(|m| m.name().is_some_and(|n| n.ends_with("_cracked")))
+        .unwrap();
+    let baked = texture(&scene, mi, "baseColorTexture");
+    let occl = texture(&scene, mi, "occlusionTexture");
+    let own = texture(&input, 0, "baseColorTexture");
+    // At every vertex away from the cracks, the baked map (through the
+    // atlas) shows what the Duck's texture shows there (through its UVs).
+    let prim = scene.meshes[0]
+        .primitives
+        .iter()
+        .find(|p| p.material == Some(mi))
+        .unwrap();
+    let Geometry::Triangles(t) = &prim.geometry else {
+        unreachable!()
+    };
+    let (uv0, uv1) = (
+        t.attribute("TEXCOORD_0").unwrap(),
+        t.attribute("TEXCOORD_1").unwrap(),
+    );
+    let mut diffs: Vec<f32> = (0..uv0.len())
+        .filter(|&v| at(&occl, uv1.get(v))[0] > 0.999)
+        .map(|v| {
+            let a = at(&baked, uv1.get(v));
+            let b = at(&own, uv0.get(v));
+            (0..3).map(|c| (a[c] - b[c]).abs()).fold(0.0, f32::max)
+        })
+        .collect();
+    assert!(
+        diffs.len() > uv0.len() / 2,
+        "{} of {}",
+        diffs.len(),
+        uv0.len()
+    );
+    diffs.sort_by(f32::total_cmp);
+    let median = diffs[diffs.len() / 2];
+    let p95 = diffs[diffs.len() * 95 / 100];
+    assert!(
+        median < 4.0 / 255.0 && p95 < 24.0 / 255.0,
+        "median {median}, 95th percentile {p95}"
+    );
+    if let Some(v) = common::validator() {
+        v.assert_clean(&out);
+    }
+}
