@@ -7,8 +7,10 @@
 #     removed by ray casts).
 # Prints one JSON line; exit status 1 when a check fails.
 #
-# Blender 3.4 (apt):  blender -b --factory-startup --python scripts/render_check.py -- IN OUT PREFIX
-# Blender 5.0 (PyPI bpy):  tools/bpy5/bin/python scripts/render_check.py IN OUT PREFIX
+# Blender 3.4 (apt):  blender -b --factory-startup --python scripts/render_check.py -- IN OUT PREFIX [ENGINE]
+# Blender 5.0 (PyPI bpy):  tools/bpy5/bin/python scripts/render_check.py IN OUT PREFIX [ENGINE]
+# ENGINE: WORKBENCH (default: solid view with textures, base colour only) or
+# EEVEE (material preview: normal and occlusion maps shade too).
 # PREFIX names the two renders (PREFIX-input.png, PREFIX-output.png) and the
 # picture of the difference (PREFIX-diff.png: changed pixels red, crack
 # lines blue).
@@ -29,6 +31,7 @@ W, H = 800, 600
 
 argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else sys.argv[1:]
 src, out, prefix = argv[0], argv[1], argv[2]
+ENGINE = argv[3] if len(argv) > 3 else "WORKBENCH"
 version = bpy.app.version
 
 
@@ -64,10 +67,24 @@ def render(path, centre, radius):
     cam.data.clip_start = radius * 1e-3
     cam.data.clip_end = radius * 100
     scene.camera = cam
-    scene.render.engine = "BLENDER_WORKBENCH"
     world = bpy.data.worlds.new("w")
     scene.world = world
     world.color = (0.8, 0.8, 0.85)  # Workbench background
+    if ENGINE == "EEVEE":
+        # Material preview: normal maps and lighting (Blender 5.0 calls it
+        # BLENDER_EEVEE again after 4.2's BLENDER_EEVEE_NEXT).
+        names = [e.identifier for e in bpy.types.RenderSettings.bl_rna.properties["engine"].enum_items]
+        scene.render.engine = next(n for n in ("BLENDER_EEVEE_NEXT", "BLENDER_EEVEE") if n in names)
+        scene.eevee.taa_render_samples = 8
+        world.use_nodes = True
+        world.node_tree.nodes["Background"].inputs[0].default_value = (0.8, 0.8, 0.85, 1)
+        world.node_tree.nodes["Background"].inputs[1].default_value = 0.8
+        sun = bpy.data.objects.new("sun", bpy.data.lights.new("sun", "SUN"))
+        sun.data.energy = 3.0
+        sun.rotation_euler = (math.radians(40), math.radians(10), math.radians(30))
+        scene.collection.objects.link(sun)
+    else:
+        scene.render.engine = "BLENDER_WORKBENCH"
     sh = scene.display.shading
     sh.light = "STUDIO"
     sh.color_type = "TEXTURE"
@@ -168,6 +185,7 @@ img.save()
 ok = frac_changed >= MIN_CHANGED and frac_near >= MIN_NEAR
 print("RENDER_CHECK " + json.dumps({
     "blender": ".".join(map(str, version)),
+    "engine": bpy.context.scene.render.engine,
     "input": src,
     "output": out,
     "changed": round(frac_changed, 5),

@@ -185,7 +185,8 @@ fn the_ducks_own_texture_is_kept_under_the_cracks() {
     let o = common::crack(&duck, &out, &["--preset", "glaze", "-q"]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     // The Duck's UVs mirror its two halves onto one texture: cracks baked
-    // there would show on both sides, so it gets an atlas (TEXCOORD_1).
+    // there would show on both sides, so it gets an atlas, in TEXCOORD_0
+    // (its own UVs move to TEXCOORD_1).
     let d = bake_detail(&common::report(&out));
     let reason = d["materials"][0]["atlas"]["reason"].as_str().unwrap_or("");
     assert!(reason.contains("overlaps itself"), "{d}");
@@ -210,8 +211,8 @@ fn the_ducks_own_texture_is_kept_under_the_cracks() {
         unreachable!()
     };
     let (uv0, uv1) = (
-        t.attribute("TEXCOORD_0").unwrap(),
         t.attribute("TEXCOORD_1").unwrap(),
+        t.attribute("TEXCOORD_0").unwrap(),
     );
     let mut diffs: Vec<f32> = (0..uv0.len())
         .filter(|&v| at(&occl, uv1.get(v))[0] > 0.999)

@@ -120,6 +120,8 @@ fn bake_group(
         }
     }
     let mut set = asked;
+    // Where the primitives' own TEXCOORD_0 went (itself without an atlas).
+    let mut moved = 0u32;
     let mut atlas_report = Value::Null;
     if let Some(why) = &why_atlas {
         if post.bake_atlas == "never" {
@@ -127,16 +129,38 @@ fn bake_group(
                 "cannot bake crack maps: {why}, and post.bake_atlas = \"never\" (give the mesh UVs or allow an automatic atlas)"
             ));
         }
-        // A new set after every set the primitives have.
-        set = (0..8u32)
-            .find(|k| {
-                prims.iter().all(|&p| {
-                    tri_geometry(scene, mesh_index, p)
-                        .attribute(&set_name(*k))
-                        .is_none()
+        // The atlas becomes TEXCOORD_0 (viewers that show one UV set, as
+        // Blender's solid view, show the maps) and the primitives' own
+        // TEXCOORD_0 moves to the first free set; the variant's textures
+        // are pointed there below.
+        set = 0;
+        let has_0 = prims.iter().any(|&p| {
+            tri_geometry(scene, mesh_index, p)
+                .attribute(&set_name(0))
+                .is_some()
+        });
+        moved = if !has_0 {
+            0
+        } else {
+            (1..8u32)
+                .find(|k| {
+                    prims.iter().all(|&p| {
+                        tri_geometry(scene, mesh_index, p)
+                            .attribute(&set_name(*k))
+                            .is_none()
+                    })
                 })
-            })
-            .ok_or("every TEXCOORD_0..7 set is taken; no room for an automatic atlas")?;
+                .ok_or("every TEXCOORD_0..7 set is taken; no room for an automatic atlas")?
+        };
+        for &p in prims {
+            let mut geo = tri_geometry(scene, mesh_index, p).clone();
+            for a in &mut geo.attributes {
+                if a.semantic == set_name(0) {
+                    a.semantic = set_name(moved);
+                }
+            }
+            set_geometry(scene, mesh_index, p, geo);
+        }
         let (positions, tris) = gather_positions(scene, mesh_index, prims);
         let padding = (ATLAS_PADDING_2048 * size / 2048).max(2);
         let a = atlas::atlas(&positions, &tris, size, padding).map_err(|e| e.to_string())?;
@@ -152,22 +176,25 @@ fn bake_group(
             let with = with_corner_attribute(geo, &set_name(set), 2, &values);
             set_geometry(scene, mesh_index, p, with);
         }
-        atlas_report = json!({"reason": why, "charts": a.charts, "texels_per_unit": a.density, "texcoord": set});
+        atlas_report = json!({"reason": why, "charts": a.charts, "texels_per_unit": a.density, "texcoord": set, "own_texcoord_0_moved_to": moved});
+    }
+    let mut mat_json = mat_json;
+    if moved != 0 {
+        retarget_texcoord_0(&mut mat_json, moved);
     }
     // Tangents: of the material's own normal map's set when it has one (the
     // combined map stays in its frame), else of the baked set.
-    let tangent_set = mat_json
-        .get("normalTexture")
-        .and_then(|n| n.get("texCoord"))
-        .and_then(Value::as_u64)
-        .map_or(set, |s| s as u32);
+    let tangent_set = match mat_json.get("normalTexture") {
+        Some(n) => n.get("texCoord").and_then(Value::as_u64).unwrap_or(0) as u32,
+        None => set,
+    };
     for &p in prims {
         let geo = tri_geometry(scene, mesh_index, p);
         if let Some(with) = with_generated_tangents(geo, &set_name(tangent_set)) {
             set_geometry(scene, mesh_index, p, with);
         }
     }
-    let own = material_layers(scene, material, &mat_json).map_err(|e| e.to_string())?;
+    let own = material_layers(scene, material, &mat_json, moved).map_err(|e| e.to_string())?;
     let sets: Vec<u32> = [
         Some(set),
         own.base.as_ref().map(|l| l.tex_coord),
@@ -241,10 +268,6 @@ fn bake_group(
         "baseColorTexture".into(),
         json!({"index": tex_base, "texCoord": set}),
     );
-    if material.is_none() {
-        // glTF's default material: metal 1, rough 1; a plain surface reads better.
-        pbr.entry("metallicFactor").or_insert(json!(0.0));
-    }
     m.insert(
         "normalTexture".into(),
         json!({"index": tex_normal, "texCoord": set}),
@@ -277,6 +300,7 @@ fn material_layers(
     scene: &Scene,
     material: Option<usize>,
     json: &Map<String, Value>,
+    moved: u32,
 ) -> Result<bake::Material, TextureError> {
     let factor = json
         .get("pbrMetallicRoughness")
@@ -314,7 +338,7 @@ fn material_layers(
             wrap_s: t.wrap_s,
             wrap_t: t.wrap_t,
             transform: t.transform,
-            tex_coord: t.tex_coord,
+            tex_coord: if t.tex_coord == 0 { moved } else { t.tex_coord },
         }))
     };
     let number = |slot: &str, key: &str| {
@@ -327,6 +351,32 @@ fn material_layers(
     out.normal = layer("normalTexture")?.map(|l| (l, number("normalTexture", "scale")));
     out.occlusion = layer("occlusionTexture")?.map(|l| (l, number("occlusionTexture", "strength")));
     Ok(out)
+}
+
+/// Point every textureInfo of a material (a `...Texture` object with an
+/// `index`, in the core material and its extensions) that reads
+/// `TEXCOORD_0` at `TEXCOORD_{to}` instead, `KHR_texture_transform`'s
+/// `texCoord` override included.
+fn retarget_texcoord_0(json: &mut Map<String, Value>, to: u32) {
+    for (key, value) in json.iter_mut() {
+        let Value::Object(obj) = value else { continue };
+        if key.ends_with("Texture") && obj.contains_key("index") {
+            let zero = obj.get("texCoord").and_then(Value::as_u64).unwrap_or(0) == 0;
+            if zero {
+                obj.insert("texCoord".into(), json!(to));
+            }
+            if let Some(Value::Object(t)) = obj
+                .get_mut("extensions")
+                .and_then(|e| e.get_mut("KHR_texture_transform"))
+            {
+                if t.get("texCoord").and_then(Value::as_u64) == Some(0) {
+                    t.insert("texCoord".into(), json!(to));
+                }
+            }
+        } else {
+            retarget_texcoord_0(obj, to);
+        }
+    }
 }
 
 /// An image of PNG `bytes` and a texture showing it; the texture's index.

@@ -6,7 +6,7 @@ use super::Post;
 use crate::bridge::{write_back_with, SimEntry};
 use crate::post::distance::{crack_vertices, distance_field};
 use crate::post::walls::{build_walls_uncrossed, WallOptions, Walls};
-use crate::post::width::{displace, turn_normals};
+use crate::post::width::{displace, groove, turn_normals};
 use crate::scene::{
     Geometry, Material, Primitive, RawAccessor, RawGeometry, Scene, TriGeometry, VertexAttribute,
 };
@@ -49,13 +49,30 @@ pub fn apply(
     for (e, (_, r)) in entries.iter_mut().zip(reports) {
         let mut detail = serde_json::Map::new();
         let mut positions: Vec<[f64; 3]> = e.sim.positions().to_vec();
-        let moves = post.width > 0.0 || post.curl > 0.0;
+        // Grooves: a width from the cell size (or, for models without one,
+        // the bounding-box diagonal).
+        let groove_width = if post.grooves() {
+            let cell = r.cell_size.unwrap_or_else(|| diagonal(e.sim.positions()));
+            post.groove_width(cell)
+        } else {
+            0.0
+        };
+        let moves = post.width > 0.0 || post.curl > 0.0 || groove_width > 0.0;
         let mut mean_gap = 0.0;
         if moves {
             let t = Instant::now();
-            let d = displace(&e.sim, &r.displacement, post);
+            let d = if groove_width > 0.0 {
+                groove(&e.sim, 0.5 * groove_width)
+            } else {
+                displace(&e.sim, &r.displacement, post)
+            };
             detail.insert(
-                "width".into(),
+                if groove_width > 0.0 {
+                    "groove"
+                } else {
+                    "width"
+                }
+                .into(),
                 json!({
                     "max_gap": d.max_gap,
                     "mean_gap": d.mean_gap,
@@ -66,11 +83,24 @@ pub fn apply(
             );
             mean_gap = d.mean_gap;
             positions = d.positions;
-            out.time("width", t.elapsed().as_secs_f64());
+            out.time(
+                if groove_width > 0.0 {
+                    "groove"
+                } else {
+                    "width"
+                },
+                t.elapsed().as_secs_f64(),
+            );
         }
-        let walls = if post.walls {
+        let walls = if post.walls || groove_width > 0.0 {
             let t = Instant::now();
-            let depth = if post.wall_depth > 0.0 {
+            let depth = if groove_width > 0.0 {
+                if post.groove_depth > 0.0 {
+                    post.groove_depth
+                } else {
+                    groove_width
+                }
+            } else if post.wall_depth > 0.0 {
                 post.wall_depth
             } else {
                 post.wall_depth_relative * mean_gap
@@ -186,7 +216,11 @@ pub fn apply(
         }
         if post.split_islands {
             let t = Instant::now();
-            let wall_material = &post.wall_material;
+            let wall_material = if post.grooves() {
+                &post.groove_material
+            } else {
+                &post.wall_material
+            };
             let make = |scene: &mut Scene, w: &Walls, tris: &[usize], offset: [f64; 3]| {
                 wall_primitive(scene, w, tris, offset, wall_material, targets)
             };
@@ -200,8 +234,12 @@ pub fn apply(
             timing.time("islands", t.elapsed().as_secs_f64());
         } else if let Some(w) = walls {
             let all: Vec<usize> = (0..w.triangles.len()).collect();
-            if let Some(p) = wall_primitive(scene, &w, &all, [0.0; 3], &post.wall_material, targets)
-            {
+            let name = if post.grooves() {
+                &post.groove_material
+            } else {
+                &post.wall_material
+            };
+            if let Some(p) = wall_primitive(scene, &w, &all, [0.0; 3], name, targets) {
                 scene.meshes[e.mesh_index].primitives.push(p);
             }
         }
@@ -234,6 +272,23 @@ fn follow_gaps(
         None => p,
     };
     segments.iter().map(|s| s.map(moved)).collect()
+}
+
+/// The bounding-box diagonal of `points`.
+fn diagonal(points: &[[f64; 3]]) -> f64 {
+    let mut lo = [f64::INFINITY; 3];
+    let mut hi = [f64::NEG_INFINITY; 3];
+    for p in points {
+        for k in 0..3 {
+            lo[k] = lo[k].min(p[k]);
+            hi[k] = hi[k].max(p[k]);
+        }
+    }
+    if points.is_empty() {
+        0.0
+    } else {
+        crate::math::v3::norm(crate::math::v3::sub(hi, lo))
+    }
 }
 
 /// Index of the material named `name`, added with `json` when missing.

@@ -80,6 +80,21 @@ pub struct Post {
     /// Texels the maps' islands are grown by, so filtering never reads
     /// background. Default 8.
     pub bake_dilate: u32,
+    /// Real grooves: cut each crack into the surface as a V channel this
+    /// wide (scene units; 0: use `groove_relative`), walled down to the
+    /// crack line in `groove_material` ([`crate::post::width::groove`]).
+    /// Default 0.
+    pub groove: f64,
+    /// Groove width as a fraction of the cell size (the film models'
+    /// `simulation.cell_size`; the mesh's bounding-box diagonal for the other
+    /// models), when `groove` is 0. Default 0 (no grooves).
+    pub groove_relative: f64,
+    /// Depth of the groove below the surface, scene units (0: as deep as it
+    /// is wide). Default 0.
+    pub groove_depth: f64,
+    /// Material of the groove walls: an input material of this name, or a
+    /// new plain one. Default `crack_wall`.
+    pub groove_material: String,
 }
 
 impl Default for Post {
@@ -109,6 +124,10 @@ impl Default for Post {
             bake_occlusion: 0.8,
             bake_fade_age: 0.0,
             bake_dilate: 8,
+            groove: 0.0,
+            groove_relative: 0.0,
+            groove_depth: 0.0,
+            groove_material: "crack_wall".into(),
         }
     }
 }
@@ -120,6 +139,22 @@ impl Default for Post {
 pub struct OptionsError(pub String);
 
 impl Post {
+    /// Whether cracks are cut as grooves.
+    pub fn grooves(&self) -> bool {
+        self.groove > 0.0 || self.groove_relative > 0.0
+    }
+
+    /// The groove's width for a mesh of cell size `cell` (or bounding-box
+    /// diagonal, for models without a cell size): `groove`, else
+    /// `groove_relative * cell`.
+    pub fn groove_width(&self, cell: f64) -> f64 {
+        if self.groove > 0.0 {
+            self.groove
+        } else {
+            self.groove_relative * cell
+        }
+    }
+
     /// Every value checked, naming the key.
     pub fn check(&self) -> Result<(), OptionsError> {
         self.check_values().map_err(OptionsError)
@@ -193,6 +228,20 @@ impl Post {
         }
         if self.bake && self.bake_width == 0.0 && self.bake_width_relative == 0.0 {
             return Err("post.bake needs bake_width or bake_width_relative > 0".into());
+        }
+        nonneg("groove", self.groove)?;
+        nonneg("groove_relative", self.groove_relative)?;
+        nonneg("groove_depth", self.groove_depth)?;
+        if self.groove > 0.0 && self.groove_relative > 0.0 {
+            return Err("post.groove and post.groove_relative: give one, not both".into());
+        }
+        if self.grooves() && (self.width > 0.0 || self.walls || self.curl > 0.0) {
+            return Err(
+                "post.groove cuts the cracks as channels of its own width: use it without post.width, post.walls and post.curl".into(),
+            );
+        }
+        if self.groove_material.is_empty() {
+            return Err("post.groove_material must not be empty".into());
         }
         if self.wall_material.is_empty() {
             return Err("post.wall_material must not be empty".into());

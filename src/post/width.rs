@@ -431,6 +431,32 @@ pub fn displace(mesh: &SimMesh, displacement: &[[f64; 3]], opts: &Post) -> Displ
     out
 }
 
+/// Grooves (`[post] groove`): every copy of a split crack node moves
+/// `half_width` straight away from its crack into its own faces, so each
+/// crack opens into a channel `2 half_width` wide whose walls
+/// ([`crate::post::walls`]) make a V down to the crack line. Unsplit nodes
+/// (crack tips) stay, so a groove narrows to a point at a tip; T-junctions,
+/// the no-sliding rule and the flipped-triangle guard are those of
+/// [`displace`].
+pub fn groove(mesh: &SimMesh, half_width: f64) -> Displaced {
+    let mut d = vec![[0.0; 3]; mesh.n_vertices()];
+    for g in crack_groups(mesh) {
+        if g.len() < 2 {
+            continue;
+        }
+        for v in g {
+            if let Some(dir) = away_from_crack(mesh, v) {
+                d[v.idx()] = v3::scale(dir, half_width);
+            }
+        }
+    }
+    let opts = Post {
+        width: 1.0,
+        ..Post::default()
+    };
+    displace(mesh, &d, &opts)
+}
+
 /// Halve the moves `mv` of the nodes of flipped or collapsed triangles at
 /// `positions` (the rest positions plus `mv`), each with every node tied
 /// to it, until none is left; after [`MAX_HALVINGS`] halvings the moves

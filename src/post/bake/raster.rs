@@ -79,6 +79,7 @@ pub fn rasterize(uvs: &[[f64; 2]], triangles: &[[u32; 3]], size: u32, dilate: u3
     let mut texels = vec![Texel::NONE; n * n];
     let mut covered = 0;
     let mut overlapping = 0;
+    let mut doubled = vec![false; n * n];
     for (t, tri) in triangles.iter().enumerate() {
         let [a, b, c] = tri.map(|i| {
             let uv = uvs[i as usize];
@@ -115,7 +116,8 @@ pub fn rasterize(uvs: &[[f64; 2]], triangles: &[[u32; 3]], size: u32, dilate: u3
                         inside: true,
                     };
                     covered += 1;
-                } else if w0.min(w1).min(w2) > 1e-6 && texel.bary_interior() {
+                } else if w0.min(w1).min(w2) > 1e-6 && texel.bary_interior() && !doubled[k] {
+                    doubled[k] = true;
                     overlapping += 1;
                 }
             }
