@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Do the cracks show in Blender and in a web viewer? Every built-in preset on
 # its own fixture and on spot, the Duck and the DamagedHelmet
-# (../shared/eval-data), rendered next to the uncracked input with the same
+# (../shared/eval-data), rendered next to the uncracked input (as glTF, by
+# `crackle convert`, so both go through the same importer) with the same
 # camera in Blender 3.4 and Blender 5.0 (EEVEE, as the material preview;
 # scripts/render_check.py) and in
 # three.js' GLTFLoader in headless Chromium (scripts/web_check.mjs): at
@@ -61,12 +62,17 @@ fail=0
 failed=()
 check() {
     local name=$1 input=$2 output=$3
-    local line
+    local line base ref
+    # The uncracked input as glTF (crackle convert): every viewer then reads
+    # input and output through the same importer and material model.
+    base=$(basename "$input"); base=${base%.*}
+    ref="$out/$base-reference.glb"
+    [ -f "$ref" ] || "$bin" -q convert "$input" "$ref"
     for blender in 3.4 5.0; do
         if [ "$blender" = 3.4 ]; then
-            line=$(blender -b --factory-startup --python scripts/render_check.py -- "$input" "$output" "$out/$name-b34" EEVEE 2>&1 | grep '^RENDER_CHECK' || true)
+            line=$(blender -b --factory-startup --python scripts/render_check.py -- "$ref" "$output" "$out/$name-b34" EEVEE 2>&1 | grep '^RENDER_CHECK' || true)
         else
-            line=$(tools/bpy5/bin/python scripts/render_check.py "$input" "$output" "$out/$name-b50" EEVEE 2>&1 | grep '^RENDER_CHECK' || true)
+            line=$(tools/bpy5/bin/python scripts/render_check.py "$ref" "$output" "$out/$name-b50" EEVEE 2>&1 | grep '^RENDER_CHECK' || true)
         fi
         if [[ "$line" == *'"ok": true'* ]]; then
             pass=$((pass + 1))
@@ -76,10 +82,7 @@ check() {
         fi
         echo "$name Blender $blender: ${line#RENDER_CHECK }"
     done
-    local base
-    base=$(basename "$input"); base=${base%.*}
-    [ -f "$out/$base-reference.glb" ] || "$bin" -q convert "$input" "$out/$base-reference.glb"
-    line=$(node scripts/web_check.mjs "$out/$base-reference.glb" "$output" "$out/$name" 2>&1 | grep '^WEB_CHECK' || true)
+    line=$(node scripts/web_check.mjs "$ref" "$output" "$out/$name" 2>&1 | grep '^WEB_CHECK' || true)
     if [[ "$line" == *'"ok":true'* ]]; then
         pass=$((pass + 1))
     else

@@ -112,7 +112,7 @@ fn mud_presets_give_gaps_walls_and_valid_files() {
             // The crack lines moved with the opened surface: they stay
             // inside its bounding box (the width pulls the plate's border
             // in; lines left at rest would poke out past it).
-            let surface = prims.iter().find(|t| t.material.is_empty()).unwrap();
+            let surface = prims.iter().find(|t| t.material != "crack_wall").unwrap();
             let (lo, hi) = surface.positions.iter().fold(
                 ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]),
                 |(lo, hi), p| {

@@ -200,7 +200,8 @@ fn read_impl(text: &str, base_dir: &Path, name: &str, path: &Path) -> Result<Sce
                 let material = section
                     .material
                     .as_ref()
-                    .and_then(|m| materials.material(m, &mut scene));
+                    .and_then(|m| materials.material(m, &mut scene))
+                    .or_else(|| Some(default_material(&mut scene)));
                 let prims = &mut objects[section.object];
                 let p = match prims
                     .iter()
@@ -300,6 +301,29 @@ fn logical_lines(
         f(&pending, pending_no)?;
     }
     Ok(())
+}
+
+/// The material of faces without one (no `usemtl`, or one the MTL files do
+/// not define): OBJ's plain surface, a light grey non-metal (glTF's own
+/// default material is a metal, which is not what an OBJ means). Added once,
+/// named `default`; its index.
+fn default_material(scene: &mut Scene) -> usize {
+    const NAME: &str = "default";
+    if let Some(i) = scene.materials.iter().position(|m| m.name() == Some(NAME)) {
+        return i;
+    }
+    let json = serde_json::json!({
+        "name": NAME,
+        "pbrMetallicRoughness": {
+            "baseColorFactor": [0.8, 0.8, 0.8, 1.0],
+            "metallicFactor": 0.0,
+            "roughnessFactor": 0.5
+        }
+    });
+    scene.materials.push(crate::scene::Material {
+        json: json.as_object().cloned().unwrap_or_default(),
+    });
+    scene.materials.len() - 1
 }
 
 /// The first word of `s` and the rest (trimmed at the start).
@@ -886,9 +910,12 @@ mod tests {
         assert_eq!(t.triangle_count(), 5856);
         assert_eq!(t.meshes.len(), 1);
         assert_eq!(t.meshes[0].name.as_deref(), Some("spot_triangulated"));
+        // No mtllib: the plain default material.
+        assert_eq!(t.materials.len(), 1);
+        assert_eq!(t.materials[0].name(), Some("default"));
         assert!(prims(&t)
             .iter()
-            .all(|(p, g)| p.material.is_none() && g.attribute("TEXCOORD_0").is_some()));
+            .all(|(p, g)| p.material == Some(0) && g.attribute("TEXCOORD_0").is_some()));
         let q = read_obj(&quad).unwrap();
         check_consistent(&q);
         let quads = std::fs::read_to_string(&quad)
@@ -1007,8 +1034,9 @@ mod tests {
         assert_eq!(s.triangle_count(), 3);
         assert!(has_warning(&s, "surface.mtl"), "{:?}", s.warnings);
         assert_eq!(s.meshes[0].name.as_deref(), Some("textureSurface"));
-        assert!(prims(&s)[0].0.material.is_none());
-        assert!(s.materials.is_empty());
+        assert_eq!(prims(&s)[0].0.material, Some(0));
+        assert_eq!(s.materials.len(), 1);
+        assert_eq!(s.materials[0].name(), Some("default"));
     }
 
     /// Polygons of an OBJ with absolute indices, parsed independently (continuation lines joined).
@@ -1060,7 +1088,8 @@ mod tests {
             .fold(f64::INFINITY, f64::min);
         assert!(min > 1e-3, "zero-area triangle: {min}");
         assert!(has_warning(&s, "00.mtl"), "{:?}", s.warnings);
-        assert!(prims(&s).iter().all(|(p, _)| p.material.is_none()));
+        assert!(prims(&s).iter().all(|(p, _)| p.material == Some(0)));
+        assert_eq!(s.materials.len(), 1);
     }
 
     #[test]
@@ -1337,8 +1366,8 @@ mod tests {
         )
         .unwrap();
         assert!(has_warning(&s, "../evil.mtl"), "{:?}", s.warnings);
-        assert!(s.materials.is_empty());
-        assert!(prims(&s)[0].0.material.is_none());
+        assert_eq!(s.materials.len(), 1, "only the default material");
+        assert_eq!(prims(&s)[0].0.material, Some(0));
     }
 
     #[test]
@@ -1362,11 +1391,17 @@ mod tests {
                    usemtl glass\nf 1 2 3\nusemtl plain\nf 1 2 3\nusemtl same\nf 1 2 3\nusemtl nope\nf 1 2 3\n";
         let s = read_obj_from_str(obj, d, "m.obj").unwrap();
         check_consistent(&s);
-        assert_eq!(s.materials.len(), 3);
+        // Three from the MTL; `nope` is not defined: the default material.
+        assert_eq!(s.materials.len(), 4);
+        assert_eq!(s.materials[3].name(), Some("default"));
+        assert_eq!(
+            s.materials[3].json["pbrMetallicRoughness"]["metallicFactor"],
+            json!(0.0)
+        );
         let ps = prims(&s);
         assert_eq!(
             ps.iter().map(|(p, _)| p.material).collect::<Vec<_>>(),
-            [Some(0), Some(1), Some(2), None]
+            [Some(0), Some(1), Some(2), Some(3)]
         );
         let glass = &s.materials[0].json;
         assert_eq!(glass["name"], "glass");
