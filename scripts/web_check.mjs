@@ -6,7 +6,8 @@
 // and at least 90% of the changed pixels lie within 4 pixels of the visible
 // crack lines (projected; hidden parts removed with a depth pass).
 //   node scripts/web_check.mjs REFERENCE.glb OUTPUT.glb PREFIX [REF2 OUT2 PREFIX2 ...]
-// Writes PREFIX-web.png (the output's render); prints one WEB_CHECK JSON line
+// Writes PREFIX-web.png (the output's render) and PREFIX-web-diff.png
+// (changed pixels red, visible crack lines blue); prints one WEB_CHECK JSON line
 // per pair; exits 1 when a check fails. Needs tools/web (scripts/web_check.sh
 // installs three and puppeteer-core there) and Chromium (apt: chromium).
 import http from "node:http";
@@ -31,18 +32,22 @@ const PAGE = `<!doctype html><html><body style="margin:0">
 <script type="module">
 import * as THREE from "three";
 import { GLTFLoader } from "three/addons/loaders/GLTFLoader.js";
+import { RoomEnvironment } from "three/addons/environments/RoomEnvironment.js";
 const W = 800, H = 600, NEAR_PX = 4, THRESHOLD = 0.08 * 255;
 const renderer = new THREE.WebGLRenderer({ antialias: false, preserveDrawingBuffer: true });
 renderer.setPixelRatio(1);
 renderer.setSize(W, H);
 document.body.appendChild(renderer.domElement);
 const gl = renderer.getContext();
+// Image-based lighting, as web viewers set up (metals are black without it).
+const environment = new THREE.PMREMGenerator(renderer).fromScene(new RoomEnvironment(), 0.04).texture;
 const load = async (url) => (await new GLTFLoader().loadAsync(url)).scene;
 function stage(root) {
   const s = new THREE.Scene();
   s.background = new THREE.Color(0.8, 0.8, 0.85);
-  s.add(new THREE.HemisphereLight(0xffffff, 0x444444, 1.5));
-  const sun = new THREE.DirectionalLight(0xffffff, 2.0);
+  s.environment = environment;
+  s.add(new THREE.HemisphereLight(0xffffff, 0x444444, 0.5));
+  const sun = new THREE.DirectionalLight(0xffffff, 1.0);
   sun.position.set(1, 2, 1.5);
   s.add(sun);
   s.add(root);
@@ -124,7 +129,22 @@ try {
     if (mask[y * W + x]) linePx++;
     if (diff > THRESHOLD) { changed++; if (near[y * W + x]) close++; }
   }
-  renderer.render(sb.overrideMaterial = null || stage(b), cam);
+  // The difference as a picture: changed pixels red, crack lines blue.
+  const canvas = document.createElement("canvas");
+  canvas.width = W;
+  canvas.height = H;
+  const g2 = canvas.getContext("2d");
+  const img = g2.createImageData(W, H);
+  for (let y = 0; y < H; y++) for (let x = 0; x < W; x++) {
+    const k = 4 * ((H - 1 - y) * W + x), o = 4 * (y * W + x);
+    const diff = Math.max(Math.abs(pa[k] - pb[k]), Math.abs(pa[k + 1] - pb[k + 1]), Math.abs(pa[k + 2] - pb[k + 2]));
+    const px = diff > THRESHOLD ? [255, 25, 25] : mask[y * W + x] ? [25, 50, 255] : [pb[k] >> 1, pb[k + 1] >> 1, pb[k + 2] >> 1];
+    img.data.set([...px, 255], o);
+  }
+  g2.putImageData(img, 0, 0);
+  window.diffPng = canvas.toDataURL("image/png");
+  sb.overrideMaterial = null;
+  renderer.render(sb, cam);
   window.result = { changed: changed / (W * H), near_cracks: close / Math.max(changed, 1), line_pixels: linePx, line_samples: samples };
 } catch (err) {
   window.result = { error: String(err && err.stack || err) };
@@ -171,6 +191,8 @@ for (let i = 0; i < args.length; i += 3) {
   await page.waitForFunction("window.result !== undefined", { timeout: 300000 });
   const result = await page.evaluate("window.result");
   await page.screenshot({ path: `${prefix}-web.png` });
+  const diff = await page.evaluate("window.diffPng || ''");
+  if (diff) fs.writeFileSync(`${prefix}-web-diff.png`, Buffer.from(diff.split(",")[1], "base64"));
   await page.close();
   server.close();
   const ok = !result.error && result.changed >= 0.005 && result.near_cracks >= 0.9;

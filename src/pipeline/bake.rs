@@ -96,6 +96,7 @@ fn bake_group(
             set_geometry(scene, mesh_index, p, with);
         }
     }
+    let t0 = std::time::Instant::now();
     // The UV set: the one asked for, unless missing or overlapping.
     let asked = post.bake_texcoord;
     let has_set = prims.iter().all(|&p| {
@@ -178,6 +179,10 @@ fn bake_group(
         }
         atlas_report = json!({"reason": why, "charts": a.charts, "texels_per_unit": a.density, "texcoord": set, "own_texcoord_0_moved_to": moved});
     }
+    log::debug!(
+        "bake: uvset+atlas done at {:.3} s",
+        t0.elapsed().as_secs_f64()
+    );
     let mut mat_json = mat_json;
     if moved != 0 {
         retarget_texcoord_0(&mut mat_json, moved);
@@ -194,6 +199,7 @@ fn bake_group(
             set_geometry(scene, mesh_index, p, with);
         }
     }
+    log::debug!("bake: tangents done at {:.3} s", t0.elapsed().as_secs_f64());
     let own = material_layers(scene, material, &mat_json, moved).map_err(|e| e.to_string())?;
     let sets: Vec<u32> = [
         Some(set),
@@ -212,7 +218,12 @@ fn bake_group(
         uvs: &arrays.uvs[&set],
         triangles: &arrays.triangles,
     };
+    log::debug!(
+        "bake: layers+gather done at {:.3} s",
+        t0.elapsed().as_secs_f64()
+    );
     let raster = bake::rasterize(surface.uvs, surface.triangles, size, dilate);
+    log::debug!("bake: raster done at {:.3} s", t0.elapsed().as_secs_f64());
     let diagonal = diagonal(&arrays.positions);
     let width = if post.bake_width > 0.0 {
         post.bake_width
@@ -226,12 +237,36 @@ fn bake_group(
     };
     let cracks = Cracks { segments, widths };
     let texels = bake::crack_texels(&surface, &raster, &cracks, &profile);
+    log::debug!("bake: field done at {:.3} s", t0.elapsed().as_secs_f64());
     let look = Look {
         crack_color: post.crack_color,
         occlusion: post.bake_occlusion,
     };
     let uv_of = |s: u32, v: usize| arrays.uvs.get(&s).map_or([0.0; 2], |u| u[v]);
+    // An atlas resamples the material's base colour texture: say how much
+    // of its resolution the baked map keeps.
+    if let (Value::Object(a), Some(l)) = (&mut atlas_report, &own.base) {
+        let (mut uv_area, mut world_area) = (0.0, 0.0);
+        for t in &arrays.triangles {
+            let [p, q, r] = t.map(|i| uv_of(l.tex_coord, i as usize));
+            uv_area += 0.5 * ((q[0] - p[0]) * (r[1] - p[1]) - (q[1] - p[1]) * (r[0] - p[0])).abs();
+            let [a, b, c] = t.map(|i| arrays.positions[i as usize]);
+            world_area += 0.5 * v3::norm(v3::cross(v3::sub(b, a), v3::sub(c, a)));
+        }
+        let own_density = (uv_area * f64::from(l.width) * f64::from(l.height) / world_area).sqrt();
+        if let Some(d) = a.get("texels_per_unit").and_then(Value::as_f64) {
+            let kept = d / own_density;
+            a.insert("base_texture_resolution_kept".into(), json!(kept));
+            if kept < 0.9 {
+                log::warn!(
+                    "the automatic atlas holds the base colour texture at {:.0}% of its resolution; a larger post.bake_size keeps more",
+                    100.0 * kept
+                );
+            }
+        }
+    }
     let maps = bake::compose(&arrays.triangles, &raster, &texels, &own, &look, &uv_of);
+    log::debug!("bake: compose done at {:.3} s", t0.elapsed().as_secs_f64());
     // Images, textures and the material variant.
     let base_name = mat_json
         .get("name")
@@ -253,6 +288,7 @@ fn bake_group(
     let normal_png = bake::encode_png(size, 3, &maps.normal.concat()).map_err(|e| e.to_string())?;
     let occl_png = bake::encode_png(size, 1, &maps.occlusion).map_err(|e| e.to_string())?;
     let bytes = base_png.len() + normal_png.len() + occl_png.len();
+    log::debug!("bake: png done at {:.3} s", t0.elapsed().as_secs_f64());
     let tex_base = add_texture(scene, &format!("{stem}_basecolor"), base_png);
     let tex_normal = add_texture(scene, &format!("{stem}_normal"), normal_png);
     let tex_occl = add_texture(scene, &format!("{stem}_occlusion"), occl_png);

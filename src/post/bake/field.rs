@@ -99,7 +99,10 @@ pub fn crack_texels(
             }
         })
         .collect();
-    let reach = hw * profile.shadow.max(1.0) + MAX_FOOTPRINT * hw;
+    // How far a crack can reach into a texel of footprint `f`: the shadow's
+    // half-width and half the footprint.
+    let reach_of = |f: f64| hw * profile.shadow.max(1.0) + 0.5 * f.min(MAX_FOOTPRINT * hw);
+    let reach = footprint.iter().copied().map(reach_of).fold(0.0, f64::max);
     let grid = Grid::new(cracks.segments, reach);
     // Texels by triangle (counting sort), so a triangle's candidate
     // segments are found once.
@@ -130,7 +133,20 @@ pub fn crack_texels(
                 return Vec::new();
             }
             let corners = surface.triangles[t].map(|i| i as usize);
-            let candidates = grid.near_triangle(corners.map(|i| surface.positions[i]), reach);
+            let pts = corners.map(|i| surface.positions[i]);
+            let r = reach_of(footprint[t]);
+            let mut candidates = grid.near_triangle(pts, r, reach);
+            // Only segments that come within reach of the triangle's
+            // bounding sphere.
+            let centre = v3::scale(v3::add(v3::add(pts[0], pts[1]), pts[2]), 1.0 / 3.0);
+            let radius = pts
+                .iter()
+                .map(|p| v3::norm(v3::sub(*p, centre)))
+                .fold(0.0, f64::max);
+            candidates.retain(|&s| {
+                let [a, b] = cracks.segments[s as usize];
+                v3::norm(v3::sub(nearest_on_segment(centre, a, b), centre)) <= radius + r
+            });
             if candidates.is_empty() {
                 return Vec::new();
             }
@@ -305,18 +321,20 @@ impl Grid {
     }
 
     /// Segments with a piece in a cell near the triangle: every segment
-    /// within `reach` of it, sorted, without repeats.
-    fn near_triangle(&self, corners: [[f64; 3]; 3], reach: f64) -> Vec<u32> {
+    /// within `reach` of it (the grid's pieces are at most `piece` long),
+    /// sorted, without repeats.
+    fn near_triangle(&self, corners: [[f64; 3]; 3], reach: f64, piece: f64) -> Vec<u32> {
+        let margin = reach + 0.5 * piece;
         let lo: [i64; 3] = std::array::from_fn(|k| {
             let m = corners.iter().map(|c| c[k]).fold(f64::INFINITY, f64::min);
-            ((m - 1.5 * reach) / self.cell).floor() as i64
+            ((m - margin) / self.cell).floor() as i64
         });
         let hi: [i64; 3] = std::array::from_fn(|k| {
             let m = corners
                 .iter()
                 .map(|c| c[k])
                 .fold(f64::NEG_INFINITY, f64::max);
-            ((m + 1.5 * reach) / self.cell).floor() as i64
+            ((m + margin) / self.cell).floor() as i64
         });
         let mut out = Vec::new();
         if (0..3).any(|k| hi[k] - lo[k] > 64) {
@@ -365,8 +383,8 @@ mod tests {
         ];
         let g = Grid::new(&segs, 0.5);
         let tri = [[7.0, 0.4, 0.0], [7.2, 0.4, 0.0], [7.0, 0.45, 0.0]];
-        assert_eq!(g.near_triangle(tri, 0.5), vec![0]);
+        assert_eq!(g.near_triangle(tri, 0.5, 0.5), vec![0]);
         let tri = [[5.0, 2.6, 0.0], [5.2, 2.6, 0.0], [5.0, 2.7, 0.0]];
-        assert_eq!(g.near_triangle(tri, 0.5), vec![1]);
+        assert_eq!(g.near_triangle(tri, 0.5, 0.5), vec![1]);
     }
 }

@@ -16,7 +16,7 @@ pub struct Texel {
     /// Barycentric weights of the triangle's second and third corners (the
     /// first has `1 - b[0] - b[1]`); inside the triangle, also for texels of
     /// the dilation band (their point is the nearest point of the triangle).
-    pub bary: [f64; 2],
+    pub bary: [f32; 2],
     /// Whether the texel's centre lies inside its triangle (else it is in the
     /// dilation band).
     pub inside: bool,
@@ -32,9 +32,9 @@ impl Texel {
     /// The barycentric weights of the three corners.
     pub fn weights(&self) -> [f64; 3] {
         [
-            1.0 - self.bary[0] - self.bary[1],
-            self.bary[0],
-            self.bary[1],
+            1.0 - f64::from(self.bary[0]) - f64::from(self.bary[1]),
+            f64::from(self.bary[0]),
+            f64::from(self.bary[1]),
         ]
     }
 }
@@ -112,7 +112,7 @@ pub fn rasterize(uvs: &[[f64; 2]], triangles: &[[u32; 3]], size: u32, dilate: u3
                 if texel.tri == EMPTY {
                     *texel = Texel {
                         tri: t as u32,
-                        bary: [w1, w2],
+                        bary: [w1 as f32, w2 as f32],
                         inside: true,
                     };
                     covered += 1;
@@ -151,51 +151,77 @@ const NEIGHBOURS: [(i64, i64); 8] = [
     (1, 1),
 ];
 
-/// `rings` passes of dilation; returns the texels filled.
+/// `rings` passes of dilation; returns the texels filled. Each pass looks
+/// only at the empty neighbours of the texels the pass before filled (the
+/// first: of every filled texel), and reads the state before the pass, so
+/// the result does not depend on the order of work.
 fn grow(texels: &mut [Texel], n: usize, rings: u32, uvs: &[[f64; 2]], tris: &[[u32; 3]]) -> usize {
-    let mut filled = 0;
     let s = n as f64;
-    for _ in 0..rings {
-        let before: Vec<u32> = texels.iter().map(|t| t.tri).collect();
-        let ring: usize = texels
-            .par_chunks_mut(n)
-            .enumerate()
-            .map(|(y, row)| {
-                let mut count = 0;
-                for (x, texel) in row.iter_mut().enumerate() {
-                    if texel.tri != EMPTY {
-                        continue;
-                    }
-                    let from = NEIGHBOURS.iter().find_map(|&(dx, dy)| {
-                        let xx = (x as i64 + dx).rem_euclid(n as i64) as usize;
-                        let yy = (y as i64 + dy).rem_euclid(n as i64) as usize;
-                        Some(before[yy * n + xx]).filter(|&t| t != EMPTY)
-                    });
-                    let Some(t) = from else { continue };
-                    let [a, b, c] = tris[t as usize].map(|i| {
-                        let uv = uvs[i as usize];
-                        [uv[0] * s, uv[1] * s]
-                    });
-                    // The texel's centre in the tile of the triangle.
-                    let centroid = [(a[0] + b[0] + c[0]) / 3.0, (a[1] + b[1] + c[1]) / 3.0];
-                    let p = [
-                        x as f64 + 0.5 + ((centroid[0] - x as f64 - 0.5) / s).round() * s,
-                        y as f64 + 0.5 + ((centroid[1] - y as f64 - 0.5) / s).round() * s,
-                    ];
-                    *texel = Texel {
-                        tri: t,
-                        bary: nearest_in_triangle(p, a, b, c),
-                        inside: false,
-                    };
-                    count += 1;
-                }
-                count
-            })
-            .sum();
-        filled += ring;
-        if ring == 0 {
+    let ni = n as i64;
+    let neighbour = |k: usize, (dx, dy): (i64, i64)| {
+        let (x, y) = ((k % n) as i64, (k / n) as i64);
+        (y + dy).rem_euclid(ni) as usize * n + (x + dx).rem_euclid(ni) as usize
+    };
+    // The first ring: every empty texel next to a filled one.
+    let mut next: Vec<usize> = (0..texels.len())
+        .into_par_iter()
+        .filter(|&k| {
+            texels[k].tri == EMPTY
+                && NEIGHBOURS
+                    .iter()
+                    .any(|&d| texels[neighbour(k, d)].tri != EMPTY)
+        })
+        .collect();
+    let mut filled = 0;
+    for ring in 0..rings {
+        if ring > 0 {
+            // The empty neighbours of the ring before.
+            let front = std::mem::take(&mut next);
+            next = front
+                .par_iter()
+                .flat_map_iter(|&k| {
+                    NEIGHBOURS
+                        .iter()
+                        .map(move |&d| neighbour(k, d))
+                        .filter(|&m| texels[m].tri == EMPTY)
+                })
+                .collect();
+            next.par_sort_unstable();
+            next.dedup();
+        }
+        if next.is_empty() {
             break;
         }
+        let grown: Vec<Texel> = next
+            .par_iter()
+            .map(|&k| {
+                let t = NEIGHBOURS
+                    .iter()
+                    .map(|&d| texels[neighbour(k, d)].tri)
+                    .find(|&t| t != EMPTY)
+                    .unwrap_or(EMPTY);
+                let [a, b, c] = tris[t as usize].map(|i| {
+                    let uv = uvs[i as usize];
+                    [uv[0] * s, uv[1] * s]
+                });
+                // The texel's centre in the tile of the triangle.
+                let (x, y) = ((k % n) as f64 + 0.5, (k / n) as f64 + 0.5);
+                let centroid = [(a[0] + b[0] + c[0]) / 3.0, (a[1] + b[1] + c[1]) / 3.0];
+                let p = [
+                    x + ((centroid[0] - x) / s).round() * s,
+                    y + ((centroid[1] - y) / s).round() * s,
+                ];
+                Texel {
+                    tri: t,
+                    bary: nearest_in_triangle(p, a, b, c).map(|w| w as f32),
+                    inside: false,
+                }
+            })
+            .collect();
+        for (&k, t) in next.iter().zip(grown) {
+            texels[k] = t;
+        }
+        filled += next.len();
     }
     filled
 }
