@@ -4,36 +4,108 @@
 //! warns when a normal-mapped primitive lacks them).
 
 use crate::scene::{TriGeometry, VertexAttribute};
+use rayon::prelude::*;
 use std::collections::HashMap;
 
+/// The triangles `faces` of `geo`, as MikkTSpace sees them.
 struct Corners<'a> {
     geo: &'a TriGeometry,
+    faces: &'a [u32],
     normal: &'a VertexAttribute,
     uv: &'a VertexAttribute,
     out: Vec<[f32; 4]>,
 }
 
+impl Corners<'_> {
+    fn vertex(&self, f: usize, v: usize) -> usize {
+        self.geo.triangles[self.faces[f] as usize][v] as usize
+    }
+}
+
 impl mikktspace::Geometry for Corners<'_> {
     fn num_faces(&self) -> usize {
-        self.geo.triangles.len()
+        self.faces.len()
     }
     fn num_vertices_of_face(&self, _: usize) -> usize {
         3
     }
     fn position(&self, f: usize, v: usize) -> [f32; 3] {
-        self.geo.positions[self.geo.triangles[f][v] as usize]
+        self.geo.positions[self.vertex(f, v)]
     }
     fn normal(&self, f: usize, v: usize) -> [f32; 3] {
-        let n = self.normal.get(self.geo.triangles[f][v] as usize);
+        let n = self.normal.get(self.vertex(f, v));
         [n[0], n[1], n[2]]
     }
     fn tex_coord(&self, f: usize, v: usize) -> [f32; 2] {
-        let t = self.uv.get(self.geo.triangles[f][v] as usize);
+        let t = self.uv.get(self.vertex(f, v));
         [t[0], t[1]]
     }
     fn set_tangent_encoded(&mut self, t: [f32; 4], f: usize, v: usize) {
         self.out[f * 3 + v] = t;
     }
+}
+
+/// Triangles per MikkTSpace call at least (smaller groups are merged).
+const CHUNK_TRIANGLES: usize = 16384;
+
+/// The triangles in groups MikkTSpace handles independently: vertices it
+/// would weld (equal position, normal and UV) join their triangles, so no
+/// tangent depends on a triangle of another group. Components in order of
+/// their first triangle, triangles in index order, merged into chunks of at
+/// least [`CHUNK_TRIANGLES`].
+fn independent_groups(
+    geo: &TriGeometry,
+    normal: &VertexAttribute,
+    uv: &VertexAttribute,
+) -> Vec<Vec<u32>> {
+    // Welded vertex ids.
+    let mut id: HashMap<[u32; 8], u32> = HashMap::with_capacity(geo.positions.len());
+    let canon: Vec<u32> = (0..geo.positions.len())
+        .map(|v| {
+            let p = geo.positions[v];
+            let n = normal.get(v);
+            let t = uv.get(v);
+            let key = [p[0], p[1], p[2], n[0], n[1], n[2], t[0], t[1]].map(f32::to_bits);
+            let next = id.len() as u32;
+            *id.entry(key).or_insert(next)
+        })
+        .collect();
+    // Union-find over welded vertices, joined by the triangles.
+    let mut parent: Vec<u32> = (0..id.len() as u32).collect();
+    fn find(parent: &mut [u32], mut x: u32) -> u32 {
+        while parent[x as usize] != x {
+            parent[x as usize] = parent[parent[x as usize] as usize];
+            x = parent[x as usize];
+        }
+        x
+    }
+    for t in &geo.triangles {
+        let [a, b, c] = t.map(|v| canon[v as usize]);
+        for (u, w) in [(a, b), (b, c)] {
+            let (ru, rw) = (find(&mut parent, u), find(&mut parent, w));
+            if ru != rw {
+                parent[ru.max(rw) as usize] = ru.min(rw);
+            }
+        }
+    }
+    let mut component_of: HashMap<u32, usize> = HashMap::new();
+    let mut components: Vec<Vec<u32>> = Vec::new();
+    for (f, t) in geo.triangles.iter().enumerate() {
+        let root = find(&mut parent, canon[t[0] as usize]);
+        let k = *component_of.entry(root).or_insert_with(|| {
+            components.push(Vec::new());
+            components.len() - 1
+        });
+        components[k].push(f as u32);
+    }
+    let mut chunks: Vec<Vec<u32>> = Vec::new();
+    for c in components {
+        match chunks.last_mut() {
+            Some(last) if last.len() < CHUNK_TRIANGLES => last.extend(c),
+            _ => chunks.push(c),
+        }
+    }
+    chunks
 }
 
 /// A copy of `geo` with a `TANGENT` attribute computed by MikkTSpace from
@@ -46,17 +118,30 @@ pub fn with_generated_tangents(geo: &TriGeometry, uv_semantic: &str) -> Option<T
     }
     let normal = geo.attribute("NORMAL").filter(|a| a.components == 3)?;
     let uv = geo.attribute(uv_semantic).filter(|a| a.components == 2)?;
-    let mut c = Corners {
-        geo,
-        normal,
-        uv,
-        out: vec![[1.0, 0.0, 0.0, 1.0]; geo.triangles.len() * 3],
-    };
-    if !mikktspace::generate_tangents(&mut c) {
-        return None;
+    // MikkTSpace per independent group, in parallel; each corner's tangent
+    // is what one call over the whole mesh gives.
+    let groups = independent_groups(geo, normal, uv);
+    let results: Vec<Option<Vec<[f32; 4]>>> = groups
+        .par_iter()
+        .map(|faces| {
+            let mut c = Corners {
+                geo,
+                faces,
+                normal,
+                uv,
+                out: vec![[1.0, 0.0, 0.0, 1.0]; faces.len() * 3],
+            };
+            mikktspace::generate_tangents(&mut c).then_some(c.out)
+        })
+        .collect();
+    let mut out = vec![[1.0f32, 0.0, 0.0, 1.0]; geo.triangles.len() * 3];
+    for (faces, r) in groups.iter().zip(results) {
+        let r = r?;
+        for (k, &f) in faces.iter().enumerate() {
+            out[f as usize * 3..f as usize * 3 + 3].copy_from_slice(&r[k * 3..k * 3 + 3]);
+        }
     }
-    let tangents: Vec<f32> = c
-        .out
+    let tangents: Vec<f32> = out
         .iter()
         .enumerate()
         .flat_map(|(corner, &t)| {
@@ -77,7 +162,7 @@ pub fn with_generated_tangents(geo: &TriGeometry, uv_semantic: &str) -> Option<T
 }
 
 /// A copy of `geo` with one more attribute, `semantic`, given per triangle
-/// corner (`components` values a corner, corners in triangle order).
+/// corner (`components` values a corner, 1 to 4, corners in triangle order).
 /// Vertices whose corners get different values are split; a vertex keeps
 /// its other attributes and morph-target values. An attribute of that name
 /// already present is replaced.
@@ -112,14 +197,18 @@ pub fn with_corner_attribute(
         components,
         data: Vec::new(),
     };
-    // One output vertex per (input vertex, value bits).
-    let mut map: HashMap<(u32, Vec<u32>), u32> = HashMap::new();
+    // One output vertex per (input vertex, value bits); at most 4 values.
+    let mut map: HashMap<(u32, [u32; 4]), u32> = HashMap::with_capacity(geo.positions.len());
     for (f, tri) in geo.triangles.iter().enumerate() {
         let mut new_tri = [0u32; 3];
         for k in 0..3 {
             let v = tri[k];
             let value = &corners[(f * 3 + k) * components..(f * 3 + k + 1) * components];
-            let key = (v, value.iter().map(|x| x.to_bits()).collect());
+            let mut bits = [0u32; 4];
+            for (b, x) in bits.iter_mut().zip(value) {
+                *b = x.to_bits();
+            }
+            let key = (v, bits);
             let next = out.positions.len() as u32;
             new_tri[k] = *map.entry(key).or_insert_with(|| {
                 out.positions.push(geo.positions[v as usize]);

@@ -16,9 +16,11 @@ use std::collections::BTreeMap;
 /// set counts as overlapping (mirrored, stacked or tiled islands).
 const MAX_OVERLAP: f64 = 0.01;
 
-/// Gutter between automatic atlas charts, in texels at 2048 (scaled with
-/// the map size, at least 2).
-const ATLAS_PADDING_2048: u32 = 8;
+/// Texels kept free around each automatic atlas chart at 2048 (scaled with
+/// the map size, at least 1): charts are 4 texels apart, enough for
+/// bilinear filtering; the dilation fills the gutters from the nearest
+/// chart.
+const ATLAS_PADDING_2048: u32 = 2;
 
 /// Bake crack maps for mesh `mesh_index` of `scene` (its cracked
 /// primitives; `segments` in the mesh's frame, `times` their formation
@@ -110,8 +112,9 @@ fn bake_group(
     } else if post.bake_atlas == "always" {
         why_atlas = Some("bake_atlas = \"always\"".to_string());
     } else {
+        // The overlap is a share of texels: 1024 texels across measure it.
         let (uvs, tris) = gather_uvs(scene, mesh_index, prims, asked);
-        let r = bake::rasterize(&uvs, &tris, size, 0);
+        let r = bake::rasterize(&uvs, &tris, size.min(1024), 0);
         if r.overlap_fraction() > MAX_OVERLAP {
             why_atlas = Some(format!(
                 "{} overlaps itself on {:.1}% of its texels (mirrored, stacked or tiled islands)",
@@ -163,7 +166,7 @@ fn bake_group(
             set_geometry(scene, mesh_index, p, geo);
         }
         let (positions, tris) = gather_positions(scene, mesh_index, prims);
-        let padding = (ATLAS_PADDING_2048 * size / 2048).max(2);
+        let padding = (ATLAS_PADDING_2048 * size / 2048).max(1);
         let a = atlas::atlas(&positions, &tris, size, padding).map_err(|e| e.to_string())?;
         let mut corner = 0;
         for &p in prims {
@@ -312,10 +315,21 @@ fn bake_group(
         "occlusionTexture".into(),
         json!({"index": tex_occl, "texCoord": set}),
     );
+    // The asset's own UVs, moved aside for the atlas, stay only while one
+    // of the variant's textures still reads them (no unused attribute).
+    let own_uvs_used = moved != 0 && reads_texcoord(&m, moved);
     scene.materials.push(Material { json: m });
     let variant = scene.materials.len() - 1;
     for &p in prims {
         scene.meshes[mesh_index].primitives[p].material = Some(variant);
+        if moved != 0 && !own_uvs_used {
+            let mut geo = tri_geometry(scene, mesh_index, p).clone();
+            geo.attributes.retain(|a| a.semantic != set_name(moved));
+            set_geometry(scene, mesh_index, p, geo);
+        }
+    }
+    if let Value::Object(a) = &mut atlas_report {
+        a.insert("own_texcoord_0_kept".into(), json!(own_uvs_used));
     }
     Ok(json!({
         "material": base_name,
@@ -413,6 +427,26 @@ fn retarget_texcoord_0(json: &mut Map<String, Value>, to: u32) {
             retarget_texcoord_0(obj, to);
         }
     }
+}
+
+/// Whether a textureInfo of the material (core or extension) reads
+/// `TEXCOORD_{set}`.
+fn reads_texcoord(json: &Map<String, Value>, set: u32) -> bool {
+    json.iter().any(|(key, value)| {
+        let Value::Object(obj) = value else {
+            return false;
+        };
+        if key.ends_with("Texture") && obj.contains_key("index") {
+            let over = obj
+                .get("extensions")
+                .and_then(|e| e.pointer("/KHR_texture_transform/texCoord"))
+                .and_then(Value::as_u64);
+            let tc = over.or_else(|| obj.get("texCoord").and_then(Value::as_u64));
+            tc.unwrap_or(0) == u64::from(set)
+        } else {
+            reads_texcoord(obj, set)
+        }
+    })
 }
 
 /// An image of PNG `bytes` and a texture showing it; the texture's index.
