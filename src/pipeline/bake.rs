@@ -227,7 +227,7 @@ fn bake_group(
     );
     let raster = bake::rasterize(surface.uvs, surface.triangles, size, dilate);
     log::debug!("bake: raster done at {:.3} s", t0.elapsed().as_secs_f64());
-    let diagonal = diagonal(&arrays.positions);
+    let diagonal = super::post::diagonal(&arrays.positions);
     let width = if post.bake_width > 0.0 {
         post.bake_width
     } else {
@@ -560,22 +560,5 @@ impl Arrays {
             uvs,
             triangles,
         }
-    }
-}
-
-/// The bounding-box diagonal of `points`.
-fn diagonal(points: &[[f64; 3]]) -> f64 {
-    let mut lo = [f64::INFINITY; 3];
-    let mut hi = [f64::NEG_INFINITY; 3];
-    for p in points {
-        for k in 0..3 {
-            lo[k] = lo[k].min(p[k]);
-            hi[k] = hi[k].max(p[k]);
-        }
-    }
-    if points.is_empty() {
-        0.0
-    } else {
-        v3::norm(v3::sub(hi, lo))
     }
 }

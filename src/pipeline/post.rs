@@ -275,7 +275,7 @@ fn follow_gaps(
 }
 
 /// The bounding-box diagonal of `points`.
-fn diagonal(points: &[[f64; 3]]) -> f64 {
+pub(super) fn diagonal(points: &[[f64; 3]]) -> f64 {
     let mut lo = [f64::INFINITY; 3];
     let mut hi = [f64::NEG_INFINITY; 3];
     for p in points {
