@@ -75,118 +75,25 @@ fn bake_group(
 ) -> Result<Value, String> {
     let size = post.bake_size;
     let dilate = post.bake_dilate;
-    let mat_json = material
+    let mut mat_json = material
         .and_then(|m| scene.materials.get(m))
         .map(|m| m.json.clone())
         .unwrap_or_default();
-    // Flat normals where a primitive has none (what a viewer would draw),
-    // so tangents can be made.
-    for &p in prims {
-        let geo = tri_geometry(scene, mesh_index, p);
-        if geo.attribute("NORMAL").is_none() {
-            let corners: Vec<f32> = geo
-                .triangles
-                .iter()
-                .flat_map(|t| {
-                    let [a, b, c] = t.map(|i| geo.positions[i as usize].map(f64::from));
-                    let n = v3::unit(v3::cross(v3::sub(b, a), v3::sub(c, a)))
-                        .unwrap_or([0.0, 0.0, 1.0]);
-                    [n; 3].into_iter().flatten().map(|x| x as f32)
-                })
-                .collect();
-            let with = with_corner_attribute(geo, "NORMAL", 3, &corners);
-            set_geometry(scene, mesh_index, p, with);
-        }
-    }
+    add_flat_normals(scene, mesh_index, prims);
     let t0 = std::time::Instant::now();
-    // The UV set: the one asked for, unless missing or overlapping.
-    let asked = post.bake_texcoord;
-    let has_set = prims.iter().all(|&p| {
-        tri_geometry(scene, mesh_index, p)
-            .attribute(&set_name(asked))
-            .is_some()
-    });
-    let mut why_atlas = None;
-    if !has_set {
-        why_atlas = Some(format!("the mesh has no {}", set_name(asked)));
-    } else if post.bake_atlas == "always" {
-        why_atlas = Some("bake_atlas = \"always\"".to_string());
-    } else {
-        // The overlap is a share of texels: 1024 texels across measure it.
-        let (uvs, tris) = gather_uvs(scene, mesh_index, prims, asked);
-        let r = bake::rasterize(&uvs, &tris, size.min(1024), 0);
-        if r.overlap_fraction() > MAX_OVERLAP {
-            why_atlas = Some(format!(
-                "{} overlaps itself on {:.1}% of its texels (mirrored, stacked or tiled islands)",
-                set_name(asked),
-                100.0 * r.overlap_fraction()
-            ));
+    // The UV set: the one asked for, unless missing or overlapping; then
+    // an atlas in TEXCOORD_0, the asset's own TEXCOORD_0 moved to `moved`.
+    let (set, moved, mut atlas_report) = match why_atlas(scene, mesh_index, prims, post) {
+        None => (post.bake_texcoord, 0, Value::Null),
+        Some(why) => {
+            let (moved, report) = make_atlas(scene, mesh_index, prims, post, &why)?;
+            (0, moved, report)
         }
-    }
-    let mut set = asked;
-    // Where the primitives' own TEXCOORD_0 went (itself without an atlas).
-    let mut moved = 0u32;
-    let mut atlas_report = Value::Null;
-    if let Some(why) = &why_atlas {
-        if post.bake_atlas == "never" {
-            return Err(format!(
-                "cannot bake crack maps: {why}, and post.bake_atlas = \"never\" (give the mesh UVs or allow an automatic atlas)"
-            ));
-        }
-        // The atlas becomes TEXCOORD_0 (viewers that show one UV set, as
-        // Blender's solid view, show the maps) and the primitives' own
-        // TEXCOORD_0 moves to the first free set; the variant's textures
-        // are pointed there below.
-        set = 0;
-        let has_0 = prims.iter().any(|&p| {
-            tri_geometry(scene, mesh_index, p)
-                .attribute(&set_name(0))
-                .is_some()
-        });
-        moved = if !has_0 {
-            0
-        } else {
-            (1..8u32)
-                .find(|k| {
-                    prims.iter().all(|&p| {
-                        tri_geometry(scene, mesh_index, p)
-                            .attribute(&set_name(*k))
-                            .is_none()
-                    })
-                })
-                .ok_or("every TEXCOORD_0..7 set is taken; no room for an automatic atlas")?
-        };
-        for &p in prims {
-            let mut geo = tri_geometry(scene, mesh_index, p).clone();
-            for a in &mut geo.attributes {
-                if a.semantic == set_name(0) {
-                    a.semantic = set_name(moved);
-                }
-            }
-            set_geometry(scene, mesh_index, p, geo);
-        }
-        let (positions, tris) = gather_positions(scene, mesh_index, prims);
-        let padding = (ATLAS_PADDING_2048 * size / 2048).max(1);
-        let a = atlas::atlas(&positions, &tris, size, padding).map_err(|e| e.to_string())?;
-        let mut corner = 0;
-        for &p in prims {
-            let geo = tri_geometry(scene, mesh_index, p);
-            let n = geo.triangles.len() * 3;
-            let values: Vec<f32> = a.uvs[corner..corner + n]
-                .iter()
-                .flat_map(|uv| uv.map(|x| x as f32))
-                .collect();
-            corner += n;
-            let with = with_corner_attribute(geo, &set_name(set), 2, &values);
-            set_geometry(scene, mesh_index, p, with);
-        }
-        atlas_report = json!({"reason": why, "charts": a.charts, "texels_per_unit": a.density, "texcoord": set, "own_texcoord_0_moved_to": moved});
-    }
+    };
     log::debug!(
         "bake: uvset+atlas done at {:.3} s",
         t0.elapsed().as_secs_f64()
     );
-    let mut mat_json = mat_json;
     if moved != 0 {
         retarget_texcoord_0(&mut mat_json, moved);
     }
@@ -227,7 +134,7 @@ fn bake_group(
     );
     let raster = bake::rasterize(surface.uvs, surface.triangles, size, dilate);
     log::debug!("bake: raster done at {:.3} s", t0.elapsed().as_secs_f64());
-    let diagonal = super::post::diagonal(&arrays.positions);
+    let diagonal = super::Bounds::of(arrays.positions.iter().copied()).diagonal();
     let width = if post.bake_width > 0.0 {
         post.bake_width
     } else {
@@ -343,6 +250,119 @@ fn bake_group(
         "crack_texels": maps.crack_texels,
         "png_bytes": bytes,
     }))
+}
+
+/// Flat normals where a primitive has none (what a viewer would draw), so
+/// tangents can be made.
+fn add_flat_normals(scene: &mut Scene, mesh_index: usize, prims: &[usize]) {
+    for &p in prims {
+        let geo = tri_geometry(scene, mesh_index, p);
+        if geo.attribute("NORMAL").is_none() {
+            let corners: Vec<f32> = geo
+                .triangles
+                .iter()
+                .flat_map(|t| {
+                    let [a, b, c] = t.map(|i| geo.positions[i as usize].map(f64::from));
+                    let n = v3::unit(v3::cross(v3::sub(b, a), v3::sub(c, a)))
+                        .unwrap_or([0.0, 0.0, 1.0]);
+                    [n; 3].into_iter().flatten().map(|x| x as f32)
+                })
+                .collect();
+            let with = with_corner_attribute(geo, "NORMAL", 3, &corners);
+            set_geometry(scene, mesh_index, p, with);
+        }
+    }
+}
+
+/// Why the asked UV set cannot take the maps (missing, overlapping, or an
+/// atlas always asked for); `None` when it can.
+fn why_atlas(scene: &Scene, mesh_index: usize, prims: &[usize], post: &Post) -> Option<String> {
+    let asked = post.bake_texcoord;
+    let has_set = prims.iter().all(|&p| {
+        tri_geometry(scene, mesh_index, p)
+            .attribute(&set_name(asked))
+            .is_some()
+    });
+    if !has_set {
+        return Some(format!("the mesh has no {}", set_name(asked)));
+    }
+    if post.bake_atlas == "always" {
+        return Some("bake_atlas = \"always\"".to_string());
+    }
+    // The overlap is a share of texels: 1024 texels across measure it.
+    let (uvs, tris) = gather_uvs(scene, mesh_index, prims, asked);
+    let r = bake::rasterize(&uvs, &tris, post.bake_size.min(1024), 0);
+    (r.overlap_fraction() > MAX_OVERLAP).then(|| {
+        format!(
+            "{} overlaps itself on {:.1}% of its texels (mirrored, stacked or tiled islands)",
+            set_name(asked),
+            100.0 * r.overlap_fraction()
+        )
+    })
+}
+
+/// An automatic atlas in TEXCOORD_0 of the primitives (viewers that show one
+/// UV set, as Blender's solid view, show the maps); their own TEXCOORD_0
+/// moves to the first free set, returned (0 when they had none) with the
+/// report's `atlas` entry.
+///
+/// # Errors
+/// `bake_atlas = "never"`, no free UV set, or an atlas that does not fit.
+fn make_atlas(
+    scene: &mut Scene,
+    mesh_index: usize,
+    prims: &[usize],
+    post: &Post,
+    why: &str,
+) -> Result<(u32, Value), String> {
+    if post.bake_atlas == "never" {
+        return Err(format!(
+            "cannot bake crack maps: {why}, and post.bake_atlas = \"never\" (give the mesh UVs or allow an automatic atlas)"
+        ));
+    }
+    let any_has = |scene: &Scene, k: u32| {
+        prims.iter().any(|&p| {
+            tri_geometry(scene, mesh_index, p)
+                .attribute(&set_name(k))
+                .is_some()
+        })
+    };
+    let moved = if !any_has(scene, 0) {
+        0
+    } else {
+        (1..8u32)
+            .find(|&k| !any_has(scene, k))
+            .ok_or("every TEXCOORD_0..7 set is taken; no room for an automatic atlas")?
+    };
+    if moved != 0 {
+        for &p in prims {
+            let mut geo = tri_geometry(scene, mesh_index, p).clone();
+            for a in &mut geo.attributes {
+                if a.semantic == set_name(0) {
+                    a.semantic = set_name(moved);
+                }
+            }
+            set_geometry(scene, mesh_index, p, geo);
+        }
+    }
+    let size = post.bake_size;
+    let (positions, tris) = gather_positions(scene, mesh_index, prims);
+    let padding = (ATLAS_PADDING_2048 * size / 2048).max(1);
+    let a = atlas::atlas(&positions, &tris, size, padding).map_err(|e| e.to_string())?;
+    let mut corner = 0;
+    for &p in prims {
+        let geo = tri_geometry(scene, mesh_index, p);
+        let n = geo.triangles.len() * 3;
+        let values: Vec<f32> = a.uvs[corner..corner + n]
+            .iter()
+            .flat_map(|uv| uv.map(|x| x as f32))
+            .collect();
+        corner += n;
+        let with = with_corner_attribute(geo, &set_name(0), 2, &values);
+        set_geometry(scene, mesh_index, p, with);
+    }
+    let report = json!({"reason": why, "charts": a.charts, "texels_per_unit": a.density, "texcoord": 0, "own_texcoord_0_moved_to": moved});
+    Ok((moved, report))
 }
 
 /// The material's base colour, normal and occlusion textures, decoded.
@@ -533,24 +553,24 @@ impl Arrays {
         for &p in prims {
             let geo = tri_geometry(scene, mesh, p);
             let n = geo.positions.len();
-            let get = |sem: &str, i: usize, k: usize, default: f64| {
-                geo.attribute(sem)
-                    .filter(|a| a.components > k)
-                    .map_or(default, |a| f64::from(a.get(i)[k]))
-            };
-            for i in 0..n {
-                normals.push(std::array::from_fn(|k| {
-                    get("NORMAL", i, k, [0.0, 0.0, 1.0][k])
-                }));
-                tangents.push(std::array::from_fn(|k| {
-                    get("TANGENT", i, k, [0.0, 0.0, 0.0, 1.0][k])
-                }));
-            }
-            for &s in sets {
-                let out = uvs.entry(s).or_default();
-                for i in 0..n {
-                    out.push([get(&set_name(s), i, 0, 0.0), get(&set_name(s), i, 1, 0.0)]);
+            // One attribute's component `k` of every vertex (`default` without it).
+            let column = |sem: &str, k: usize, default: f64| -> Vec<f64> {
+                match geo.attribute(sem).filter(|a| a.components > k) {
+                    Some(a) => (0..n).map(|i| f64::from(a.get(i)[k])).collect(),
+                    None => vec![default; n],
                 }
+            };
+            let nrm: [Vec<f64>; 3] =
+                std::array::from_fn(|k| column("NORMAL", k, [0.0, 0.0, 1.0][k]));
+            let tan: [Vec<f64>; 4] =
+                std::array::from_fn(|k| column("TANGENT", k, [0.0, 0.0, 0.0, 1.0][k]));
+            normals.extend((0..n).map(|i| std::array::from_fn(|k| nrm[k][i])));
+            tangents.extend((0..n).map(|i| std::array::from_fn(|k| tan[k][i])));
+            for &s in sets {
+                let (u, v) = (column(&set_name(s), 0, 0.0), column(&set_name(s), 1, 0.0));
+                uvs.entry(s)
+                    .or_default()
+                    .extend((0..n).map(|i| [u[i], v[i]]));
             }
         }
         Arrays {

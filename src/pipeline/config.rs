@@ -241,7 +241,8 @@ impl Bounds {
         std::array::from_fn(|k| self.min[k] + f[k] * (self.max[k] - self.min[k]))
     }
 
-    fn diagonal(&self) -> f64 {
+    /// Length of the box's diagonal.
+    pub fn diagonal(&self) -> f64 {
         (0..3)
             .map(|k| (self.max[k] - self.min[k]).powi(2))
             .sum::<f64>()

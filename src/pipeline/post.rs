@@ -52,7 +52,9 @@ pub fn apply(
         // Grooves: a width from the cell size (or, for models without one,
         // the bounding-box diagonal).
         let groove_width = if post.grooves() {
-            let cell = r.cell_size.unwrap_or_else(|| diagonal(e.sim.positions()));
+            let cell = r
+                .cell_size
+                .unwrap_or_else(|| super::Bounds::of(e.sim.positions().iter().copied()).diagonal());
             post.groove_width(cell)
         } else {
             0.0
@@ -272,23 +274,6 @@ fn follow_gaps(
         None => p,
     };
     segments.iter().map(|s| s.map(moved)).collect()
-}
-
-/// The bounding-box diagonal of `points`.
-pub(super) fn diagonal(points: &[[f64; 3]]) -> f64 {
-    let mut lo = [f64::INFINITY; 3];
-    let mut hi = [f64::NEG_INFINITY; 3];
-    for p in points {
-        for k in 0..3 {
-            lo[k] = lo[k].min(p[k]);
-            hi[k] = hi[k].max(p[k]);
-        }
-    }
-    if points.is_empty() {
-        0.0
-    } else {
-        crate::math::v3::norm(crate::math::v3::sub(hi, lo))
-    }
 }
 
 /// Index of the material named `name`, added with `json` when missing.

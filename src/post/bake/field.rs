@@ -206,7 +206,7 @@ impl Frame {
     /// The crack that covers the texel most (ties: the nearer, then the
     /// lower index), with its groove's tilt.
     fn view(&self, cracks: &Cracks, candidates: &[u32], profile: &Profile, f: f64) -> CrackTexel {
-        let mut best: Option<(f64, f64, f64, [f64; 3], f64)> = None; // (cover, dist, shadow, dir, hw)
+        let mut best: Option<(f64, f64, [f64; 3], f64)> = None; // (cover, dist, dir, hw)
         let mut shadow = 0.0f64;
         for &s in candidates {
             let [a, b] = cracks.segments[s as usize];
@@ -233,10 +233,10 @@ impl Frame {
                 Some((c, dist, ..)) => cover > c || (cover == c && d < dist),
             };
             if better {
-                best = Some((cover, d, 0.0, d_vec, hw));
+                best = Some((cover, d, d_vec, hw));
             }
         }
-        let Some((cover, d, _, d_vec, hw)) = best else {
+        let Some((cover, d, d_vec, hw)) = best else {
             return CrackTexel {
                 shadow: shadow as f32,
                 ..CrackTexel::NONE

@@ -29,6 +29,11 @@ impl Texel {
         inside: false,
     };
 
+    /// Whether the centre lies strictly inside the triangle.
+    fn bary_interior(&self) -> bool {
+        self.weights().iter().all(|&w| w > 1e-6)
+    }
+
     /// The barycentric weights of the three corners.
     pub fn weights(&self) -> [f64; 3] {
         [
@@ -130,12 +135,6 @@ pub fn rasterize(uvs: &[[f64; 2]], triangles: &[[u32; 3]], size: u32, dilate: u3
         covered,
         overlapping,
         dilated,
-    }
-}
-
-impl Texel {
-    fn bary_interior(&self) -> bool {
-        self.weights().iter().all(|&w| w > 1e-6)
     }
 }
 
