@@ -545,7 +545,11 @@ struct Arrays {
 }
 
 impl Arrays {
+    /// `sets`: the UV sets wanted, each gathered once however often named.
     fn gather(scene: &Scene, mesh: usize, prims: &[usize], sets: &[u32]) -> Arrays {
+        let mut sets = sets.to_vec();
+        sets.sort_unstable();
+        sets.dedup();
         let (positions, triangles) = gather_positions(scene, mesh, prims);
         let mut normals = Vec::with_capacity(positions.len());
         let mut tangents = Vec::with_capacity(positions.len());
@@ -566,7 +570,7 @@ impl Arrays {
                 std::array::from_fn(|k| column("TANGENT", k, [0.0, 0.0, 0.0, 1.0][k]));
             normals.extend((0..n).map(|i| std::array::from_fn(|k| nrm[k][i])));
             tangents.extend((0..n).map(|i| std::array::from_fn(|k| tan[k][i])));
-            for &s in sets {
+            for &s in &sets {
                 let (u, v) = (column(&set_name(s), 0, 0.0), column(&set_name(s), 1, 0.0));
                 uvs.entry(s)
                     .or_default()
@@ -580,5 +584,47 @@ impl Arrays {
             uvs,
             triangles,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::{Mesh, Primitive, VertexAttribute};
+
+    /// A triangle primitive with material 0 and UVs.
+    fn prim(z: f32) -> Primitive {
+        Primitive {
+            material: Some(0),
+            geometry: Geometry::Triangles(TriGeometry {
+                positions: vec![[0.0, 0.0, z], [1.0, 0.0, z], [0.0, 1.0, z]],
+                attributes: vec![VertexAttribute {
+                    semantic: "TEXCOORD_0".into(),
+                    components: 2,
+                    data: vec![0.0, 0.0, z, 0.0, 0.0, z],
+                }],
+                triangles: vec![[0, 1, 2]],
+                ..Default::default()
+            }),
+            rest: Map::new(),
+        }
+    }
+
+    #[test]
+    fn a_set_named_twice_is_gathered_once_per_vertex() {
+        // The baked set and the base colour texture's set are the same:
+        // the second primitive's UVs must still line up with its vertices.
+        let scene = Scene {
+            meshes: vec![Mesh {
+                primitives: vec![prim(0.25), prim(0.75)],
+                ..Default::default()
+            }],
+            ..Default::default()
+        };
+        let a = Arrays::gather(&scene, 0, &[0, 1], &[0, 0]);
+        let uv = &a.uvs[&0];
+        assert_eq!(uv.len(), a.positions.len());
+        assert_eq!(uv[4], [0.75, 0.0]);
+        assert_eq!(a.triangles[1], [3, 4, 5]);
     }
 }
