@@ -12,8 +12,8 @@
 # ENGINE: WORKBENCH (default: solid view with textures, base colour only) or
 # EEVEE (material preview: normal and occlusion maps shade too).
 # PREFIX names the two renders (PREFIX-input.png, PREFIX-output.png) and the
-# picture of the difference (PREFIX-diff.png: changed pixels red, crack
-# lines blue).
+# picture of the difference (PREFIX-diff.png: changed pixels near crack
+# lines red, changed pixels away from them yellow, crack lines blue).
 import json, math, sys
 
 import numpy
@@ -175,7 +175,8 @@ frac_near = float((changed & near).sum()) / max(n_changed, 1)
 # The difference as a picture: changed pixels red, crack lines blue.
 diff = numpy.ones((H, W, 4), dtype=numpy.float32)
 diff[..., :3] = 0.5 * b
-diff[changed] = [1.0, 0.1, 0.1, 1.0]
+diff[changed & near] = [1.0, 0.1, 0.1, 1.0]
+diff[changed & ~near] = [1.0, 0.9, 0.0, 1.0]
 diff[lines & ~changed] = [0.1, 0.2, 1.0, 1.0]
 img = bpy.data.images.new("diff", W, H)
 img.pixels[:] = diff[::-1].ravel()

@@ -7,7 +7,8 @@
 // crack lines (projected; hidden parts removed with a depth pass).
 //   node scripts/web_check.mjs REFERENCE.glb OUTPUT.glb PREFIX [REF2 OUT2 PREFIX2 ...]
 // Writes PREFIX-web.png (the output's render) and PREFIX-web-diff.png
-// (changed pixels red, visible crack lines blue); prints one WEB_CHECK JSON line
+// (changed pixels near crack lines red, away from them yellow, visible
+// crack lines blue); prints one WEB_CHECK JSON line
 // per pair; exits 1 when a check fails. Needs tools/web (scripts/web_check.sh
 // installs three and puppeteer-core there) and Chromium (apt: chromium).
 import http from "node:http";
@@ -129,7 +130,8 @@ try {
     if (mask[y * W + x]) linePx++;
     if (diff > THRESHOLD) { changed++; if (near[y * W + x]) close++; }
   }
-  // The difference as a picture: changed pixels red, crack lines blue.
+  // The difference as a picture: changed pixels near crack lines red,
+  // changed pixels away from them yellow, crack lines blue.
   const canvas = document.createElement("canvas");
   canvas.width = W;
   canvas.height = H;
@@ -138,7 +140,7 @@ try {
   for (let y = 0; y < H; y++) for (let x = 0; x < W; x++) {
     const k = 4 * ((H - 1 - y) * W + x), o = 4 * (y * W + x);
     const diff = Math.max(Math.abs(pa[k] - pb[k]), Math.abs(pa[k + 1] - pb[k + 1]), Math.abs(pa[k + 2] - pb[k + 2]));
-    const px = diff > THRESHOLD ? [255, 25, 25] : mask[y * W + x] ? [25, 50, 255] : [pb[k] >> 1, pb[k + 1] >> 1, pb[k + 2] >> 1];
+    const px = diff > THRESHOLD ? (near[y * W + x] ? [255, 25, 25] : [255, 230, 0]) : mask[y * W + x] ? [25, 50, 255] : [pb[k] >> 1, pb[k + 1] >> 1, pb[k + 2] >> 1];
     img.data.set([...px, 255], o);
   }
   g2.putImageData(img, 0, 0);

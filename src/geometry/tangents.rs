@@ -109,7 +109,9 @@ fn independent_groups(
 }
 
 /// A copy of `geo` with a `TANGENT` attribute computed by MikkTSpace from
-/// `NORMAL` and the UV set `uv_semantic`. Vertices whose corners get different
+/// `NORMAL` and the UV set `uv_semantic`, in glTF's convention: the
+/// bitangent `cross(normal, tangent) * w` points up the texture image
+/// (towards smaller v), where a normal map's green channel points. Vertices whose corners get different
 /// tangents are split. Returns `None` when the geometry lacks normals or that
 /// UV set, already has tangents, or the tangents cannot be computed.
 pub fn with_generated_tangents(geo: &TriGeometry, uv_semantic: &str) -> Option<TriGeometry> {
@@ -154,7 +156,9 @@ pub fn with_generated_tangents(geo: &TriGeometry, uv_semantic: &str) -> Option<T
             } else {
                 t = orthogonal(normal.get(geo.triangles[corner / 3][corner % 3] as usize));
             }
-            t[3] = if t[3] < 0.0 { -1.0 } else { 1.0 };
+            // glTF's UVs run down the image while MikkTSpace takes v up:
+            // the bitangent's sign flips (as three.js' `negateSign`).
+            t[3] = if t[3] < 0.0 { 1.0 } else { -1.0 };
             t
         })
         .collect();
@@ -251,7 +255,8 @@ mod tests {
 
     #[test]
     fn quad_gets_u_aligned_tangents() {
-        // A quad in the XY plane, normal +Z, u along +X.
+        // A quad in the XY plane, normal +Z, u along +X, the image upright
+        // (v runs down it, along -Y).
         let geo = TriGeometry {
             positions: vec![
                 [0.0, 0.0, 0.0],
@@ -283,7 +288,9 @@ mod tests {
                 (x[0] - 1.0).abs() < 1e-5 && x[1].abs() < 1e-5 && x[2].abs() < 1e-5,
                 "{x:?}"
             );
-            assert!(x[3] == 1.0 || x[3] == -1.0);
+            // The bitangent cross(N, T) * w = +Y: up the image, where
+            // glTF's normal maps point green.
+            assert_eq!(x[3], 1.0, "{x:?}");
         }
         assert!(
             with_generated_tangents(&out, "TEXCOORD_0").is_none(),

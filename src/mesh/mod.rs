@@ -21,6 +21,7 @@ pub mod error;
 pub mod halfedge;
 pub mod ids;
 pub mod remesh;
+mod sizing;
 pub(crate) mod spatial;
 pub mod validate;
 mod weld;

@@ -45,6 +45,16 @@ pub struct RemeshOptions {
     /// Also remesh surfaces whose mean edge is already below the target
     /// (coarsening them). Default false: such a surface is left as it is.
     pub coarsen: bool,
+    /// How far an edge may stray from a curved input surface, as a
+    /// fraction of `target_edge`: where the input bends tighter than the
+    /// target edge can follow (a knob, a hose, a bevel), edges shorten to
+    /// `sqrt(6 e r)` for a radius of curvature `r` and error `e` (Botsch &
+    /// Kobbelt's adaptive sizing), down to `min_edge_fraction` of the
+    /// target. Default 0.02; 0 keeps the edge length uniform.
+    pub chord_error: f64,
+    /// The shortest edge the curvature may ask for, as a fraction of
+    /// `target_edge`. Default 0.25.
+    pub min_edge_fraction: f64,
 }
 
 impl Default for RemeshOptions {
@@ -54,6 +64,8 @@ impl Default for RemeshOptions {
             iterations: 5,
             crease_angle_deg: 40.0,
             coarsen: false,
+            chord_error: 0.02,
+            min_edge_fraction: 0.25,
         }
     }
 }
@@ -117,17 +129,17 @@ pub fn remesh(
     }
     let input = Input::new(mesh, options.crease_angle_deg);
     report.feature_edges = input.n_features;
-    let mut w = Work::from_input(mesh, &input);
-    let (hi, lo) = (4.0 / 3.0 * target, 4.0 / 5.0 * target);
+    let sizes = input.edge_sizes(options);
+    let mut w = Work::from_input(mesh, &input, sizes);
     // Refine first: a coarse input needs several rounds of splits.
     for _ in 0..64 {
-        if w.split_long(hi) == 0 {
+        if w.split_long() == 0 {
             break;
         }
     }
     for _ in 0..options.iterations {
-        w.split_long(hi);
-        w.collapse_short(lo, hi);
+        w.split_long();
+        w.collapse_short();
         w.flip_to_valence();
         w.smooth(&input);
     }
@@ -252,6 +264,18 @@ impl Input {
         }
     }
 
+    /// The edge length each input vertex asks for ([`super::sizing`]).
+    fn edge_sizes(&self, options: &RemeshOptions) -> Vec<f64> {
+        super::sizing::edge_sizes(
+            &self.pos,
+            &self.faces,
+            &self.features,
+            options.target_edge,
+            options.chord_error * options.target_edge,
+            options.min_edge_fraction * options.target_edge,
+        )
+    }
+
     /// The closest point of the input faces of `chart` (any chart when
     /// `None`) to `p`: (face, barycentric coordinates, point).
     fn closest_face(&self, p: [f64; 3], chart: Option<u32>) -> Option<(u32, [f64; 3], [f64; 3])> {
@@ -311,10 +335,12 @@ struct Work {
     /// Vertices that never move (feature corners and ends).
     corner: Vec<bool>,
     dead_vertex: Vec<bool>,
+    /// The edge length each vertex asks for.
+    size: Vec<f64>,
 }
 
 impl Work {
-    fn from_input(mesh: &SimMesh, input: &Input) -> Work {
+    fn from_input(mesh: &SimMesh, input: &Input, size: Vec<f64>) -> Work {
         let n = mesh.n_vertices();
         let mut vf = vec![Vec::new(); n];
         for (f, t) in input.faces.iter().enumerate() {
@@ -332,6 +358,7 @@ impl Work {
             nfeat: vec![0; n],
             corner: vec![false; n],
             dead_vertex: vec![false; n],
+            size,
         };
         for &(a, b) in &input.feature_list {
             w.nfeat[a as usize] = w.nfeat[a as usize].saturating_add(1);
@@ -391,16 +418,27 @@ impl Work {
         dist2(self.pos[a as usize], self.pos[b as usize]).sqrt()
     }
 
+    /// The length edge `a b` should have (the mean of its ends' sizes).
+    fn target(&self, a: u32, b: u32) -> f64 {
+        0.5 * (self.size[a as usize] + self.size[b as usize])
+    }
+
+    /// Longer than this, edge `a b` is split.
+    fn hi(&self, a: u32, b: u32) -> f64 {
+        4.0 / 3.0 * self.target(a, b)
+    }
+
     fn is_feature(&self, a: u32, b: u32) -> bool {
         self.features.contains(&key(a, b))
     }
 
-    /// Split every edge longer than `hi` at its midpoint; returns how many.
-    fn split_long(&mut self, hi: f64) -> usize {
+    /// Split every edge longer than 4/3 of its target at its midpoint;
+    /// returns how many.
+    fn split_long(&mut self) -> usize {
         let mut long: Vec<(u32, u32)> = self
             .edges()
             .into_iter()
-            .filter(|&(a, b)| self.len(a, b) > hi)
+            .filter(|&(a, b)| self.len(a, b) > self.hi(a, b))
             .collect();
         // Longest first, ties by id: a fixed order.
         long.sort_by(|x, y| {
@@ -411,7 +449,7 @@ impl Work {
         let mut n = 0;
         for (a, b) in long {
             let fs = self.edge_faces(a, b);
-            if fs.is_empty() || self.len(a, b) <= hi {
+            if fs.is_empty() || self.len(a, b) <= self.hi(a, b) {
                 continue;
             }
             self.split(a, b, &fs);
@@ -424,6 +462,7 @@ impl Work {
         let m = self.pos.len() as u32;
         let (pa, pb) = (self.pos[a as usize], self.pos[b as usize]);
         self.pos.push([0, 1, 2].map(|k| 0.5 * (pa[k] + pb[k])));
+        self.size.push(self.target(a, b));
         self.vf.push(Vec::new());
         let feature = self.features.remove(&key(a, b));
         self.nfeat.push(if feature { 2 } else { 0 });
@@ -474,18 +513,20 @@ impl Work {
     }
 
     /// Collapse edges shorter than `lo` where the rules allow.
-    fn collapse_short(&mut self, lo: f64, hi: f64) {
+    /// Collapse every edge shorter than 4/5 of its target where allowed.
+    fn collapse_short(&mut self) {
+        let lo = |w: &Work, a: u32, b: u32| 0.8 * w.target(a, b);
         let short: Vec<(u32, u32)> = self
             .edges()
             .into_iter()
-            .filter(|&(a, b)| self.len(a, b) < lo)
+            .filter(|&(a, b)| self.len(a, b) < lo(self, a, b))
             .collect();
         for (a, b) in short {
             if self.dead_vertex[a as usize] || self.dead_vertex[b as usize] {
                 continue;
             }
             let fs = self.edge_faces(a, b);
-            if fs.is_empty() || self.len(a, b) >= lo {
+            if fs.is_empty() || self.len(a, b) >= lo(self, a, b) {
                 continue;
             }
             // Which end goes, and where the kept one ends up.
@@ -495,8 +536,11 @@ impl Work {
             let Some((keep, gone, p)) = plan else {
                 continue;
             };
+            let hi = self.hi(a, b);
             if self.collapse_ok(keep, gone, p, &fs, hi) {
                 self.collapse(keep, gone, p, &fs);
+                let k = keep as usize;
+                self.size[k] = self.size[k].min(self.size[gone as usize]);
             }
         }
     }

@@ -97,18 +97,7 @@ fn bake_group(
     if moved != 0 {
         retarget_texcoord_0(&mut mat_json, moved);
     }
-    // Tangents: of the material's own normal map's set when it has one (the
-    // combined map stays in its frame), else of the baked set.
-    let tangent_set = match mat_json.get("normalTexture") {
-        Some(n) => n.get("texCoord").and_then(Value::as_u64).unwrap_or(0) as u32,
-        None => set,
-    };
-    for &p in prims {
-        let geo = tri_geometry(scene, mesh_index, p);
-        if let Some(with) = with_generated_tangents(geo, &set_name(tangent_set)) {
-            set_geometry(scene, mesh_index, p, with);
-        }
-    }
+    let reframe = tangents_for(scene, mesh_index, prims, &mat_json, set, moved != 0);
     log::debug!("bake: tangents done at {:.3} s", t0.elapsed().as_secs_f64());
     let own = material_layers(scene, material, &mat_json, moved).map_err(|e| e.to_string())?;
     let sets: Vec<u32> = [
@@ -120,7 +109,7 @@ fn bake_group(
     .into_iter()
     .flatten()
     .collect();
-    let arrays = Arrays::gather(scene, mesh_index, prims, &sets);
+    let arrays = Arrays::gather(scene, mesh_index, prims, &sets, reframe);
     let surface = Surface {
         positions: &arrays.positions,
         normals: &arrays.normals,
@@ -175,7 +164,20 @@ fn bake_group(
             }
         }
     }
-    let maps = bake::compose(&arrays.triangles, &raster, &texels, &own, &look, &uv_of);
+    let frames = arrays.own_tangents.as_ref().map(|from| bake::Reframe {
+        normals: &arrays.normals,
+        from,
+        to: &arrays.tangents,
+    });
+    let maps = bake::compose(
+        &arrays.triangles,
+        &raster,
+        &texels,
+        &own,
+        &look,
+        &uv_of,
+        frames.as_ref(),
+    );
     log::debug!("bake: compose done at {:.3} s", t0.elapsed().as_secs_f64());
     // Images, textures and the material variant.
     let base_name = mat_json
@@ -229,9 +231,12 @@ fn bake_group(
     let variant = scene.materials.len() - 1;
     for &p in prims {
         scene.meshes[mesh_index].primitives[p].material = Some(variant);
-        if moved != 0 && !own_uvs_used {
+        let drop_uvs = moved != 0 && !own_uvs_used;
+        if drop_uvs || reframe {
             let mut geo = tri_geometry(scene, mesh_index, p).clone();
-            geo.attributes.retain(|a| a.semantic != set_name(moved));
+            geo.attributes.retain(|a| {
+                !(a.semantic == OWN_TANGENT || drop_uvs && a.semantic == set_name(moved))
+            });
             set_geometry(scene, mesh_index, p, geo);
         }
     }
@@ -250,6 +255,57 @@ fn bake_group(
         "crack_texels": maps.crack_texels,
         "png_bytes": bytes,
     }))
+}
+
+/// Where the material's own normal map's tangents wait while the baked set's
+/// are made (removed before the scene is written).
+const OWN_TANGENT: &str = "_CRACKLE_OWN_TANGENT";
+
+/// Gives the primitives `TANGENT`s of the baked UV set `set` (the frame the
+/// baked normal map is in, as viewers build it). When the material's own
+/// normal map reads another set (or an atlas replaced its set), that map's
+/// tangents, given or made, are kept as [`OWN_TANGENT`] to carry its normals
+/// over; returns whether they were.
+fn tangents_for(
+    scene: &mut Scene,
+    mesh_index: usize,
+    prims: &[usize],
+    mat_json: &Map<String, Value>,
+    set: u32,
+    atlas: bool,
+) -> bool {
+    let own_set = mat_json
+        .get("normalTexture")
+        .map(|n| n.get("texCoord").and_then(Value::as_u64).unwrap_or(0) as u32);
+    let reframe = own_set.is_some_and(|s| s != set);
+    for &p in prims {
+        let mut geo = tri_geometry(scene, mesh_index, p).clone();
+        let given = geo.attributes.iter().position(|a| a.semantic == "TANGENT");
+        match (given, own_set) {
+            // Given tangents belong to the own normal map's set.
+            (Some(i), Some(_)) if reframe => geo.attributes[i].semantic = OWN_TANGENT.into(),
+            (None, Some(s)) if reframe => {
+                if let Some(mut with) = with_generated_tangents(&geo, &set_name(s)) {
+                    for a in &mut with.attributes {
+                        if a.semantic == "TANGENT" {
+                            a.semantic = OWN_TANGENT.into();
+                        }
+                    }
+                    geo = with;
+                }
+            }
+            // Given tangents of another layout than the atlas: made anew.
+            (Some(i), None) if atlas => {
+                geo.attributes.remove(i);
+            }
+            _ => {}
+        }
+        if let Some(with) = with_generated_tangents(&geo, &set_name(set)) {
+            geo = with;
+        }
+        set_geometry(scene, mesh_index, p, geo);
+    }
+    reframe
 }
 
 /// Flat normals where a primitive has none (what a viewer would draw), so
@@ -540,19 +596,23 @@ struct Arrays {
     positions: Vec<[f64; 3]>,
     normals: Vec<[f64; 3]>,
     tangents: Vec<[f64; 4]>,
+    /// The material's own normal map's tangents, when kept aside.
+    own_tangents: Option<Vec<[f64; 4]>>,
     uvs: BTreeMap<u32, Vec<[f64; 2]>>,
     triangles: Vec<[u32; 3]>,
 }
 
 impl Arrays {
-    /// `sets`: the UV sets wanted, each gathered once however often named.
-    fn gather(scene: &Scene, mesh: usize, prims: &[usize], sets: &[u32]) -> Arrays {
+    /// `sets`: the UV sets wanted, each gathered once however often named;
+    /// `own`: whether to gather [`OWN_TANGENT`] too.
+    fn gather(scene: &Scene, mesh: usize, prims: &[usize], sets: &[u32], own: bool) -> Arrays {
         let mut sets = sets.to_vec();
         sets.sort_unstable();
         sets.dedup();
         let (positions, triangles) = gather_positions(scene, mesh, prims);
         let mut normals = Vec::with_capacity(positions.len());
         let mut tangents = Vec::with_capacity(positions.len());
+        let mut own_tangents = Vec::with_capacity(if own { positions.len() } else { 0 });
         let mut uvs: BTreeMap<u32, Vec<[f64; 2]>> = BTreeMap::new();
         for &p in prims {
             let geo = tri_geometry(scene, mesh, p);
@@ -570,6 +630,11 @@ impl Arrays {
                 std::array::from_fn(|k| column("TANGENT", k, [0.0, 0.0, 0.0, 1.0][k]));
             normals.extend((0..n).map(|i| std::array::from_fn(|k| nrm[k][i])));
             tangents.extend((0..n).map(|i| std::array::from_fn(|k| tan[k][i])));
+            if own {
+                let t: [Vec<f64>; 4] =
+                    std::array::from_fn(|k| column(OWN_TANGENT, k, [0.0, 0.0, 0.0, 1.0][k]));
+                own_tangents.extend((0..n).map(|i| std::array::from_fn(|k| t[k][i])));
+            }
             for &s in &sets {
                 let (u, v) = (column(&set_name(s), 0, 0.0), column(&set_name(s), 1, 0.0));
                 uvs.entry(s)
@@ -581,6 +646,7 @@ impl Arrays {
             positions,
             normals,
             tangents,
+            own_tangents: own.then_some(own_tangents),
             uvs,
             triangles,
         }
@@ -621,7 +687,7 @@ mod tests {
             }],
             ..Default::default()
         };
-        let a = Arrays::gather(&scene, 0, &[0, 1], &[0, 0]);
+        let a = Arrays::gather(&scene, 0, &[0, 1], &[0, 0], false);
         let uv = &a.uvs[&0];
         assert_eq!(uv.len(), a.positions.len());
         assert_eq!(uv[4], [0.75, 0.0]);

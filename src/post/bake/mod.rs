@@ -90,6 +90,52 @@ pub struct Look {
     pub occlusion: f64,
 }
 
+/// Per-vertex frames to carry the material's own normal map into the baked
+/// map's tangent space, when the two read different UV sets (an atlas).
+/// Tangents as glTF's: `xyz` and the bitangent's sign in `w`.
+#[derive(Clone, Copy, Debug)]
+pub struct Reframe<'a> {
+    /// Vertex normals.
+    pub normals: &'a [[f64; 3]],
+    /// Tangents of the UV set the material's normal map reads.
+    pub from: &'a [[f64; 4]],
+    /// Tangents of the baked UV set.
+    pub to: &'a [[f64; 4]],
+}
+
+impl Reframe<'_> {
+    /// `v`, a tangent-space vector of the `from` frame at the point with
+    /// barycentric `weights` in triangle `corners`, in the `to` frame. The
+    /// frames are what a viewer builds from the interpolated attributes.
+    fn carry(&self, corners: [u32; 3], weights: [f64; 3], v: [f64; 3]) -> [f64; 3] {
+        use crate::math::v3;
+        let lerp3 = |a: &[[f64; 3]]| -> [f64; 3] {
+            std::array::from_fn(|i| (0..3).map(|k| weights[k] * a[corners[k] as usize][i]).sum())
+        };
+        let lerp4 = |a: &[[f64; 4]]| -> [f64; 4] {
+            std::array::from_fn(|i| (0..3).map(|k| weights[k] * a[corners[k] as usize][i]).sum())
+        };
+        let Some(n) = v3::unit(lerp3(self.normals)) else {
+            return v;
+        };
+        let frame = |t: [f64; 4]| -> Option<([f64; 3], [f64; 3])> {
+            let t3 = [t[0], t[1], t[2]];
+            let t3 = v3::unit(v3::sub(t3, v3::scale(n, v3::dot(t3, n))))?;
+            let sign = if t[3] < 0.0 { -1.0 } else { 1.0 };
+            Some((t3, v3::scale(v3::cross(n, t3), sign)))
+        };
+        let (Some((t0, b0)), Some((t1, b1))) = (frame(lerp4(self.from)), frame(lerp4(self.to)))
+        else {
+            return v;
+        };
+        let world = v3::add(
+            v3::add(v3::scale(t0, v[0]), v3::scale(b0, v[1])),
+            v3::scale(n, v[2]),
+        );
+        [v3::dot(world, t1), v3::dot(world, b1), v3::dot(world, n)]
+    }
+}
+
 /// The three maps, row-major, 8 bits a channel.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Maps {
@@ -106,7 +152,9 @@ pub struct Maps {
 }
 
 /// The maps: per texel, the material's own values at its point (textures
-/// sampled through `uv(set, vertex)`) with `cracks` mixed in.
+/// sampled through `uv(set, vertex)`) with `cracks` mixed in. `reframe`,
+/// when given, carries the material's own normals into the baked set's
+/// tangent frame.
 pub fn compose(
     triangles: &[[u32; 3]],
     raster: &Raster,
@@ -114,6 +162,7 @@ pub fn compose(
     material: &Material,
     look: &Look,
     uv: &(dyn Fn(u32, usize) -> [f64; 2] + Sync),
+    reframe: Option<&Reframe<'_>>,
 ) -> Maps {
     let n = raster.size as usize;
     let texel_uv = |t: &Texel, set: u32| {
@@ -179,6 +228,10 @@ pub fn compose(
                             (2.0 * s[1] - 1.0) * scale,
                             2.0 * s[2] - 1.0,
                         ];
+                        let v = match reframe {
+                            Some(r) => r.carry(triangles[t.tri as usize], t.weights(), v),
+                            None => v,
+                        };
                         crate::math::v3::unit(v).unwrap_or([0.0, 0.0, 1.0])
                     })
                     .unwrap_or([0.0, 0.0, 1.0]);

@@ -83,6 +83,7 @@ impl Plate {
             &material,
             &look,
             &|_, v| uvs[v],
+            None,
         );
         (raster, maps)
     }
@@ -266,4 +267,29 @@ fn pngs_decode_to_what_was_encoded() {
             assert_eq!((px[c] * 255.0).round() as u8, data[i * 3 + c]);
         }
     }
+}
+
+#[test]
+fn the_own_normal_map_is_carried_into_the_baked_frame() {
+    // The own map's frame: tangent +x, bitangent +y; the baked set's is
+    // turned a quarter about +z (tangent +y, bitangent cross(z, y) = -x).
+    let normals = [[0.0, 0.0, 1.0]; 3];
+    let from = [[1.0, 0.0, 0.0, 1.0]; 3];
+    let to = [[0.0, 1.0, 0.0, 1.0]; 3];
+    let r = Reframe {
+        normals: &normals,
+        from: &from,
+        to: &to,
+    };
+    let w = [0.2, 0.3, 0.5];
+    // Tilted towards +x in the world: along the baked tangent's -bitangent.
+    let v = r.carry([0, 1, 2], w, [0.6, 0.0, 0.8]);
+    for (got, want) in v.iter().zip([0.0, -0.6, 0.8]) {
+        assert!((got - want).abs() < 1e-12, "{v:?}");
+    }
+    // A mirrored baked frame (w = -1) flips the bitangent's component.
+    let mirrored = [[0.0, 1.0, 0.0, -1.0]; 3];
+    let r = Reframe { to: &mirrored, ..r };
+    let v = r.carry([0, 1, 2], w, [0.6, 0.0, 0.8]);
+    assert!((v[1] - 0.6).abs() < 1e-12, "{v:?}");
 }

@@ -1,0 +1,160 @@
+//! Curvature-adapted edge lengths for remeshing (Botsch & Kobbelt's
+//! adaptive sizing): where a surface bends tighter than the target edge can
+//! follow, as on a knob, a hose or a bevel, edges shorten so that a chord
+//! strays at most a given distance from the surface.
+
+use super::spatial::{cross, dot, norm, scale, sub};
+use std::collections::{HashMap, HashSet};
+
+/// The edge length each vertex asks for: `target`, shortened to the
+/// length whose chord strays `chord_error` from a circle of the surface's
+/// radius of curvature there (`2 sqrt(2 e r - e^2)`), but not below
+/// `shortest`. The curvature across an edge is the angle between its two
+/// faces' normals over their mean height above it; a vertex
+/// takes the tightest of its edges'. `features` (sorted vertex pairs) are
+/// kept as lines by the remesher and ask for nothing; nor do open edges.
+/// A `chord_error` of 0 gives `target` everywhere.
+pub(crate) fn edge_sizes(
+    pos: &[[f64; 3]],
+    faces: &[[u32; 3]],
+    features: &HashSet<(u32, u32)>,
+    target: f64,
+    chord_error: f64,
+    shortest: f64,
+) -> Vec<f64> {
+    let mut size = vec![target; pos.len()];
+    let e = chord_error;
+    if e.is_nan() || e <= 0.0 {
+        return size;
+    }
+    let floor = shortest.min(target);
+    let mut faces_of: HashMap<(u32, u32), Vec<u32>> = HashMap::new();
+    for (f, t) in faces.iter().enumerate() {
+        for k in 0..3 {
+            let (a, b) = (t[k], t[(k + 1) % 3]);
+            faces_of
+                .entry((a.min(b), a.max(b)))
+                .or_default()
+                .push(f as u32);
+        }
+    }
+    let normal = |t: [u32; 3]| {
+        let [a, b, c] = t.map(|v| pos[v as usize]);
+        let n = cross(sub(b, a), sub(c, a));
+        let l = norm(n);
+        (l > 0.0).then(|| scale(n, 1.0 / l))
+    };
+    let area = |t: [u32; 3]| {
+        let [a, b, c] = t.map(|v| pos[v as usize]);
+        0.5 * norm(cross(sub(b, a), sub(c, a)))
+    };
+    // Each vertex takes a minimum: the order of the edges does not matter.
+    for (&(a, b), fs) in &faces_of {
+        if fs.len() != 2 || features.contains(&(a, b)) {
+            continue;
+        }
+        let (ta, tb) = (faces[fs[0] as usize], faces[fs[1] as usize]);
+        let (Some(na), Some(nb)) = (normal(ta), normal(tb)) else {
+            continue;
+        };
+        // Across the edge the surface turns by `angle` over the faces'
+        // mean height above it.
+        let length = norm(sub(pos[b as usize], pos[a as usize]));
+        let d = if length > 0.0 {
+            (area(ta) + area(tb)) / length
+        } else {
+            0.0
+        };
+        let angle = dot(na, nb).clamp(-1.0, 1.0).acos();
+        if d <= 0.0 || angle <= 0.0 {
+            continue;
+        }
+        let radius = d / angle;
+        // Chord error e of an edge h on a circle of radius r:
+        // e = r - sqrt(r^2 - h^2 / 4), so h = 2 sqrt(2 e r - e^2).
+        let h = if e < radius {
+            2.0 * (2.0 * e * radius - e * e).sqrt()
+        } else {
+            target
+        };
+        let h = h.clamp(floor, target);
+        for v in [a, b] {
+            size[v as usize] = size[v as usize].min(h);
+        }
+    }
+    size
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// An open cylinder of radius `r`, `n` facets round, `rows` rows of
+    /// quads of height `h`.
+    fn cylinder(r: f64, n: u32, rows: u32, h: f64) -> (Vec<[f64; 3]>, Vec<[u32; 3]>) {
+        let mut pos = Vec::new();
+        for j in 0..=rows {
+            for i in 0..n {
+                let a = std::f64::consts::TAU * f64::from(i) / f64::from(n);
+                pos.push([r * a.cos(), r * a.sin(), h * f64::from(j)]);
+            }
+        }
+        let mut faces = Vec::new();
+        for j in 0..rows {
+            for i in 0..n {
+                let (a, b) = (j * n + i, j * n + (i + 1) % n);
+                let (c, d) = (a + n, b + n);
+                faces.push([a, b, d]);
+                faces.push([a, d, c]);
+            }
+        }
+        (pos, faces)
+    }
+
+    #[test]
+    fn a_tight_cylinder_asks_for_the_chord_length_a_flat_plate_for_the_target() {
+        let (r, e, target) = (0.5, 0.01, 1.0);
+        let (pos, faces) = cylinder(r, 48, 4, 0.05);
+        let sizes = edge_sizes(&pos, &faces, &HashSet::new(), target, e, 0.01);
+        let want = 2.0 * (2.0 * e * r - e * e).sqrt();
+        // The curvature across the ring edges is 1/r; along the axis, none.
+        for (v, s) in sizes.iter().enumerate() {
+            assert!(
+                (s / want - 1.0).abs() < 0.05,
+                "vertex {v}: {s} against {want}"
+            );
+        }
+        // Scaling the scene scales the sizes.
+        let big: Vec<[f64; 3]> = pos.iter().map(|p| p.map(|x| 1000.0 * x)).collect();
+        let sizes_big = edge_sizes(&big, &faces, &HashSet::new(), 1e3 * target, 1e3 * e, 10.0);
+        for (s, b) in sizes.iter().zip(&sizes_big) {
+            assert!((b / (1e3 * s) - 1.0).abs() < 1e-9);
+        }
+        // No chord error: the target.
+        let off = edge_sizes(&pos, &faces, &HashSet::new(), target, 0.0, 0.01);
+        assert!(off.iter().all(|&s| s == target));
+        // Never below the floor.
+        let tight = edge_sizes(&pos, &faces, &HashSet::new(), target, 1e-9, 0.3);
+        assert!(tight.iter().all(|&s| (s - 0.3).abs() < 1e-12));
+    }
+
+    #[test]
+    fn features_and_flat_surfaces_ask_for_nothing() {
+        // Two squares folded at 90 degrees along x = 0: a crease.
+        let pos = vec![
+            [0.0, 0.0, 0.0],
+            [0.0, 1.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [1.0, 1.0, 0.0],
+            [0.0, 0.0, 1.0],
+            [0.0, 1.0, 1.0],
+        ];
+        let faces = vec![[0, 2, 3], [0, 3, 1], [0, 1, 5], [0, 5, 4]];
+        let free = edge_sizes(&pos, &faces, &HashSet::new(), 1.0, 0.02, 0.25);
+        assert!(free[0] < 1.0 && free[1] < 1.0, "{free:?}");
+        assert_eq!(free[2], 1.0, "the flat square's far corner");
+        let kept: HashSet<(u32, u32)> = [(0, 1)].into_iter().collect();
+        let sizes = edge_sizes(&pos, &faces, &kept, 1.0, 0.02, 0.25);
+        assert!(sizes.iter().all(|&s| s == 1.0), "{sizes:?}");
+    }
+}
