@@ -212,6 +212,7 @@ pub const PRESETS: &[(&str, &str)] = &[
         "impact-snapped",
         include_str!("../../pipeline/impact-snapped.toml"),
     ),
+    ("tear", include_str!("../../pipeline/tear.toml")),
 ];
 
 /// The mesh's bounding box, for relative lengths and points.

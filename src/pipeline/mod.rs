@@ -9,6 +9,7 @@ pub mod frames;
 mod islands;
 pub mod post;
 mod run;
+mod tear;
 
 pub use config::*;
 pub use frames::Frames;

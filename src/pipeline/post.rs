@@ -277,7 +277,7 @@ fn follow_gaps(
 }
 
 /// Index of the material named `name`, added with `json` when missing.
-fn material(scene: &mut Scene, name: &str, json: Value) -> usize {
+pub(super) fn material(scene: &mut Scene, name: &str, json: Value) -> usize {
     if let Some(i) = scene.materials.iter().position(|m| m.name() == Some(name)) {
         return i;
     }

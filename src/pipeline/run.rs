@@ -201,6 +201,69 @@ pub fn read_crackable(input: &Path, options: &crate::io::ReadOptions) -> Result<
     Ok(scene)
 }
 
+/// `model = "ductile"`: every simulated mesh torn ([`super::tear`]); the
+/// surface models' post-processing does not apply.
+fn tear_run(
+    scene: &mut Scene,
+    config: &Config,
+    entries: &[SimEntry],
+    params_of: &[SimParams],
+    mut stages: Vec<Stage>,
+    observer: &mut dyn Observer,
+) -> Result<RunReport> {
+    let input = config.asset.as_path();
+    if params_of
+        .iter()
+        .any(|p| p.model != crate::sim::Model::Ductile)
+    {
+        return Err(Error::Usage(format!(
+            "{}: model = \"ductile\" must be every simulated mesh's model in one run",
+            input.display()
+        )));
+    }
+    if config.frames.is_some() {
+        return Err(Error::Usage(format!(
+            "{}: --frames is not available for model = \"ductile\" yet",
+            input.display()
+        )));
+    }
+    let t = Instant::now();
+    observer.stage("tear");
+    let before: usize = entries.iter().map(|e| e.sim.n_faces()).sum();
+    let torn = super::tear::tear_meshes(scene, entries, params_of, input)?;
+    stages.push(Stage::new("tear", t.elapsed().as_secs_f64()));
+    let after: usize = torn
+        .iter()
+        .map(|(_, v)| v["triangles"].as_u64().unwrap_or(0) as usize)
+        .sum();
+    Ok(RunReport {
+        cracks: 0,
+        crack_length: 0.0,
+        triangles: BeforeAfter { before, after },
+        nodes: BeforeAfter {
+            before: 0,
+            after: 0,
+        },
+        relaxation_steps: 0,
+        rounds: 0,
+        energy: StartEnd {
+            start: 0.0,
+            end: 0.0,
+        },
+        stages,
+        meshes: torn
+            .into_iter()
+            .map(|(index, post)| MeshRun {
+                index,
+                report: SimReport::default(),
+                post,
+            })
+            .collect(),
+        warnings: scene.warnings.clone(),
+        frames: None,
+    })
+}
+
 /// Gives every normal-mapped triangle primitive without `TANGENT`s the
 /// MikkTSpace tangents of its own triangles, as a viewer would make for the
 /// input: the normal map was made for that frame. Remeshing and cutting
@@ -413,6 +476,12 @@ pub fn run(scene: &mut Scene, config: &Config, observer: &mut dyn Observer) -> R
         fields,
         mut stages,
     } = prepare(scene, config, observer)?;
+    if params_of
+        .iter()
+        .any(|p| p.model == crate::sim::Model::Ductile)
+    {
+        return tear_run(scene, config, &entries, &params_of, stages, observer);
+    }
     // Frames replay each mesh from its start.
     let starts = config.frames.as_ref().map(|_| entries.clone());
     let t = Instant::now();

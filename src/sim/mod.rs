@@ -6,6 +6,7 @@ pub mod cg;
 pub mod crack;
 mod diffusion;
 pub mod driver;
+pub mod ductile;
 pub mod error;
 pub mod film;
 mod finish;

@@ -103,6 +103,8 @@ pub struct SimParams {
     pub diffusion_fraction: f64,
     /// Parameters of `model = "springs"` (`[simulation.springs]`).
     pub springs: SpringParams,
+    /// Parameters of `model = "ductile"` (`[simulation.ductile]`).
+    pub ductile: crate::sim::ductile::DuctileParams,
     /// The pattern's cell size in scene units: the surface is a film bonded
     /// to its body ([`crate::sim::film`]) whose cells come out near this
     /// diameter, whatever the triangles. Give this or
@@ -162,6 +164,9 @@ pub enum Model {
     /// Mass-spring drying: every edge a spring that shrinks and breaks
     /// (see [`crate::sim::springs`]).
     Springs,
+    /// Ductile tearing of a closed solid by a level set in a grid of
+    /// tetrahedra (see [`crate::sim::ductile`]).
+    Ductile,
 }
 
 /// Time integrators of the relaxation, all approximating the same
@@ -255,6 +260,7 @@ impl Default for SimParams {
             finish: false,
             model: Model::Quasistatic,
             springs: Default::default(),
+            ductile: Default::default(),
             remesh: true,
             propagation: Propagation::Queue,
             relaxation: Relaxation::Tensor,
@@ -305,6 +311,9 @@ impl SimParams {
                 Err(format!("{name} must be a positive number, got {x}"))
             }
         };
+        if self.model == Model::Ductile {
+            self.ductile.validate()?;
+        }
         if self.model == Model::Springs {
             self.springs.validate().map_err(|e| e.0)?;
             if self.finish {

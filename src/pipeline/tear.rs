@@ -1,0 +1,464 @@
+//! `model = "ductile"`: each simulated mesh, a closed solid, is torn by
+//! [`crate::sim::ductile`]; its surface is replaced by the deformed, torn
+//! surface. Triangles on the original surface take the input's attributes
+//! (each vertex projected back onto the input at rest, its normal and
+//! tangent turned by the deformation), the torn surface gets its own
+//! material, and each fragment becomes its own node.
+
+use super::post::material;
+use crate::bridge::SimEntry;
+use crate::scene::{Geometry, Mesh, Node, Primitive, Scene, TriGeometry, VertexAttribute};
+use crate::sim::ductile::surface::TornSurface;
+use crate::sim::ductile::{Ductile, DuctileParams, DuctileReport};
+use crate::sim::SimParams;
+use parry3d::math::Vector;
+use parry3d::query::PointQuery;
+use parry3d::shape::{FeatureId, TriMesh};
+use serde_json::{json, Value};
+use std::collections::HashMap;
+use std::path::Path;
+use std::time::Instant;
+
+/// Tear every mesh of `entries`; each mesh's report as JSON.
+///
+/// # Errors
+/// A mesh that is open (with its boundary loops) or cannot be embedded.
+pub fn tear_meshes(
+    scene: &mut Scene,
+    entries: &[SimEntry],
+    params_of: &[SimParams],
+    input: &Path,
+) -> crate::Result<Vec<(usize, Value)>> {
+    let mut out = Vec::new();
+    for (e, p) in entries.iter().zip(params_of) {
+        let loops = boundary_loops(e);
+        if loops > 0 {
+            return Err(crate::Error::mesh(
+                input,
+                &e.label,
+                format!("model = \"ductile\" tears closed solids; this surface is open along {loops} boundary loop(s) after welding"),
+            ));
+        }
+        let positions = e.sim.positions().to_vec();
+        let triangles: Vec<[u32; 3]> = e
+            .sim
+            .faces()
+            .map(|f| e.sim.face_vertices(f).map(|v| v.0))
+            .collect();
+        let t = Instant::now();
+        let mut d = Ductile::new(&positions, &triangles, &p.ductile)
+            .map_err(|err| crate::Error::mesh(input, &e.label, err.to_string()))?;
+        let mut cg_max = 0;
+        let mut report: DuctileReport = d.run(|_, s| cg_max = cg_max.max(s.cg_iterations));
+        let seconds = t.elapsed().as_secs_f64();
+        report.seconds_per_step = seconds / report.steps.max(1) as f64;
+        if report.cg_unconverged > 0 {
+            log::warn!(
+                "{}: {}: {} implicit steps stopped before CG reached tolerance {}",
+                input.display(),
+                e.label,
+                report.cg_unconverged,
+                p.ductile.tolerance
+            );
+        }
+        let surface = d.surface(0.25 * d.grid.h);
+        let torn_triangles = surface.torn.iter().filter(|&&t| t).count();
+        replace_mesh(scene, e.mesh_index, &d, &surface, &p.ductile);
+        out.push((
+            e.mesh_index,
+            json!({
+                "ductile": report,
+                "seconds": seconds,
+                "triangles": surface.triangles.len(),
+                "torn_triangles": torn_triangles,
+                "pieces": surface.pieces,
+            }),
+        ));
+    }
+    Ok(out)
+}
+
+/// Boundary loops of a welded surface (0 when closed).
+fn boundary_loops(e: &SimEntry) -> usize {
+    let mut next: HashMap<u32, u32> = HashMap::new();
+    for h in e.sim.halfedges() {
+        if e.sim.twin(h).is_none() {
+            next.insert(e.sim.origin(h).0, e.sim.dest(h).0);
+        }
+    }
+    let mut seen = std::collections::HashSet::new();
+    let mut starts: Vec<u32> = next.keys().copied().collect();
+    starts.sort_unstable();
+    let mut loops = 0;
+    for s in starts {
+        if seen.contains(&s) {
+            continue;
+        }
+        loops += 1;
+        let mut v = s;
+        while seen.insert(v) {
+            match next.get(&v) {
+                Some(&w) => v = w,
+                None => break,
+            }
+        }
+    }
+    loops
+}
+
+/// The input's triangles for projection: every triangle primitive's, with
+/// where each came from.
+struct Source {
+    mesh: TriMesh,
+    /// (primitive, triangle) per source triangle.
+    origin: Vec<(usize, usize)>,
+    centre: [f64; 3],
+}
+
+impl Source {
+    fn of(mesh: &Mesh) -> Option<Source> {
+        let mut pos = Vec::new();
+        let mut tris = Vec::new();
+        let mut origin = Vec::new();
+        for (pi, p) in mesh.primitives.iter().enumerate() {
+            if let Geometry::Triangles(t) = &p.geometry {
+                let base = pos.len() as u32;
+                pos.extend(t.positions.iter().map(|q| q.map(f64::from)));
+                for (ti, tri) in t.triangles.iter().enumerate() {
+                    tris.push(tri.map(|i| i + base));
+                    origin.push((pi, ti));
+                }
+            }
+        }
+        let (lo, hi) = crate::sim::ductile::grid::bounds(&pos);
+        let centre: [f64; 3] = std::array::from_fn(|k| 0.5 * (lo[k] + hi[k]));
+        let v: Vec<Vector> = pos
+            .iter()
+            .map(|p| {
+                Vector::new(
+                    (p[0] - centre[0]) as f32,
+                    (p[1] - centre[1]) as f32,
+                    (p[2] - centre[2]) as f32,
+                )
+            })
+            .collect();
+        let mesh = TriMesh::new(v, tris).ok()?;
+        Some(Source {
+            mesh,
+            origin,
+            centre,
+        })
+    }
+
+    /// The closest input point to `p`: (primitive, triangle, point).
+    fn project(&self, p: [f64; 3]) -> Option<(usize, usize, [f64; 3])> {
+        let c = self.centre;
+        let q = Vector::new(
+            (p[0] - c[0]) as f32,
+            (p[1] - c[1]) as f32,
+            (p[2] - c[2]) as f32,
+        );
+        let (proj, feature) = self.mesh.project_local_point_and_get_feature(q);
+        let tri = match feature {
+            FeatureId::Face(f) => f as usize,
+            _ => proj.subshape as usize,
+        };
+        let (pi, ti) = *self.origin.get(tri % self.origin.len().max(1))?;
+        let x = proj.point;
+        Some((
+            pi,
+            ti,
+            [
+                f64::from(x.x) + c[0],
+                f64::from(x.y) + c[1],
+                f64::from(x.z) + c[2],
+            ],
+        ))
+    }
+}
+
+/// Barycentric coordinates of `p` in triangle `t`.
+fn barycentric(t: [[f64; 3]; 3], p: [f64; 3]) -> [f64; 3] {
+    use crate::math::v3::{cross, dot, sub};
+    let (e1, e2, d) = (sub(t[1], t[0]), sub(t[2], t[0]), sub(p, t[0]));
+    let n = cross(e1, e2);
+    let nn = dot(n, n);
+    if nn <= 0.0 {
+        return [1.0, 0.0, 0.0];
+    }
+    let b1 = dot(cross(d, e2), n) / nn;
+    let b2 = dot(cross(e1, d), n) / nn;
+    [1.0 - b1 - b2, b1, b2].map(|w| w.clamp(0.0, 1.0))
+}
+
+/// Replace mesh `mesh_index` by the torn surface: one primitive per input
+/// primitive (its material, its attributes) and one for the torn surface,
+/// per piece; several pieces become child nodes of the mesh's nodes.
+fn replace_mesh(
+    scene: &mut Scene,
+    mesh_index: usize,
+    d: &Ductile,
+    s: &TornSurface,
+    params: &DuctileParams,
+) {
+    let source = Source::of(&scene.meshes[mesh_index]);
+    let tear_mat = material(
+        scene,
+        &params.tear_material,
+        json!({"pbrMetallicRoughness": {"baseColorFactor": [0.55, 0.38, 0.28, 1.0], "metallicFactor": 0.0, "roughnessFactor": 0.9}}),
+    );
+    let old = scene.meshes[mesh_index].clone();
+    // A vertex on the original surface only (no torn triangle) is
+    // projected back onto the input at rest.
+    let mut on_torn = vec![false; s.rest.len()];
+    for (t, &torn) in s.triangles.iter().zip(&s.torn) {
+        if torn {
+            t.iter().for_each(|&v| on_torn[v as usize] = true);
+        }
+    }
+    // Per triangle: the input primitive it shows (by its centre), or None
+    // for the torn surface.
+    let owner: Vec<Option<usize>> = s
+        .triangles
+        .iter()
+        .zip(&s.torn)
+        .map(|(t, &torn)| {
+            if torn {
+                return None;
+            }
+            let c: [f64; 3] = std::array::from_fn(|k| {
+                t.iter().map(|&v| s.rest[v as usize][k]).sum::<f64>() / 3.0
+            });
+            source
+                .as_ref()
+                .and_then(|src| src.project(d.to_scene(c)))
+                .map(|(pi, _, _)| pi)
+        })
+        .collect();
+    let mut meshes = Vec::new();
+    for piece in 0..s.pieces as u32 {
+        let mut prims = Vec::new();
+        let groups: Vec<Option<usize>> = {
+            let mut g: Vec<Option<usize>> = (0..s.triangles.len())
+                .filter(|&t| s.piece[t] == piece)
+                .map(|t| owner[t])
+                .collect();
+            g.sort_unstable();
+            g.dedup();
+            g
+        };
+        for group in groups {
+            let tris: Vec<usize> = (0..s.triangles.len())
+                .filter(|&t| s.piece[t] == piece && owner[t] == group)
+                .collect();
+            let (template, material_index) = match group {
+                Some(pi) => (
+                    old.primitives.get(pi),
+                    old.primitives.get(pi).and_then(|p| p.material),
+                ),
+                None => (None, Some(tear_mat)),
+            };
+            let geo = piece_geometry(d, s, &tris, template, source.as_ref(), &on_torn);
+            prims.push(Primitive {
+                material: material_index,
+                geometry: Geometry::Triangles(geo),
+                rest: template.map(|p| p.rest.clone()).unwrap_or_default(),
+            });
+        }
+        meshes.push(prims);
+    }
+    if meshes.len() <= 1 {
+        scene.meshes[mesh_index].primitives = meshes.pop().unwrap_or_default();
+        return;
+    }
+    // Pieces: each its own mesh and node, children of the mesh's nodes.
+    let name = old
+        .name
+        .clone()
+        .unwrap_or_else(|| format!("mesh{mesh_index}"));
+    let first = scene.meshes.len();
+    for (k, prims) in meshes.into_iter().enumerate() {
+        scene.meshes.push(Mesh {
+            name: Some(format!("{name}_piece{k}")),
+            primitives: prims,
+            weights: None,
+            rest: old.rest.clone(),
+        });
+    }
+    scene.meshes[mesh_index].primitives.clear();
+    let holders: Vec<usize> = (0..scene.nodes.len())
+        .filter(|&n| scene.nodes[n].mesh == Some(mesh_index))
+        .collect();
+    for n in holders {
+        scene.nodes[n].mesh = None;
+        for k in first..scene.meshes.len() {
+            let child = scene.nodes.len();
+            scene.nodes.push(Node {
+                name: scene.meshes[k].name.clone(),
+                mesh: Some(k),
+                ..Default::default()
+            });
+            scene.nodes[n].children.push(child);
+        }
+    }
+    super::islands::remove_empty_meshes(scene);
+}
+
+/// One primitive's geometry: triangles `tris` of the surface, in scene
+/// units, with the attributes of `template` (interpolated at each vertex's
+/// projection onto the input) or, for the torn surface, normals only.
+fn piece_geometry(
+    d: &Ductile,
+    s: &TornSurface,
+    tris: &[usize],
+    template: Option<&Primitive>,
+    source: Option<&Source>,
+    on_torn: &[bool],
+) -> TriGeometry {
+    let mut index: HashMap<u32, u32> = HashMap::new();
+    let mut order: Vec<u32> = Vec::new();
+    let triangles: Vec<[u32; 3]> = tris
+        .iter()
+        .map(|&t| {
+            s.triangles[t].map(|v| {
+                *index.entry(v).or_insert_with(|| {
+                    order.push(v);
+                    (order.len() - 1) as u32
+                })
+            })
+        })
+        .collect();
+    let tgeo = template.and_then(|p| match &p.geometry {
+        Geometry::Triangles(t) => Some(t),
+        Geometry::Raw(_) => None,
+    });
+    // Normals always: the torn surface is curved, and flat shading of its
+    // small triangles would show the grid.
+    let mut layout: Vec<(String, usize)> = match tgeo {
+        Some(t) => t
+            .attributes
+            .iter()
+            .map(|a| (a.semantic.clone(), a.components))
+            .collect(),
+        None => Vec::new(),
+    };
+    if !layout.iter().any(|(s, c)| s == "NORMAL" && *c == 3) {
+        layout.retain(|(s, _)| s != "NORMAL");
+        layout.insert(0, ("NORMAL".into(), 3));
+    }
+    let mut attrs: Vec<VertexAttribute> = layout
+        .iter()
+        .map(|(sem, c)| VertexAttribute {
+            semantic: sem.clone(),
+            components: *c,
+            data: Vec::with_capacity(order.len() * c),
+        })
+        .collect();
+    let mut positions = Vec::with_capacity(order.len());
+    for &v in &order {
+        let vi = v as usize;
+        let rest_scene = d.to_scene(s.rest[vi]);
+        // The input point this vertex shows, and its attributes there.
+        let hit = match (tgeo, source) {
+            (Some(_), Some(src)) if !on_torn[vi] => src.project(rest_scene),
+            _ => None,
+        };
+        let rest_m = hit.map_or(s.rest[vi], |(_, _, p)| d.to_metres(p));
+        let tet = s.tet_of[vi] as usize;
+        let now = d.to_scene(d.deform(tet, rest_m));
+        positions.push(now.map(|x| x as f32));
+        let f = deformation(d, tet);
+        for (a, (sem, c)) in attrs.iter_mut().zip(&layout) {
+            let value: Vec<f64> = match (tgeo, hit) {
+                (Some(t), Some((_, ti, p))) => match t.attribute(sem) {
+                    Some(src) => {
+                        let corners = t.triangles[ti];
+                        let w =
+                            barycentric(corners.map(|i| t.positions[i as usize].map(f64::from)), p);
+                        (0..*c)
+                            .map(|k| {
+                                (0..3)
+                                    .map(|j| w[j] * f64::from(src.get(corners[j] as usize)[k]))
+                                    .sum()
+                            })
+                            .collect()
+                    }
+                    None => vec![0.0; *c],
+                },
+                _ => vec![0.0; *c],
+            };
+            let value = match sem.as_str() {
+                "NORMAL" => {
+                    let n = if hit.is_some() {
+                        [value[0], value[1], value[2]]
+                    } else {
+                        [0.0; 3]
+                    };
+                    turn_normal(&f, n).to_vec()
+                }
+                "TANGENT" => {
+                    let t = f * nalgebra::Vector3::new(value[0], value[1], value[2]);
+                    let t = t.try_normalize(1e-30).unwrap_or_else(nalgebra::Vector3::x);
+                    vec![t[0], t[1], t[2], if value[3] < 0.0 { -1.0 } else { 1.0 }]
+                }
+                _ => value,
+            };
+            a.data.extend(value.iter().map(|&x| x as f32));
+        }
+    }
+    let mut geo = TriGeometry {
+        positions,
+        attributes: attrs,
+        triangles,
+        group: tgeo.and_then(|t| t.group.clone()),
+        ..Default::default()
+    };
+    fill_missing_normals(&mut geo);
+    geo
+}
+
+/// Tetrahedron `e`'s deformation gradient.
+fn deformation(d: &Ductile, e: usize) -> nalgebra::Matrix3<f64> {
+    let t = d.tets[e];
+    let rest = crate::sim::ductile::fem::edges(t.map(|n| d.rest_x[n as usize]));
+    let now = crate::sim::ductile::fem::edges(t.map(|n| d.x[n as usize]));
+    now * rest
+        .try_inverse()
+        .unwrap_or_else(nalgebra::Matrix3::identity)
+}
+
+/// A normal carried through deformation `f` (`F^-T n`, unit), or zero.
+fn turn_normal(f: &nalgebra::Matrix3<f64>, n: [f64; 3]) -> [f64; 3] {
+    let m = f.try_inverse().map_or(*f, |i| i.transpose());
+    let v = m * nalgebra::Vector3::new(n[0], n[1], n[2]);
+    v.try_normalize(1e-30)
+        .map_or([0.0; 3], |u| [u[0], u[1], u[2]])
+}
+
+/// Area-weighted normals where a vertex has none (zero): the torn surface
+/// and vertices not projected onto the input.
+fn fill_missing_normals(geo: &mut TriGeometry) {
+    let Some(k) = geo
+        .attributes
+        .iter()
+        .position(|a| a.semantic == "NORMAL" && a.components == 3)
+    else {
+        return;
+    };
+    let mut acc = vec![[0.0f64; 3]; geo.positions.len()];
+    for t in &geo.triangles {
+        let [a, b, c] = t.map(|i| geo.positions[i as usize].map(f64::from));
+        let n = crate::math::v3::cross(crate::math::v3::sub(b, a), crate::math::v3::sub(c, a));
+        for &i in t {
+            acc[i as usize] = crate::math::v3::add(acc[i as usize], n);
+        }
+    }
+    let data = &mut geo.attributes[k].data;
+    for (i, a) in acc.iter().enumerate() {
+        let cur = &data[3 * i..3 * i + 3];
+        if cur.iter().all(|&x| x == 0.0) {
+            let n = crate::math::v3::unit(*a).unwrap_or([0.0, 0.0, 1.0]);
+            data[3 * i..3 * i + 3].copy_from_slice(&n.map(|x| x as f32));
+        }
+    }
+}

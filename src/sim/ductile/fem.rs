@@ -1,0 +1,168 @@
+//! Corotational linear elasticity on tetrahedra: `P = 2 mu (F - R) +
+//! lambda tr(R^T F - I) R`, its energy density, nodal forces, and the force
+//! differential for implicit steps with the element stiffness projected to
+//! stay positive semi-definite (McAdams et al. 2011: in the frame of the
+//! singular value decomposition the differential splits into a 3 x 3 block
+//! and three 2 x 2 blocks, whose negative eigenvalues are clamped).
+
+use nalgebra::{Matrix3, Vector3};
+
+/// Lamé parameters from Young's modulus and Poisson's ratio.
+pub fn lame(young: f64, poisson: f64) -> (f64, f64) {
+    let mu = young / (2.0 * (1.0 + poisson));
+    let lambda = young * poisson / ((1.0 + poisson) * (1.0 - 2.0 * poisson));
+    (mu, lambda)
+}
+
+/// A tetrahedron's rest shape.
+#[derive(Clone, Copy, Debug)]
+pub struct Rest {
+    /// The inverse of the rest edge matrix `[X1 - X0, X2 - X0, X3 - X0]`.
+    pub bm: Matrix3<f64>,
+    /// Rest volume.
+    pub volume: f64,
+}
+
+impl Rest {
+    /// The rest shape of the tetrahedron at `x` (positively oriented).
+    pub fn new(x: [[f64; 3]; 4]) -> Rest {
+        let dm = edges(x);
+        let volume = dm.determinant() / 6.0;
+        Rest {
+            bm: dm.try_inverse().unwrap_or_else(Matrix3::zeros),
+            volume,
+        }
+    }
+
+    /// The gradients of the four shape functions (rows of `bm` and minus
+    /// their sum).
+    pub fn gradients(&self) -> [Vector3<f64>; 4] {
+        let g = |i: usize| Vector3::new(self.bm[(i, 0)], self.bm[(i, 1)], self.bm[(i, 2)]);
+        let (g1, g2, g3) = (g(0), g(1), g(2));
+        [-(g1 + g2 + g3), g1, g2, g3]
+    }
+}
+
+/// `[x1 - x0, x2 - x0, x3 - x0]` as columns.
+pub fn edges(x: [[f64; 3]; 4]) -> Matrix3<f64> {
+    let c = |i: usize| Vector3::new(x[i][0] - x[0][0], x[i][1] - x[0][1], x[i][2] - x[0][2]);
+    Matrix3::from_columns(&[c(1), c(2), c(3)])
+}
+
+/// One tetrahedron's state at the current positions: the rotated frame of
+/// its deformation and what its force differential needs.
+#[derive(Clone, Copy, Debug)]
+pub struct Element {
+    /// `F = U diag(sigma) V^T`, `U` and `V` rotations (`sigma[2]` may be
+    /// negative for an inverted element).
+    pub u: Matrix3<f64>,
+    /// See `u`.
+    pub v: Matrix3<f64>,
+    /// Singular values.
+    pub sigma: [f64; 3],
+    /// Clamped eigenvalues of the three 2 x 2 blocks' antisymmetric parts
+    /// (pairs 01, 02, 12).
+    pub twist: [f64; 3],
+    /// Elastic energy density.
+    pub psi: f64,
+    /// Nodal forces (times the element's weight: rest volume times the
+    /// inside fraction).
+    pub forces: [Vector3<f64>; 4],
+}
+
+/// Material constants.
+#[derive(Clone, Copy, Debug)]
+pub struct Lame {
+    /// Shear modulus.
+    pub mu: f64,
+    /// First Lamé parameter.
+    pub lambda: f64,
+}
+
+/// The signed singular value decomposition of `f` (rotations only).
+pub fn svd_rotations(f: &Matrix3<f64>) -> (Matrix3<f64>, [f64; 3], Matrix3<f64>) {
+    let svd = f.svd(true, true);
+    let (mut u, s, vt) = (
+        svd.u.expect("u"),
+        svd.singular_values,
+        svd.v_t.expect("v_t"),
+    );
+    let mut v = vt.transpose();
+    // Sort descending (nalgebra does not promise an order).
+    let mut idx = [0usize, 1, 2];
+    idx.sort_by(|&a, &b| s[b].total_cmp(&s[a]));
+    let mut sigma = idx.map(|i| s[i]);
+    u = Matrix3::from_columns(&idx.map(|i| u.column(i).into_owned()));
+    v = Matrix3::from_columns(&idx.map(|i| v.column(i).into_owned()));
+    if u.determinant() < 0.0 {
+        u.set_column(2, &(-u.column(2)));
+        sigma[2] = -sigma[2];
+    }
+    if v.determinant() < 0.0 {
+        v.set_column(2, &(-v.column(2)));
+        sigma[2] = -sigma[2];
+    }
+    (u, sigma, v)
+}
+
+impl Element {
+    /// The element at positions `x` with rest shape `rest`, weighted by
+    /// `weight` (its rest volume times the fraction of it inside).
+    pub fn at(x: [[f64; 3]; 4], rest: &Rest, weight: f64, m: Lame) -> Element {
+        let f = edges(x) * rest.bm;
+        let (u, sigma, v) = svd_rotations(&f);
+        let t = sigma[0] + sigma[1] + sigma[2] - 3.0;
+        let psi = m.mu * sigma.iter().map(|s| (s - 1.0) * (s - 1.0)).sum::<f64>()
+            + 0.5 * m.lambda * t * t;
+        let p_hat = sigma.map(|s| 2.0 * m.mu * (s - 1.0) + m.lambda * t);
+        let p = u * Matrix3::from_diagonal(&Vector3::from(p_hat)) * v.transpose();
+        let h = -weight * p * rest.bm.transpose();
+        let f1 = h.column(0).into_owned();
+        let f2 = h.column(1).into_owned();
+        let f3 = h.column(2).into_owned();
+        let c = m.lambda * t - 2.0 * m.mu;
+        let twist = [(0, 1), (0, 2), (1, 2)].map(|(i, j)| {
+            let s = (sigma[i] + sigma[j]).max(1e-6);
+            (2.0 * m.mu + 2.0 * c / s).max(0.0)
+        });
+        Element {
+            u,
+            v,
+            sigma,
+            twist,
+            psi,
+            forces: [-(f1 + f2 + f3), f1, f2, f3],
+        }
+    }
+
+    /// The force differential for node displacements `dx`: `-K dx` with
+    /// the projected (positive semi-definite) stiffness `K`.
+    pub fn force_differential(
+        &self,
+        dx: [Vector3<f64>; 4],
+        rest: &Rest,
+        weight: f64,
+        m: Lame,
+    ) -> [Vector3<f64>; 4] {
+        let d_ds = Matrix3::from_columns(&[dx[1] - dx[0], dx[2] - dx[0], dx[3] - dx[0]]);
+        let d_f = d_ds * rest.bm;
+        let g = self.u.transpose() * d_f * self.v;
+        let mut dp = Matrix3::zeros();
+        let tr = g[(0, 0)] + g[(1, 1)] + g[(2, 2)];
+        for i in 0..3 {
+            dp[(i, i)] = 2.0 * m.mu * g[(i, i)] + m.lambda * tr;
+        }
+        for (k, (i, j)) in [(0, 1), (0, 2), (1, 2)].into_iter().enumerate() {
+            let sym = 0.5 * (g[(i, j)] + g[(j, i)]);
+            let anti = 0.5 * (g[(i, j)] - g[(j, i)]);
+            dp[(i, j)] = 2.0 * m.mu * sym + self.twist[k] * anti;
+            dp[(j, i)] = 2.0 * m.mu * sym - self.twist[k] * anti;
+        }
+        let dp = self.u * dp * self.v.transpose();
+        let dh = -weight * dp * rest.bm.transpose();
+        let f1 = dh.column(0).into_owned();
+        let f2 = dh.column(1).into_owned();
+        let f3 = dh.column(2).into_owned();
+        [-(f1 + f2 + f3), f1, f2, f3]
+    }
+}

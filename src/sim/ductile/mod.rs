@@ -1,0 +1,479 @@
+//! Ductile tearing by the level-set method of Hegemann et al. (the fourth
+//! source text): a closed surface embedded in a regular grid of
+//! tetrahedra, corotational elasticity stepped by backward Euler (CG on
+//! the force differential, matrix-free), and a level set `phi` that moves
+//! inward only, where a node's strain-energy density exceeds the fracture
+//! resistance. Tetrahedra the level set cuts keep the material behind
+//! their cut plane (their stiffness and mass scale with it), so a tear
+//! opens smoothly through them; everything is updated in place.
+//!
+//! Units: the object's longest side is [`DuctileParams::size`] metres
+//! whatever the scene's unit, material constants are SI, pulls are
+//! fractions of that length per second: the same setup gives the same
+//! result at any scene scale and, up to discretisation, at any grid
+//! resolution (mass is density times the volume each node carries).
+//!
+//! [`Ductile::new`] embeds the surface, [`Ductile::step`] advances one
+//! step, [`Ductile::run`] runs the whole pull, and [`surface`] extracts the
+//! deformed, torn surface. No I/O and no printing.
+
+pub mod fem;
+pub mod grid;
+mod params;
+mod solve;
+pub mod surface;
+
+pub use params::{DuctileParams, Pull, PullMode};
+
+use fem::{Element, Lame, Rest};
+use grid::{inside_fraction, EmbedError, Grid};
+use rayon::prelude::*;
+
+/// What one step did.
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+pub struct StepReport {
+    /// Time step in seconds (CFL-bounded).
+    pub dt: f64,
+    /// CG iterations of the implicit solve.
+    pub cg_iterations: usize,
+    /// Its final relative residual.
+    pub cg_residual: f64,
+    /// Whether it met the tolerance.
+    pub converged: bool,
+    /// Elastic energy after the step (J).
+    pub energy: f64,
+    /// Kinetic energy after the step (J).
+    pub kinetic: f64,
+    /// Nodes whose level set moved this step.
+    pub tearing_nodes: usize,
+}
+
+/// What a run did.
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
+pub struct DuctileReport {
+    /// Grid cubes along each axis and the cube side (metres).
+    pub grid: [usize; 3],
+    /// Cube side in metres.
+    pub spacing: f64,
+    /// Tetrahedra with material.
+    pub tetrahedra: usize,
+    /// Steps taken.
+    pub steps: usize,
+    /// Seconds simulated.
+    pub time: f64,
+    /// CG iterations: total and the most in one step.
+    pub cg_iterations: usize,
+    /// See `cg_iterations`.
+    pub cg_max_iterations: usize,
+    /// Steps whose solve missed the tolerance.
+    pub cg_unconverged: usize,
+    /// Pull distance (fraction of the object's length, both ends together)
+    /// when the level set first moved, if it did.
+    pub first_tear_pull: Option<f64>,
+    /// Pull distance when the object first came apart, if it did.
+    pub separated_pull: Option<f64>,
+    /// Pieces at the end.
+    pub fragments: usize,
+    /// Pull distance at the end.
+    pub pull: f64,
+    /// Wall time per step (filled by the caller that times it).
+    pub seconds_per_step: f64,
+}
+
+/// The simulation state, updated in place.
+pub struct Ductile {
+    /// The grid.
+    pub grid: Grid,
+    /// Tetrahedra (node indices), only those that start with material.
+    pub tets: Vec<[u32; 4]>,
+    rest: Vec<Rest>,
+    /// Rest positions of the nodes (metres).
+    pub rest_x: Vec<[f64; 3]>,
+    /// Current positions (metres).
+    pub x: Vec<[f64; 3]>,
+    /// Velocities (m/s).
+    pub v: Vec<[f64; 3]>,
+    /// Level set at the nodes (metres, negative inside).
+    pub phi: Vec<f64>,
+    /// The level set at the start.
+    pub phi0: Vec<f64>,
+    /// Tetrahedra around each node (ascending), for gathering in order.
+    node_tets: Vec<Vec<(u32, u8)>>,
+    /// Which nodes the pull moves: -1 / +1 (the two ends) or 0.
+    pub pulled: Vec<i8>,
+    params: DuctileParams,
+    lame: Lame,
+    /// Time simulated.
+    pub time: f64,
+    /// How far each end has been moved (metres).
+    pub pulled_by: f64,
+    /// The object's length (metres).
+    pub length: f64,
+    /// The pull's axis.
+    axis: usize,
+    /// Thickness of a pulled slab (metres).
+    slab_thickness: f64,
+    /// The last implicit step's velocity change (its solve's first guess).
+    last_dv: Vec<[f64; 3]>,
+    /// The scene's position of the metres' origin, and metres per scene
+    /// unit.
+    scene_frame: ([f64; 3], f64),
+}
+
+/// Why a run cannot start.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum DuctileError {
+    /// A parameter is out of range.
+    #[error("{0}")]
+    Param(String),
+    /// The surface cannot be embedded.
+    #[error(transparent)]
+    Embed(#[from] EmbedError),
+}
+
+impl Ductile {
+    /// Embed the closed surface `positions` / `triangles` (scene units,
+    /// outward-oriented) and prepare the pull.
+    ///
+    /// # Errors
+    /// [`DuctileError`] for a parameter out of range or a surface that
+    /// cannot be embedded.
+    pub fn new(
+        positions: &[[f64; 3]],
+        triangles: &[[u32; 3]],
+        params: &DuctileParams,
+    ) -> Result<Ductile, DuctileError> {
+        params.validate().map_err(DuctileError::Param)?;
+        let (lo, hi) = grid::bounds(positions);
+        let longest = (0..3).map(|k| hi[k] - lo[k]).fold(0.0, f64::max);
+        if !(longest.is_finite() && longest > 0.0) {
+            return Err(EmbedError::Empty.into());
+        }
+        // Metres: the longest side is `size`.
+        let scale = params.size / longest;
+        let metres: Vec<[f64; 3]> = positions
+            .iter()
+            .map(|p| [0, 1, 2].map(|k| (p[k] - lo[k]) * scale))
+            .collect();
+        let (mlo, mhi) = grid::bounds(&metres);
+        let cells = params.cells_along_longest(longest);
+        let grid = Grid::around(mlo, mhi, cells);
+        let rest_x: Vec<[f64; 3]> = (0..grid.n_nodes()).map(|i| grid.position(i)).collect();
+        let phi = grid::signed_distances(&metres, triangles, &rest_x)?;
+        let mut tets = Vec::new();
+        for k in 0..grid.n[2] {
+            for j in 0..grid.n[1] {
+                for i in 0..grid.n[0] {
+                    for t in grid.cube_tets(i, j, k) {
+                        if t.iter().any(|&n| phi[n as usize] < 0.0) {
+                            tets.push(t);
+                        }
+                    }
+                }
+            }
+        }
+        let rest: Vec<Rest> = tets
+            .iter()
+            .map(|t| Rest::new(t.map(|n| rest_x[n as usize])))
+            .collect();
+        let mut node_tets = vec![Vec::new(); rest_x.len()];
+        for (e, t) in tets.iter().enumerate() {
+            for (c, &n) in t.iter().enumerate() {
+                node_tets[n as usize].push((e as u32, c as u8));
+            }
+        }
+        let (pulled, axis, slab_thickness) = params.pull.slabs(&rest_x, &phi, &node_tets);
+        let (mu, lambda) = fem::lame(params.young, params.poisson);
+        let n = rest_x.len();
+        Ok(Ductile {
+            grid,
+            tets,
+            rest,
+            x: rest_x.clone(),
+            rest_x,
+            v: vec![[0.0; 3]; n],
+            phi0: phi.clone(),
+            phi,
+            node_tets,
+            pulled,
+            params: params.clone(),
+            lame: Lame { mu, lambda },
+            time: 0.0,
+            pulled_by: 0.0,
+            length: params.size,
+            axis,
+            slab_thickness,
+            last_dv: Vec::new(),
+            scene_frame: (lo, scale),
+        })
+    }
+
+    /// A point in metres in the scene's units.
+    pub fn to_scene(&self, p: [f64; 3]) -> [f64; 3] {
+        let (lo, scale) = self.scene_frame;
+        [0, 1, 2].map(|k| lo[k] + p[k] / scale)
+    }
+
+    /// A point in the scene's units in metres.
+    pub fn to_metres(&self, p: [f64; 3]) -> [f64; 3] {
+        let (lo, scale) = self.scene_frame;
+        [0, 1, 2].map(|k| (p[k] - lo[k]) * scale)
+    }
+
+    /// The fraction of tetrahedron `e` that is material.
+    pub fn inside(&self, e: usize) -> f64 {
+        inside_fraction(self.tets[e].map(|n| self.phi[n as usize]))
+    }
+
+    /// Each tetrahedron's weight: rest volume times its inside fraction.
+    fn weights(&self) -> Vec<f64> {
+        (0..self.tets.len())
+            .into_par_iter()
+            .map(|e| self.rest[e].volume * self.inside(e))
+            .collect()
+    }
+
+    /// Each tetrahedron's current state.
+    fn elements(&self, weights: &[f64]) -> Vec<Element> {
+        (0..self.tets.len())
+            .into_par_iter()
+            .map(|e| {
+                let x = self.tets[e].map(|n| self.x[n as usize]);
+                Element::at(x, &self.rest[e], weights[e], self.lame)
+            })
+            .collect()
+    }
+
+    /// Node masses: density times a quarter of each tetrahedron's weight.
+    fn masses(&self, weights: &[f64]) -> Vec<f64> {
+        self.node_tets
+            .par_iter()
+            .map(|ts| {
+                ts.iter()
+                    .map(|&(e, _)| 0.25 * weights[e as usize])
+                    .sum::<f64>()
+                    * self.params.density
+            })
+            .collect()
+    }
+
+    /// Elastic energy (J).
+    pub fn energy(&self) -> f64 {
+        let w = self.weights();
+        let el = self.elements(&w);
+        el.iter().zip(&w).map(|(e, w)| e.psi * w).sum()
+    }
+
+    /// Strain-energy density at each node: its tetrahedra's, weighted by
+    /// the part of their volume it carries (eq. 4 of the text).
+    pub fn nodal_energy(&self, elements: &[Element], weights: &[f64]) -> Vec<f64> {
+        self.node_tets
+            .par_iter()
+            .map(|ts| {
+                let (mut num, mut den) = (0.0, 0.0);
+                for &(e, _) in ts {
+                    let w = 0.25 * weights[e as usize];
+                    num += elements[e as usize].psi * w;
+                    den += w;
+                }
+                if den > 0.0 {
+                    num / den
+                } else {
+                    0.0
+                }
+            })
+            .collect()
+    }
+
+    /// The pull's speed of each end now (m/s), ramped.
+    fn pull_speed_now(&self) -> f64 {
+        let p = &self.params.pull;
+        let full = p.speed * self.length;
+        if p.ramp > 0.0 {
+            full * (self.time / p.ramp).min(1.0)
+        } else {
+            full
+        }
+    }
+
+    /// How far each end has moved along the axis: half the difference of
+    /// the slabs' mean displacements.
+    fn update_pulled_by(&mut self) {
+        let mut sum = [0.0; 2];
+        let mut count = [0usize; 2];
+        for (n, &side) in self.pulled.iter().enumerate() {
+            if side != 0 {
+                let k = usize::from(side > 0);
+                sum[k] += self.x[n][self.axis] - self.rest_x[n][self.axis];
+                count[k] += 1;
+            }
+        }
+        let mean = |k: usize| {
+            if count[k] > 0 {
+                sum[k] / count[k] as f64
+            } else {
+                0.0
+            }
+        };
+        self.pulled_by = 0.5 * (mean(1) - mean(0));
+    }
+
+    /// How far the ends have moved apart, as a fraction of the length.
+    pub fn pull_fraction(&self) -> f64 {
+        2.0 * self.pulled_by / self.length
+    }
+
+    /// Advance one step: elasticity by backward Euler, then the level set.
+    pub fn step(&mut self) -> StepReport {
+        let weights = self.weights();
+        let elements = self.elements(&weights);
+        let mass = self.masses(&weights);
+        let psi = self.nodal_energy(&elements, &weights);
+        let dt = self.cfl_step(&psi);
+        let mut report = self.implicit_step(dt, &weights, &elements, &mass);
+        self.time += dt;
+        self.update_pulled_by();
+        // The level set, from the energies after the step.
+        let weights = self.weights();
+        let elements = self.elements(&weights);
+        let psi = self.nodal_energy(&elements, &weights);
+        report.tearing_nodes = self.advance_level_set(&psi, dt);
+        report.dt = dt;
+        report.energy = elements.iter().zip(&weights).map(|(e, w)| e.psi * w).sum();
+        let mass = self.masses(&weights);
+        report.kinetic = 0.5
+            * self
+                .v
+                .iter()
+                .zip(&mass)
+                .map(|(v, m)| m * (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]))
+                .sum::<f64>();
+        report
+    }
+
+    /// The step: at most `dt`, and CFL-bounded so that no node (nor the
+    /// level set's front) moves more than `cfl` cells.
+    fn cfl_step(&self, psi: &[f64]) -> f64 {
+        let p = &self.params;
+        let h = self.grid.h;
+        let vmax = self
+            .v
+            .iter()
+            .map(|v| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt())
+            .fold(self.params.pull.speed * self.length, f64::max);
+        // The level set's fastest node, as `advance_level_set` moves it.
+        let eps = p.eps * h;
+        let front = psi
+            .iter()
+            .zip(&self.phi)
+            .zip(&self.node_tets)
+            .filter(|((&e, _), t)| e > p.kappa && !t.is_empty())
+            .map(|((&e, &phi), _)| eps * eps / (eps * eps + phi * phi) * (e - p.kappa) / p.kappa)
+            .fold(0.0, f64::max)
+            * p.tear_speed
+            * self.length;
+        let limit = p.cfl * h / vmax.max(front).max(1e-300);
+        p.dt.min(limit)
+    }
+
+    /// `phi += dt * tear_speed * L * eps^2 / (eps^2 + phi^2) * max(0, Psi -
+    /// kappa) / kappa`: the text's `ds * delta_eps(phi) * (Psi - kappa)`
+    /// with `delta_eps` of width `eps` (a fraction of the grid spacing),
+    /// scaled so the front moves at `tear_speed` where the energy is twice
+    /// the resistance, whatever the grid. Inward only. Returns how many
+    /// nodes moved.
+    fn advance_level_set(&mut self, psi: &[f64], dt: f64) -> usize {
+        let p = &self.params;
+        let eps = p.eps * self.grid.h;
+        let rate = dt * p.tear_speed * self.length;
+        let kappa = p.kappa;
+        let active: Vec<bool> = self.node_tets.iter().map(|t| !t.is_empty()).collect();
+        let mut moved = 0;
+        for n in 0..self.phi.len() {
+            if !active[n] || psi[n] <= kappa {
+                continue;
+            }
+            let phi = self.phi[n];
+            let d = rate * eps * eps / (eps * eps + phi * phi) * (psi[n] - kappa) / kappa;
+            if d > 0.0 {
+                self.phi[n] = phi + d;
+                moved += 1;
+            }
+        }
+        moved
+    }
+
+    /// Run until the pull reaches `params.pull.distance` (or `max_steps`);
+    /// `on_step` sees every step.
+    pub fn run(&mut self, mut on_step: impl FnMut(&Ductile, &StepReport)) -> DuctileReport {
+        let mut report = DuctileReport {
+            grid: self.grid.n,
+            spacing: self.grid.h,
+            tetrahedra: self.tets.len(),
+            ..Default::default()
+        };
+        while self.pull_fraction() < self.params.pull.distance
+            && report.steps < self.params.max_steps
+        {
+            let s = self.step();
+            report.steps += 1;
+            report.cg_iterations += s.cg_iterations;
+            report.cg_max_iterations = report.cg_max_iterations.max(s.cg_iterations);
+            if !s.converged {
+                report.cg_unconverged += 1;
+            }
+            if s.tearing_nodes > 0 && report.first_tear_pull.is_none() {
+                report.first_tear_pull = Some(self.pull_fraction());
+            }
+            if report.separated_pull.is_none() && s.tearing_nodes > 0 && self.fragments() > 1 {
+                report.separated_pull = Some(self.pull_fraction());
+            }
+            on_step(self, &s);
+        }
+        report.time = self.time;
+        report.pull = self.pull_fraction();
+        report.fragments = self.fragments();
+        report
+    }
+
+    /// Pieces of material.
+    pub fn fragments(&self) -> usize {
+        let inside: Vec<bool> = self.phi.iter().map(|&p| p < 0.0).collect();
+        let mut parent: Vec<u32> = (0..self.tets.len() as u32).collect();
+        fn find(p: &mut [u32], mut x: u32) -> u32 {
+            while p[x as usize] != x {
+                p[x as usize] = p[p[x as usize] as usize];
+                x = p[x as usize];
+            }
+            x
+        }
+        // The material in a tetrahedron is convex (phi is linear in it):
+        // tetrahedra sharing an inside node are one piece.
+        for (n, ts) in self.node_tets.iter().enumerate() {
+            if !inside[n] {
+                continue;
+            }
+            for w in ts.windows(2) {
+                let (a, b) = (find(&mut parent, w[0].0), find(&mut parent, w[1].0));
+                if a != b {
+                    parent[a.max(b) as usize] = a.min(b);
+                }
+            }
+        }
+        let mut roots: Vec<u32> = (0..self.tets.len() as u32)
+            .filter(|&e| self.tets[e as usize].iter().any(|&n| inside[n as usize]))
+            .map(|e| find(&mut parent, e))
+            .collect();
+        roots.sort_unstable();
+        roots.dedup();
+        roots.len()
+    }
+
+    /// Parameters.
+    pub fn params(&self) -> &DuctileParams {
+        &self.params
+    }
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,264 @@
+//! Parameters of `model = "ductile"` (`[simulation.ductile]`).
+
+/// How the pull moves its slabs.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Deserialize, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum PullMode {
+    /// The slabs move at `speed`, ramped up over `ramp` seconds.
+    #[default]
+    Velocity,
+    /// A traction `force` (Pa) pulls each slab outward, ramped up over
+    /// `ramp` seconds; the slabs move as the material lets them.
+    Force,
+}
+
+/// What is pulled: the nodes within `slab` of each end of the object along
+/// `axis`, moved apart.
+#[derive(Clone, Debug, PartialEq, serde::Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Pull {
+    /// `"x"`, `"y"`, `"z"` or `"long"` (the object's longest side).
+    /// Default `"long"`.
+    pub axis: String,
+    /// Thickness of each end's slab as a fraction of the object's extent
+    /// along the axis. Default 0.1.
+    pub slab: f64,
+    /// Speed of each end, in object lengths per second. Default 0.05.
+    pub speed: f64,
+    /// Seconds over which the speed (or force) ramps up from zero, so
+    /// nothing jumps. Default 0.5.
+    pub ramp: f64,
+    /// Velocity or force. Default velocity.
+    pub mode: PullMode,
+    /// With `mode = "force"`: traction on each end in Pa. Default 0.
+    pub force: f64,
+    /// The run ends when the ends have moved apart by this fraction of the
+    /// object's length. Default 0.5.
+    pub distance: f64,
+}
+
+impl Default for Pull {
+    fn default() -> Self {
+        Pull {
+            axis: "long".into(),
+            slab: 0.1,
+            speed: 0.05,
+            ramp: 0.5,
+            mode: PullMode::Velocity,
+            force: 0.0,
+            distance: 0.5,
+        }
+    }
+}
+
+impl Pull {
+    /// The pull's axis (0, 1, 2) for material spanning `lo..hi`.
+    pub fn axis_index(&self, lo: [f64; 3], hi: [f64; 3]) -> usize {
+        match self.axis.as_str() {
+            "x" => 0,
+            "y" => 1,
+            "z" => 2,
+            _ => (0..3)
+                .max_by(|&a, &b| (hi[a] - lo[a]).total_cmp(&(hi[b] - lo[b])).then(b.cmp(&a)))
+                .unwrap_or(0),
+        }
+    }
+
+    /// -1 for the nodes of the low end's slab, +1 for the high end's, 0
+    /// elsewhere: nodes of the material (in a tetrahedron with some inside)
+    /// whose rest position lies within `slab` of the material's extent;
+    /// with the axis and the slab's thickness.
+    pub fn slabs(
+        &self,
+        x: &[[f64; 3]],
+        phi: &[f64],
+        node_tets: &[Vec<(u32, u8)>],
+    ) -> (Vec<i8>, usize, f64) {
+        let inside: Vec<[f64; 3]> = x
+            .iter()
+            .zip(phi)
+            .filter(|(_, &p)| p < 0.0)
+            .map(|(x, _)| *x)
+            .collect();
+        let (lo, hi) = super::grid::bounds(&inside);
+        let a = self.axis_index(lo, hi);
+        let band = self.slab * (hi[a] - lo[a]);
+        let sides = x
+            .iter()
+            .zip(node_tets)
+            .map(|(p, t)| {
+                if t.is_empty() {
+                    0
+                } else if p[a] <= lo[a] + band {
+                    -1
+                } else if p[a] >= hi[a] - band {
+                    1
+                } else {
+                    0
+                }
+            })
+            .collect();
+        (sides, a, band)
+    }
+}
+
+/// Parameters of the ductile model.
+#[derive(Clone, Debug, PartialEq, serde::Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct DuctileParams {
+    /// Grid cubes along the object's longest side. Default 40.
+    pub grid: usize,
+    /// Grid cube side in scene units (overrides `grid` when positive).
+    pub cell_size: f64,
+    /// The object's longest side in metres (the scene's unit is not
+    /// used). Default 0.1.
+    pub size: f64,
+    /// Young's modulus, Pa. Default 200,000 (a soft clay).
+    pub young: f64,
+    /// Poisson's ratio, in [0, 0.5). Default 0.3.
+    pub poisson: f64,
+    /// Density, kg/m^3. Default 1,500.
+    pub density: f64,
+    /// Fracture resistance `kappa`: the strain-energy density (J/m^3) a
+    /// node must exceed to tear. Default 2,000.
+    pub kappa: f64,
+    /// How fast the torn front moves where the energy is twice `kappa`, in
+    /// object lengths per second. Default 1.
+    pub tear_speed: f64,
+    /// Width of the level set's smoothed delta as a fraction of the grid
+    /// spacing. Default 0.5.
+    pub eps: f64,
+    /// Mass-proportional damping, 1/s. Default 2.
+    pub damping: f64,
+    /// Stiffness-proportional damping, s. Default 0.001.
+    pub stiffness_damping: f64,
+    /// Largest time step, s. Default 0.05.
+    pub dt: f64,
+    /// CFL number: no node, and no torn front, moves more than this many
+    /// cells a step. Default 0.5.
+    pub cfl: f64,
+    /// CG tolerance (relative residual). Default 1e-6.
+    pub tolerance: f64,
+    /// Most CG iterations a step. Default 2,000.
+    pub max_cg: usize,
+    /// Most steps. Default 10,000.
+    pub max_steps: usize,
+    /// The pull.
+    pub pull: Pull,
+    /// Material of the torn surface (made plain when the asset has none
+    /// of that name). Default `tear_interior`.
+    pub tear_material: String,
+}
+
+impl Default for DuctileParams {
+    fn default() -> Self {
+        DuctileParams {
+            grid: 40,
+            cell_size: 0.0,
+            size: 0.1,
+            young: 2e5,
+            poisson: 0.3,
+            density: 1500.0,
+            kappa: 2000.0,
+            tear_speed: 1.0,
+            eps: 0.5,
+            damping: 2.0,
+            stiffness_damping: 1e-3,
+            dt: 0.05,
+            cfl: 0.5,
+            tolerance: 1e-6,
+            max_cg: 2000,
+            max_steps: 10_000,
+            pull: Pull::default(),
+            tear_material: "tear_interior".into(),
+        }
+    }
+}
+
+impl DuctileParams {
+    /// Grid cubes along a longest side of `longest` scene units.
+    pub fn cells_along_longest(&self, longest: f64) -> usize {
+        if self.cell_size > 0.0 {
+            (longest / self.cell_size).round().max(2.0) as usize
+        } else {
+            self.grid.max(2)
+        }
+    }
+
+    /// Check every value, naming the one that is wrong.
+    ///
+    /// # Errors
+    /// A message naming the parameter.
+    pub fn validate(&self) -> Result<(), String> {
+        let pos = |name: &str, x: f64| {
+            if x.is_finite() && x > 0.0 {
+                Ok(())
+            } else {
+                Err(format!("ductile.{name} must be a positive number, got {x}"))
+            }
+        };
+        let non_neg = |name: &str, x: f64| {
+            if x.is_finite() && x >= 0.0 {
+                Ok(())
+            } else {
+                Err(format!("ductile.{name} must be zero or positive, got {x}"))
+            }
+        };
+        if !(2..=400).contains(&self.grid) {
+            return Err(format!(
+                "ductile.grid must be in 2..=400, got {}",
+                self.grid
+            ));
+        }
+        non_neg("cell_size", self.cell_size)?;
+        pos("size", self.size)?;
+        pos("young", self.young)?;
+        if !(self.poisson.is_finite() && (0.0..0.5).contains(&self.poisson)) {
+            return Err(format!(
+                "ductile.poisson must be in [0, 0.5), got {}",
+                self.poisson
+            ));
+        }
+        pos("density", self.density)?;
+        pos("kappa", self.kappa)?;
+        pos("tear_speed", self.tear_speed)?;
+        pos("eps", self.eps)?;
+        non_neg("damping", self.damping)?;
+        non_neg("stiffness_damping", self.stiffness_damping)?;
+        pos("dt", self.dt)?;
+        pos("cfl", self.cfl)?;
+        if !(self.tolerance > 0.0 && self.tolerance < 1.0) {
+            return Err(format!(
+                "ductile.tolerance must be in (0, 1), got {}",
+                self.tolerance
+            ));
+        }
+        if self.max_cg == 0 || self.max_steps == 0 {
+            return Err("ductile.max_cg and ductile.max_steps must be at least 1".into());
+        }
+        if self.tear_material.is_empty() {
+            return Err("ductile.tear_material must not be empty".into());
+        }
+        let p = &self.pull;
+        if !["x", "y", "z", "long"].contains(&p.axis.as_str()) {
+            return Err(format!(
+                "ductile.pull.axis must be \"x\", \"y\", \"z\" or \"long\", got {:?}",
+                p.axis
+            ));
+        }
+        if !(p.slab > 0.0 && p.slab < 0.5) {
+            return Err(format!(
+                "ductile.pull.slab must be in (0, 0.5), got {}",
+                p.slab
+            ));
+        }
+        non_neg("pull.speed", p.speed)?;
+        non_neg("pull.ramp", p.ramp)?;
+        non_neg("pull.force", p.force)?;
+        pos("pull.distance", p.distance)?;
+        match p.mode {
+            PullMode::Velocity => pos("pull.speed", p.speed),
+            PullMode::Force => pos("pull.force", p.force),
+        }
+    }
+}

@@ -1,0 +1,251 @@
+//! The elastic step: backward Euler, linearised once about the current
+//! positions (Baraff & Witkin), solved matrix-free by preconditioned CG on
+//! `((1 + dt a) M + (dt b + dt^2) K) dv = dt (f + f_ext - a M v) -
+//! dt (b + dt) K v`, with Rayleigh damping `a M + b K` and the projected
+//! stiffness `K` of [`super::fem`]; pulled nodes get their velocity.
+//! Every sum over a node's tetrahedra runs in a fixed order.
+
+use super::fem::Element;
+use super::params::PullMode;
+use super::{Ductile, StepReport};
+use crate::sim::cg::{self, CgReport, Vectors};
+use nalgebra::Vector3;
+use rayon::prelude::*;
+
+impl Ductile {
+    /// `K p` at every node (zero where `p` is zero on all its tetrahedra).
+    fn stiffness_product(
+        &self,
+        elements: &[Element],
+        weights: &[f64],
+        p: &[[f64; 3]],
+    ) -> Vec<[f64; 3]> {
+        let per_tet: Vec<[Vector3<f64>; 4]> = (0..self.tets.len())
+            .into_par_iter()
+            .map(|e| {
+                if weights[e] <= 0.0 {
+                    return [Vector3::zeros(); 4];
+                }
+                let dx = self.tets[e].map(|n| Vector3::from(p[n as usize]));
+                elements[e].force_differential(dx, &self.rest[e], weights[e], self.lame)
+            })
+            .collect();
+        self.node_tets
+            .par_iter()
+            .map(|ts| {
+                let mut acc = Vector3::zeros();
+                for &(e, c) in ts {
+                    acc -= per_tet[e as usize][c as usize];
+                }
+                [acc[0], acc[1], acc[2]]
+            })
+            .collect()
+    }
+
+    /// Elastic forces at every node.
+    fn elastic_forces(&self, elements: &[Element]) -> Vec<[f64; 3]> {
+        self.node_tets
+            .par_iter()
+            .map(|ts| {
+                let mut acc = Vector3::zeros();
+                for &(e, c) in ts {
+                    acc += elements[e as usize].forces[c as usize];
+                }
+                [acc[0], acc[1], acc[2]]
+            })
+            .collect()
+    }
+
+    /// A diagonal estimate of `K` per node (scalar): the tetrahedra's
+    /// `(2 mu + lambda) |grad N|^2` times their weight.
+    fn stiffness_diagonal(&self, weights: &[f64]) -> Vec<f64> {
+        let k = 2.0 * self.lame.mu + self.lame.lambda;
+        self.node_tets
+            .par_iter()
+            .map(|ts| {
+                ts.iter()
+                    .map(|&(e, c)| {
+                        weights[e as usize]
+                            * k
+                            * self.rest[e as usize].gradients()[c as usize].norm_squared()
+                    })
+                    .sum()
+            })
+            .collect()
+    }
+
+    /// External forces: the pull's traction in force mode, spread over each
+    /// slab by mass.
+    fn external_forces(&self, mass: &[f64]) -> Vec<[f64; 3]> {
+        let mut f = vec![[0.0; 3]; self.x.len()];
+        let p = &self.params.pull;
+        if p.mode != PullMode::Force {
+            return f;
+        }
+        let ramp = if p.ramp > 0.0 {
+            (self.time / p.ramp).min(1.0)
+        } else {
+            1.0
+        };
+        for side in [-1i8, 1] {
+            let slab_mass: f64 = (0..self.x.len())
+                .filter(|&n| self.pulled[n] == side)
+                .map(|n| mass[n])
+                .sum();
+            if slab_mass <= 0.0 {
+                continue;
+            }
+            // The slab's cross-section: its volume over its thickness.
+            let area = slab_mass / self.params.density / self.slab_thickness;
+            let total = ramp * p.force * area;
+            for n in (0..self.x.len()).filter(|&n| self.pulled[n] == side) {
+                f[n][self.axis] = f64::from(side) * total * mass[n] / slab_mass;
+            }
+        }
+        f
+    }
+
+    /// The implicit step of length `dt`; updates `v` and `x`.
+    pub(super) fn implicit_step(
+        &mut self,
+        dt: f64,
+        weights: &[f64],
+        elements: &[Element],
+        mass: &[f64],
+    ) -> StepReport {
+        let n = self.x.len();
+        let (a, b) = (self.params.damping, self.params.stiffness_damping);
+        let (cm, ck) = (1.0 + dt * a, dt * b + dt * dt);
+        let fe = self.elastic_forces(elements);
+        let fx = self.external_forces(mass);
+        let kv = self.stiffness_product(elements, weights, &self.v);
+        let speed = self.pull_speed_now();
+        let velocity_pull = self.params.pull.mode == PullMode::Velocity;
+        // Fixed unknowns: nodes without material, and the pull's component
+        // of pulled nodes (they slide freely across it, as in a grip that
+        // lets the material narrow).
+        let fixed: Vec<[bool; 3]> = (0..n)
+            .map(|i| {
+                if mass[i] <= 0.0 {
+                    [true; 3]
+                } else if velocity_pull && self.pulled[i] != 0 {
+                    std::array::from_fn(|k| k == self.axis)
+                } else {
+                    [false; 3]
+                }
+            })
+            .collect();
+        let rhs: Vec<[f64; 3]> = (0..n)
+            .map(|i| {
+                std::array::from_fn(|k| {
+                    dt * (fe[i][k] + fx[i][k] - a * mass[i] * self.v[i][k])
+                        - dt * (b + dt) * kv[i][k]
+                })
+            })
+            .collect();
+        // Free unknowns start from the last step's change (quasistatic
+        // pulls change little from step to step).
+        let mut x: Vec<[f64; 3]> = (0..n)
+            .map(|i| {
+                std::array::from_fn(|k| {
+                    if mass[i] <= 0.0 {
+                        0.0
+                    } else if fixed[i][k] {
+                        f64::from(self.pulled[i]) * speed - self.v[i][k]
+                    } else {
+                        self.last_dv.get(i).map_or(0.0, |d| d[k])
+                    }
+                })
+            })
+            .collect();
+        let kdiag = self.stiffness_diagonal(weights);
+        let diag: Vec<f64> = (0..n)
+            .map(|i| (cm * mass[i] + ck * kdiag[i]).max(1e-300))
+            .collect();
+        let apply = |p: &[[f64; 3]], kp: &[[f64; 3]], i: usize| -> [f64; 3] {
+            std::array::from_fn(|k| cm * mass[i] * p[i][k] + ck * kp[i][k])
+        };
+        // r = b - A x on the free unknowns.
+        let kx = self.stiffness_product(elements, weights, &x);
+        let mut r: Vec<[f64; 3]> = (0..n)
+            .map(|i| {
+                let ax = apply(&x, &kx, i);
+                std::array::from_fn(|k| if fixed[i][k] { 0.0 } else { rhs[i][k] - ax[k] })
+            })
+            .collect();
+        let norm_b = cg::dot(&r, &r).sqrt().max(1e-300);
+        let mut report = CgReport::default();
+        if cg::dot(&r, &r).sqrt() > 0.0 {
+            let (mut z, mut p, mut ap) = (vec![[0.0; 3]; n], vec![[0.0; 3]; n], vec![[0.0; 3]; n]);
+            let product = |p: &[[f64; 3]], ap: &mut [[f64; 3]]| -> f64 {
+                let kp = self.stiffness_product(elements, weights, p);
+                ap.par_iter_mut().enumerate().for_each(|(i, out)| {
+                    let full = apply(p, &kp, i);
+                    *out = std::array::from_fn(|k| if fixed[i][k] { 0.0 } else { full[k] });
+                });
+                cg::dot(p, ap)
+            };
+            let precondition = |i: usize, r: [f64; 3]| -> [f64; 3] {
+                std::array::from_fn(|k| if fixed[i][k] { 0.0 } else { r[k] / diag[i] })
+            };
+            cg::iterate(
+                product,
+                precondition,
+                Vectors {
+                    x: &mut x,
+                    r: &mut r,
+                    z: &mut z,
+                    p: &mut p,
+                    ap: &mut ap,
+                },
+                norm_b,
+                self.params.tolerance,
+                self.params.max_cg,
+                &mut report,
+            );
+        } else {
+            report.converged = true;
+        }
+        self.last_dv.clone_from(&x);
+        for ((v, p), dv) in self.v.iter_mut().zip(self.x.iter_mut()).zip(&x) {
+            for k in 0..3 {
+                v[k] += dv[k];
+                p[k] += dt * v[k];
+            }
+        }
+        StepReport {
+            cg_iterations: report.iterations,
+            cg_residual: report.relative_residual,
+            converged: report.converged,
+            ..Default::default()
+        }
+    }
+
+    /// One explicit (symplectic Euler) step of length `dt` with mass
+    /// damping only, for comparison with the implicit step at small `dt`.
+    pub fn explicit_step(&mut self, dt: f64) {
+        let weights = self.weights();
+        let elements = self.elements(&weights);
+        let mass = self.masses(&weights);
+        let fe = self.elastic_forces(&elements);
+        let fx = self.external_forces(&mass);
+        let speed = self.pull_speed_now();
+        let a = self.params.damping;
+        for i in 0..self.x.len() {
+            if mass[i] <= 0.0 {
+                continue;
+            }
+            for k in 0..3 {
+                self.v[i][k] += dt * ((fe[i][k] + fx[i][k]) / mass[i] - a * self.v[i][k]);
+            }
+            if self.params.pull.mode == PullMode::Velocity && self.pulled[i] != 0 {
+                self.v[i][self.axis] = f64::from(self.pulled[i]) * speed;
+            }
+            for k in 0..3 {
+                self.x[i][k] += dt * self.v[i][k];
+            }
+        }
+        self.time += dt;
+        self.update_pulled_by();
+    }
+}

@@ -1,0 +1,479 @@
+//! Tests of the ductile model: the element, the embedding, the implicit
+//! solver, and the text's experiments on a notched block.
+
+use super::fem::{lame, Element, Lame, Rest};
+use super::grid::{inside_fraction, signed_distances};
+use super::*;
+use nalgebra::Vector3;
+
+/// A closed, outward-oriented block `1 x 2 x 1` (long along y) with a V
+/// notch cut into its +x face at y = 1: `depth` deep, 0.2 wide at the face.
+pub(crate) fn notched_block(depth: f64) -> (Vec<[f64; 3]>, Vec<[u32; 3]>) {
+    // The cross-section in (x, y), counter-clockwise, and a fan centre on
+    // the left side from which every corner is seen.
+    let poly = [
+        [0.0, 0.0],
+        [1.0, 0.0],
+        [1.0, 0.9],
+        [1.0 - depth, 1.0],
+        [1.0, 1.1],
+        [1.0, 2.0],
+        [0.0, 2.0],
+        [0.0, 1.0],
+    ];
+    let n = poly.len() as u32;
+    let mut pos = Vec::new();
+    for z in [0.0, 1.0] {
+        for p in &poly {
+            pos.push([p[0], p[1], z]);
+        }
+    }
+    let mut tris = Vec::new();
+    let centre = 7u32;
+    for i in 0..n {
+        let j = (i + 1) % n;
+        if i != centre && j != centre {
+            // Bottom (z = 0) faces -z: clockwise seen from above.
+            tris.push([centre, j, i]);
+            tris.push([n + centre, n + i, n + j]);
+        }
+        // Side quad of edge i -> j (counter-clockwise: outward is right).
+        tris.push([i, j, n + j]);
+        tris.push([i, n + j, n + i]);
+    }
+    (pos, tris)
+}
+
+fn params(grid: usize) -> DuctileParams {
+    DuctileParams {
+        grid,
+        ..Default::default()
+    }
+}
+
+#[test]
+fn the_block_is_closed_and_outward() {
+    let (p, t) = notched_block(0.4);
+    // Volume by the divergence theorem: 2 minus the notch (0.4 * 0.2 / 2).
+    let vol: f64 = t
+        .iter()
+        .map(|f| {
+            let [a, b, c] = f.map(|i| p[i as usize]);
+            (a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0])
+                + a[2] * (b[0] * c[1] - b[1] * c[0]))
+                / 6.0
+        })
+        .sum();
+    assert!((vol - (2.0 - 0.04)).abs() < 1e-12, "volume {vol}");
+    let d = signed_distances(
+        &p,
+        &t,
+        &[
+            [0.5, 0.5, 0.5],
+            [2.0, 0.5, 0.5],
+            [0.9, 1.0, 0.5],
+            [0.5, 1.0, 0.5],
+        ],
+    )
+    .unwrap();
+    assert!((d[0] + 0.5).abs() < 1e-5, "{d:?}");
+    assert!((d[1] - 1.0).abs() < 1e-5, "{d:?}");
+    assert!(d[2] > 0.0, "in the notch: {d:?}");
+    assert!(d[3] < 0.0, "{d:?}");
+}
+
+#[test]
+fn inside_fractions_match_sampling() {
+    // A fixed sequence of level sets and points (a small LCG).
+    let mut s = 12345u64;
+    let mut rnd = || {
+        s = s
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (s >> 11) as f64 / (1u64 << 53) as f64
+    };
+    for _ in 0..40 {
+        let phi = [0; 4].map(|_| rnd() * 2.0 - 1.0);
+        let mut inside = 0;
+        let samples = 20000;
+        for _ in 0..samples {
+            // Uniform in the tetrahedron: sorted uniforms.
+            let mut u = [rnd(), rnd(), rnd()];
+            u.sort_by(f64::total_cmp);
+            let w = [u[0], u[1] - u[0], u[2] - u[1], 1.0 - u[2]];
+            let v: f64 = (0..4).map(|k| w[k] * phi[k]).sum();
+            if v < 0.0 {
+                inside += 1;
+            }
+        }
+        let want = f64::from(inside) / f64::from(samples);
+        let got = inside_fraction(phi);
+        assert!((got - want).abs() < 0.015, "{phi:?}: {got} against {want}");
+    }
+}
+
+#[test]
+fn forces_are_the_energy_gradient_and_the_differential_its_derivative() {
+    let m = {
+        let (mu, lambda) = lame(1e5, 0.3);
+        Lame { mu, lambda }
+    };
+    let rest_x = [
+        [0.0, 0.0, 0.0],
+        [1.0, 0.0, 0.0],
+        [0.0, 1.0, 0.0],
+        [0.0, 0.0, 1.0],
+    ];
+    let rest = Rest::new(rest_x);
+    // Stretched and turned (all singular values above 1: no clamping).
+    let x = [
+        [0.1, 0.0, 0.0],
+        [1.35, 0.2, 0.0],
+        [-0.1, 1.25, 0.1],
+        [0.05, 0.1, 1.3],
+    ];
+    let w = rest.volume;
+    let e0 = Element::at(x, &rest, w, m);
+    assert!(e0.sigma.iter().all(|&s| s > 1.0), "{:?}", e0.sigma);
+    let energy = |x: [[f64; 3]; 4]| Element::at(x, &rest, w, m).psi * w;
+    let h = 1e-6;
+    for n in 0..4 {
+        for k in 0..3 {
+            let (mut a, mut b) = (x, x);
+            a[n][k] += h;
+            b[n][k] -= h;
+            let fd = -(energy(a) - energy(b)) / (2.0 * h);
+            assert!(
+                (fd - e0.forces[n][k]).abs() < 1e-3 * e0.forces[n][k].abs().max(1.0),
+                "force {n} {k}: {fd} against {}",
+                e0.forces[n][k]
+            );
+        }
+    }
+    let dx = [
+        Vector3::new(0.3, -0.2, 0.1),
+        Vector3::new(-0.1, 0.4, 0.2),
+        Vector3::new(0.2, 0.1, -0.3),
+        Vector3::new(0.0, -0.1, 0.2),
+    ];
+    let df = e0.force_differential(dx, &rest, w, m);
+    let moved = |s: f64| {
+        let mut y = x;
+        for n in 0..4 {
+            for k in 0..3 {
+                y[n][k] += s * dx[n][k];
+            }
+        }
+        Element::at(y, &rest, w, m).forces
+    };
+    let (fa, fb) = (moved(h), moved(-h));
+    for n in 0..4 {
+        let fd = (fa[n] - fb[n]) / (2.0 * h);
+        assert!(
+            (fd - df[n]).norm() < 1e-4 * df[n].norm().max(1.0),
+            "node {n}: {fd:?} against {:?}",
+            df[n]
+        );
+    }
+    // Compressed: the projected stiffness stays positive semi-definite.
+    let squashed = [
+        [0.0, 0.0, 0.0],
+        [0.5, 0.0, 0.0],
+        [0.0, 0.6, 0.0],
+        [0.0, 0.0, 0.4],
+    ];
+    let e = Element::at(squashed, &rest, w, m);
+    let df = e.force_differential(dx, &rest, w, m);
+    let work: f64 = (0..4).map(|n| -df[n].dot(&dx[n])).sum();
+    assert!(work >= 0.0, "dx . K dx = {work}");
+}
+
+#[test]
+fn backward_euler_meets_its_tolerance_and_energy_decreases_without_load() {
+    let (p, t) = notched_block(0.4);
+    let mut d = Ductile::new(&p, &t, &params(10)).unwrap();
+    d.pulled.iter_mut().for_each(|s| *s = 0);
+    // Start stretched 4% along y, at rest.
+    for (x, r) in d.x.iter_mut().zip(&d.rest_x) {
+        x[1] = r[1] * 1.04;
+    }
+    let mut last = d.energy();
+    assert!(last > 0.0);
+    for step in 0..30 {
+        let weights = d.weights();
+        let elements = d.elements(&weights);
+        let mass = d.masses(&weights);
+        let s = d.implicit_step(0.01, &weights, &elements, &mass);
+        assert!(s.converged, "step {step}: residual {}", s.cg_residual);
+        let kinetic: f64 = 0.5
+            * d.v
+                .iter()
+                .zip(&mass)
+                .map(|(v, m)| m * (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]))
+                .sum::<f64>();
+        let total = d.energy() + kinetic;
+        assert!(
+            total <= last * (1.0 + 1e-9),
+            "step {step}: {total} after {last}"
+        );
+        last = total;
+    }
+    assert!(
+        last < 0.5 * d.energy().max(1e-300) || last < 1e-3,
+        "the block came to rest: {last}"
+    );
+}
+
+#[test]
+fn explicit_and_implicit_steps_agree_at_small_steps() {
+    let (p, t) = notched_block(0.4);
+    // The explicit step has mass damping only.
+    let params = |g| DuctileParams {
+        stiffness_damping: 0.0,
+        ..params(g)
+    };
+    // Both from a 2% stretch, over the same 4 ms, at two step sizes.
+    let gap = |steps: usize| {
+        let mut a = Ductile::new(&p, &t, &params(8)).unwrap();
+        a.pulled.iter_mut().for_each(|s| *s = 0);
+        for (x, r) in a.x.iter_mut().zip(&a.rest_x) {
+            x[1] = r[1] * 1.02;
+        }
+        let start = a.x.clone();
+        let mut b = Ductile {
+            x: a.x.clone(),
+            ..Ductile::new(&p, &t, &params(8)).unwrap()
+        };
+        b.pulled.iter_mut().for_each(|s| *s = 0);
+        let dt = 4e-3 / steps as f64;
+        for _ in 0..steps {
+            a.explicit_step(dt);
+            let weights = b.weights();
+            let elements = b.elements(&weights);
+            let mass = b.masses(&weights);
+            assert!(b.implicit_step(dt, &weights, &elements, &mass).converged);
+        }
+        let (mut diff, mut moved) = (0.0f64, 0.0f64);
+        for ((p, q), s) in a.x.iter().zip(&b.x).zip(&start) {
+            for k in 0..3 {
+                diff = diff.max((p[k] - q[k]).abs());
+                moved = moved.max((p[k] - s[k]).abs());
+            }
+        }
+        (diff, moved)
+    };
+    let (coarse, _) = gap(100);
+    let (diff, moved) = gap(400);
+    // First-order methods: the gap shrinks with the step.
+    assert!(
+        diff < 0.5 * coarse,
+        "gap {diff} at dt/4 against {coarse} at dt"
+    );
+    assert!(moved > 0.0);
+    assert!(
+        diff < 0.03 * moved,
+        "explicit and implicit differ by {diff} for moves of {moved}"
+    );
+}
+
+/// A pull of the notched block: the run's report, the rest positions
+/// along the pull (fractions of the length) of the nodes whose level set
+/// had moved more than half a cube when it first came apart (the surface
+/// recedes a little wherever the energy passes `kappa`; a tear goes deep),
+/// and the end state.
+fn pull(p: &DuctileParams, scale: f64) -> (DuctileReport, Vec<f64>, Ductile) {
+    let (pos, t) = notched_block(0.4);
+    let pos: Vec<[f64; 3]> = pos.iter().map(|q| q.map(|x| x * scale)).collect();
+    let mut d = Ductile::new(&pos, &t, p).unwrap();
+    let mut torn: Option<Vec<f64>> = None;
+    let r = d.run(|d, s| {
+        assert!(
+            s.converged,
+            "a solve missed its tolerance: {}",
+            s.cg_residual
+        );
+        if torn.is_none() && s.tearing_nodes > 0 && d.fragments() > 1 {
+            let inside: Vec<[f64; 3]> = d
+                .rest_x
+                .iter()
+                .zip(&d.phi0)
+                .filter(|(_, &f)| f < 0.0)
+                .map(|(x, _)| *x)
+                .collect();
+            let (lo, _) = grid::bounds(&inside);
+            torn = Some(
+                (0..d.phi.len())
+                    .filter(|&n| d.phi[n] - d.phi0[n] > 0.5 * d.grid.h)
+                    .map(|n| (d.rest_x[n][1] - lo[1]) / d.length)
+                    .collect(),
+            );
+        }
+    });
+    (r, torn.unwrap_or_default(), d)
+}
+
+/// The text's first experiment: at a low Poisson ratio the block tears
+/// through its thinnest section, at the notch (half way along it).
+#[test]
+fn a_notched_block_tears_through_its_notch() {
+    let (r, torn, _) = pull(
+        &DuctileParams {
+            poisson: 0.1,
+            ..params(12)
+        },
+        1.0,
+    );
+    assert_eq!(r.cg_unconverged, 0);
+    assert!(r.separated_pull.is_some(), "{r:?}");
+    assert!(r.fragments >= 2, "{r:?}");
+    assert!(!torn.is_empty());
+    // Most of the deep tear at the notch (the rest at the grips' edges,
+    // where the pulled slabs meet the free material), the most torn row of
+    // nodes the notch's.
+    let near = torn.iter().filter(|y| (*y - 0.5).abs() < 0.1).count();
+    assert!(
+        near as f64 >= 0.6 * torn.len() as f64,
+        "{near} of {} torn nodes at the notch",
+        torn.len()
+    );
+    let mut rows = std::collections::BTreeMap::new();
+    for y in &torn {
+        *rows.entry((y * 1000.0).round() as i64).or_insert(0) += 1;
+    }
+    let (row, _) = rows.iter().max_by_key(|(r, c)| (**c, -**r)).unwrap();
+    assert!(
+        (*row as f64 / 1000.0 - 0.5).abs() < 0.09,
+        "most torn row at {row}"
+    );
+}
+
+/// A stiffer block tears earlier under the same pull; a tougher one later
+/// or not at all; a weak one comes apart.
+#[test]
+fn stiffer_tears_earlier_tougher_later_weak_comes_apart() {
+    let base = params(10);
+    let (soft, _, _) = pull(&base, 1.0);
+    let (stiff, _, _) = pull(
+        &DuctileParams {
+            young: 2.0 * base.young,
+            ..base.clone()
+        },
+        1.0,
+    );
+    let first = |r: &DuctileReport| r.first_tear_pull.unwrap_or(f64::INFINITY);
+    let apart = |r: &DuctileReport| r.separated_pull.unwrap_or(f64::INFINITY);
+    assert!(first(&stiff) < first(&soft), "{stiff:?} against {soft:?}");
+    assert!(apart(&stiff) < apart(&soft), "{stiff:?} against {soft:?}");
+    let (tough, _, _) = pull(
+        &DuctileParams {
+            kappa: 3.0 * base.kappa,
+            ..base.clone()
+        },
+        1.0,
+    );
+    assert!(
+        first(&tough) > first(&soft) && apart(&tough) > apart(&soft),
+        "{tough:?} against {soft:?}"
+    );
+    let (unbreakable, _, _) = pull(
+        &DuctileParams {
+            kappa: 1e7,
+            ..base.clone()
+        },
+        1.0,
+    );
+    assert_eq!(unbreakable.first_tear_pull, None);
+    assert_eq!(unbreakable.fragments, 1);
+    let (weak, _, _) = pull(
+        &DuctileParams {
+            kappa: 0.15 * base.kappa,
+            ..base
+        },
+        1.0,
+    );
+    assert!(
+        weak.fragments >= 2 && apart(&weak) < apart(&soft),
+        "{weak:?}"
+    );
+}
+
+/// Grid resolution: the same block at 12 and 18 cubes along its length
+/// tears through at the same pull within 15% (mass and stiffness come from
+/// the volume each node carries).
+#[test]
+fn two_resolutions_tear_at_the_same_pull() {
+    let (coarse, _, _) = pull(&params(12), 1.0);
+    let (fine, _, _) = pull(&params(18), 1.0);
+    let (a, b) = (coarse.separated_pull.unwrap(), fine.separated_pull.unwrap());
+    assert!((a / b - 1.0).abs() < 0.15, "{a} at 12 cubes, {b} at 18");
+}
+
+/// Scene scale: the block in thousandths and in thousands of a unit tears
+/// the same way (the object's size in metres is a parameter, not the
+/// scene's unit).
+#[test]
+fn scene_scale_does_not_change_the_tear() {
+    let (small, _, a) = pull(&params(8), 1e-3);
+    let (large, _, b) = pull(&params(8), 1e3);
+    assert_eq!(small.steps, large.steps);
+    assert_eq!(small.fragments, large.fragments);
+    let close = |x: f64, y: f64| (x - y).abs() <= 1e-9 * x.abs().max(y.abs()).max(1e-9);
+    assert!(close(
+        small.separated_pull.unwrap(),
+        large.separated_pull.unwrap()
+    ));
+    for (p, q) in a.x.iter().zip(&b.x) {
+        for k in 0..3 {
+            assert!((p[k] - q[k]).abs() < 1e-9, "{p:?} against {q:?}");
+        }
+    }
+}
+
+/// The extracted surface is closed (every edge shared by two triangles,
+/// in opposite directions), outward, and after a tear has torn triangles
+/// and one piece per fragment.
+#[test]
+fn the_torn_surface_is_closed_and_in_pieces() {
+    let (r, _, d) = pull(&params(10), 1.0);
+    let s = d.surface(0.25 * d.grid.h);
+    assert!(!s.triangles.is_empty());
+    let mut edges = std::collections::HashMap::new();
+    for t in &s.triangles {
+        for k in 0..3 {
+            *edges.entry((t[k], t[(k + 1) % 3])).or_insert(0) += 1;
+        }
+    }
+    for (&(a, b), &c) in &edges {
+        assert_eq!(c, 1, "edge {a} {b} used {c} times one way");
+        assert_eq!(edges.get(&(b, a)), Some(&1), "edge {a} {b} has no twin");
+    }
+    // Outward: the enclosed volume (rest) is positive; before the pull it
+    // is the block's, after it less (the torn material is gone).
+    let volume = |s: &surface::TornSurface| -> f64 {
+        s.triangles
+            .iter()
+            .map(|t| {
+                let [a, b, c] = t.map(|i| s.rest[i as usize]);
+                crate::math::v3::dot(a, crate::math::v3::cross(b, c)) / 6.0
+            })
+            .sum()
+    };
+    let (p, t) = notched_block(0.4);
+    let fresh = Ductile::new(&p, &t, &params(10)).unwrap();
+    let start = fresh.surface(0.25 * fresh.grid.h);
+    let block = 0.1 * 0.05 * 0.05 * (1.0 - 0.02);
+    assert!(
+        (volume(&start) / block - 1.0).abs() < 0.03,
+        "{} against {block}",
+        volume(&start)
+    );
+    assert!(start.torn.iter().all(|&t| !t) && start.pieces == 1);
+    let after = volume(&s);
+    assert!(
+        after > 0.5 * block && after < volume(&start),
+        "{after} after the pull"
+    );
+    assert!(s.torn.iter().any(|&t| t) && s.torn.iter().any(|&t| !t));
+    assert_eq!(s.pieces, r.fragments);
+    assert!(s.pieces >= 2);
+}
