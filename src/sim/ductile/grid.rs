@@ -31,16 +31,20 @@ const KUHN: [[u8; 4]; 6] = [
 ];
 
 impl Grid {
-    /// The grid over the box `lo..hi` with one empty cube of margin on every
-    /// side and `cells` cubes along the box's longest side (at least 2).
+    /// The grid over the box `lo..hi` with about one empty cube of margin on
+    /// every side and `cells` cubes along the box's longest side (at least
+    /// 2).
     pub fn around(lo: [f64; 3], hi: [f64; 3], cells: usize) -> Grid {
         let longest = (0..3).map(|k| hi[k] - lo[k]).fold(0.0, f64::max);
         let h = longest / cells.max(2) as f64;
         let n = std::array::from_fn(|k| ((hi[k] - lo[k]) / h).ceil().max(1.0) as usize + 2);
+        // Centred, then shifted by a fixed odd fraction of a cube: the
+        // faces of a solid aligned with the axes would otherwise pass
+        // through lines of nodes, whose inside or outside is rounding.
+        const SHIFT: [f64; 3] = [0.1374, 0.2718, 0.1931];
         let origin = std::array::from_fn(|k| {
-            // Centred: the margin is the same on both sides.
             let span = n[k] as f64 * h;
-            0.5 * (lo[k] + hi[k]) - 0.5 * span
+            0.5 * (lo[k] + hi[k]) - 0.5 * span + SHIFT[k] * h
         });
         Grid { origin, h, n }
     }

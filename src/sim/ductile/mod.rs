@@ -28,6 +28,11 @@ pub use params::{DuctileParams, Pull, PullMode};
 use fem::{Element, Lame, Rest};
 use grid::{inside_fraction, EmbedError, Grid};
 use rayon::prelude::*;
+use std::collections::HashMap;
+
+/// The least material (in cubes) a piece holds to count: less is a sliver
+/// of rounding along the surface.
+pub const SLIVER: f64 = 1e-3;
 
 /// What one step did.
 #[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
@@ -460,13 +465,19 @@ impl Ductile {
                 }
             }
         }
-        let mut roots: Vec<u32> = (0..self.tets.len() as u32)
-            .filter(|&e| self.tets[e as usize].iter().any(|&n| inside[n as usize]))
-            .map(|e| find(&mut parent, e))
-            .collect();
-        roots.sort_unstable();
-        roots.dedup();
-        roots.len()
+        // A piece counts when it holds at least a thousandth of a cube of
+        // material: nodes on the surface whose sign is rounding make
+        // slivers of nothing.
+        let mut material: HashMap<u32, f64> = HashMap::new();
+        for e in 0..self.tets.len() as u32 {
+            if self.tets[e as usize].iter().any(|&n| inside[n as usize]) {
+                let r = find(&mut parent, e);
+                *material.entry(r).or_insert(0.0) +=
+                    self.rest[e as usize].volume * self.inside(e as usize);
+            }
+        }
+        let least = SLIVER * self.grid.h.powi(3);
+        material.values().filter(|&&v| v >= least).count()
     }
 
     /// Parameters.

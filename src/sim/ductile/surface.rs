@@ -131,8 +131,42 @@ impl Ductile {
             }
         }
         let (piece, pieces) = pieces(&s.triangles, s.rest.len());
-        s.piece = piece;
-        s.pieces = pieces;
+        // Slivers of rounding (pieces enclosing less than `SLIVER` of a
+        // cube) are dropped; the rest are numbered again in order.
+        let mut volume = vec![0.0; pieces];
+        for (t, &p) in s.triangles.iter().zip(&piece) {
+            let [a, b, c] = t.map(|v| s.rest[v as usize]);
+            volume[p as usize] += crate::math::v3::dot(a, crate::math::v3::cross(b, c)) / 6.0;
+        }
+        let least = super::SLIVER * self.grid.h.powi(3);
+        let mut renumber = vec![u32::MAX; pieces];
+        let mut kept = 0u32;
+        for (p, v) in volume.iter().enumerate() {
+            if *v >= least {
+                renumber[p] = kept;
+                kept += 1;
+            }
+        }
+        let keep: Vec<bool> = piece
+            .iter()
+            .map(|&p| renumber[p as usize] != u32::MAX)
+            .collect();
+        let mut k = 0;
+        s.triangles.retain(|_| {
+            k += 1;
+            keep[k - 1]
+        });
+        let mut k = 0;
+        s.torn.retain(|_| {
+            k += 1;
+            keep[k - 1]
+        });
+        s.piece = piece
+            .iter()
+            .filter(|&&p| renumber[p as usize] != u32::MAX)
+            .map(|&p| renumber[p as usize])
+            .collect();
+        s.pieces = kept as usize;
         s
     }
 
