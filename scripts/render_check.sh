@@ -93,6 +93,9 @@ check() {
 }
 
 for preset in "${presets[@]}"; do
+    # The ductile model tears solids apart rather than cracking a surface:
+    # the crack-line pixel test does not apply (tests/ductile.rs checks it).
+    [ "$preset" = tear ] && { echo "tear: skipped (no crack lines to compare with)"; continue; }
     fixture=$("$bin" presets | awk -v p="$preset" '$1 == p' | grep -o 'fixtures/[A-Za-z0-9_.-]*' | head -1)
     for input in "$fixture" "${assets[@]}"; do
         [ -n "$input" ] || continue
