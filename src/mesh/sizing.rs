@@ -9,7 +9,9 @@ use std::collections::{HashMap, HashSet};
 /// The edge length each vertex asks for: `target`, shortened to the
 /// length whose chord strays `chord_error` from a circle of the surface's
 /// radius of curvature there (`2 sqrt(2 e r - e^2)`), but not below
-/// `shortest`. The curvature across an edge is the angle between its two
+/// `shortest` nor below the mean length of the input's own edges at the
+/// vertex (a flat input facet gains nothing from more vertices: only
+/// detail finer than the target is kept). The curvature across an edge is the angle between its two
 /// faces' normals over their mean height above it; a vertex
 /// takes the tightest of its edges'. `features` (sorted vertex pairs) are
 /// kept as lines by the remesher and ask for nothing; nor do open edges.
@@ -38,6 +40,21 @@ pub(crate) fn edge_sizes(
                 .push(f as u32);
         }
     }
+    // The input's own edge length at each vertex: refining a flat input
+    // facet adds nothing, so no edge is asked to be shorter than the
+    // input's edges around it (only finer input detail is kept).
+    let mut own = vec![(0.0f64, 0u32); pos.len()];
+    for &(a, b) in faces_of.keys() {
+        let l = norm(sub(pos[b as usize], pos[a as usize]));
+        for v in [a, b] {
+            own[v as usize].0 += l;
+            own[v as usize].1 += 1;
+        }
+    }
+    let own: Vec<f64> = own
+        .iter()
+        .map(|&(sum, n)| if n > 0 { sum / f64::from(n) } else { 0.0 })
+        .collect();
     let normal = |t: [u32; 3]| {
         let [a, b, c] = t.map(|v| pos[v as usize]);
         let n = cross(sub(b, a), sub(c, a));
@@ -77,8 +94,8 @@ pub(crate) fn edge_sizes(
         } else {
             target
         };
-        let h = h.clamp(floor, target);
         for v in [a, b] {
+            let h = h.max(own[v as usize]).clamp(floor, target);
             size[v as usize] = size[v as usize].min(h);
         }
     }
@@ -150,11 +167,14 @@ mod tests {
             [0.0, 1.0, 1.0],
         ];
         let faces = vec![[0, 2, 3], [0, 3, 1], [0, 1, 5], [0, 5, 4]];
-        let free = edge_sizes(&pos, &faces, &HashSet::new(), 1.0, 0.02, 0.25);
-        assert!(free[0] < 1.0 && free[1] < 1.0, "{free:?}");
-        assert_eq!(free[2], 1.0, "the flat square's far corner");
+        // A target four times the squares' side: the fold asks for less,
+        // but not less than the input's own edges there.
+        let free = edge_sizes(&pos, &faces, &HashSet::new(), 4.0, 0.08, 0.25);
+        assert!(free[0] < 4.0 && free[1] < 4.0, "{free:?}");
+        assert!(free[0] >= 1.0 && free[1] >= 1.0, "{free:?}");
+        assert_eq!(free[2], 4.0, "the flat square's far corner");
         let kept: HashSet<(u32, u32)> = [(0, 1)].into_iter().collect();
-        let sizes = edge_sizes(&pos, &faces, &kept, 1.0, 0.02, 0.25);
-        assert!(sizes.iter().all(|&s| s == 1.0), "{sizes:?}");
+        let sizes = edge_sizes(&pos, &faces, &kept, 4.0, 0.08, 0.25);
+        assert!(sizes.iter().all(|&s| s == 4.0), "{sizes:?}");
     }
 }
