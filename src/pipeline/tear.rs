@@ -367,7 +367,7 @@ fn piece_geometry(
         let tet = s.tet_of[vi] as usize;
         let now = d.to_scene(d.deform(tet, rest_m));
         positions.push(now.map(|x| x as f32));
-        let f = deformation(d, tet);
+        let f = d.deformation(tet);
         for (a, (sem, c)) in attrs.iter_mut().zip(&layout) {
             let value: Vec<f64> = match (tgeo, hit) {
                 (Some(t), Some((_, ti, p))) => match t.attribute(sem) {
@@ -415,16 +415,6 @@ fn piece_geometry(
     };
     fill_missing_normals(&mut geo);
     geo
-}
-
-/// Tetrahedron `e`'s deformation gradient.
-fn deformation(d: &Ductile, e: usize) -> nalgebra::Matrix3<f64> {
-    let t = d.tets[e];
-    let rest = crate::sim::ductile::fem::edges(t.map(|n| d.rest_x[n as usize]));
-    let now = crate::sim::ductile::fem::edges(t.map(|n| d.x[n as usize]));
-    now * rest
-        .try_inverse()
-        .unwrap_or_else(nalgebra::Matrix3::identity)
 }
 
 /// A normal carried through deformation `f` (`F^-T n`, unit), or zero.

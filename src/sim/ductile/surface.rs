@@ -30,17 +30,17 @@ pub struct TornSurface {
 }
 
 impl Ductile {
+    /// Tetrahedron `e`'s deformation gradient.
+    pub fn deformation(&self, e: usize) -> nalgebra::Matrix3<f64> {
+        edges(self.tets[e].map(|n| self.x[n as usize])) * self.rest[e].bm
+    }
+
     /// The deformed point of rest point `p` by tetrahedron `e`'s affine map.
     pub fn deform(&self, e: usize, p: [f64; 3]) -> [f64; 3] {
         let t = self.tets[e];
-        let rest = edges(t.map(|n| self.rest_x[n as usize]));
-        let now = edges(t.map(|n| self.x[n as usize]));
-        let f = now
-            * rest
-                .try_inverse()
-                .unwrap_or_else(nalgebra::Matrix3::identity);
         let x0 = self.rest_x[t[0] as usize];
-        let d = f * nalgebra::Vector3::new(p[0] - x0[0], p[1] - x0[1], p[2] - x0[2]);
+        let d =
+            self.deformation(e) * nalgebra::Vector3::new(p[0] - x0[0], p[1] - x0[1], p[2] - x0[2]);
         let y0 = self.x[t[0] as usize];
         [y0[0] + d[0], y0[1] + d[1], y0[2] + d[2]]
     }
@@ -85,8 +85,7 @@ impl Ductile {
             };
             // Outward: along the level set's gradient (towards phi > 0).
             let grad = {
-                let r = super::fem::Rest::new(t.map(|n| self.rest_x[n as usize]));
-                let g = r.gradients();
+                let g = self.rest[e].gradients();
                 let v = g
                     .iter()
                     .zip(phi)
@@ -174,10 +173,9 @@ impl Ductile {
     /// rest point `p`.
     fn interpolate(&self, e: usize, v: &[f64; 4], p: [f64; 3]) -> f64 {
         let t = self.tets[e];
-        let r = super::fem::Rest::new(t.map(|n| self.rest_x[n as usize]));
         let x0 = self.rest_x[t[0] as usize];
         let d = nalgebra::Vector3::new(p[0] - x0[0], p[1] - x0[1], p[2] - x0[2]);
-        let l = r.bm * d;
+        let l = self.rest[e].bm * d;
         v[0] * (1.0 - l[0] - l[1] - l[2]) + v[1] * l[0] + v[2] * l[1] + v[3] * l[2]
     }
 }
