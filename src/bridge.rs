@@ -157,6 +157,14 @@ pub fn build_sim_meshes(scene: &Scene, options: &WeldOptions) -> (Vec<SimEntry>,
     (entries, skipped)
 }
 
+/// The primitives of the scene mesh the simulation mesh was built from
+/// (the ones [`write_back`] rewrites), in order.
+pub fn simulated_primitives(entry: &SimEntry) -> Vec<usize> {
+    (0..entry.layouts.len())
+        .filter(|&i| entry.layouts[i].is_some())
+        .collect()
+}
+
 /// The simulation faces behind the triangles [`write_back`] writes into
 /// each primitive of the scene mesh, in the order written (`None` for a
 /// primitive it leaves alone).

@@ -255,3 +255,167 @@ fn the_ducks_own_texture_is_kept_under_the_cracks() {
         v.assert_clean(&out);
     }
 }
+
+#[test]
+fn kept_geometry_bakes_the_ducks_own_islands_repacked() {
+    let Some(duck) = common::eval_data("gltf/Duck/Duck.glb") else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("duck.glb");
+    let o = common::crack(&duck, &out, &["--preset", "wood-grain", "-q"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let d = bake_detail(&common::report(&out));
+    let atlas_report = &d["materials"][0]["atlas"];
+    assert_eq!(atlas_report["layout"], "islands", "{d}");
+    let input = read(&duck);
+    let scene = read(&out);
+    let Geometry::Triangles(inp) = &input.meshes[0].primitives[0].geometry else {
+        unreachable!()
+    };
+    let mi = scene
+        .materials
+        .iter()
+        .position(|m| m.name().is_some_and(|n| n.ends_with("_cracked")))
+        .unwrap();
+    let prim = scene.meshes[0]
+        .primitives
+        .iter()
+        .find(|p| p.material == Some(mi))
+        .unwrap();
+    let Geometry::Triangles(t) = &prim.geometry else {
+        unreachable!()
+    };
+    // The Duck's own triangles, in their order, at their own positions.
+    assert_eq!(t.triangles.len(), inp.triangles.len());
+    for (a, b) in t.triangles.iter().zip(&inp.triangles) {
+        for k in 0..3 {
+            assert_eq!(t.positions[a[k] as usize], inp.positions[b[k] as usize]);
+        }
+    }
+    // Each triangle's atlas UVs are its own UVs scaled by one factor for
+    // all and moved: no island is turned, mirrored or sheared, so texture
+    // edges stay on the island seams and a normal map keeps its frame.
+    let atlas = t.attribute("TEXCOORD_0").unwrap();
+    let own_uv = inp.attribute("TEXCOORD_0").unwrap();
+    let scale = atlas_report["texels_per_unit"].as_f64().unwrap() / 2048.0;
+    let mut worst = 0.0f64;
+    for (a, b) in t.triangles.iter().zip(&inp.triangles) {
+        let e = |uv: &crackle::scene::VertexAttribute, tri: &[u32; 3], i: usize, j: usize| {
+            let (p, q) = (uv.get(tri[i] as usize), uv.get(tri[j] as usize));
+            [f64::from(q[0] - p[0]), f64::from(q[1] - p[1])]
+        };
+        for (i, j) in [(0, 1), (0, 2)] {
+            let (x, y) = (e(atlas, a, i, j), e(own_uv, b, i, j));
+            let off = (x[0] - scale * y[0]).hypot(x[1] - scale * y[1]);
+            worst = worst.max(off * 2048.0);
+        }
+    }
+    assert!(
+        worst < 0.05,
+        "an atlas edge is {worst} texels off its own edge scaled"
+    );
+    // Away from the cracks the baked map shows the Duck's own texture at
+    // each triangle's centre.
+    let baked = texture(&scene, mi, "baseColorTexture");
+    let occl = texture(&scene, mi, "occlusionTexture");
+    let own = texture(&input, 0, "baseColorTexture");
+    let centre = |uv: &crackle::scene::VertexAttribute, tri: &[u32; 3]| {
+        let c = tri.map(|i| uv.get(i as usize));
+        [0, 1].map(|k| (c[0][k] + c[1][k] + c[2][k]) / 3.0)
+    };
+    let mut diffs: Vec<f32> = t
+        .triangles
+        .iter()
+        .zip(&inp.triangles)
+        .filter(|(a, _)| at(&occl, &centre(atlas, a))[0] > 0.999)
+        .map(|(a, b)| {
+            let x = at(&baked, &centre(atlas, a));
+            let y = at(&own, &centre(own_uv, b));
+            (0..3).map(|c| (x[c] - y[c]).abs()).fold(0.0, f32::max)
+        })
+        .collect();
+    assert!(diffs.len() > t.triangles.len() / 2, "{}", diffs.len());
+    diffs.sort_by(f32::total_cmp);
+    let median = diffs[diffs.len() / 2];
+    let p95 = diffs[diffs.len() * 95 / 100];
+    assert!(
+        median < 2.0 / 255.0 && p95 < 12.0 / 255.0,
+        "median {median}, 95th percentile {p95}"
+    );
+    if let Some(v) = common::validator() {
+        v.assert_clean(&out);
+    }
+}
+
+#[test]
+fn kept_geometry_carries_lines_and_attributes_onto_the_input() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("ico.glb");
+    let input = common::fixture("icosphere.obj");
+    let o = common::crack(
+        &input,
+        &out,
+        &[
+            "--preset",
+            "springs-glaze",
+            "--set",
+            "post.bake_size=256",
+            "-q",
+        ],
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let source = read(&input);
+    let scene = read(&out);
+    let tris = |s: &Scene| -> usize {
+        s.meshes[0]
+            .primitives
+            .iter()
+            .filter_map(|p| match &p.geometry {
+                Geometry::Triangles(t) => Some(t.triangles.len()),
+                Geometry::Raw(_) => None,
+            })
+            .sum()
+    };
+    assert_eq!(tris(&scene), tris(&source), "the input's own triangles");
+    let Geometry::Triangles(t) = &scene.meshes[0].primitives[0].geometry else {
+        unreachable!()
+    };
+    // The crack attributes, from the simulated surface: some vertices lie
+    // near a crack, some far from every crack.
+    let dist = t.attribute("_CRACK_DISTANCE").expect("_CRACK_DISTANCE");
+    let time = t.attribute("_CRACK_TIME").expect("_CRACK_TIME");
+    assert_eq!(dist.len(), t.positions.len());
+    assert!(time.data.iter().all(|x| (0.0..=1.0).contains(x)));
+    let (lo, hi) = dist
+        .data
+        .iter()
+        .fold((f32::INFINITY, 0.0f32), |(a, b), &x| (a.min(x), b.max(x)));
+    assert!(lo >= 0.0 && hi > 4.0 * lo.max(1e-3), "{lo} .. {hi}");
+    let lines = scene.meshes[0]
+        .primitives
+        .iter()
+        .find_map(|p| match &p.geometry {
+            Geometry::Raw(r) => Some(r),
+            Geometry::Triangles(_) => None,
+        });
+    assert!(lines.is_some(), "a crack-lines primitive");
+    if let Some(v) = common::validator() {
+        v.assert_clean(&out);
+    }
+}
+
+#[test]
+fn kept_geometry_refuses_what_moves_the_surface() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("plate.glb");
+    let o = common::crack(
+        &common::fixture("plate_jittered.obj"),
+        &out,
+        &["--preset", "wood-grain", "--set", "post.width=0.1", "-q"],
+    );
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("post.keep_geometry"), "{err}");
+    assert!(!out.exists(), "no output");
+}

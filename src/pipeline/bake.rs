@@ -124,11 +124,7 @@ fn bake_group(
     let raster = bake::rasterize(surface.uvs, surface.triangles, size, dilate);
     log::debug!("bake: raster done at {:.3} s", t0.elapsed().as_secs_f64());
     let diagonal = super::Bounds::of(arrays.positions.iter().copied()).diagonal();
-    let width = if post.bake_width > 0.0 {
-        post.bake_width
-    } else {
-        post.bake_width_relative * diagonal
-    };
+    let width = post.bake_width_for(diagonal);
     let profile = Profile {
         half_width: 0.5 * width,
         slope: post.bake_groove_slope,
@@ -145,16 +141,21 @@ fn bake_group(
     // An atlas resamples the material's base colour texture: say how much
     // of its resolution the baked map keeps.
     if let (Value::Object(a), Some(l)) = (&mut atlas_report, &own.base) {
-        let (mut uv_area, mut world_area) = (0.0, 0.0);
-        for t in &arrays.triangles {
-            let [p, q, r] = t.map(|i| uv_of(l.tex_coord, i as usize));
-            uv_area += 0.5 * ((q[0] - p[0]) * (r[1] - p[1]) - (q[1] - p[1]) * (r[0] - p[0])).abs();
-            let [a, b, c] = t.map(|i| arrays.positions[i as usize]);
-            world_area += 0.5 * v3::norm(v3::cross(v3::sub(b, a), v3::sub(c, a)));
-        }
-        let own_density = (uv_area * f64::from(l.width) * f64::from(l.height) / world_area).sqrt();
-        if let Some(d) = a.get("texels_per_unit").and_then(Value::as_f64) {
-            let kept = d / own_density;
+        // Texels per world unit of a UV set on a map of `texels` texels.
+        let density = |set: u32, texels: f64| {
+            let (mut uv_area, mut world_area) = (0.0, 0.0);
+            for t in &arrays.triangles {
+                let [p, q, r] = t.map(|i| uv_of(set, i as usize));
+                uv_area +=
+                    0.5 * ((q[0] - p[0]) * (r[1] - p[1]) - (q[1] - p[1]) * (r[0] - p[0])).abs();
+                let [a, b, c] = t.map(|i| arrays.positions[i as usize]);
+                world_area += 0.5 * v3::norm(v3::cross(v3::sub(b, a), v3::sub(c, a)));
+            }
+            (uv_area * texels / world_area).sqrt()
+        };
+        let own_density = density(l.tex_coord, f64::from(l.width) * f64::from(l.height));
+        let kept = density(set, f64::from(size) * f64::from(size)) / own_density;
+        if kept.is_finite() {
             a.insert("base_texture_resolution_kept".into(), json!(kept));
             if kept < 0.9 {
                 log::warn!(
@@ -404,7 +405,31 @@ fn make_atlas(
     let size = post.bake_size;
     let (positions, tris) = gather_positions(scene, mesh_index, prims);
     let padding = (ATLAS_PADDING_2048 * size / 2048).max(1);
-    let a = atlas::atlas(&positions, &tris, size, padding).map_err(|e| e.to_string())?;
+    // A UV set that overlaps itself: its own islands repacked (textures
+    // keep their seams and frames), unless they overlap even then (an
+    // island wrapped onto itself); a mesh without one: charts of its own.
+    let (own, _) = gather_uvs(
+        scene,
+        mesh_index,
+        prims,
+        asked_after_move(post.bake_texcoord, moved),
+    );
+    let repacked = (own.len() == positions.len())
+        .then_some(own)
+        .and_then(|uvs| {
+            let a = atlas::islands(&positions, &uvs, &tris, size, padding).ok()?;
+            let r = bake::rasterize(&a.uvs, &corner_triangles(tris.len()), size.min(1024), 0);
+            (r.overlap_fraction() <= MAX_OVERLAP).then_some(a)
+        });
+    let kind = if repacked.is_some() {
+        "islands"
+    } else {
+        "charts"
+    };
+    let a = match repacked {
+        Some(a) => a,
+        None => atlas::atlas(&positions, &tris, size, padding).map_err(|e| e.to_string())?,
+    };
     let mut corner = 0;
     for &p in prims {
         let geo = tri_geometry(scene, mesh_index, p);
@@ -417,7 +442,7 @@ fn make_atlas(
         let with = with_corner_attribute(geo, &set_name(0), 2, &values);
         set_geometry(scene, mesh_index, p, with);
     }
-    let report = json!({"reason": why, "charts": a.charts, "texels_per_unit": a.density, "texcoord": 0, "own_texcoord_0_moved_to": moved});
+    let report = json!({"reason": why, "layout": kind, "charts": a.charts, "texels_per_unit": a.density, "texcoord": 0, "own_texcoord_0_moved_to": moved});
     Ok((moved, report))
 }
 
@@ -553,6 +578,24 @@ fn tri_geometry(scene: &Scene, mesh: usize, prim: usize) -> &TriGeometry {
 
 fn set_geometry(scene: &mut Scene, mesh: usize, prim: usize, geo: TriGeometry) {
     scene.meshes[mesh].primitives[prim].geometry = Geometry::Triangles(geo);
+}
+
+/// Where UV set `asked` is after TEXCOORD_0 moved to set `moved` (0: no
+/// move).
+fn asked_after_move(asked: u32, moved: u32) -> u32 {
+    if moved != 0 && asked == 0 {
+        moved
+    } else {
+        asked
+    }
+}
+
+/// Triangles of corners in order (0, 1, 2), (3, 4, 5), ...: an atlas's
+/// per-corner UVs as a mesh.
+fn corner_triangles(n: usize) -> Vec<[u32; 3]> {
+    (0..n as u32)
+        .map(|t| [3 * t, 3 * t + 1, 3 * t + 2])
+        .collect()
 }
 
 /// The primitives' UV set `set` and triangles, one index space.

@@ -7,6 +7,7 @@ mod bake;
 mod config;
 pub mod frames;
 mod islands;
+mod keep;
 pub mod post;
 mod run;
 mod tear;

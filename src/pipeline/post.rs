@@ -189,7 +189,11 @@ pub fn apply(
                     message: err.to_string(),
                 })?;
         }
-        write_back_with(scene, e, &extra);
+        if post.keep_geometry {
+            super::keep::add_attributes(scene, e, &extra);
+        } else {
+            write_back_with(scene, e, &extra);
+        }
         walls_of.push(walls);
         lines_of.push((segments, r.segment_times.iter().map(|t| t / end).collect()));
         out.details.push(Value::Object(detail));
@@ -202,12 +206,34 @@ pub fn apply(
         .zip(out.details.iter_mut())
     {
         let targets = n_targets(scene, e.mesh_index);
+        // Kept geometry: the cracks carried onto the input's surface; for
+        // the maps, halved until they lie within a tenth of the baked
+        // crack's width of it.
+        let (bake_segments, bake_times) = if post.keep_geometry && post.bake {
+            let diagonal = super::Bounds::of(e.sim.positions().iter().copied()).diagonal();
+            let tolerance = 0.1 * post.bake_width_for(diagonal);
+            super::keep::onto_input(scene, e, &segments, &times, tolerance)
+        } else {
+            (segments.clone(), times.clone())
+        };
+        let (segments, times) = if post.keep_geometry && post.lines {
+            super::keep::onto_input(scene, e, &segments, &times, 0.0)
+        } else {
+            (segments, times)
+        };
         if post.lines {
             add_crack_lines(scene, e.mesh_index, &segments, &times);
         }
         if post.bake {
             let t = Instant::now();
-            let b = super::bake::bake_mesh(scene, e.mesh_index, &e.label, &segments, &times, post)?;
+            let b = super::bake::bake_mesh(
+                scene,
+                e.mesh_index,
+                &e.label,
+                &bake_segments,
+                &bake_times,
+                post,
+            )?;
             let seconds = t.elapsed().as_secs_f64();
             if let Value::Object(d) = detail {
                 let mut b = b;

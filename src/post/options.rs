@@ -95,6 +95,15 @@ pub struct Post {
     /// Material of the groove walls: an input material of this name, or a
     /// new plain one. Default `crack_wall`.
     pub groove_material: String,
+    /// Keep the input's own geometry: the output has the input's
+    /// triangles, vertices and attributes (morph targets, skins and UV
+    /// layouts untouched), and the cracks show only in what is drawn over
+    /// it: the baked maps, the crack lines (projected onto the input) and
+    /// the crack attributes (taken from the closest point of the simulated
+    /// surface). Nothing may move the surface or cut it into pieces, so it
+    /// goes without `width`, `curl`, `walls`, `groove` and `split_islands`.
+    /// Default false (the output is the remeshed, cracked surface).
+    pub keep_geometry: bool,
 }
 
 impl Default for Post {
@@ -128,6 +137,7 @@ impl Default for Post {
             groove_relative: 0.0,
             groove_depth: 0.0,
             groove_material: "crack_wall".into(),
+            keep_geometry: false,
         }
     }
 }
@@ -152,6 +162,16 @@ impl Post {
             self.groove
         } else {
             self.groove_relative * cell
+        }
+    }
+
+    /// The baked crack width for a mesh of bounding-box diagonal
+    /// `diagonal`: `bake_width`, else `bake_width_relative * diagonal`.
+    pub fn bake_width_for(&self, diagonal: f64) -> f64 {
+        if self.bake_width > 0.0 {
+            self.bake_width
+        } else {
+            self.bake_width_relative * diagonal
         }
     }
 
@@ -238,6 +258,17 @@ impl Post {
         if self.grooves() && (self.width > 0.0 || self.walls || self.curl > 0.0) {
             return Err(
                 "post.groove cuts the cracks as channels of its own width: use it without post.width, post.walls and post.curl".into(),
+            );
+        }
+        if self.keep_geometry
+            && (self.width > 0.0
+                || self.curl > 0.0
+                || self.walls
+                || self.grooves()
+                || self.split_islands)
+        {
+            return Err(
+                "post.keep_geometry keeps the input's surface as it is: use it without post.width, post.curl, post.walls, post.groove and post.split_islands".into(),
             );
         }
         if self.groove_material.is_empty() {

@@ -25,7 +25,8 @@ pub struct Atlas {
     pub uvs: Vec<[f64; 2]>,
     /// Number of charts.
     pub charts: usize,
-    /// Texels per world unit.
+    /// Texels per world unit ([`atlas`]) or per unit of the old UV set
+    /// ([`islands`]).
     pub density: f64,
 }
 
@@ -139,6 +140,135 @@ pub fn atlas(
     }
     Ok(Atlas {
         uvs,
+        charts: charts.len(),
+        density,
+    })
+}
+
+/// UVs closer than this are the same (1/10 texel at 8192; the two sides
+/// of a crack may round their interpolated UVs differently).
+const UV_EQUAL: f64 = 1e-5;
+
+/// Repack the islands of a UV set that overlaps itself (mirrored or
+/// stacked islands) into a `size` map without overlap: each island (the
+/// triangles joined across edges of equal positions and equal UVs, with
+/// the same UV winding, so a mirrored half is its own island) keeps its
+/// shape, orientation and proportions, only moved and scaled with all the
+/// others by one factor. A texture resampled from the old set into the new
+/// one is then a scaled copy of each island: its edges fall on the
+/// island's seams, as the asset's own texture's did, and a normal map's
+/// tangent frame stays as it was. `uvs` per vertex.
+///
+/// # Errors
+/// [`AtlasError`] when the islands cannot fit or have no UV area.
+pub fn islands(
+    positions: &[[f64; 3]],
+    uvs: &[[f64; 2]],
+    triangles: &[[u32; 3]],
+    size: u32,
+    padding: u32,
+) -> Result<Atlas, AtlasError> {
+    let welded = weld(positions);
+    let neighbours = neighbours(&welded, triangles);
+    let uv = |i: u32| uvs.get(i as usize).copied().unwrap_or([0.0; 2]);
+    let winding: Vec<f64> = triangles
+        .iter()
+        .map(|t| {
+            let [a, b, c] = t.map(uv);
+            ((b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])).signum()
+        })
+        .collect();
+    // The UV of triangle `f`'s corner at welded vertex `w`.
+    let uv_at = |f: usize, w: u32| {
+        triangles[f]
+            .iter()
+            .find(|&&i| welded[i as usize] == w)
+            .map(|&i| uv(i))
+    };
+    // Triangles remeshing folded over in UV space are charts of their own
+    // (a fold joined to its neighbours would overlap them).
+    let same_uvs = |f: usize, k: usize, g: usize| {
+        let t = triangles[f];
+        [t[k], t[(k + 1) % 3]].iter().all(|&i| {
+            uv_at(g, welded[i as usize]).is_some_and(|q| {
+                (q[0] - uv(i)[0]).abs() <= UV_EQUAL && (q[1] - uv(i)[1]).abs() <= UV_EQUAL
+            })
+        })
+    };
+    let joins = |f: usize, k: usize, g: usize| winding[f] * winding[g] >= 0.0 && same_uvs(f, k, g);
+    let mut chart_of = vec![u32::MAX; triangles.len()];
+    let mut charts: Vec<Vec<u32>> = Vec::new();
+    let mut queue = VecDeque::new();
+    for seed in 0..triangles.len() {
+        if chart_of[seed] != u32::MAX {
+            continue;
+        }
+        let id = charts.len() as u32;
+        chart_of[seed] = id;
+        let mut faces = vec![seed as u32];
+        queue.push_back(seed);
+        while let Some(f) = queue.pop_front() {
+            for (k, &g) in neighbours[f].iter().enumerate() {
+                if g == u32::MAX || chart_of[g as usize] != u32::MAX || !joins(f, k, g as usize) {
+                    continue;
+                }
+                chart_of[g as usize] = id;
+                faces.push(g);
+                queue.push_back(g as usize);
+            }
+        }
+        charts.push(faces);
+    }
+    let boxes: Vec<[f64; 4]> = charts
+        .iter()
+        .map(|faces| {
+            let mut b = [
+                f64::INFINITY,
+                f64::INFINITY,
+                f64::NEG_INFINITY,
+                f64::NEG_INFINITY,
+            ];
+            for &f in faces {
+                for i in triangles[f as usize] {
+                    let q = uv(i);
+                    b = [
+                        b[0].min(q[0]),
+                        b[1].min(q[1]),
+                        b[2].max(q[0]),
+                        b[3].max(q[1]),
+                    ];
+                }
+            }
+            b
+        })
+        .collect();
+    let dims: Vec<[f64; 2]> = boxes.iter().map(|b| [b[2] - b[0], b[3] - b[1]]).collect();
+    if !dims.iter().all(|d| d[0].is_finite() && d[1].is_finite()) {
+        return Err(AtlasError::NoArea);
+    }
+    let (density, places) = pack(&dims, size, padding).ok_or(AtlasError::TooManyCharts {
+        charts: charts.len(),
+        padding,
+        size,
+    })?;
+    if !(density.is_finite() && density > 0.0) {
+        return Err(AtlasError::NoArea);
+    }
+    let s = f64::from(size);
+    let mut out = vec![[0.0; 2]; triangles.len() * 3];
+    for (f, &ch) in chart_of.iter().enumerate() {
+        let b = boxes[ch as usize];
+        let at = places[ch as usize];
+        for k in 0..3 {
+            let q = uv(triangles[f][k]);
+            out[f * 3 + k] = [
+                (at[0] + (q[0] - b[0]) * density) / s,
+                (at[1] + (q[1] - b[1]) * density) / s,
+            ];
+        }
+    }
+    Ok(Atlas {
+        uvs: out,
         charts: charts.len(),
         density,
     })
@@ -341,6 +471,60 @@ mod tests {
             .uvs
             .iter()
             .all(|uv| (0.0..=1.0).contains(&uv[0]) && (0.0..=1.0).contains(&uv[1])));
+    }
+
+    /// A strip of two unit squares in 3D whose UVs mirror the left square
+    /// onto the right one (they share the middle edge's UVs): the mirrored
+    /// halves become two charts, each a moved and scaled copy of its own
+    /// UVs.
+    #[test]
+    fn mirrored_islands_are_repacked_apart_keeping_their_shape() {
+        let p = vec![
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [2.0, 0.0, 0.0],
+            [0.0, 1.0, 0.0],
+            [1.0, 1.0, 0.0],
+            [2.0, 1.0, 0.0],
+        ];
+        // u mirrored about x = 1: x 0 and 2 both map to u 0.1, x 1 to 0.6.
+        let uv = vec![
+            [0.1, 0.2],
+            [0.6, 0.2],
+            [0.1, 0.2],
+            [0.1, 0.7],
+            [0.6, 0.7],
+            [0.1, 0.7],
+        ];
+        let t = vec![[0, 1, 4], [0, 4, 3], [1, 2, 5], [1, 5, 4]];
+        let a = islands(&p, &uv, &t, 256, 2).unwrap();
+        assert_eq!(a.charts, 2);
+        let r = crate::post::bake::rasterize(&a.uvs_flat(), &a.corner_triangles(), 256, 0);
+        assert_eq!(r.overlapping, 0);
+        assert!(r.covered > 2 * 60 * 60, "{}", r.covered);
+        let k = a.density / 256.0;
+        for (f, tri) in t.iter().enumerate() {
+            for (i, j) in [(0, 1), (0, 2)] {
+                let new = [0, 1].map(|c| a.uvs[f * 3 + j][c] - a.uvs[f * 3 + i][c]);
+                let old = [0, 1].map(|c| uv[tri[j] as usize][c] - uv[tri[i] as usize][c]);
+                for c in 0..2 {
+                    assert!(
+                        (new[c] - k * old[c]).abs() < 1e-12,
+                        "triangle {f}: {new:?} vs {old:?}"
+                    );
+                }
+            }
+        }
+        // Without the mirror, the strip is one island.
+        let uv2 = vec![
+            [0.1, 0.2],
+            [0.3, 0.2],
+            [0.5, 0.2],
+            [0.1, 0.4],
+            [0.3, 0.4],
+            [0.5, 0.4],
+        ];
+        assert_eq!(islands(&p, &uv2, &t, 256, 2).unwrap().charts, 1);
     }
 
     impl Atlas {

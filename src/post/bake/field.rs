@@ -135,30 +135,56 @@ pub fn crack_texels(
             let corners = surface.triangles[t].map(|i| i as usize);
             let pts = corners.map(|i| surface.positions[i]);
             let r = reach_of(footprint[t]);
-            let mut candidates = grid.near_triangle(pts, r, reach);
-            // Only segments that come within reach of the triangle's
-            // bounding sphere.
-            let centre = v3::scale(v3::add(v3::add(pts[0], pts[1]), pts[2]), 1.0 / 3.0);
-            let radius = pts
-                .iter()
-                .map(|p| v3::norm(v3::sub(*p, centre)))
-                .fold(0.0, f64::max);
-            candidates.retain(|&s| {
-                let [a, b] = cracks.segments[s as usize];
-                v3::norm(v3::sub(nearest_on_segment(centre, a, b), centre)) <= radius + r
-            });
-            if candidates.is_empty() {
-                return Vec::new();
-            }
             let f = footprint[t].min(MAX_FOOTPRINT * hw);
-            texels
+            if texels.len() <= TILE * TILE {
+                let candidates = near(&grid, &pts, r, reach, cracks);
+                if candidates.is_empty() {
+                    return Vec::new();
+                }
+                return texels
+                    .iter()
+                    .map(|&k| {
+                        let frame =
+                            Frame::at(surface, corners, raster.texels[k as usize].weights());
+                        (k, frame.view(cracks, &candidates, profile, f))
+                    })
+                    .collect();
+            }
+            // A triangle of many texels (an input's large faces): its
+            // texels in tiles of TILE x TILE, each with the segments near
+            // its own points, so the work stays with the texels near a crack.
+            let n = raster.size as usize;
+            let mut tiles: Vec<(usize, u32)> = texels
                 .iter()
                 .map(|&k| {
-                    let w = raster.texels[k as usize].weights();
-                    let frame = Frame::at(surface, corners, w);
-                    (k, frame.view(cracks, &candidates, profile, f))
+                    let (x, y) = (k as usize % n, k as usize / n);
+                    ((y / TILE) * n + x / TILE, k)
                 })
-                .collect()
+                .collect();
+            tiles.sort_unstable();
+            let mut out = Vec::new();
+            for tile in tiles.chunk_by(|a, b| a.0 == b.0) {
+                let frames: Vec<(u32, Frame)> = tile
+                    .iter()
+                    .map(|&(_, k)| {
+                        (
+                            k,
+                            Frame::at(surface, corners, raster.texels[k as usize].weights()),
+                        )
+                    })
+                    .collect();
+                let points: Vec<[f64; 3]> = frames.iter().map(|(_, fr)| fr.p).collect();
+                let candidates = near(&grid, &points, r, reach, cracks);
+                if candidates.is_empty() {
+                    continue;
+                }
+                out.extend(
+                    frames
+                        .into_iter()
+                        .map(|(k, fr)| (k, fr.view(cracks, &candidates, profile, f))),
+                );
+            }
+            out
         })
         .collect();
     for list in results {
@@ -167,6 +193,31 @@ pub fn crack_texels(
         }
     }
     out
+}
+
+/// Texels a side of the tiles a large triangle's texels are taken in.
+const TILE: usize = 8;
+
+/// The segments that come within `r` of the points' bounding sphere, from
+/// the grid (whose pieces are at most `reach` long).
+fn near(grid: &Grid, points: &[[f64; 3]], r: f64, reach: f64, cracks: &Cracks) -> Vec<u32> {
+    let (lo, hi) = points.iter().fold(
+        ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]),
+        |(lo, hi), p| {
+            (
+                std::array::from_fn(|k| lo[k].min(p[k])),
+                std::array::from_fn(|k| hi[k].max(p[k])),
+            )
+        },
+    );
+    let mut candidates = grid.near_box(lo, hi, r, reach);
+    let centre = v3::scale(v3::add(lo, hi), 0.5);
+    let radius = 0.5 * v3::norm(v3::sub(hi, lo));
+    candidates.retain(|&s| {
+        let [a, b] = cracks.segments[s as usize];
+        v3::norm(v3::sub(nearest_on_segment(centre, a, b), centre)) <= radius + r
+    });
+    candidates
 }
 
 /// A texel's point and tangent frame.
@@ -323,19 +374,26 @@ impl Grid {
     /// Segments with a piece in a cell near the triangle: every segment
     /// within `reach` of it (the grid's pieces are at most `piece` long),
     /// sorted, without repeats.
+    #[cfg(test)]
     fn near_triangle(&self, corners: [[f64; 3]; 3], reach: f64, piece: f64) -> Vec<u32> {
-        let margin = reach + 0.5 * piece;
-        let lo: [i64; 3] = std::array::from_fn(|k| {
-            let m = corners.iter().map(|c| c[k]).fold(f64::INFINITY, f64::min);
-            ((m - margin) / self.cell).floor() as i64
-        });
-        let hi: [i64; 3] = std::array::from_fn(|k| {
-            let m = corners
+        let lo =
+            std::array::from_fn(|k| corners.iter().map(|c| c[k]).fold(f64::INFINITY, f64::min));
+        let hi = std::array::from_fn(|k| {
+            corners
                 .iter()
                 .map(|c| c[k])
-                .fold(f64::NEG_INFINITY, f64::max);
-            ((m + margin) / self.cell).floor() as i64
+                .fold(f64::NEG_INFINITY, f64::max)
         });
+        self.near_box(lo, hi, reach, piece)
+    }
+
+    /// Segments with a piece in a cell near the box `lo..hi`: every segment
+    /// within `reach` of it (the grid's pieces are at most `piece` long),
+    /// sorted, without repeats.
+    fn near_box(&self, lo: [f64; 3], hi: [f64; 3], reach: f64, piece: f64) -> Vec<u32> {
+        let margin = reach + 0.5 * piece;
+        let lo: [i64; 3] = std::array::from_fn(|k| ((lo[k] - margin) / self.cell).floor() as i64);
+        let hi: [i64; 3] = std::array::from_fn(|k| ((hi[k] + margin) / self.cell).floor() as i64);
         let mut out = Vec::new();
         if (0..3).any(|k| hi[k] - lo[k] > 64) {
             // A huge triangle: look at every segment.

@@ -128,6 +128,39 @@ pub fn rasterize(uvs: &[[f64; 2]], triangles: &[[u32; 3]], size: u32, dilate: u3
             }
         }
     }
+    // A triangle smaller than a texel may hold no texel centre; alone in
+    // its island (a tiny chart of an atlas) it would then show only what
+    // the dilation brings from a neighbouring island. It takes the empty
+    // texel under its centre, as a dilated texel (its centroid).
+    let mut drew = vec![false; triangles.len()];
+    for t in &texels {
+        if t.tri != EMPTY {
+            drew[t.tri as usize] = true;
+        }
+    }
+    for (t, tri) in triangles.iter().enumerate() {
+        if drew[t] {
+            continue;
+        }
+        let [a, b, c] = tri.map(|i| uvs[i as usize]);
+        let area = cross2(sub2(b, a), sub2(c, a));
+        if area.is_nan() || area.abs() <= 1e-12 / (s * s) {
+            continue;
+        }
+        let centre = [0, 1].map(|k| (a[k] + b[k] + c[k]) / 3.0 * s);
+        if !(centre[0].is_finite() && centre[1].is_finite()) {
+            continue;
+        }
+        let (x, y) = (centre[0].floor() as i64, centre[1].floor() as i64);
+        let k = y.rem_euclid(n as i64) as usize * n + x.rem_euclid(n as i64) as usize;
+        if texels[k].tri == EMPTY {
+            texels[k] = Texel {
+                tri: t as u32,
+                bary: [1.0 / 3.0, 1.0 / 3.0],
+                inside: false,
+            };
+        }
+    }
     let dilated = grow(&mut texels, n, dilate, uvs, triangles);
     Raster {
         size,
