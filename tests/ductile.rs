@@ -82,3 +82,88 @@ fn the_tear_is_the_same_on_any_number_of_threads() {
         "1 and 3 threads wrote different files"
     );
 }
+
+/// The notched block with its end faces (y = 0 and y = 2) in OBJ groups
+/// `grip_low` and `grip_high`, the rest in `body`.
+fn block_with_grip_groups(dir: &std::path::Path) -> std::path::PathBuf {
+    let text = std::fs::read_to_string(common::fixture("notched_block.obj")).unwrap();
+    let ys: Vec<f64> = text
+        .lines()
+        .filter_map(|l| l.strip_prefix("v "))
+        .map(|l| l.split_whitespace().nth(1).unwrap().parse().unwrap())
+        .collect();
+    let mut groups: [Vec<&str>; 3] = Default::default();
+    for l in text.lines().filter(|l| l.starts_with("f ")) {
+        let y: Vec<f64> = l[2..]
+            .split_whitespace()
+            .map(|i| ys[i.parse::<usize>().unwrap() - 1])
+            .collect();
+        let g = if y.iter().all(|&y| y == 0.0) {
+            0
+        } else if y.iter().all(|&y| y == 2.0) {
+            1
+        } else {
+            2
+        };
+        groups[g].push(l);
+    }
+    let mut obj: String = text
+        .lines()
+        .filter(|l| l.starts_with("v "))
+        .map(|l| format!("{l}\n"))
+        .collect();
+    for (name, faces) in ["grip_low", "grip_high", "body"].iter().zip(&groups) {
+        assert!(!faces.is_empty(), "{name}");
+        obj.push_str(&format!("g {name}\n"));
+        for f in faces {
+            obj.push_str(&format!("{f}\n"));
+        }
+    }
+    let path = dir.join("gripped_block.obj");
+    std::fs::write(&path, obj).unwrap();
+    path
+}
+
+#[test]
+fn named_grips_tear_the_block_and_frames_show_it_happen() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = block_with_grip_groups(dir.path());
+    let out = dir.path().join("torn.glb");
+    let frames = dir.path().join("frames");
+    let mut args: Vec<&str> = COARSE.to_vec();
+    args.extend(["--fix", "grip_low", "--fix", "grip_high"]);
+    args.extend(["--frames", "4", frames.to_str().unwrap()]);
+    let o = crack(&input, &out, &args);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let r = report(&out);
+    let d = &r["meshes"][0]["post"];
+    assert!(d["ductile"]["separated_pull"].as_f64().is_some(), "{d}");
+    assert_eq!(r["frames"]["count"], 4, "{}", r["frames"]);
+    let files: Vec<std::path::PathBuf> = r["frames"]["files"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|f| f.as_str().unwrap().into())
+        .collect();
+    // The first frame is the untorn block (one mesh node, no torn face),
+    // the last one the output itself.
+    let first = gltf::Gltf::open(&files[0]).unwrap();
+    assert_eq!(first.nodes().filter(|n| n.mesh().is_some()).count(), 1);
+    assert!(first.materials().all(|m| m.name() != Some("tear_interior")));
+    assert_eq!(
+        std::fs::read(&files[3]).unwrap(),
+        std::fs::read(&out).unwrap(),
+        "the last frame is the output"
+    );
+    if let Some(v) = common::validator() {
+        v.assert_clean(&files[1]);
+    }
+    // A group that does not exist is an error naming it.
+    let o = crack(
+        &input,
+        &dir.path().join("x.glb"),
+        &[COARSE.as_slice(), &["--fix", "grip_nowhere"]].concat(),
+    );
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("grip_nowhere"));
+}

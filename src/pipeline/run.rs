@@ -221,16 +221,19 @@ fn tear_run(
             input.display()
         )));
     }
-    if config.frames.is_some() {
-        return Err(Error::Usage(format!(
-            "{}: --frames is not available for model = \"ductile\" yet",
-            input.display()
-        )));
-    }
     let t = Instant::now();
     observer.stage("tear");
     let before: usize = entries.iter().map(|e| e.sim.n_faces()).sum();
-    let torn = super::tear::tear_meshes(scene, entries, params_of, input)?;
+    if let Some(f) = &config.frames {
+        std::fs::create_dir_all(&f.dir).map_err(|e| {
+            Error::Frames(format!(
+                "{}: cannot create the frames folder: {e}",
+                f.dir.display()
+            ))
+        })?;
+    }
+    let frames = config.frames.as_ref().map(|f| (f, config.output.as_path()));
+    let (torn, files) = super::tear::tear_meshes(scene, entries, params_of, input, frames)?;
     stages.push(Stage::new("tear", t.elapsed().as_secs_f64()));
     let after: usize = torn
         .iter()
@@ -260,7 +263,10 @@ fn tear_run(
             })
             .collect(),
         warnings: scene.warnings.clone(),
-        frames: None,
+        frames: config.frames.as_ref().map(|_| FramesReport {
+            count: files.len(),
+            files: files.iter().map(|f| f.display().to_string()).collect(),
+        }),
     })
 }
 

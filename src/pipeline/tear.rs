@@ -5,6 +5,7 @@
 //! tangent turned by the deformation), the torn surface gets its own
 //! material, and each fragment becomes its own node.
 
+use super::frames::Frames;
 use super::post::material;
 use crate::bridge::SimEntry;
 use crate::scene::{Geometry, Mesh, Node, Primitive, Scene, TriGeometry, VertexAttribute};
@@ -16,10 +17,14 @@ use parry3d::query::PointQuery;
 use parry3d::shape::{FeatureId, TriMesh};
 use serde_json::{json, Value};
 use std::collections::HashMap;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-/// Tear every mesh of `entries`; each mesh's report as JSON.
+/// Each torn mesh's index and report (JSON), and the frames written.
+pub type Torn = (Vec<(usize, Value)>, Vec<PathBuf>);
+
+/// Tear every mesh of `entries`; each mesh's report as JSON, and the
+/// time-lapse frames when `frames` asks for them (one torn mesh only).
 ///
 /// # Errors
 /// A mesh that is open (with its boundary loops) or cannot be embedded.
@@ -28,8 +33,19 @@ pub fn tear_meshes(
     entries: &[SimEntry],
     params_of: &[SimParams],
     input: &Path,
-) -> crate::Result<Vec<(usize, Value)>> {
+    frames: Option<(&Frames, &Path)>,
+) -> crate::Result<Torn> {
     let mut out = Vec::new();
+    let mut written = Vec::new();
+    if frames.is_some() && entries.len() > 1 {
+        return Err(crate::Error::Usage(format!(
+            "{}: --frames with model = \"ductile\" follows one torn mesh; this run tears {} (select one with select.meshes)",
+            input.display(),
+            entries.len()
+        )));
+    }
+    // Frames are drawn on the scene as it was before tearing.
+    let template = frames.map(|_| scene.clone());
     for (e, p) in entries.iter().zip(params_of) {
         let loops = boundary_loops(e);
         if loops > 0 {
@@ -46,10 +62,37 @@ pub fn tear_meshes(
             .map(|f| e.sim.face_vertices(f).map(|v| v.0))
             .collect();
         let t = Instant::now();
-        let mut d = Ductile::new(&positions, &triangles, &p.ductile)
+        // The `[select] fix` groups are the grips (none: the pull's slabs).
+        let grips: Vec<bool> = e
+            .sim
+            .faces()
+            .map(|f| p.fixed_groups.contains(&e.sim.face_group(f)))
+            .collect();
+        let mut d = Ductile::with_grips(&positions, &triangles, &grips, &p.ductile)
             .map_err(|err| crate::Error::mesh(input, &e.label, err.to_string()))?;
         let mut cg_max = 0;
-        let mut report: DuctileReport = d.run(|_, s| cg_max = cg_max.max(s.cg_iterations));
+        // The time-lapse: frame k when the ends have moved apart by k / (N
+        // - 1) of the pull's distance, from the untorn solid; frames the run
+        // did not reach (it stopped at max_steps) show its last state.
+        let mut frame = FrameWriter {
+            frames,
+            template: template.as_ref(),
+            mesh_index: e.mesh_index,
+            params: &p.ductile,
+            next: 0,
+            written: Vec::new(),
+            error: None,
+        };
+        frame.reach(&d, false);
+        let mut report: DuctileReport = d.run(|d, s| {
+            cg_max = cg_max.max(s.cg_iterations);
+            frame.reach(d, false);
+        });
+        frame.reach(&d, true);
+        if let Some(err) = frame.error {
+            return Err(err);
+        }
+        written.extend(frame.written);
         let seconds = t.elapsed().as_secs_f64();
         report.seconds_per_step = seconds / report.steps.max(1) as f64;
         if report.cg_unconverged > 0 {
@@ -75,7 +118,44 @@ pub fn tear_meshes(
             }),
         ));
     }
-    Ok(out)
+    Ok((out, written))
+}
+
+/// Writes the time-lapse frames of one torn mesh as the pull reaches them.
+struct FrameWriter<'a> {
+    frames: Option<(&'a Frames, &'a Path)>,
+    template: Option<&'a Scene>,
+    mesh_index: usize,
+    params: &'a DuctileParams,
+    next: usize,
+    written: Vec<PathBuf>,
+    error: Option<crate::Error>,
+}
+
+impl FrameWriter<'_> {
+    /// Write every frame the pull has reached (all that are left when
+    /// `last`).
+    fn reach(&mut self, d: &Ductile, last: bool) {
+        let (Some((frames, output)), Some(template)) = (self.frames, self.template) else {
+            return;
+        };
+        let n = frames.count;
+        while self.next < n && self.error.is_none() {
+            let target = self.params.pull.distance * self.next as f64 / (n - 1) as f64;
+            if !last && d.pull_fraction() < target - 1e-12 {
+                break;
+            }
+            let surface = d.surface(0.25 * d.grid.h);
+            let mut scene = template.clone();
+            replace_mesh(&mut scene, self.mesh_index, d, &surface, self.params);
+            let path = frames.path(output, self.next);
+            match super::run::write_output(&scene, &path, false) {
+                Ok(_) => self.written.push(path),
+                Err(e) => self.error = Some(e),
+            }
+            self.next += 1;
+        }
+    }
 }
 
 /// Boundary loops of a welded surface (0 when closed).

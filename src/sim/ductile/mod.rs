@@ -148,6 +148,22 @@ impl Ductile {
         triangles: &[[u32; 3]],
         params: &DuctileParams,
     ) -> Result<Ductile, DuctileError> {
+        Self::with_grips(positions, triangles, &[], params)
+    }
+
+    /// As [`Ductile::new`], pulled by the faces flagged in `grips` (one
+    /// flag per triangle; none flagged: by the pull's slabs): the material
+    /// within one grid cube of a grip face moves with it, the grips below
+    /// the object's centre along the axis one way, those above the other.
+    ///
+    /// # Errors
+    /// As [`Ductile::new`], and grips that pull nothing apart.
+    pub fn with_grips(
+        positions: &[[f64; 3]],
+        triangles: &[[u32; 3]],
+        grips: &[bool],
+        params: &DuctileParams,
+    ) -> Result<Ductile, DuctileError> {
         params.validate().map_err(DuctileError::Param)?;
         let (lo, hi) = grid::bounds(positions);
         let longest = (0..3).map(|k| hi[k] - lo[k]).fold(0.0, f64::max);
@@ -187,7 +203,20 @@ impl Ductile {
                 node_tets[n as usize].push((e as u32, c as u8));
             }
         }
-        let (pulled, axis, slab_thickness) = params.pull.slabs(&rest_x, &phi, &node_tets);
+        let (pulled, axis, slab_thickness) = if grips.iter().any(|&g| g) {
+            params::grip_sides(
+                &params.pull,
+                &rest_x,
+                &phi,
+                &node_tets,
+                (&metres, triangles),
+                grips,
+                grid.h,
+            )
+            .map_err(DuctileError::Param)?
+        } else {
+            params.pull.slabs(&rest_x, &phi, &node_tets)
+        };
         let (mu, lambda) = fem::lame(params.young, params.poisson);
         let n = rest_x.len();
         Ok(Ductile {

@@ -102,6 +102,83 @@ impl Pull {
     }
 }
 
+/// The pulled nodes when the grips are named faces of the surface (the
+/// pipeline's `[select] fix` groups), not slabs: every node of the
+/// material within `band` (metres) of a grip face, moved with that face's
+/// side: -1 when the face's centre lies below the material's centre along
+/// the axis, +1 above. Returns the sides, the axis and `band`.
+///
+/// # Errors
+/// No grip face, or grips only on one side of the centre (nothing would be
+/// pulled apart).
+pub fn grip_sides(
+    pull: &Pull,
+    x: &[[f64; 3]],
+    phi: &[f64],
+    node_tets: &[Vec<(u32, u8)>],
+    surface: (&[[f64; 3]], &[[u32; 3]]),
+    grips: &[bool],
+    band: f64,
+) -> Result<(Vec<i8>, usize, f64), String> {
+    use crate::mesh::spatial::{bbox, closest_on_triangle, dist2, Grid};
+    let (positions, triangles) = surface;
+    let inside: Vec<[f64; 3]> = x
+        .iter()
+        .zip(phi)
+        .filter(|(_, &p)| p < 0.0)
+        .map(|(x, _)| *x)
+        .collect();
+    let (lo, hi) = super::grid::bounds(&inside);
+    let a = pull.axis_index(lo, hi);
+    let centre = 0.5 * (lo[a] + hi[a]);
+    let faces: Vec<[[f64; 3]; 3]> = triangles
+        .iter()
+        .zip(grips)
+        .filter(|(_, &g)| g)
+        .map(|(t, _)| t.map(|i| positions[i as usize]))
+        .collect();
+    if faces.is_empty() {
+        return Err("the fixed groups have no faces to pull by".into());
+    }
+    let side_of = |t: &[[f64; 3]; 3]| {
+        if (t[0][a] + t[1][a] + t[2][a]) / 3.0 < centre {
+            -1i8
+        } else {
+            1
+        }
+    };
+    let sides_present = [-1i8, 1].map(|s| faces.iter().any(|t| side_of(t) == s));
+    if !(sides_present[0] && sides_present[1]) {
+        return Err(format!(
+            "the fixed groups all lie on one side of the object along {} (the pull moves the grips below its centre one way and those above the other): name groups on both ends",
+            ["x", "y", "z"][a]
+        ));
+    }
+    let grid = Grid::new(faces.iter().map(|t| bbox(t)), band);
+    let sides = x
+        .iter()
+        .zip(node_tets)
+        .map(|(p, t)| {
+            if t.is_empty() {
+                return 0;
+            }
+            let mut best: Option<(f64, usize)> = None;
+            grid.search(*p, |f| {
+                let d = dist2(*p, closest_on_triangle(*p, faces[f]).0);
+                if best.is_none_or(|b| d < b.0 || (d == b.0 && f < b.1)) {
+                    best = Some((d, f));
+                }
+                best.map(|b| b.0)
+            });
+            match best {
+                Some((d, f)) if d <= band * band => side_of(&faces[f]),
+                _ => 0,
+            }
+        })
+        .collect();
+    Ok((sides, a, band))
+}
+
 /// Parameters of the ductile model.
 #[derive(Clone, Debug, PartialEq, serde::Deserialize)]
 #[serde(deny_unknown_fields, default)]

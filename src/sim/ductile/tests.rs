@@ -490,3 +490,49 @@ fn a_grid_on_the_faces_starts_in_one_piece() {
         assert_eq!(d.surface(0.25 * d.grid.h).pieces, 1, "{g} cubes");
     }
 }
+
+/// The block's faces at its ends along y (y = 0 and y = 2).
+fn end_faces(p: &[[f64; 3]], t: &[[u32; 3]], ends: &[f64]) -> Vec<bool> {
+    t.iter()
+        .map(|f| {
+            ends.iter()
+                .any(|&y| f.iter().all(|&i| p[i as usize][1] == y))
+        })
+        .collect()
+}
+
+#[test]
+fn named_grips_pull_the_material_next_to_them_apart() {
+    let (p, t) = notched_block(0.4);
+    let params = params(10);
+    let grips = end_faces(&p, &t, &[0.0, 2.0]);
+    let mut d = Ductile::with_grips(&p, &t, &grips, &params).unwrap();
+    assert_eq!(d.axis, 1);
+    // Pulled: the material within one cube of an end face, each end its
+    // own way; nothing in the middle.
+    let (lo, hi) = (0.0, params.size);
+    let mut count = [0usize; 2];
+    for (n, &side) in d.pulled.iter().enumerate() {
+        let y = d.rest_x[n][1];
+        match side {
+            -1 => {
+                assert!(y <= lo + d.grid.h * 1.0001, "node {n} at {y}");
+                count[0] += 1;
+            }
+            1 => {
+                assert!(y >= hi - d.grid.h * 1.0001, "node {n} at {y}");
+                count[1] += 1;
+            }
+            _ => {}
+        }
+    }
+    assert!(count[0] > 10 && count[1] > 10, "{count:?}");
+    for _ in 0..5 {
+        d.step();
+    }
+    assert!(d.pull_fraction() > 0.0, "{}", d.pull_fraction());
+    // Grips on one end only pull nothing apart: refused.
+    let one = end_faces(&p, &t, &[2.0]);
+    let err = Ductile::with_grips(&p, &t, &one, &params).err().unwrap();
+    assert!(err.to_string().contains("one side"), "{err}");
+}
