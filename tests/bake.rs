@@ -419,3 +419,34 @@ fn kept_geometry_refuses_what_moves_the_surface() {
     assert!(err.contains("post.keep_geometry"), "{err}");
     assert!(!out.exists(), "no output");
 }
+
+#[test]
+fn shallow_cracks_fade_when_asked() {
+    let dir = tempfile::tempdir().unwrap();
+    let texels = |fade: &str| -> u64 {
+        let out = dir.path().join(format!("mud-{fade}.glb"));
+        let o = common::crack(
+            &common::fixture("plate_jittered.obj"),
+            &out,
+            &[
+                "--preset",
+                "mud-jagged",
+                "--set",
+                "post.bake=true",
+                "--set",
+                "post.bake_size=512",
+                "--set",
+                &format!("post.bake_fade_depth={fade}"),
+                "-q",
+            ],
+        );
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        bake_detail(&common::report(&out))["materials"][0]["crack_texels"]
+            .as_u64()
+            .unwrap()
+    };
+    // The mud's cracks open by different amounts: with the depth fade the
+    // shallow ones thin (fewer texels show a crack), the deepest stay.
+    let (full, faded) = (texels("0"), texels("1"));
+    assert!(faded > 0 && faded * 2 < full, "{faded} of {full}");
+}

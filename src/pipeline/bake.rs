@@ -23,8 +23,8 @@ const MAX_OVERLAP: f64 = 0.01;
 const ATLAS_PADDING_2048: u32 = 2;
 
 /// Bake crack maps for mesh `mesh_index` of `scene` (its cracked
-/// primitives; `segments` in the mesh's frame, `times` their formation
-/// times in [0, 1]). Returns the report's details.
+/// primitives; `segments` in the mesh's frame, `widths` their width factors
+/// in [0, 1], from [`crate::post::Post::fade`]). Returns the report's details.
 ///
 /// # Errors
 /// A mesh without the UV set asked for when `bake_atlas = "never"`, an
@@ -35,7 +35,7 @@ pub fn bake_mesh(
     mesh_index: usize,
     label: &str,
     segments: &[[[f64; 3]; 2]],
-    times: &[f64],
+    widths: &[f64],
     post: &Post,
 ) -> crate::Result<Value> {
     let fail = |message: String| crate::Error::Internal {
@@ -50,13 +50,9 @@ pub fn bake_mesh(
             }
         }
     }
-    let widths: Vec<f64> = times
-        .iter()
-        .map(|t| 1.0 - post.bake_fade_age * t.clamp(0.0, 1.0))
-        .collect();
     let mut details = Vec::new();
     for (material, prims) in groups {
-        let d = bake_group(scene, mesh_index, material, &prims, segments, &widths, post)
+        let d = bake_group(scene, mesh_index, material, &prims, segments, widths, post)
             .map_err(&fail)?;
         details.push(d);
     }

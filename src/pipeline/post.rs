@@ -46,9 +46,12 @@ pub fn apply(
     let mut out = PostOutcome::default();
     let mut walls_of: Vec<Option<Walls>> = Vec::new();
     let mut lines_of: Vec<CrackLines> = Vec::new();
+    let mut widths_of: Vec<Vec<f64>> = Vec::new();
     for (e, (_, r)) in entries.iter_mut().zip(reports) {
         let mut detail = serde_json::Map::new();
         let mut positions: Vec<[f64; 3]> = e.sim.positions().to_vec();
+        // How far each crack opened, read at rest (before anything moves).
+        let opening = openings(&e.sim, &r.displacement, &r.segments);
         // Grooves: a width from the cell size (or, for models without one,
         // the bounding-box diagonal).
         let groove_width = if post.grooves() {
@@ -195,26 +198,43 @@ pub fn apply(
             write_back_with(scene, e, &extra);
         }
         walls_of.push(walls);
+        // The baked width of each segment: fading with its age and its
+        // depth (the opening between its sides, the deepest crack full).
+        // Full width from the 95th percentile of the openings up, so one
+        // wide crack does not thin all the others.
+        let deepest = {
+            let mut o: Vec<f64> = opening.iter().copied().filter(|x| x.is_finite()).collect();
+            o.sort_by(f64::total_cmp);
+            o.get(o.len() * 95 / 100).copied().unwrap_or(0.0)
+        };
+        let widths = r
+            .segment_times
+            .iter()
+            .zip(&opening)
+            .map(|(t, o)| post.fade(t / end, if deepest > 0.0 { o / deepest } else { 1.0 }))
+            .collect();
+        widths_of.push(widths);
         lines_of.push((segments, r.segment_times.iter().map(|t| t / end).collect()));
         out.details.push(Value::Object(detail));
     }
     let mut timing = PostOutcome::default();
-    for (((e, walls), (segments, times)), detail) in entries
+    for ((((e, walls), (segments, times)), widths), detail) in entries
         .iter()
         .zip(walls_of)
         .zip(lines_of)
+        .zip(widths_of)
         .zip(out.details.iter_mut())
     {
         let targets = n_targets(scene, e.mesh_index);
         // Kept geometry: the cracks carried onto the input's surface; for
         // the maps, halved until they lie within a tenth of the baked
         // crack's width of it.
-        let (bake_segments, bake_times) = if post.keep_geometry && post.bake {
+        let (bake_segments, bake_widths) = if post.keep_geometry && post.bake {
             let diagonal = super::Bounds::of(e.sim.positions().iter().copied()).diagonal();
             let tolerance = 0.1 * post.bake_width_for(diagonal);
-            super::keep::onto_input(scene, e, &segments, &times, tolerance)
+            super::keep::onto_input(scene, e, &segments, &widths, tolerance)
         } else {
-            (segments.clone(), times.clone())
+            (segments.clone(), widths)
         };
         let (segments, times) = if post.keep_geometry && post.lines {
             super::keep::onto_input(scene, e, &segments, &times, 0.0)
@@ -231,7 +251,7 @@ pub fn apply(
                 e.mesh_index,
                 &e.label,
                 &bake_segments,
-                &bake_times,
+                &bake_widths,
                 post,
             )?;
             let seconds = t.elapsed().as_secs_f64();
@@ -300,6 +320,39 @@ fn follow_gaps(
         None => p,
     };
     segments.iter().map(|s| s.map(moved)).collect()
+}
+
+/// Per segment (ends at crack vertices' rest positions), how far its sides
+/// moved apart: at each end the largest difference between the
+/// accumulated relaxation displacements of the crack vertices resting
+/// there, the two ends averaged (0 without displacements).
+fn openings(
+    mesh: &crate::mesh::SimMesh,
+    displacement: &[[f64; 3]],
+    segments: &[[[f64; 3]; 2]],
+) -> Vec<f64> {
+    let key = |p: [f64; 3]| p.map(|x| (x + 0.0).to_bits());
+    let mut at: std::collections::BTreeMap<[u64; 3], Vec<[f64; 3]>> = Default::default();
+    for v in crack_vertices(mesh) {
+        if let Some(d) = displacement.get(v.idx()) {
+            at.entry(key(mesh.position(v))).or_default().push(*d);
+        }
+    }
+    let opening = |p: [f64; 3]| {
+        at.get(&key(p)).map_or(0.0, |ds| {
+            let mut most = 0.0f64;
+            for (i, a) in ds.iter().enumerate() {
+                for b in &ds[i + 1..] {
+                    most = most.max(crate::math::v3::norm(crate::math::v3::sub(*a, *b)));
+                }
+            }
+            most
+        })
+    };
+    segments
+        .iter()
+        .map(|[a, b]| 0.5 * (opening(*a) + opening(*b)))
+        .collect()
 }
 
 /// Index of the material named `name`, added with `json` when missing.

@@ -77,6 +77,13 @@ pub struct Post {
     /// `1 - bake_fade_age * t` as wide (the first cracks widest), in [0, 1].
     /// Default 0.
     pub bake_fade_age: f64,
+    /// Fade with depth: a crack whose sides opened `o` (their accumulated
+    /// relaxation displacements apart), against `o_max`, the 95th
+    /// percentile of the mesh's crack openings, is `1 - bake_fade_depth *
+    /// (1 - min(1, o / o_max))` as wide, in [0, 1] (shallow cracks thin;
+    /// models without displacements do not fade).
+    /// Default 0.
+    pub bake_fade_depth: f64,
     /// Texels the maps' islands are grown by, so filtering never reads
     /// background. Default 8.
     pub bake_dilate: u32,
@@ -132,6 +139,7 @@ impl Default for Post {
             bake_groove_slope: 1.0,
             bake_occlusion: 0.8,
             bake_fade_age: 0.0,
+            bake_fade_depth: 0.0,
             bake_dilate: 8,
             groove: 0.0,
             groove_relative: 0.0,
@@ -173,6 +181,13 @@ impl Post {
         } else {
             self.bake_width_relative * diagonal
         }
+    }
+
+    /// A crack's width factor in the maps: formed at fraction `age` of the
+    /// run, as deep as `depth` of the deepest crack (both in [0, 1]).
+    pub fn fade(&self, age: f64, depth: f64) -> f64 {
+        (1.0 - self.bake_fade_age * age.clamp(0.0, 1.0))
+            * (1.0 - self.bake_fade_depth * (1.0 - depth.clamp(0.0, 1.0)))
     }
 
     /// Every value checked, naming the key.
@@ -219,6 +234,7 @@ impl Post {
         };
         unit("bake_occlusion", self.bake_occlusion)?;
         unit("bake_fade_age", self.bake_fade_age)?;
+        unit("bake_fade_depth", self.bake_fade_depth)?;
         for (i, c) in self.crack_color.iter().enumerate() {
             unit(&format!("crack_color[{i}]"), *c)?;
         }
