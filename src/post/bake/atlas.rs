@@ -116,28 +116,13 @@ pub fn atlas(
         }
         boxes.push(bx);
     }
-    let dims: Vec<[f64; 2]> = boxes.iter().map(|b| [b[2] - b[0], b[3] - b[1]]).collect();
-    let (density, places) = pack(&dims, size, padding).ok_or(AtlasError::TooManyCharts {
-        charts: charts.len(),
-        padding,
+    let (uvs, density) = place_charts(
+        &boxes,
+        &chart_of,
+        |f, k| corner_xy[f * 3 + k],
         size,
-    })?;
-    if !(density.is_finite() && density > 0.0) {
-        return Err(AtlasError::NoArea);
-    }
-    let s = f64::from(size);
-    let mut uvs = vec![[0.0; 2]; triangles.len() * 3];
-    for (f, &ch) in chart_of.iter().enumerate() {
-        let b = boxes[ch as usize];
-        let at = places[ch as usize];
-        for k in 0..3 {
-            let q = corner_xy[f * 3 + k];
-            uvs[f * 3 + k] = [
-                (at[0] + (q[0] - b[0]) * density) / s,
-                (at[1] + (q[1] - b[1]) * density) / s,
-            ];
-        }
-    }
+        padding,
+    )?;
     Ok(Atlas {
         uvs,
         charts: charts.len(),
@@ -242,12 +227,32 @@ pub fn islands(
             b
         })
         .collect();
-    let dims: Vec<[f64; 2]> = boxes.iter().map(|b| [b[2] - b[0], b[3] - b[1]]).collect();
-    if !dims.iter().all(|d| d[0].is_finite() && d[1].is_finite()) {
+    if !boxes.iter().flatten().all(|x| x.is_finite()) {
         return Err(AtlasError::NoArea);
     }
+    let (out, density) =
+        place_charts(&boxes, &chart_of, |f, k| uv(triangles[f][k]), size, padding)?;
+    Ok(Atlas {
+        uvs: out,
+        charts: boxes.len(),
+        density,
+    })
+}
+
+/// Each triangle's corners (`corner(f, k)`, in its chart's plane) placed
+/// in the `size` map: the charts' boxes (`[min x, min y, max x, max y]`)
+/// packed at one density with `padding` texels around each. Returns a UV
+/// per corner and the density.
+fn place_charts(
+    boxes: &[[f64; 4]],
+    chart_of: &[u32],
+    corner: impl Fn(usize, usize) -> [f64; 2],
+    size: u32,
+    padding: u32,
+) -> Result<(Vec<[f64; 2]>, f64), AtlasError> {
+    let dims: Vec<[f64; 2]> = boxes.iter().map(|b| [b[2] - b[0], b[3] - b[1]]).collect();
     let (density, places) = pack(&dims, size, padding).ok_or(AtlasError::TooManyCharts {
-        charts: charts.len(),
+        charts: boxes.len(),
         padding,
         size,
     })?;
@@ -255,23 +260,19 @@ pub fn islands(
         return Err(AtlasError::NoArea);
     }
     let s = f64::from(size);
-    let mut out = vec![[0.0; 2]; triangles.len() * 3];
+    let mut uvs = vec![[0.0; 2]; chart_of.len() * 3];
     for (f, &ch) in chart_of.iter().enumerate() {
         let b = boxes[ch as usize];
         let at = places[ch as usize];
         for k in 0..3 {
-            let q = uv(triangles[f][k]);
-            out[f * 3 + k] = [
+            let q = corner(f, k);
+            uvs[f * 3 + k] = [
                 (at[0] + (q[0] - b[0]) * density) / s,
                 (at[1] + (q[1] - b[1]) * density) / s,
             ];
         }
     }
-    Ok(Atlas {
-        uvs: out,
-        charts: charts.len(),
-        density,
-    })
+    Ok((uvs, density))
 }
 
 /// A vertex id per position: equal positions get the same id.

@@ -74,13 +74,7 @@ impl Pull {
         phi: &[f64],
         node_tets: &[Vec<(u32, u8)>],
     ) -> (Vec<i8>, usize, f64) {
-        let inside: Vec<[f64; 3]> = x
-            .iter()
-            .zip(phi)
-            .filter(|(_, &p)| p < 0.0)
-            .map(|(x, _)| *x)
-            .collect();
-        let (lo, hi) = super::grid::bounds(&inside);
+        let (lo, hi) = material_bounds(x, phi);
         let a = self.axis_index(lo, hi);
         let band = self.slab * (hi[a] - lo[a]);
         let sides = x
@@ -100,6 +94,17 @@ impl Pull {
             .collect();
         (sides, a, band)
     }
+}
+
+/// The bounding box of the nodes inside the material (`phi < 0`).
+fn material_bounds(x: &[[f64; 3]], phi: &[f64]) -> ([f64; 3], [f64; 3]) {
+    let inside: Vec<[f64; 3]> = x
+        .iter()
+        .zip(phi)
+        .filter(|(_, &p)| p < 0.0)
+        .map(|(x, _)| *x)
+        .collect();
+    super::grid::bounds(&inside)
 }
 
 /// The pulled nodes when the grips are named faces of the surface (the
@@ -122,13 +127,7 @@ pub fn grip_sides(
 ) -> Result<(Vec<i8>, usize, f64), String> {
     use crate::mesh::spatial::{bbox, closest_on_triangle, dist2, Grid};
     let (positions, triangles) = surface;
-    let inside: Vec<[f64; 3]> = x
-        .iter()
-        .zip(phi)
-        .filter(|(_, &p)| p < 0.0)
-        .map(|(x, _)| *x)
-        .collect();
-    let (lo, hi) = super::grid::bounds(&inside);
+    let (lo, hi) = material_bounds(x, phi);
     let a = pull.axis_index(lo, hi);
     let centre = 0.5 * (lo[a] + hi[a]);
     let faces: Vec<[[f64; 3]; 3]> = triangles
