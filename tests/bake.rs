@@ -293,21 +293,29 @@ fn kept_geometry_bakes_the_ducks_own_islands_repacked() {
             assert_eq!(t.positions[a[k] as usize], inp.positions[b[k] as usize]);
         }
     }
-    // Each triangle's atlas UVs are its own UVs scaled by one factor for
-    // all and moved: no island is turned, mirrored or sheared, so texture
-    // edges stay on the island seams and a normal map keeps its frame.
+    // Each triangle's atlas UVs are its own UVs scaled and moved: no
+    // island is turned, mirrored or sheared, so texture edges stay on the
+    // island seams and a normal map keeps its frame.
     let atlas = t.attribute("TEXCOORD_0").unwrap();
     let own_uv = inp.attribute("TEXCOORD_0").unwrap();
-    let scale = atlas_report["texels_per_unit"].as_f64().unwrap() / 2048.0;
     let mut worst = 0.0f64;
     for (a, b) in t.triangles.iter().zip(&inp.triangles) {
-        let e = |uv: &crackle::scene::VertexAttribute, tri: &[u32; 3], i: usize, j: usize| {
-            let (p, q) = (uv.get(tri[i] as usize), uv.get(tri[j] as usize));
+        let e = |uv: &crackle::scene::VertexAttribute, tri: &[u32; 3], j: usize| {
+            let (p, q) = (uv.get(tri[0] as usize), uv.get(tri[j] as usize));
             [f64::from(q[0] - p[0]), f64::from(q[1] - p[1])]
         };
-        for (i, j) in [(0, 1), (0, 2)] {
-            let (x, y) = (e(atlas, a, i, j), e(own_uv, b, i, j));
-            let off = (x[0] - scale * y[0]).hypot(x[1] - scale * y[1]);
+        let (x1, y1) = (e(atlas, a, 1), e(own_uv, b, 1));
+        let l = y1[0] * y1[0] + y1[1] * y1[1];
+        if l < 1e-12 {
+            continue;
+        }
+        // The scale along the first edge: positive, and it fits the
+        // second edge too.
+        let k = (x1[0] * y1[0] + x1[1] * y1[1]) / l;
+        assert!(k > 0.0, "a flipped island");
+        for j in [1, 2] {
+            let (x, y) = (e(atlas, a, j), e(own_uv, b, j));
+            let off = (x[0] - k * y[0]).hypot(x[1] - k * y[1]);
             worst = worst.max(off * 2048.0);
         }
     }

@@ -16,6 +16,10 @@ use std::collections::BTreeMap;
 /// set counts as overlapping (mirrored, stacked or tiled islands).
 const MAX_OVERLAP: f64 = 0.01;
 
+/// Share of the UV set's own overlap its repacked islands may keep (the
+/// islands' own folds) and still be used.
+const ISLANDS_KEEP: f64 = 0.05;
+
 /// Texels kept free around each automatic atlas chart at 2048 (scaled with
 /// the map size, at least 1): charts are 4 texels apart, enough for
 /// bilinear filtering; the dilation fills the gutters from the nearest
@@ -413,9 +417,12 @@ fn make_atlas(
     let repacked = (own.len() == positions.len())
         .then_some(own)
         .and_then(|uvs| {
+            // Accepted when it removes nearly all the overlap: islands that
+            // overlap themselves (folds) keep theirs, scaled with them.
+            let before = bake::rasterize(&uvs, &tris, size.min(1024), 0).overlap_fraction();
             let a = atlas::islands(&positions, &uvs, &tris, size, padding).ok()?;
             let r = bake::rasterize(&a.uvs, &corner_triangles(tris.len()), size.min(1024), 0);
-            (r.overlap_fraction() <= MAX_OVERLAP).then_some(a)
+            (r.overlap_fraction() <= MAX_OVERLAP.max(ISLANDS_KEEP * before)).then_some(a)
         });
     let kind = if repacked.is_some() {
         "islands"

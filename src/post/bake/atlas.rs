@@ -25,8 +25,7 @@ pub struct Atlas {
     pub uvs: Vec<[f64; 2]>,
     /// Number of charts.
     pub charts: usize,
-    /// Texels per world unit ([`atlas`]) or per unit of the old UV set
-    /// ([`islands`]).
+    /// Texels per world unit.
     pub density: f64,
 }
 
@@ -134,15 +133,19 @@ pub fn atlas(
 /// of a crack may round their interpolated UVs differently).
 const UV_EQUAL: f64 = 1e-5;
 
+/// Most an island's world-per-UV scale may differ from the whole set's.
+const MAX_ISLAND_SCALE: f64 = 4.0;
+
 /// Repack the islands of a UV set that overlaps itself (mirrored or
 /// stacked islands) into a `size` map without overlap: each island (the
 /// triangles joined across edges of equal positions and equal UVs, with
 /// the same UV winding, so a mirrored half is its own island) keeps its
-/// shape, orientation and proportions, only moved and scaled with all the
-/// others by one factor. A texture resampled from the old set into the new
-/// one is then a scaled copy of each island: its edges fall on the
-/// island's seams, as the asset's own texture's did, and a normal map's
-/// tangent frame stays as it was. `uvs` per vertex.
+/// shape, orientation and proportions, only moved and scaled, all islands
+/// to one world density (texels per world unit, as [`atlas`]). A texture
+/// resampled from the old set into the new one is then a scaled copy of
+/// each island: its edges fall on the island's seams, as the asset's own
+/// texture's did, and a normal map's tangent frame stays as it was. `uvs`
+/// per vertex; the density returned is texels per world unit.
 ///
 /// # Errors
 /// [`AtlasError`] when the islands cannot fit or have no UV area.
@@ -204,34 +207,74 @@ pub fn islands(
         }
         charts.push(faces);
     }
-    let boxes: Vec<[f64; 4]> = charts
+    // Each island at one world density: its UVs scaled by its own world
+    // length per UV length (so a crack is as many texels wide on every
+    // island), never turned.
+    // An island whose UVs are squeezed far below the others' (a sliver,
+    // a collapsed strip) keeps within MAX_ISLAND_SCALE of the whole set's
+    // ratio, so it cannot take the map.
+    let areas: Vec<(f64, f64)> = charts
         .iter()
         .map(|faces| {
-            let mut b = [
-                f64::INFINITY,
-                f64::INFINITY,
-                f64::NEG_INFINITY,
-                f64::NEG_INFINITY,
-            ];
+            let (mut world, mut flat) = (0.0, 0.0);
             for &f in faces {
-                for i in triangles[f as usize] {
-                    let q = uv(i);
-                    b = [
-                        b[0].min(q[0]),
-                        b[1].min(q[1]),
-                        b[2].max(q[0]),
-                        b[3].max(q[1]),
-                    ];
-                }
+                let t = triangles[f as usize];
+                let [a, b, c] = t.map(|i| positions[i as usize]);
+                world += v3::norm(v3::cross(v3::sub(b, a), v3::sub(c, a)));
+                let [p, q, r] = t.map(uv);
+                flat += ((q[0] - p[0]) * (r[1] - p[1]) - (q[1] - p[1]) * (r[0] - p[0])).abs();
             }
-            b
+            (world, flat)
         })
         .collect();
+    let total = areas
+        .iter()
+        .fold((0.0, 0.0), |acc, a| (acc.0 + a.0, acc.1 + a.1));
+    let overall = (total.0 / total.1).sqrt();
+    let overall = if overall.is_finite() && overall > 0.0 {
+        overall
+    } else {
+        1.0
+    };
+    let scale: Vec<f64> = areas
+        .iter()
+        .map(|&(world, flat)| {
+            let k = (world / flat).sqrt();
+            if k.is_finite() && k > 0.0 {
+                k.clamp(overall / MAX_ISLAND_SCALE, overall * MAX_ISLAND_SCALE)
+            } else {
+                overall
+            }
+        })
+        .collect();
+    let corner = |f: usize, k: usize| {
+        let q = uv(triangles[f][k]);
+        let c = scale[chart_of[f] as usize];
+        [q[0] * c, q[1] * c]
+    };
+    let empty = [
+        f64::INFINITY,
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+        f64::NEG_INFINITY,
+    ];
+    let mut boxes = vec![empty; charts.len()];
+    for f in 0..triangles.len() {
+        let b = &mut boxes[chart_of[f] as usize];
+        for k in 0..3 {
+            let q = corner(f, k);
+            *b = [
+                b[0].min(q[0]),
+                b[1].min(q[1]),
+                b[2].max(q[0]),
+                b[3].max(q[1]),
+            ];
+        }
+    }
     if !boxes.iter().flatten().all(|x| x.is_finite()) {
         return Err(AtlasError::NoArea);
     }
-    let (out, density) =
-        place_charts(&boxes, &chart_of, |f, k| uv(triangles[f][k]), size, padding)?;
+    let (out, density) = place_charts(&boxes, &chart_of, corner, size, padding)?;
     Ok(Atlas {
         uvs: out,
         charts: boxes.len(),
@@ -503,7 +546,9 @@ mod tests {
         let r = crate::post::bake::rasterize(&a.uvs_flat(), &a.corner_triangles(), 256, 0);
         assert_eq!(r.overlapping, 0);
         assert!(r.covered > 2 * 60 * 60, "{}", r.covered);
-        let k = a.density / 256.0;
+        // Each island spans 1 world unit per 0.5 of UV: 2 world units per UV
+        // unit, at `density` texels per world unit.
+        let k = a.density * 2.0 / 256.0;
         for (f, tri) in t.iter().enumerate() {
             for (i, j) in [(0, 1), (0, 2)] {
                 let new = [0, 1].map(|c| a.uvs[f * 3 + j][c] - a.uvs[f * 3 + i][c]);
