@@ -184,29 +184,7 @@ pub fn islands(
         })
     };
     let joins = |f: usize, k: usize, g: usize| winding[f] * winding[g] >= 0.0 && same_uvs(f, k, g);
-    let mut chart_of = vec![u32::MAX; triangles.len()];
-    let mut charts: Vec<Vec<u32>> = Vec::new();
-    let mut queue = VecDeque::new();
-    for seed in 0..triangles.len() {
-        if chart_of[seed] != u32::MAX {
-            continue;
-        }
-        let id = charts.len() as u32;
-        chart_of[seed] = id;
-        let mut faces = vec![seed as u32];
-        queue.push_back(seed);
-        while let Some(f) = queue.pop_front() {
-            for (k, &g) in neighbours[f].iter().enumerate() {
-                if g == u32::MAX || chart_of[g as usize] != u32::MAX || !joins(f, k, g as usize) {
-                    continue;
-                }
-                chart_of[g as usize] = id;
-                faces.push(g);
-                queue.push_back(g as usize);
-            }
-        }
-        charts.push(faces);
-    }
+    let (chart_of, charts) = flood(&neighbours, |_, f, k, g| joins(f, k, g));
     // Each island at one world density: its UVs scaled by its own world
     // length per UV length (so a crack is as many texels wide on every
     // island), never turned.
@@ -370,34 +348,45 @@ fn neighbours(welded: &[u32], triangles: &[[u32; 3]]) -> Vec<[u32; 3]> {
 /// Charts grown breadth-first from the lowest unassigned triangle; returns
 /// each triangle's chart and each chart's triangles (first: the seed).
 fn grow_charts(normals: &[Option<[f64; 3]>], neighbours: &[[u32; 3]]) -> (Vec<u32>, Vec<Vec<u32>>) {
-    let mut chart_of = vec![u32::MAX; normals.len()];
+    flood(neighbours, |seed, _, _, g| {
+        match (normals[seed], normals[g]) {
+            (Some(d), Some(n)) => v3::dot(d, n) >= MAX_ANGLE_COS,
+            // Triangles without area go with a neighbour.
+            (_, None) => true,
+            (None, Some(_)) => false,
+        }
+    })
+}
+
+/// Triangles grouped breadth-first from the lowest unassigned one (the
+/// seed): a neighbour `g` across edge `k` of `f` joins when `joins(seed,
+/// f, k, g)`. Returns each triangle's group and each group's triangles.
+fn flood(
+    neighbours: &[[u32; 3]],
+    joins: impl Fn(usize, usize, usize, usize) -> bool,
+) -> (Vec<u32>, Vec<Vec<u32>>) {
+    let mut chart_of = vec![u32::MAX; neighbours.len()];
     let mut charts: Vec<Vec<u32>> = Vec::new();
     let mut queue = VecDeque::new();
-    for seed in 0..normals.len() {
+    for seed in 0..neighbours.len() {
         if chart_of[seed] != u32::MAX {
             continue;
         }
         let id = charts.len() as u32;
-        let dir = normals[seed];
-        let mut faces = vec![seed as u32];
         chart_of[seed] = id;
-        queue.push_back(seed as u32);
+        let mut faces = vec![seed as u32];
+        queue.push_back(seed);
         while let Some(f) = queue.pop_front() {
-            for &g in &neighbours[f as usize] {
-                if g == u32::MAX || chart_of[g as usize] != u32::MAX {
+            for (k, &g) in neighbours[f].iter().enumerate() {
+                if g == u32::MAX
+                    || chart_of[g as usize] != u32::MAX
+                    || !joins(seed, f, k, g as usize)
+                {
                     continue;
                 }
-                let joins = match (dir, normals[g as usize]) {
-                    (Some(d), Some(n)) => v3::dot(d, n) >= MAX_ANGLE_COS,
-                    // Triangles without area go with a neighbour.
-                    (_, None) => true,
-                    (None, Some(_)) => false,
-                };
-                if joins {
-                    chart_of[g as usize] = id;
-                    faces.push(g);
-                    queue.push_back(g);
-                }
+                chart_of[g as usize] = id;
+                faces.push(g);
+                queue.push_back(g as usize);
             }
         }
         charts.push(faces);
