@@ -19,6 +19,13 @@ pub struct Post {
     pub width: f64,
     /// Largest gap across a crack, in scene units (0: no limit). Default 0.
     pub max_width: f64,
+    /// Gaps opened locally: each side of a crack moves by its opening only
+    /// (the crack line stays), and the nodes off the cracks follow their
+    /// nearest crack node, fading to rest over this many times its opening
+    /// (along the surface), so cell interiors, their texture and the
+    /// silhouette stay put. 0: every node moves by its displacement, whole
+    /// cells shrinking as in the paper. Default 0.
+    pub gap_band: f64,
     /// Curling: lift crack nodes along the normal by this fraction of how
     /// far they moved (0: none). Default 0.
     pub curl: f64,
@@ -119,6 +126,7 @@ impl Default for Post {
             finish: false,
             width: 0.0,
             max_width: 0.0,
+            gap_band: 0.0,
             curl: 0.0,
             curl_rings: 3,
             curl_falloff: 0.5,
@@ -205,6 +213,7 @@ impl Post {
         };
         nonneg("width", self.width)?;
         nonneg("max_width", self.max_width)?;
+        nonneg("gap_band", self.gap_band)?;
         nonneg("curl", self.curl)?;
         nonneg("wall_depth", self.wall_depth)?;
         nonneg("wall_depth_relative", self.wall_depth_relative)?;

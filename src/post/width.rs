@@ -14,7 +14,7 @@
 
 use crate::math::v3;
 use crate::mesh::{FaceId, SimMesh, VertexId};
-use crate::post::distance::crack_vertices;
+use crate::post::distance::{crack_vertices, distance_field};
 use crate::post::Post;
 
 /// How many times a node's move is halved before it is dropped.
@@ -337,16 +337,23 @@ pub fn displace(mesh: &SimMesh, displacement: &[[f64; 3]], opts: &Post) -> Displ
     // overlapping), and sliding along the crack or off the surface
     // relative to the other side (which would tilt the walls into their
     // neighbours).
+    // With a gap band the copies keep only their opening: the crack line
+    // stays where it was.
+    let local = opts.gap_band > 0.0;
     for g in &groups {
         if g.len() < 2 {
+            if local {
+                mv[g[0].idx()] = [0.0; 3];
+            }
             continue;
         }
         let mean = mean_move(g, &mv);
+        let base = if local { [0.0; 3] } else { mean };
         for &v in g {
             let open = away_from_crack(mesh, v)
                 .map(|dir| v3::scale(dir, v3::dot(v3::sub(mv[v.idx()], mean), dir).max(0.0)))
                 .unwrap_or([0.0; 3]);
-            let new = v3::add(mean, open);
+            let new = v3::add(base, open);
             if v3::norm(v3::sub(new, mv[v.idx()])) > 1e-12 * (1.0 + v3::norm(mean)) {
                 out.closed_nodes += 1;
             }
@@ -363,6 +370,10 @@ pub fn displace(mesh: &SimMesh, displacement: &[[f64; 3]], opts: &Post) -> Displ
             .unwrap_or([0.0; 3]);
         mv[q.idx()] = v3::add(w, open);
         out.closed_nodes += 1;
+    }
+
+    if local {
+        fade_into_band(mesh, &mut mv, opts.gap_band);
     }
 
     // Curling: crack nodes rise by a fraction of how far they moved, and
@@ -429,6 +440,40 @@ pub fn displace(mesh: &SimMesh, displacement: &[[f64; 3]], opts: &Post) -> Displ
     }
     out.positions = positions;
     out
+}
+
+/// Gaps opened locally (`[post] gap_band`): every node that is not on a
+/// crack moves with the crack node nearest to it over the surface (on its
+/// own side, since the crack's sides share no face), by that node's move
+/// times `1 - d / (band |move|)` at surface distance `d`, and not at all
+/// farther away. The cells' interiors, their texture and the silhouette
+/// stay; each side of a crack is squeezed over a strip `band` times its
+/// own opening wide.
+fn fade_into_band(mesh: &SimMesh, mv: &mut [[f64; 3]], band: f64) {
+    let nodes = crack_vertices(mesh);
+    let sources: Vec<(VertexId, f64)> = nodes.iter().map(|&v| (v, v.idx() as f64)).collect();
+    let (distance, nearest) = distance_field(mesh, mesh.positions(), &sources);
+    let mut on_crack = vec![false; mesh.n_vertices()];
+    for v in &nodes {
+        on_crack[v.idx()] = true;
+    }
+    for i in 0..mv.len() {
+        if on_crack[i] {
+            continue;
+        }
+        let (d, c) = (distance[i], nearest[i]);
+        mv[i] = if d.is_finite() && c.is_finite() {
+            let m = mv[c as usize];
+            let reach = band * v3::norm(m);
+            if d < reach {
+                v3::scale(m, 1.0 - d / reach)
+            } else {
+                [0.0; 3]
+            }
+        } else {
+            [0.0; 3]
+        };
+    }
 }
 
 /// Grooves (`[post] groove`): every copy of a split crack node moves
@@ -696,6 +741,48 @@ mod tests {
         let out = displace(&m, &d, &opts(0.0));
         assert_eq!(out.positions, m.positions().to_vec());
         assert_eq!(out.max_gap, 0.0);
+    }
+
+    #[test]
+    fn a_gap_band_opens_the_crack_and_leaves_the_cells_in_place() {
+        let m = cracked_plate();
+        // Each side pulled 0.3 off the crack, and everything carried 0.5
+        // along x (the cells' shrinking as a whole).
+        let d: Vec<[f64; 3]> = pull_apart(&m, 0.3)
+            .into_iter()
+            .map(|x| v3::add(x, [0.5, 0.0, 0.0]))
+            .collect();
+        let out = displace(
+            &m,
+            &d,
+            &Post {
+                gap_band: 4.0,
+                ..opts(1.0)
+            },
+        );
+        assert!((out.max_gap - 0.6).abs() < 1e-9, "{}", out.max_gap);
+        assert_eq!(out.inverted_triangles, 0);
+        for v in m.vertices() {
+            let (p, q) = (m.position(v), out.positions[v.idx()]);
+            let dy = (p[1] - 3.0).abs();
+            // Nothing slides along the crack; each side moves off it by
+            // 0.3 (1 - d / 1.2) at distance d, and not at all from 1.2 on.
+            assert!((q[0] - p[0]).abs() < 1e-9, "{v:?} slid along the crack");
+            let want = if dy >= 1.2 {
+                0.0
+            } else {
+                0.3 * (1.0 - dy / 1.2)
+            };
+            assert!(
+                ((q[1] - p[1]).abs() - want).abs() < 1e-9,
+                "{v:?}: {q:?} from {p:?}"
+            );
+        }
+        // Without a band every node moves by its displacement.
+        let out = displace(&m, &d, &opts(1.0));
+        assert!(m
+            .vertices()
+            .all(|v| out.positions[v.idx()][0] == m.position(v)[0] + 0.5));
     }
 
     #[test]
