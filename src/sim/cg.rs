@@ -90,7 +90,7 @@ pub struct Vectors<'a, V> {
 /// `precondition(n, r)` is the preconditioner's block at node `n` applied to
 /// `r`. The report's residual is the recurrence's.
 pub fn iterate<V: NodeVector>(
-    mut product: impl FnMut(&[V], &mut [V]) -> f64,
+    product: impl FnMut(&[V], &mut [V]) -> f64,
     precondition: impl Fn(usize, V) -> V + Sync,
     v: Vectors<'_, V>,
     norm_b: f64,
@@ -98,11 +98,32 @@ pub fn iterate<V: NodeVector>(
     max_iter: usize,
     report: &mut CgReport,
 ) {
+    let whole = |r: &[V], z: &mut [V]| {
+        z.par_chunks_mut(CHUNK)
+            .zip(r.par_chunks(CHUNK))
+            .enumerate()
+            .for_each(|(c, (z, r))| {
+                for i in 0..z.len() {
+                    z[i] = precondition(c * CHUNK + i, r[i]);
+                }
+            });
+    };
+    iterate_with(product, whole, v, norm_b, tol, max_iter, report);
+}
+
+/// As [`iterate`], with a preconditioner that works on the whole vector:
+/// `precondition(r, z)` writes `M^-1 r` into `z` (a multigrid cycle, say).
+pub fn iterate_with<V: NodeVector>(
+    mut product: impl FnMut(&[V], &mut [V]) -> f64,
+    mut precondition: impl FnMut(&[V], &mut [V]),
+    v: Vectors<'_, V>,
+    norm_b: f64,
+    tol: f64,
+    max_iter: usize,
+    report: &mut CgReport,
+) {
     let Vectors { x, r, z, p, ap } = v;
-    z.par_iter_mut()
-        .zip(r.par_iter())
-        .enumerate()
-        .for_each(|(n, (z, r))| *z = precondition(n, *r));
+    precondition(r, z);
     p.copy_from_slice(z);
     let mut rz = dot(r, z);
     for it in 0..max_iter {
@@ -112,26 +133,22 @@ pub fn iterate<V: NodeVector>(
             break;
         }
         let alpha = rz / pap;
-        // x += alpha p, r -= alpha ap, z = M^-1 r; r . r and r . z.
-        let parts: Vec<(f64, f64)> = x
+        // x += alpha p, r -= alpha ap; r . r.
+        let parts: Vec<f64> = x
             .par_chunks_mut(CHUNK)
             .zip(r.par_chunks_mut(CHUNK))
-            .zip(z.par_chunks_mut(CHUNK))
             .zip(p.par_chunks(CHUNK).zip(ap.par_chunks(CHUNK)))
-            .enumerate()
-            .map(|(c, (((x, r), z), (p, ap)))| {
-                let (mut rr, mut rz) = (0.0, 0.0);
+            .map(|((x, r), (p, ap))| {
+                let mut rr = 0.0;
                 for i in 0..x.len() {
                     x[i] = x[i].add_scaled(alpha, p[i]);
                     r[i] = r[i].sub_scaled(alpha, ap[i]);
-                    z[i] = precondition(c * CHUNK + i, r[i]);
                     rr += r[i].dot(r[i]);
-                    rz += r[i].dot(z[i]);
                 }
-                (rr, rz)
+                rr
             })
             .collect();
-        let rr: f64 = parts.iter().map(|x| x.0).sum();
+        let rr: f64 = parts.iter().sum();
         let rel = rr.sqrt() / norm_b;
         report.iterations = it + 1;
         report.relative_residual = rel;
@@ -139,7 +156,8 @@ pub fn iterate<V: NodeVector>(
             report.converged = true;
             break;
         }
-        let rz_new: f64 = parts.iter().map(|x| x.1).sum();
+        precondition(r, z);
+        let rz_new = dot(r, z);
         let beta = rz_new / rz;
         rz = rz_new;
         p.par_iter_mut()

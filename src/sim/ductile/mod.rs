@@ -19,6 +19,7 @@
 
 pub mod fem;
 pub mod grid;
+mod multigrid;
 mod params;
 mod solve;
 pub mod surface;
@@ -72,6 +73,8 @@ pub struct DuctileReport {
     pub cg_max_iterations: usize,
     /// Steps whose solve missed the tolerance.
     pub cg_unconverged: usize,
+    /// Multigrid cycles built (one is kept while it works).
+    pub multigrid_builds: usize,
     /// Pull distance (fraction of the object's length, both ends together)
     /// when the level set first moved, if it did.
     pub first_tear_pull: Option<f64>,
@@ -123,6 +126,21 @@ pub struct Ductile {
     /// The scene's position of the metres' origin, and metres per scene
     /// unit.
     scene_frame: ([f64; 3], f64),
+    /// The multigrid cycle kept from an earlier step.
+    mg: Option<KeptCycle>,
+    /// How many cycles were built.
+    pub mg_builds: usize,
+}
+
+/// A multigrid cycle kept across steps, and how its solves went.
+struct KeptCycle {
+    multigrid: multigrid::Multigrid,
+    /// CG iterations of the first solve with it (`usize::MAX` before).
+    iterations: usize,
+    /// CG iterations of the last solve with it.
+    last: usize,
+    /// Whether the material tore since it was built.
+    torn: bool,
 }
 
 /// Why a run cannot start.
@@ -239,6 +257,8 @@ impl Ductile {
             slab_thickness,
             last_dv: Vec::new(),
             scene_frame: (lo, scale),
+            mg: None,
+            mg_builds: 0,
         })
     }
 
@@ -372,6 +392,11 @@ impl Ductile {
         let elements = self.elements(&weights);
         let psi = self.nodal_energy(&elements, &weights);
         report.tearing_nodes = self.advance_level_set(&psi, dt);
+        if report.tearing_nodes > 0 {
+            if let Some(mg) = &mut self.mg {
+                mg.torn = true;
+            }
+        }
         report.dt = dt;
         report.energy = elements.iter().zip(&weights).map(|(e, w)| e.psi * w).sum();
         let mass = self.masses(&weights);
@@ -385,8 +410,23 @@ impl Ductile {
         report
     }
 
-    /// The step: at most `dt`, and CFL-bounded so that no node (nor the
-    /// level set's front) moves more than `cfl` cells.
+    /// The fastest the torn front moves anywhere (m/s), as
+    /// `advance_level_set` moves it.
+    fn front_speed(&self, psi: &[f64]) -> f64 {
+        let p = &self.params;
+        let eps = p.eps * self.grid.h;
+        psi.iter()
+            .zip(&self.phi)
+            .zip(&self.node_tets)
+            .filter(|((&e, _), t)| e > p.kappa && !t.is_empty())
+            .map(|((&e, &phi), _)| eps * eps / (eps * eps + phi * phi) * (e - p.kappa) / p.kappa)
+            .fold(0.0, f64::max)
+            * p.tear_speed
+            * self.length
+    }
+
+    /// The elastic step: at most `dt`, no node moving more than `cfl`
+    /// cells, and the torn front no more than `tear_cells`.
     fn cfl_step(&self, psi: &[f64]) -> f64 {
         let p = &self.params;
         let h = self.grid.h;
@@ -395,46 +435,49 @@ impl Ductile {
             .iter()
             .map(|v| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt())
             .fold(self.params.pull.speed * self.length, f64::max);
-        // The level set's fastest node, as `advance_level_set` moves it.
-        let eps = p.eps * h;
-        let front = psi
-            .iter()
-            .zip(&self.phi)
-            .zip(&self.node_tets)
-            .filter(|((&e, _), t)| e > p.kappa && !t.is_empty())
-            .map(|((&e, &phi), _)| eps * eps / (eps * eps + phi * phi) * (e - p.kappa) / p.kappa)
-            .fold(0.0, f64::max)
-            * p.tear_speed
-            * self.length;
-        let limit = p.cfl * h / vmax.max(front).max(1e-300);
-        p.dt.min(limit)
+        let front = self.front_speed(psi).max(1e-300);
+        p.dt.min(p.cfl * h / vmax.max(1e-300))
+            .min(p.tear_cells * h / front)
     }
 
-    /// `phi += dt * tear_speed * L * eps^2 / (eps^2 + phi^2) * max(0, Psi -
-    /// kappa) / kappa`: the text's `ds * delta_eps(phi) * (Psi - kappa)`
-    /// with `delta_eps` of width `eps` (a fraction of the grid spacing),
-    /// scaled so the front moves at `tear_speed` where the energy is twice
-    /// the resistance, whatever the grid. Inward only. Returns how many
-    /// nodes moved.
+    /// Over `dt`, in sub-steps in which the front moves at most `cfl`
+    /// cells: `phi += dt * tear_speed * L * eps^2 / (eps^2 + phi^2) *
+    /// max(0, Psi - kappa) / kappa`, the text's
+    /// `ds * delta_eps(phi) * (Psi - kappa)` with `delta_eps` of width `eps`
+    /// (a fraction of the grid spacing), scaled so the front moves at `tear_speed` where the energy
+    /// is twice the resistance, whatever the grid. Inward only. Returns how
+    /// many nodes moved.
     fn advance_level_set(&mut self, psi: &[f64], dt: f64) -> usize {
-        let p = &self.params;
+        let p = self.params.clone();
         let eps = p.eps * self.grid.h;
-        let rate = dt * p.tear_speed * self.length;
         let kappa = p.kappa;
         let active: Vec<bool> = self.node_tets.iter().map(|t| !t.is_empty()).collect();
-        let mut moved = 0;
-        for n in 0..self.phi.len() {
-            if !active[n] || psi[n] <= kappa {
-                continue;
+        let mut moved = vec![false; self.phi.len()];
+        let mut left = dt;
+        while left > 0.0 {
+            let front = self.front_speed(psi);
+            let sub = if front > 0.0 {
+                left.min(p.cfl * self.grid.h / front)
+            } else {
+                left
+            };
+            // The last sliver of time in one go (no endless tiny steps).
+            let sub = if left - sub < 1e-9 * dt { left } else { sub };
+            let rate = sub * p.tear_speed * self.length;
+            for n in 0..self.phi.len() {
+                if !active[n] || psi[n] <= kappa {
+                    continue;
+                }
+                let phi = self.phi[n];
+                let d = rate * eps * eps / (eps * eps + phi * phi) * (psi[n] - kappa) / kappa;
+                if d > 0.0 {
+                    self.phi[n] = phi + d;
+                    moved[n] = true;
+                }
             }
-            let phi = self.phi[n];
-            let d = rate * eps * eps / (eps * eps + phi * phi) * (psi[n] - kappa) / kappa;
-            if d > 0.0 {
-                self.phi[n] = phi + d;
-                moved += 1;
-            }
+            left -= sub;
         }
-        moved
+        moved.iter().filter(|&&m| m).count()
     }
 
     /// Run until the pull reaches `params.pull.distance` (or `max_steps`);
@@ -465,6 +508,7 @@ impl Ductile {
             on_step(self, &s);
         }
         report.time = self.time;
+        report.multigrid_builds = self.mg_builds;
         report.pull = self.pull_fraction();
         report.fragments = self.fragments();
         report

@@ -210,13 +210,21 @@ pub struct DuctileParams {
     pub stiffness_damping: f64,
     /// Largest time step, s. Default 0.05.
     pub dt: f64,
-    /// CFL number: no node, and no torn front, moves more than this many
-    /// cells a step. Default 0.5.
+    /// CFL number: no node moves more than this many cells an elastic
+    /// step, and the torn front no more than this many cells a level-set
+    /// sub-step. Default 0.5.
     pub cfl: f64,
+    /// Most cells the torn front advances during one elastic step (in
+    /// level-set sub-steps of at most `cfl` cells, the elastic state held).
+    /// Default 4.
+    pub tear_cells: f64,
     /// CG tolerance (relative residual). Default 1e-6.
     pub tolerance: f64,
     /// Most CG iterations a step. Default 2,000.
     pub max_cg: usize,
+    /// Precondition the CG by a multigrid V-cycle (else by the stiffness'
+    /// diagonal, as a reference). Default true.
+    pub multigrid: bool,
     /// Most steps. Default 10,000.
     pub max_steps: usize,
     /// The pull.
@@ -242,8 +250,10 @@ impl Default for DuctileParams {
             stiffness_damping: 1e-3,
             dt: 0.05,
             cfl: 0.5,
+            tear_cells: 4.0,
             tolerance: 1e-6,
             max_cg: 2000,
+            multigrid: true,
             max_steps: 10_000,
             pull: Pull::default(),
             tear_material: "tear_interior".into(),
@@ -303,6 +313,7 @@ impl DuctileParams {
         non_neg("stiffness_damping", self.stiffness_damping)?;
         pos("dt", self.dt)?;
         pos("cfl", self.cfl)?;
+        pos("tear_cells", self.tear_cells)?;
         if !(self.tolerance > 0.0 && self.tolerance < 1.0) {
             return Err(format!(
                 "ductile.tolerance must be in (0, 1), got {}",

@@ -6,8 +6,9 @@
 //! Every sum over a node's tetrahedra runs in a fixed order.
 
 use super::fem::Element;
+use super::multigrid::{Multigrid, Operator};
 use super::params::PullMode;
-use super::{Ductile, StepReport};
+use super::{Ductile, KeptCycle, StepReport};
 use crate::sim::cg::{self, CgReport, Vectors};
 use nalgebra::Vector3;
 use rayon::prelude::*;
@@ -40,6 +41,73 @@ impl Ductile {
                 [acc[0], acc[1], acc[2]]
             })
             .collect()
+    }
+
+    /// Build the multigrid cycle for this step's operator `cm M + ck K`,
+    /// unless the one kept from an earlier step still works: the operator
+    /// changes little from one quasistatic step to the next, so a cycle is
+    /// kept until the material tears (which changes the operator where it
+    /// matters most) or a solve takes a quarter more iterations than the
+    /// first solve with it (any SPD cycle is a valid preconditioner; only the
+    /// count of iterations depends on its age).
+    fn refresh_multigrid(
+        &mut self,
+        elements: &[Element],
+        weights: &[f64],
+        mass: &[f64],
+        fixed: &[[bool; 3]],
+        (cm, ck): (f64, f64),
+    ) {
+        if let Some(mg) = &self.mg {
+            if !mg.torn && mg.last <= mg.iterations + mg.iterations / 4 + 2 {
+                return;
+            }
+        }
+        let cm_mass: Vec<f64> = mass.iter().map(|m| cm * m).collect();
+        let stiffness = |e: usize| self.element_stiffness(elements, weights, e, ck);
+        let multigrid = Multigrid::new(&Operator {
+            dims: self.grid.nodes_per_axis(),
+            tets: &self.tets,
+            stiffness: &stiffness,
+            mass: &cm_mass,
+            fixed,
+        });
+        self.mg = Some(KeptCycle {
+            multigrid,
+            iterations: usize::MAX,
+            last: 0,
+            torn: false,
+        });
+        self.mg_builds += 1;
+    }
+
+    /// Tetrahedron `e`'s stiffness times `ck`, block `[c][d]` coupling
+    /// corner `c`'s force to corner `d`'s displacement: the force
+    /// differentials of the twelve unit displacements.
+    fn element_stiffness(
+        &self,
+        elements: &[Element],
+        weights: &[f64],
+        e: usize,
+        ck: f64,
+    ) -> [[[f64; 9]; 4]; 4] {
+        let mut k = [[[0.0; 9]; 4]; 4];
+        if weights[e] <= 0.0 {
+            return k;
+        }
+        for d in 0..4 {
+            for l in 0..3 {
+                let mut dx = [Vector3::zeros(); 4];
+                dx[d][l] = 1.0;
+                let f = elements[e].force_differential(dx, &self.rest[e], weights[e], self.lame);
+                for (c, fc) in f.iter().enumerate() {
+                    for m in 0..3 {
+                        k[c][d][3 * m + l] = -ck * fc[m];
+                    }
+                }
+            }
+        }
+        k
     }
 
     /// Elastic forces at every node.
@@ -165,6 +233,9 @@ impl Ductile {
         let apply = |p: &[[f64; 3]], kp: &[[f64; 3]], i: usize| -> [f64; 3] {
             std::array::from_fn(|k| cm * mass[i] * p[i][k] + ck * kp[i][k])
         };
+        if self.params.multigrid {
+            self.refresh_multigrid(elements, weights, mass, &fixed, (cm, ck));
+        }
         // r = b - A x on the free unknowns.
         let kx = self.stiffness_product(elements, weights, &x);
         let mut r: Vec<[f64; 3]> = (0..n)
@@ -185,29 +256,66 @@ impl Ductile {
                 });
                 cg::dot(p, ap)
             };
-            let precondition = |i: usize, r: [f64; 3]| -> [f64; 3] {
-                std::array::from_fn(|k| if fixed[i][k] { 0.0 } else { r[k] / diag[i] })
+            let vectors = Vectors {
+                x: &mut x,
+                r: &mut r,
+                z: &mut z,
+                p: &mut p,
+                ap: &mut ap,
             };
-            cg::iterate(
-                product,
-                precondition,
-                Vectors {
-                    x: &mut x,
-                    r: &mut r,
-                    z: &mut z,
-                    p: &mut p,
-                    ap: &mut ap,
-                },
-                norm_b,
-                self.params.tolerance,
-                self.params.max_cg,
-                &mut report,
-            );
+            let (tol, max) = (self.params.tolerance, self.params.max_cg);
+            if let Some(mg) = &self.mg {
+                let precondition = |r: &[[f64; 3]], z: &mut [[f64; 3]]| {
+                    mg.multigrid.apply(r, z);
+                    // A kept cycle may predate unknowns fixed since.
+                    z.par_iter_mut().zip(&fixed).for_each(|(z, f)| {
+                        for k in 0..3 {
+                            if f[k] {
+                                z[k] = 0.0;
+                            }
+                        }
+                    });
+                };
+                cg::iterate_with(
+                    product,
+                    precondition,
+                    vectors,
+                    norm_b,
+                    tol,
+                    max,
+                    &mut report,
+                );
+            } else {
+                let precondition = |i: usize, r: [f64; 3]| -> [f64; 3] {
+                    std::array::from_fn(|k| if fixed[i][k] { 0.0 } else { r[k] / diag[i] })
+                };
+                cg::iterate(
+                    product,
+                    precondition,
+                    vectors,
+                    norm_b,
+                    tol,
+                    max,
+                    &mut report,
+                );
+            }
         } else {
             report.converged = true;
         }
+        if let Some(mg) = &mut self.mg {
+            if mg.iterations == usize::MAX {
+                mg.iterations = report.iterations;
+            }
+            mg.last = report.iterations;
+        }
         self.last_dv.clone_from(&x);
-        for ((v, p), dv) in self.v.iter_mut().zip(self.x.iter_mut()).zip(&x) {
+        for (((v, p), dv), m) in self.v.iter_mut().zip(self.x.iter_mut()).zip(&x).zip(mass) {
+            if *m <= 0.0 {
+                // No material left: nothing moves it (and no stale speed
+                // bounds the next step).
+                *v = [0.0; 3];
+                continue;
+            }
             for k in 0..3 {
                 v[k] += dv[k];
                 p[k] += dt * v[k];
