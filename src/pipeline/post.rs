@@ -112,7 +112,18 @@ pub fn apply(
             };
             // Walls passing through the surface or each other (narrow,
             // sheared gaps at junctions) have their moves shortened.
-            let (w, fix) = build_walls_uncrossed(&e.sim, &mut positions, &WallOptions { depth });
+            let (w, fix) = build_walls_uncrossed(
+                &e.sim,
+                &mut positions,
+                &WallOptions {
+                    depth,
+                    rows: if groove_width > 0.0 {
+                        post.groove_rows()
+                    } else {
+                        0
+                    },
+                },
+            );
             if fix.crossing_after > 0 {
                 log::info!(
                     "{}: {} wall triangle pairs cross",

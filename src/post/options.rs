@@ -109,6 +109,10 @@ pub struct Post {
     /// Material of the groove walls: an input material of this name, or a
     /// new plain one. Default `crack_wall`.
     pub groove_material: String,
+    /// The groove's profile: `v` (walls straight down to the crack line)
+    /// or `u` (walls dropping straight from the edges and rounding into
+    /// the bottom, in [`U_ROWS`] rows). Default `v`.
+    pub groove_profile: String,
     /// Keep the input's own geometry: the output has the input's
     /// triangles, vertices and attributes (morph targets, skins and UV
     /// layouts untouched), and the cracks show only in what is drawn over
@@ -153,10 +157,14 @@ impl Default for Post {
             groove_relative: 0.0,
             groove_depth: 0.0,
             groove_material: "crack_wall".into(),
+            groove_profile: "v".into(),
             keep_geometry: false,
         }
     }
 }
+
+/// Rows of a U groove's walls (a quarter ellipse each).
+pub const U_ROWS: usize = 4;
 
 /// An invalid post-processing option; the message names the key and its
 /// value.
@@ -178,6 +186,15 @@ impl Post {
             self.groove
         } else {
             self.groove_relative * cell
+        }
+    }
+
+    /// Rows of the groove walls: 0 for a V, [`U_ROWS`] for a U.
+    pub fn groove_rows(&self) -> usize {
+        if self.groove_profile == "u" {
+            U_ROWS
+        } else {
+            0
         }
     }
 
@@ -295,6 +312,12 @@ impl Post {
             return Err(
                 "post.keep_geometry keeps the input's surface as it is: use it without post.width, post.curl, post.walls, post.groove and post.split_islands".into(),
             );
+        }
+        if !["v", "u"].contains(&self.groove_profile.as_str()) {
+            return Err(format!(
+                "post.groove_profile must be \"v\" or \"u\", got \"{}\"",
+                self.groove_profile
+            ));
         }
         if self.groove_material.is_empty() {
             return Err("post.groove_material must not be empty".into());

@@ -136,12 +136,43 @@ const ON_SEGMENT: f64 = 1e-9;
 const INTERSECT_TOL: f64 = 1e-12;
 
 /// Options of [`build_walls`].
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct WallOptions {
     /// How far below the original crack line the walls reach, along the
     /// inward surface normal, in scene units. Must be finite and `> 0`
     /// (otherwise [`build_walls`] returns no walls).
     pub depth: f64,
+    /// The walls' profile across the crack: 0 or 1, straight from each
+    /// side's edge to the bottom line (a V channel); `k >= 2`, a U
+    /// channel: each wall in `k` rows along a quarter ellipse, dropping
+    /// straight down from the edge and meeting the bottom level.
+    pub rows: usize,
+}
+
+/// The point at fraction `s` down the wall from top point `t` to bottom
+/// point `b` (whose outward normal is `n`): on the straight line for a V
+/// profile (`rows` < 2), on the quarter ellipse `t + sin(a) d_n + (1 -
+/// cos(a)) d_l`, `a = s pi / 2`, for a U (`d_n`, `d_l`: the parts of
+/// `b - t` along `n` and across it). Exactly `t` at 0 and `b` at 1, so
+/// walls that share an edge share its points.
+fn profile_point(t: P3, b: P3, n: P3, s: f64, rows: usize) -> P3 {
+    if s <= 0.0 {
+        return t;
+    }
+    if s >= 1.0 {
+        return b;
+    }
+    let d = v3::sub(b, t);
+    if rows < 2 {
+        return v3::add(t, v3::scale(d, s));
+    }
+    let dn = v3::scale(n, v3::dot(d, n));
+    let dl = v3::sub(d, dn);
+    let a = 0.5 * std::f64::consts::PI * s;
+    v3::add(
+        t,
+        v3::add(v3::scale(dn, a.sin()), v3::scale(dl, 1.0 - a.cos())),
+    )
 }
 
 /// Side-wall geometry of the cracks of a mesh, made by [`build_walls`]. The
@@ -262,7 +293,12 @@ pub fn build_walls(mesh: &SimMesh, top: &[[f64; 3]], opts: &WallOptions) -> Wall
             face: mesh.face(h),
             side: h,
         };
-        wall.emit(&mut out, &bottoms.position, apex);
+        wall.emit(
+            &mut out,
+            (&bottoms.position, &bottoms.normal),
+            apex,
+            opts.rows,
+        );
     }
     out
 }
@@ -723,7 +759,7 @@ struct WallPolygon<'a> {
 
 impl WallPolygon<'_> {
     /// Triangulates the polygon (see the module docs) into `out`.
-    fn emit(&self, out: &mut Walls, bottom: &[P3], apex: Apex) {
+    fn emit(&self, out: &mut Walls, (bottom, normal): (&[P3], &[P3]), apex: Apex, rows: usize) {
         let (tu, tv) = (self.tu, self.tv);
         let len = v3::norm(v3::sub(tv, tu));
         // Local vertices: 0 = top u, 1 = top v, 2 + i = bottom line vertex i.
@@ -751,14 +787,61 @@ impl WallPolygon<'_> {
         for i in apex..k {
             tris.push([1, 2 + i, 3 + i]);
         }
+        // Each local vertex's normal (a bottom's; unused for the tops).
+        let mut nrm = vec![[0.0; 3]; 2];
+        nrm.extend(self.line.iter().map(|&(_, s)| normal[s]));
         for t in tris {
-            emit_triangle(
-                out,
-                t.map(|l| pos[l]),
-                t.map(|l| uv[l]),
-                self.face,
-                self.side,
-            );
+            self.emit_rows(out, t, (&pos, &uv, &nrm), rows);
+        }
+    }
+
+    /// Emits wall triangle `t` (local vertices: 0 and 1 on the top edge,
+    /// the rest on the bottom line) straight, or for a U profile in `rows`
+    /// rows along [`profile_point`], keeping its orientation.
+    fn emit_rows(
+        &self,
+        out: &mut Walls,
+        t: [usize; 3],
+        (pos, uv, nrm): (&[P3], &[[f64; 2]], &[P3]),
+        rows: usize,
+    ) {
+        let mut emit = |p: [(usize, usize, f64); 3]| {
+            let at = |(top, bottom, s): (usize, usize, f64)| {
+                let q = profile_point(pos[top], pos[bottom], nrm[bottom], s, rows);
+                let w = [0, 1].map(|k| uv[top][k] + s * (uv[bottom][k] - uv[top][k]));
+                (q, w)
+            };
+            let [a, b, c] = p.map(at);
+            emit_triangle(out, [a.0, b.0, c.0], [a.1, b.1, c.1], self.face, self.side);
+        };
+        let is_top = |l: usize| l < 2;
+        let tops = t.iter().filter(|&&l| is_top(l)).count();
+        if rows < 2 || tops == 0 || tops == 3 {
+            emit(t.map(|l| (l, l, 0.0)));
+            return;
+        }
+        let r = rows as f64;
+        if tops == 1 {
+            // Rotate the top first: (T, B1, B2).
+            let k = t.iter().position(|&l| is_top(l)).unwrap_or(0);
+            let (tt, b1, b2) = (t[k], t[(k + 1) % 3], t[(k + 2) % 3]);
+            emit([(tt, b1, 0.0), (tt, b1, 1.0 / r), (tt, b2, 1.0 / r)]);
+            for j in 1..rows {
+                let (s0, s1) = (j as f64 / r, (j + 1) as f64 / r);
+                emit([(tt, b1, s0), (tt, b1, s1), (tt, b2, s1)]);
+                emit([(tt, b1, s0), (tt, b2, s1), (tt, b2, s0)]);
+            }
+        } else {
+            // Rotate the bottom last: (T1, T2, B).
+            let k = t.iter().position(|&l| !is_top(l)).unwrap_or(2);
+            let (t1, t2, b) = (t[(k + 1) % 3], t[(k + 2) % 3], t[k]);
+            for j in 0..rows - 1 {
+                let (s0, s1) = (j as f64 / r, (j + 1) as f64 / r);
+                emit([(t1, b, s0), (t2, b, s0), (t2, b, s1)]);
+                emit([(t1, b, s0), (t2, b, s1), (t1, b, s1)]);
+            }
+            let s0 = (rows - 1) as f64 / r;
+            emit([(t1, b, s0), (t2, b, s0), (t1, b, 1.0)]);
         }
     }
 }
@@ -1004,7 +1087,14 @@ mod tests {
     #[test]
     fn straight_crack_is_watertight_and_oriented() {
         let (m, top) = straight_crack();
-        let w = build_walls(&m, &top, &WallOptions { depth: DEPTH });
+        let w = build_walls(
+            &m,
+            &top,
+            &WallOptions {
+                depth: DEPTH,
+                ..Default::default()
+            },
+        );
         assert_well_formed(&w);
         assert_eq!(w.skipped_degenerate, 0);
         assert_eq!(w.triangles.len(), 2 * 8, "one quad per crack side");
@@ -1067,6 +1157,42 @@ mod tests {
         assert_eq!((umin, umax), (0.0, 4.0));
     }
 
+    /// A U profile: every V wall quad in four rows along the quarter
+    /// ellipse through the side's edge and the bottom line, as closed and
+    /// as oriented as the V.
+    #[test]
+    fn u_walls_round_into_the_bottom_and_stay_closed() {
+        let (m, top) = straight_crack();
+        let rows = 4;
+        let w = build_walls(&m, &top, &WallOptions { depth: DEPTH, rows });
+        assert_well_formed(&w);
+        assert_eq!(w.skipped_degenerate, 0);
+        assert_eq!(w.triangles.len(), 16 * (2 * rows - 1), "rows per triangle");
+        // Only the ends at the plate's rim are open, each wall's end in
+        // `rows` pieces.
+        let extra = open_edges(&m, &top, &w);
+        assert_eq!(extra.len(), 4 * rows, "{extra:?}");
+        assert!(extra
+            .iter()
+            .all(|(a, b)| a[0] == b[0] && (a[0] == 0.0 || a[0] == 4.0)));
+        // On the ellipse (half gap 0.1 across, DEPTH down), and dropping
+        // straight at first: the first row's points lie within a tenth of
+        // the half gap of the edge.
+        for p in &w.positions {
+            let (y, z) = ((p[1] - 2.0).abs() / 0.1, -p[2] / DEPTH);
+            assert!((y * y + z * z - 1.0).abs() < 1e-9, "{p:?} off the ellipse");
+            if z > 0.0 && z < 0.5 {
+                assert!(y > 0.9, "{p:?} leaves the edge too soon");
+            }
+        }
+        for t in 0..w.triangles.len() {
+            let p = triangle(&w, t);
+            let cy = (p[0][1] + p[1][1] + p[2][1]) / 3.0;
+            let ny = w.normals[w.triangles[t][0] as usize][1];
+            assert!((cy - 2.0) * ny < 0.0, "triangle {p:?} faces {ny}");
+        }
+    }
+
     /// Requirement 4: a crack inside the plate ends in two tips (not
     /// duplicated); both sides' walls share the edge from each tip's top to
     /// its bottom, and the union is closed (only the plate's rim is open).
@@ -1078,7 +1204,14 @@ mod tests {
             &[[1.0, 3.0], [2.0, 3.0], [3.0, 3.0], [4.0, 3.0], [5.0, 3.0]],
         );
         let top = separate(&m, 0.1, false);
-        let w = build_walls(&m, &top, &WallOptions { depth: DEPTH });
+        let w = build_walls(
+            &m,
+            &top,
+            &WallOptions {
+                depth: DEPTH,
+                ..Default::default()
+            },
+        );
         assert_well_formed(&w);
         assert_eq!(w.skipped_degenerate, 0);
         assert_eq!(open_edges(&m, &top, &w), vec![]);
@@ -1110,7 +1243,14 @@ mod tests {
         let (mut m, _) = build(&grid_input(4, 4));
         open_path(&mut m, &[[1.0, 2.0], [2.0, 2.0]]);
         let top = m.positions().to_vec();
-        let w = build_walls(&m, &top, &WallOptions { depth: DEPTH });
+        let w = build_walls(
+            &m,
+            &top,
+            &WallOptions {
+                depth: DEPTH,
+                ..Default::default()
+            },
+        );
         assert!(w.triangles.is_empty());
         assert_eq!(w.skipped_closed, 2);
         assert_eq!(open_edges(&m, &top, &w), vec![]);
@@ -1148,7 +1288,14 @@ mod tests {
         let n_sides = m.halfedges().filter(|&h| m.is_crack_halfedge(h)).count();
         assert_eq!(n_sides, 13);
         let top = separate(&m, 0.1, false);
-        let w = build_walls(&m, &top, &WallOptions { depth: DEPTH });
+        let w = build_walls(
+            &m,
+            &top,
+            &WallOptions {
+                depth: DEPTH,
+                ..Default::default()
+            },
+        );
         assert_well_formed(&w);
         assert_eq!(w.skipped_degenerate, 0);
         assert_eq!(w.triangles.len(), 2 * n_sides + 1);
@@ -1207,7 +1354,14 @@ mod tests {
             let cy: f64 = m.face_vertices(f).iter().map(|&w| m.position(w)[1]).sum();
             top[v.idx()][1] += 0.1 * (cy / 3.0 - 2.0).signum();
         }
-        let w = build_walls(&m, &top, &WallOptions { depth: DEPTH });
+        let w = build_walls(
+            &m,
+            &top,
+            &WallOptions {
+                depth: DEPTH,
+                ..Default::default()
+            },
+        );
         assert_well_formed(&w);
         assert_eq!(w.triangles.len(), 2 * 10);
         assert_eq!(open_edges(&m, &top, &w).len(), 4);
@@ -1223,7 +1377,14 @@ mod tests {
     fn closed_cracks_get_no_walls_and_stay_closed() {
         let (m, _) = straight_crack();
         let top = m.positions().to_vec();
-        let w = build_walls(&m, &top, &WallOptions { depth: DEPTH });
+        let w = build_walls(
+            &m,
+            &top,
+            &WallOptions {
+                depth: DEPTH,
+                ..Default::default()
+            },
+        );
         let n_sides = m.halfedges().filter(|&h| m.is_crack_halfedge(h)).count();
         assert!(w.triangles.is_empty());
         assert_eq!(w.skipped_closed, n_sides);
@@ -1236,7 +1397,14 @@ mod tests {
                 top[v.idx()] = m.position(v);
             }
         }
-        let w = build_walls(&m, &top, &WallOptions { depth: DEPTH });
+        let w = build_walls(
+            &m,
+            &top,
+            &WallOptions {
+                depth: DEPTH,
+                ..Default::default()
+            },
+        );
         assert!(w.skipped_closed > 0 && !w.triangles.is_empty());
         // Open only where the gap meets the plate's rim at x = 4.
         let open = open_edges(&m, &top, &w);
@@ -1253,7 +1421,14 @@ mod tests {
     #[test]
     fn crossings_are_found_and_named() {
         let (m, top) = straight_crack();
-        let w = build_walls(&m, &top, &WallOptions { depth: DEPTH });
+        let w = build_walls(
+            &m,
+            &top,
+            &WallOptions {
+                depth: DEPTH,
+                ..Default::default()
+            },
+        );
         assert_eq!(crossings(&m, &top, &w), (0, vec![]));
         let mut pushed = w.clone();
         for p in &mut pushed.positions {
@@ -1274,16 +1449,31 @@ mod tests {
         let (m, _) = build(&grid_input(3, 3));
         let top = m.positions().to_vec();
         assert_eq!(
-            build_walls(&m, &top, &WallOptions { depth: 1.0 }),
+            build_walls(
+                &m,
+                &top,
+                &WallOptions {
+                    depth: 1.0,
+                    rows: 0
+                }
+            ),
             Walls::default()
         );
         let (m, top) = straight_crack();
         for depth in [0.0, -1.0, f64::NAN, f64::INFINITY] {
-            let w = build_walls(&m, &top, &WallOptions { depth });
+            let w = build_walls(&m, &top, &WallOptions { depth, rows: 0 });
             assert_eq!(w, Walls::default(), "depth {depth}");
             assert!(w.is_empty());
         }
-        assert!(!build_walls(&m, &top, &WallOptions { depth: 1.0 }).is_empty());
+        assert!(!build_walls(
+            &m,
+            &top,
+            &WallOptions {
+                depth: 1.0,
+                rows: 0
+            }
+        )
+        .is_empty());
     }
 
     /// Requirement 6: a crack vertex displaced exactly onto its bottom
@@ -1304,7 +1494,14 @@ mod tests {
             .find(|&u| u != v && m.position(u) == [2.0, 2.0, 0.0])
             .unwrap();
         top[other.idx()] = [2.0, 2.0, 0.0];
-        let w = build_walls(&m, &top, &WallOptions { depth: DEPTH });
+        let w = build_walls(
+            &m,
+            &top,
+            &WallOptions {
+                depth: DEPTH,
+                ..Default::default()
+            },
+        );
         assert_eq!(w.skipped_degenerate, 2);
         assert_eq!(w.triangles.len(), 2 * 8 - 2);
         assert_well_formed(&w);
@@ -1356,7 +1553,7 @@ mod tests {
             assert!((v3::norm(bottom) - (1.0 - depth)).abs() < 0.01);
         }
         let top = separate(&m, 0.02, false);
-        let w = build_walls(&m, &top, &WallOptions { depth });
+        let w = build_walls(&m, &top, &WallOptions { depth, rows: 0 });
         assert_well_formed(&w);
         assert_eq!(w.skipped_degenerate, 0);
         assert_eq!(open_edges(&m, &top, &w), vec![]);
@@ -1394,7 +1591,14 @@ mod tests {
             assert_eq!(p[2], -0.5);
         }
         // Both sides share both top vertices: a shut crack, no walls.
-        let w = build_walls(&m, m.positions(), &WallOptions { depth: 0.5 });
+        let w = build_walls(
+            &m,
+            m.positions(),
+            &WallOptions {
+                depth: 0.5,
+                rows: 0,
+            },
+        );
         assert!(w.triangles.is_empty());
         assert_eq!(w.skipped_closed, 2);
     }
@@ -1431,7 +1635,14 @@ mod tests {
             open_between(&mut m, at(w[0].0, w[0].1), at(w[1].0, w[1].1));
         }
         let top = separate(&m, 0.05, false);
-        let w = build_walls(&m, &top, &WallOptions { depth: 0.3 });
+        let w = build_walls(
+            &m,
+            &top,
+            &WallOptions {
+                depth: 0.3,
+                rows: 0,
+            },
+        );
         assert_well_formed(&w);
         assert_eq!(w.skipped_degenerate, 0);
         assert_eq!(w.triangles.len(), 2 * 2 * (path.len() - 1));
@@ -1485,7 +1696,10 @@ mod tests {
     fn output_is_deterministic() {
         let m = t_junction();
         let top = separate(&m, 0.1, false);
-        let opts = WallOptions { depth: 0.25 };
+        let opts = WallOptions {
+            depth: 0.25,
+            rows: 0,
+        };
         assert_eq!(build_walls(&m, &top, &opts), build_walls(&m, &top, &opts));
     }
 
@@ -1538,7 +1752,14 @@ mod tests {
             let m = random_network(seed, splits);
             let crack = crack_halfedges(&m);
             let top = separate(&m, 0.01, false);
-            let w = build_walls(&m, &top, &WallOptions { depth: 0.05 });
+            let w = build_walls(
+                &m,
+                &top,
+                &WallOptions {
+                    depth: 0.05,
+                    rows: 0,
+                },
+            );
             assert_well_formed(&w);
             assert_eq!(w.skipped_degenerate, 0, "seed {seed}");
             if w.triangles.len() != 2 * crack.len() {
