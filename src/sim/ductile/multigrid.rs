@@ -157,6 +157,21 @@ fn parents(i: usize) -> ([(usize, f64); 2], usize) {
     }
 }
 
+/// `f(coarse node, weight)` over the coarse nodes that interpolate to the
+/// fine node at `c`, in a fixed order.
+fn for_parents(c: [usize; 3], mut f: impl FnMut([usize; 3], f64)) {
+    let (px, nx) = parents(c[0]);
+    let (py, ny) = parents(c[1]);
+    let (pz, nz) = parents(c[2]);
+    for &(z, wz) in &pz[..nz] {
+        for &(y, wy) in &py[..ny] {
+            for &(x, wx) in &px[..nx] {
+                f([x, y, z], wx * wy * wz);
+            }
+        }
+    }
+}
+
 /// The fine indices a coarse index `c` interpolates to along an axis of
 /// `n` fine nodes, with weights.
 fn children(c: usize, n: usize) -> impl Iterator<Item = (usize, f64)> {
@@ -207,26 +222,14 @@ fn coarsen(fine: &Level) -> Level {
                     let Some(j) = fine.neighbour(i, s) else {
                         continue;
                     };
-                    let jc = fine.coords(j);
-                    let (px, nx) = parents(jc[0]);
-                    let (py, ny) = parents(jc[1]);
-                    let (pz, nz) = parents(jc[2]);
-                    for &(z, wz) in &pz[..nz] {
-                        for &(y, wy) in &py[..ny] {
-                            for &(x, wx) in &px[..nx] {
-                                let d = [
-                                    x as i64 - cc[0] as i64,
-                                    y as i64 - cc[1] as i64,
-                                    z as i64 - cc[2] as i64,
-                                ];
-                                let w = wi * wx * wy * wz;
-                                let out = &mut row[slot(d)];
-                                for (o, b) in out.iter_mut().zip(blk) {
-                                    *o += w * b;
-                                }
-                            }
+                    for_parents(fine.coords(j), |p, wp| {
+                        let d = std::array::from_fn(|k| p[k] as i64 - cc[k] as i64);
+                        let w = wi * wp;
+                        let out = &mut row[slot(d)];
+                        for (o, b) in out.iter_mut().zip(blk) {
+                            *o += w * b;
                         }
-                    }
+                    });
                 }
             });
             row
@@ -480,23 +483,14 @@ impl Multigrid {
         let mut xc = vec![[0.0; 3]; coarse.a.len()];
         self.cycle(l + 1, &bc, &mut xc);
         x.par_iter_mut().enumerate().for_each(|(n, x)| {
-            let c = level.coords(n);
-            let (px, nx) = parents(c[0]);
-            let (py, ny) = parents(c[1]);
-            let (pz, nz) = parents(c[2]);
-            for &(cz, wz) in &pz[..nz] {
-                for &(cy, wy) in &py[..ny] {
-                    for &(cx, wx) in &px[..nx] {
-                        let v = xc[coarse.index([cx, cy, cz])];
-                        let w = wx * wy * wz;
-                        for k in 0..3 {
-                            if level.smooth[n][k] > 0.0 {
-                                x[k] += w * v[k];
-                            }
-                        }
+            for_parents(level.coords(n), |p, w| {
+                let v = xc[coarse.index(p)];
+                for k in 0..3 {
+                    if level.smooth[n][k] > 0.0 {
+                        x[k] += w * v[k];
                     }
                 }
-            }
+            });
         });
         for _ in 0..SWEEPS {
             level.residual(b, x, &mut r);
