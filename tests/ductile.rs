@@ -58,6 +58,62 @@ fn an_open_mesh_is_refused_with_its_boundary() {
     assert!(!out.exists(), "no output for a refused mesh");
 }
 
+/// `post.lines`: each piece carries the tear's border (where its torn
+/// faces meet the original surface) as a LINES primitive on vertices of
+/// its own triangles; the surface models' other steps are refused, named.
+#[test]
+fn tear_lines_follow_each_pieces_border_and_surface_steps_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("lines.glb");
+    let mut args = COARSE.to_vec();
+    args.extend(["--set", "post.lines=true"]);
+    let o = crack(&common::fixture("notched_block.obj"), &out, &args);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let r = report(&out);
+    let pieces = r["meshes"][0]["post"]["pieces"].as_u64().unwrap() as usize;
+    assert!(pieces >= 2);
+    let (doc, buffers, _) = gltf::import(&out).unwrap();
+    let mut with_lines = 0;
+    for mesh in doc.meshes() {
+        let key = |p: [f32; 3]| p.map(f32::to_bits);
+        let mut torn_vertices = std::collections::BTreeSet::new();
+        let mut lines = Vec::new();
+        for prim in mesh.primitives() {
+            let reader = prim.reader(|b| Some(&buffers[b.index()]));
+            let pos: Vec<[f32; 3]> = reader.read_positions().unwrap().collect();
+            match prim.mode() {
+                gltf::mesh::Mode::Lines => lines.extend(pos),
+                _ if prim.material().name() == Some("tear_interior") => {
+                    torn_vertices.extend(pos.into_iter().map(key));
+                }
+                _ => {}
+            }
+        }
+        if lines.is_empty() {
+            continue;
+        }
+        with_lines += 1;
+        assert!(lines.len() >= 6, "{} line vertices", lines.len());
+        let off = lines
+            .iter()
+            .filter(|p| !torn_vertices.contains(&key(**p)))
+            .count();
+        assert_eq!(off, 0, "{off} line vertices off the piece's torn faces");
+    }
+    assert_eq!(with_lines, pieces, "one border per piece");
+    if let Some(v) = common::validator() {
+        v.assert_clean(&out);
+    }
+    let mut args = COARSE.to_vec();
+    args.extend(["--set", "post.bake=true", "--set", "post.width=0.5"]);
+    let refused = dir.path().join("refused.glb");
+    let o = crack(&common::fixture("notched_block.obj"), &refused, &args);
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("post.width, post.bake"), "{err}");
+    assert!(!refused.exists());
+}
+
 #[test]
 fn the_tear_is_the_same_on_any_number_of_threads() {
     let dir = tempfile::tempdir().unwrap();

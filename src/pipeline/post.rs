@@ -464,7 +464,7 @@ fn wall_primitive(
 /// `crack_lines` material; `_CRACK_TIME` gives each line vertex the time
 /// its segment formed at, as a fraction of the run (for shaders: grow
 /// cracks over time).
-fn add_crack_lines(
+pub(super) fn add_crack_lines(
     scene: &mut Scene,
     mesh_index: usize,
     segments: &[[[f64; 3]; 2]],

@@ -201,8 +201,9 @@ pub fn read_crackable(input: &Path, options: &crate::io::ReadOptions) -> Result<
     Ok(scene)
 }
 
-/// `model = "ductile"`: every simulated mesh torn ([`super::tear`]); the
-/// surface models' post-processing does not apply.
+/// `model = "ductile"`: every simulated mesh torn ([`super::tear`]), with
+/// the tear's border as crack lines when `post.lines` asks; the surface
+/// models' other post-processing steps are refused by name.
 fn tear_run(
     scene: &mut Scene,
     config: &Config,
@@ -221,6 +222,28 @@ fn tear_run(
             input.display()
         )));
     }
+    let post = &config.pipeline.post;
+    let surface_only: Vec<&str> = [
+        ("finish", post.finish),
+        ("width", post.width > 0.0),
+        ("curl", post.curl > 0.0),
+        ("walls", post.walls),
+        ("groove", post.grooves()),
+        ("attributes", post.attributes),
+        ("bake", post.bake),
+        ("keep_geometry", post.keep_geometry),
+    ]
+    .into_iter()
+    .filter(|(_, on)| *on)
+    .map(|(k, _)| k)
+    .collect();
+    if !surface_only.is_empty() {
+        return Err(Error::Usage(format!(
+            "{}: model = \"ductile\" has no post.{} (its output is the torn solid, each piece its own node, with post.lines for the tear's border)",
+            input.display(),
+            surface_only.join(", post.")
+        )));
+    }
     let t = Instant::now();
     observer.stage("tear");
     let before: usize = entries.iter().map(|e| e.sim.n_faces()).sum();
@@ -233,7 +256,8 @@ fn tear_run(
         })?;
     }
     let frames = config.frames.as_ref().map(|f| (f, config.output.as_path()));
-    let (torn, files) = super::tear::tear_meshes(scene, entries, params_of, input, frames)?;
+    let (torn, files) =
+        super::tear::tear_meshes(scene, entries, params_of, input, frames, post.lines)?;
     stages.push(Stage::new("tear", t.elapsed().as_secs_f64()));
     let after: usize = torn
         .iter()

@@ -34,6 +34,7 @@ pub fn tear_meshes(
     params_of: &[SimParams],
     input: &Path,
     frames: Option<(&Frames, &Path)>,
+    lines: bool,
 ) -> crate::Result<Torn> {
     let mut out = Vec::new();
     let mut written = Vec::new();
@@ -106,7 +107,14 @@ pub fn tear_meshes(
         }
         let surface = d.surface(0.25 * d.grid.h);
         let torn_triangles = surface.torn.iter().filter(|&&t| t).count();
-        replace_mesh(scene, e.mesh_index, &d, &surface, &p.ductile);
+        let pieces = replace_mesh(scene, e.mesh_index, &d, &surface, &p.ductile);
+        let mut tear_lines = 0;
+        if lines {
+            for (mesh, segments) in pieces.iter().zip(tear_borders(&d, &surface)) {
+                tear_lines += segments.len();
+                super::post::add_crack_lines(scene, *mesh, &segments, &[]);
+            }
+        }
         out.push((
             e.mesh_index,
             json!({
@@ -114,6 +122,7 @@ pub fn tear_meshes(
                 "seconds": seconds,
                 "triangles": surface.triangles.len(),
                 "torn_triangles": torn_triangles,
+                "tear_line_segments": tear_lines,
                 "pieces": surface.pieces,
             }),
         ));
@@ -280,7 +289,7 @@ fn replace_mesh(
     d: &Ductile,
     s: &TornSurface,
     params: &DuctileParams,
-) {
+) -> Vec<usize> {
     let source = Source::of(&scene.meshes[mesh_index]);
     let tear_mat = material(
         scene,
@@ -349,7 +358,7 @@ fn replace_mesh(
     }
     if meshes.len() <= 1 {
         scene.meshes[mesh_index].primitives = meshes.pop().unwrap_or_default();
-        return;
+        return vec![mesh_index];
     }
     // Pieces: each its own mesh and node, children of the mesh's nodes.
     let name = old
@@ -381,7 +390,37 @@ fn replace_mesh(
             scene.nodes[n].children.push(child);
         }
     }
+    let count = scene.meshes.len() - first;
+    // Removing the emptied mesh (before the pieces) shifts their indices.
     super::islands::remove_empty_meshes(scene);
+    let shift = (first + count).saturating_sub(scene.meshes.len());
+    (first - shift..first - shift + count).collect()
+}
+
+/// Per piece of `s`: the tear's border, the edges between a torn and an
+/// original triangle, deformed, in scene units, in triangle order.
+fn tear_borders(d: &Ductile, s: &TornSurface) -> Vec<Vec<[[f64; 3]; 2]>> {
+    let mut sides: std::collections::BTreeMap<(u32, u32), [usize; 2]> = Default::default();
+    for (t, &torn) in s.triangles.iter().zip(&s.torn) {
+        for k in 0..3 {
+            let (a, b) = (t[k], t[(k + 1) % 3]);
+            sides.entry((a.min(b), a.max(b))).or_default()[usize::from(torn)] += 1;
+        }
+    }
+    let mut out = vec![Vec::new(); s.pieces];
+    for (t, (&torn, &piece)) in s.triangles.iter().zip(s.torn.iter().zip(&s.piece)) {
+        if !torn {
+            continue;
+        }
+        for k in 0..3 {
+            let (a, b) = (t[k], t[(k + 1) % 3]);
+            if sides[&(a.min(b), a.max(b))][0] > 0 {
+                let at = |v: u32| d.to_scene(s.positions[v as usize]);
+                out[piece as usize].push([at(a), at(b)]);
+            }
+        }
+    }
+    out
 }
 
 /// One primitive's geometry: triangles `tris` of the surface, in scene
