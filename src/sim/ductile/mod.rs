@@ -448,22 +448,21 @@ impl Ductile {
     /// is twice the resistance, whatever the grid. Inward only. Returns how
     /// many nodes moved.
     fn advance_level_set(&mut self, psi: &[f64], dt: f64) -> usize {
-        let p = self.params.clone();
-        let eps = p.eps * self.grid.h;
-        let kappa = p.kappa;
+        let (eps, kappa) = (self.params.eps * self.grid.h, self.params.kappa);
+        let (cfl, tear_speed) = (self.params.cfl, self.params.tear_speed);
         let active: Vec<bool> = self.node_tets.iter().map(|t| !t.is_empty()).collect();
         let mut moved = vec![false; self.phi.len()];
         let mut left = dt;
         while left > 0.0 {
             let front = self.front_speed(psi);
             let sub = if front > 0.0 {
-                left.min(p.cfl * self.grid.h / front)
+                left.min(cfl * self.grid.h / front)
             } else {
                 left
             };
             // The last sliver of time in one go (no endless tiny steps).
             let sub = if left - sub < 1e-9 * dt { left } else { sub };
-            let rate = sub * p.tear_speed * self.length;
+            let rate = sub * tear_speed * self.length;
             for n in 0..self.phi.len() {
                 if !active[n] || psi[n] <= kappa {
                     continue;

@@ -401,31 +401,26 @@ impl Multigrid {
                 }
             }
         }
-        fine.a.par_iter_mut().enumerate().for_each(|(n, row)| {
+        // The mass on the diagonal; the fixed unknowns' rows and columns
+        // left out.
+        let mut a = std::mem::take(&mut fine.a);
+        a.par_iter_mut().enumerate().for_each(|(n, row)| {
             for k in 0..3 {
                 row[13][4 * k] += op.mass[n];
             }
-        });
-        // Leave out the fixed unknowns' rows and columns.
-        let rows: Vec<[Block; 27]> = (0..n_nodes)
-            .into_par_iter()
-            .map(|n| {
-                let mut row = fine.a[n];
-                for (s, blk) in row.iter_mut().enumerate() {
-                    let m = fine.neighbour(n, s);
-                    for k in 0..3 {
-                        for l in 0..3 {
-                            let off = m.is_none_or(|m| op.fixed[m][l]);
-                            if op.fixed[n][k] || off {
-                                blk[3 * k + l] = 0.0;
-                            }
+            for (s, blk) in row.iter_mut().enumerate() {
+                let m = fine.neighbour(n, s);
+                for k in 0..3 {
+                    for l in 0..3 {
+                        let off = m.is_none_or(|m| op.fixed[m][l]);
+                        if op.fixed[n][k] || off {
+                            blk[3 * k + l] = 0.0;
                         }
                     }
                 }
-                row
-            })
-            .collect();
-        fine.a = rows;
+            }
+        });
+        fine.a = a;
         fine.set_smoother();
         let mut levels = vec![fine];
         loop {

@@ -226,10 +226,6 @@ impl Ductile {
                 })
             })
             .collect();
-        let kdiag = self.stiffness_diagonal(weights);
-        let diag: Vec<f64> = (0..n)
-            .map(|i| (cm * mass[i] + ck * kdiag[i]).max(1e-300))
-            .collect();
         let apply = |p: &[[f64; 3]], kp: &[[f64; 3]], i: usize| -> [f64; 3] {
             std::array::from_fn(|k| cm * mass[i] * p[i][k] + ck * kp[i][k])
         };
@@ -263,42 +259,41 @@ impl Ductile {
                 p: &mut p,
                 ap: &mut ap,
             };
-            let (tol, max) = (self.params.tolerance, self.params.max_cg);
-            if let Some(mg) = &self.mg {
-                let precondition = |r: &[[f64; 3]], z: &mut [[f64; 3]]| {
-                    mg.multigrid.apply(r, z);
-                    // A kept cycle may predate unknowns fixed since.
-                    z.par_iter_mut().zip(&fixed).for_each(|(z, f)| {
-                        for k in 0..3 {
-                            if f[k] {
-                                z[k] = 0.0;
-                            }
-                        }
-                    });
-                };
-                cg::iterate_with(
-                    product,
-                    precondition,
-                    vectors,
-                    norm_b,
-                    tol,
-                    max,
-                    &mut report,
-                );
+            // Without a multigrid cycle: the diagonal of the operator.
+            let diag: Vec<f64> = if self.mg.is_some() {
+                Vec::new()
             } else {
-                let precondition = |i: usize, r: [f64; 3]| -> [f64; 3] {
-                    std::array::from_fn(|k| if fixed[i][k] { 0.0 } else { r[k] / diag[i] })
-                };
-                cg::iterate(
-                    product,
-                    precondition,
-                    vectors,
-                    norm_b,
-                    tol,
-                    max,
-                    &mut report,
-                );
-            }
+                let kdiag = self.stiffness_diagonal(weights);
+                (0..n)
+                    .map(|i| (cm * mass[i] + ck * kdiag[i]).max(1e-300))
+                    .collect()
+            };
+            let precondition = |r: &[[f64; 3]], z: &mut [[f64; 3]]| {
+                match &self.mg {
+                    Some(mg) => mg.multigrid.apply(r, z),
+                    None => z.par_iter_mut().zip(r).enumerate().for_each(|(i, (z, r))| {
+                        *z = std::array::from_fn(|k| r[k] / diag[i]);
+                    }),
+                }
+                // Fixed unknowns stay put (a kept cycle may predate some).
+                z.par_iter_mut().zip(&fixed).for_each(|(z, f)| {
+                    for k in 0..3 {
+                        if f[k] {
+                            z[k] = 0.0;
+                        }
+                    }
+                });
+            };
+            let (tol, max) = (self.params.tolerance, self.params.max_cg);
+            cg::iterate_with(
+                product,
+                precondition,
+                vectors,
+                norm_b,
+                tol,
+                max,
+                &mut report,
+            );
         } else {
             report.converged = true;
         }
