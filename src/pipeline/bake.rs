@@ -85,8 +85,8 @@ fn bake_group(
     // an atlas in TEXCOORD_0, the asset's own TEXCOORD_0 moved to `moved`.
     let (set, moved, mut atlas_report) = match why_atlas(scene, mesh_index, prims, post) {
         None => (post.bake_texcoord, 0, Value::Null),
-        Some(why) => {
-            let (moved, report) = make_atlas(scene, mesh_index, prims, post, &why)?;
+        Some((why, overlap)) => {
+            let (moved, report) = make_atlas(scene, mesh_index, prims, post, (&why, overlap))?;
             (0, moved, report)
         }
     };
@@ -332,8 +332,14 @@ fn add_flat_normals(scene: &mut Scene, mesh_index: usize, prims: &[usize]) {
 }
 
 /// Why the asked UV set cannot take the maps (missing, overlapping, or an
-/// atlas always asked for); `None` when it can.
-fn why_atlas(scene: &Scene, mesh_index: usize, prims: &[usize], post: &Post) -> Option<String> {
+/// atlas always asked for), with the share of its texels that overlap when
+/// it was measured; `None` when it can.
+fn why_atlas(
+    scene: &Scene,
+    mesh_index: usize,
+    prims: &[usize],
+    post: &Post,
+) -> Option<(String, Option<f64>)> {
     let asked = post.bake_texcoord;
     let has_set = prims.iter().all(|&p| {
         tri_geometry(scene, mesh_index, p)
@@ -341,27 +347,30 @@ fn why_atlas(scene: &Scene, mesh_index: usize, prims: &[usize], post: &Post) -> 
             .is_some()
     });
     if !has_set {
-        return Some(format!("the mesh has no {}", set_name(asked)));
+        return Some((format!("the mesh has no {}", set_name(asked)), None));
     }
     if post.bake_atlas == "always" {
-        return Some("bake_atlas = \"always\"".to_string());
+        return Some(("bake_atlas = \"always\"".to_string(), None));
     }
     // The overlap is a share of texels: 1024 texels across measure it.
     let (uvs, tris) = gather_uvs(scene, mesh_index, prims, asked);
     let r = bake::rasterize(&uvs, &tris, post.bake_size.min(1024), 0);
-    (r.overlap_fraction() > MAX_OVERLAP).then(|| {
-        format!(
+    let overlap = r.overlap_fraction();
+    (overlap > MAX_OVERLAP).then(|| {
+        let why = format!(
             "{} overlaps itself on {:.1}% of its texels (mirrored, stacked or tiled islands)",
             set_name(asked),
-            100.0 * r.overlap_fraction()
-        )
+            100.0 * overlap
+        );
+        (why, Some(overlap))
     })
 }
 
 /// An automatic atlas in TEXCOORD_0 of the primitives (viewers that show one
 /// UV set, as Blender's solid view, show the maps); their own TEXCOORD_0
 /// moves to the first free set, returned (0 when they had none) with the
-/// report's `atlas` entry.
+/// report's `atlas` entry. `why` says why, with the own set's overlap
+/// when [`why_atlas`] measured it.
 ///
 /// # Errors
 /// `bake_atlas = "never"`, no free UV set, or an atlas that does not fit.
@@ -370,7 +379,7 @@ fn make_atlas(
     mesh_index: usize,
     prims: &[usize],
     post: &Post,
-    why: &str,
+    (why, overlap): (&str, Option<f64>),
 ) -> Result<(u32, Value), String> {
     if post.bake_atlas == "never" {
         return Err(format!(
@@ -419,7 +428,9 @@ fn make_atlas(
         .and_then(|uvs| {
             // Accepted when it removes nearly all the overlap: islands that
             // overlap themselves (folds) keep theirs, scaled with them.
-            let before = bake::rasterize(&uvs, &tris, size.min(1024), 0).overlap_fraction();
+            let before = overlap.unwrap_or_else(|| {
+                bake::rasterize(&uvs, &tris, size.min(1024), 0).overlap_fraction()
+            });
             let a = atlas::islands(&positions, &uvs, &tris, size, padding).ok()?;
             let r = bake::rasterize(&a.uvs, &corner_triangles(tris.len()), size.min(1024), 0);
             (r.overlap_fraction() <= MAX_OVERLAP.max(ISLANDS_KEEP * before)).then_some(a)
