@@ -175,6 +175,37 @@ fn at(img: &(u32, u32, Vec<f32>), uv: &[f32]) -> [f32; 4] {
     [data[k], data[k + 1], data[k + 2], data[k + 3]]
 }
 
+/// The output's cracked material variant and the first mesh's triangles
+/// drawn with it.
+fn cracked(scene: &Scene) -> (usize, &crackle::scene::TriGeometry) {
+    let mi = scene
+        .materials
+        .iter()
+        .position(|m| m.name().is_some_and(|n| n.ends_with("_cracked")))
+        .unwrap();
+    let prim = scene.meshes[0]
+        .primitives
+        .iter()
+        .find(|p| p.material == Some(mi))
+        .unwrap();
+    let Geometry::Triangles(t) = &prim.geometry else {
+        unreachable!()
+    };
+    (mi, t)
+}
+
+/// The colour differences' median and 95th percentile are below the
+/// bounds given.
+fn assert_close(mut diffs: Vec<f32>, median_below: f32, p95_below: f32) {
+    diffs.sort_by(f32::total_cmp);
+    let median = diffs[diffs.len() / 2];
+    let p95 = diffs[diffs.len() * 95 / 100];
+    assert!(
+        median < median_below && p95 < p95_below,
+        "median {median}, 95th percentile {p95}"
+    );
+}
+
 #[test]
 fn the_ducks_own_texture_is_kept_under_the_cracks() {
     let Some(duck) = common::eval_data("gltf/Duck/Duck.glb") else {
@@ -191,25 +222,10 @@ fn the_ducks_own_texture_is_kept_under_the_cracks() {
     assert!(reason.contains("overlaps itself"), "{d}");
     let input = read(&duck);
     let scene = read(&out);
-    let mi = scene
-        .materials
-        .iter()
-        .position(|m| m.name().is_some_and(|n| n.ends_with("_cracked")))
-        .unwrap();
+    let (mi, t) = cracked(&scene);
     let baked = texture(&scene, mi, "baseColorTexture");
     let occl = texture(&scene, mi, "occlusionTexture");
     let own = texture(&input, 0, "baseColorTexture");
-    // At every vertex away from the cracks, the baked map (through the
-    // atlas) shows what the Duck's texture shows there (through the UVs of
-    // the nearest input vertex; the Duck is remeshed).
-    let prim = scene.meshes[0]
-        .primitives
-        .iter()
-        .find(|p| p.material == Some(mi))
-        .unwrap();
-    let Geometry::Triangles(t) = &prim.geometry else {
-        unreachable!()
-    };
     // Nothing reads the Duck's own UVs any more: they are not written.
     assert!(t.attribute("TEXCOORD_1").is_none(), "an unused UV set");
     let atlas = t.attribute("TEXCOORD_0").unwrap();
@@ -229,7 +245,10 @@ fn the_ducks_own_texture_is_kept_under_the_cracks() {
             })
             .unwrap()
     };
-    let mut diffs: Vec<f32> = (0..atlas.len())
+    // At every vertex away from the cracks, the baked map (through the
+    // atlas) shows what the Duck's texture shows there (through the UVs of
+    // the nearest input vertex; the Duck is remeshed).
+    let diffs: Vec<f32> = (0..atlas.len())
         .step_by(7)
         .filter(|&v| at(&occl, atlas.get(v))[0] > 0.999)
         .map(|v| {
@@ -244,13 +263,7 @@ fn the_ducks_own_texture_is_kept_under_the_cracks() {
         diffs.len(),
         atlas.len()
     );
-    diffs.sort_by(f32::total_cmp);
-    let median = diffs[diffs.len() / 2];
-    let p95 = diffs[diffs.len() * 95 / 100];
-    assert!(
-        median < 4.0 / 255.0 && p95 < 24.0 / 255.0,
-        "median {median}, 95th percentile {p95}"
-    );
+    assert_close(diffs, 4.0 / 255.0, 24.0 / 255.0);
     if let Some(v) = common::validator() {
         v.assert_clean(&out);
     }
@@ -273,19 +286,7 @@ fn kept_geometry_bakes_the_ducks_own_islands_repacked() {
     let Geometry::Triangles(inp) = &input.meshes[0].primitives[0].geometry else {
         unreachable!()
     };
-    let mi = scene
-        .materials
-        .iter()
-        .position(|m| m.name().is_some_and(|n| n.ends_with("_cracked")))
-        .unwrap();
-    let prim = scene.meshes[0]
-        .primitives
-        .iter()
-        .find(|p| p.material == Some(mi))
-        .unwrap();
-    let Geometry::Triangles(t) = &prim.geometry else {
-        unreachable!()
-    };
+    let (mi, t) = cracked(&scene);
     // The Duck's own triangles, in their order, at their own positions.
     assert_eq!(t.triangles.len(), inp.triangles.len());
     for (a, b) in t.triangles.iter().zip(&inp.triangles) {
@@ -332,7 +333,7 @@ fn kept_geometry_bakes_the_ducks_own_islands_repacked() {
         let c = tri.map(|i| uv.get(i as usize));
         [0, 1].map(|k| (c[0][k] + c[1][k] + c[2][k]) / 3.0)
     };
-    let mut diffs: Vec<f32> = t
+    let diffs: Vec<f32> = t
         .triangles
         .iter()
         .zip(&inp.triangles)
@@ -344,13 +345,7 @@ fn kept_geometry_bakes_the_ducks_own_islands_repacked() {
         })
         .collect();
     assert!(diffs.len() > t.triangles.len() / 2, "{}", diffs.len());
-    diffs.sort_by(f32::total_cmp);
-    let median = diffs[diffs.len() / 2];
-    let p95 = diffs[diffs.len() * 95 / 100];
-    assert!(
-        median < 2.0 / 255.0 && p95 < 12.0 / 255.0,
-        "median {median}, 95th percentile {p95}"
-    );
+    assert_close(diffs, 2.0 / 255.0, 12.0 / 255.0);
     if let Some(v) = common::validator() {
         v.assert_clean(&out);
     }
