@@ -21,6 +21,9 @@ pub struct SimEntry {
     pub sim: SimMesh,
     /// Defects found while building it.
     pub report: DefectReport,
+    /// The welded input before remeshing, kept when the cracks are to be
+    /// cut into it (`post.cut_input`).
+    pub unremeshed: Option<SimMesh>,
     /// Per primitive of the mesh: the attribute semantics and sizes it had.
     layouts: Vec<Option<Vec<(String, usize)>>>,
 }
@@ -145,6 +148,7 @@ pub fn build_sim_meshes(scene: &Scene, options: &WeldOptions) -> (Vec<SimEntry>,
                 label,
                 sim,
                 report,
+                unremeshed: None,
                 layouts,
             }),
             Err(e) => skipped.push(SkippedMesh {

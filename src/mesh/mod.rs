@@ -20,6 +20,7 @@ pub mod edit;
 pub mod error;
 pub mod halfedge;
 pub mod ids;
+pub mod imprint;
 pub mod remesh;
 mod sizing;
 pub(crate) mod spatial;

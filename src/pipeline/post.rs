@@ -49,6 +49,31 @@ pub fn apply(
     let mut widths_of: Vec<Vec<f64>> = Vec::new();
     for (e, (_, r)) in entries.iter_mut().zip(reports) {
         let mut detail = serde_json::Map::new();
+        // Cutting into the input: from here on the mesh is the input's,
+        // cut, with the simulation's values carried over.
+        let cut;
+        let r = match (post.cut_input, e.unremeshed.take()) {
+            (true, Some(base)) => {
+                let t = Instant::now();
+                match cut_into_input(&base, e, r) {
+                    Ok((report, d)) => {
+                        cut = report;
+                        detail.insert("cut_input".into(), d);
+                        out.time("cut_input", t.elapsed().as_secs_f64());
+                        &cut
+                    }
+                    Err(err) => {
+                        log::warn!(
+                            "{}: the cracks stay on the remeshed surface: {err}",
+                            e.label
+                        );
+                        detail.insert("cut_input".into(), json!({ "fell_back": err.to_string() }));
+                        r
+                    }
+                }
+            }
+            _ => r,
+        };
         let mut positions: Vec<[f64; 3]> = e.sim.positions().to_vec();
         // How far each crack opened, read at rest (before anything moves).
         let opening = openings(&e.sim, &r.displacement, &r.segments);
@@ -308,6 +333,43 @@ pub fn apply(
     }
     out.stages.extend(timing.stages);
     Ok(out)
+}
+
+/// Cut the cracks of `e` (simulated on its remeshed surface, `r`) into
+/// `base`, its input: `e.sim` becomes the cut input, and the returned
+/// report carries the displacements, crack times and segments over.
+fn cut_into_input(
+    base: &crate::mesh::SimMesh,
+    e: &mut SimEntry,
+    r: &SimReport,
+) -> Result<(SimReport, Value), crate::mesh::error::MeshError> {
+    let im = crate::mesh::imprint::imprint(
+        base,
+        &e.sim,
+        &r.segments,
+        &r.segment_times,
+        &r.displacement,
+        &r.crack_time,
+    )?;
+    let detail = json!({
+        "triangles": [base.n_faces(), im.mesh.n_faces()],
+        "simulated_triangles": e.sim.n_faces(),
+        "cut_edges": im.segments.len(),
+        "snapped": im.snapped,
+        "cut_along_edges": im.along_edges,
+        "cut_across_shells": im.across_shells,
+        "skipped_segments": im.skipped,
+        "refined_edges": im.refined,
+    });
+    e.sim = im.mesh;
+    let report = SimReport {
+        displacement: im.displacement,
+        crack_time: im.crack_time,
+        segments: im.segments,
+        segment_times: im.segment_times,
+        ..r.clone()
+    };
+    Ok((report, detail))
 }
 
 /// `segments` (ends at crack vertices' rest positions) with each end moved

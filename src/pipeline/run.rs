@@ -232,6 +232,7 @@ fn tear_run(
         ("attributes", post.attributes),
         ("bake", post.bake),
         ("keep_geometry", post.keep_geometry),
+        ("cut_input", post.cut_input),
     ]
     .into_iter()
     .filter(|(_, on)| *on)
@@ -454,7 +455,13 @@ pub fn prepare(scene: &Scene, config: &Config, observer: &mut dyn Observer) -> R
     let mut entries = select_meshes(scene, pipe, &config.weld, input)?;
     stages.push(Stage::new("weld", t.elapsed().as_secs_f64()));
     let params_of = mesh_params(scene, &entries, pipe, input)?;
-    if let Some(stage) = remesh_to_cell_size(&mut entries, &params_of, input, observer)? {
+    if let Some(stage) = remesh_to_cell_size(
+        &mut entries,
+        &params_of,
+        pipe.post.cut_input,
+        input,
+        observer,
+    )? {
         stages.push(stage);
     }
     // Curvature: a stage only when a stress term uses it.
@@ -663,10 +670,12 @@ fn mesh_params(
 }
 
 /// Isotropic remeshing to the cell size: a stage only when a pipeline asks
-/// for a cell size. Every budget is checked before any work.
+/// for a cell size. Every budget is checked before any work. With
+/// `keep_input` each remeshed entry keeps its input mesh (`unremeshed`).
 fn remesh_to_cell_size(
     entries: &mut [SimEntry],
     params_of: &[SimParams],
+    keep_input: bool,
     input: &Path,
     observer: &mut dyn Observer,
 ) -> Result<Option<Stage>> {
@@ -711,7 +720,10 @@ fn remesh_to_cell_size(
         };
         let (sim, r) = remesh::remesh(&e.sim, &options)
             .map_err(|err| Error::mesh(input, &e.label, format!("remeshing: {err}")))?;
-        e.sim = sim;
+        let before = std::mem::replace(&mut e.sim, sim);
+        if keep_input {
+            e.unremeshed = Some(before);
+        }
         meshes.push(Remeshed {
             mesh: e.label.clone(),
             target_edge: target,

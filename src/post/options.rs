@@ -27,9 +27,13 @@ pub struct Post {
     /// cells shrinking as in the paper. Default 0.
     pub gap_band: f64,
     /// Curling: lift crack nodes along the normal by this fraction of how
-    /// far they moved (0: none). Default 0.
+    /// far they moved (0: none). With `gap_band` the lift of every node in
+    /// the band is this fraction of its own move, so it fades over the
+    /// band's width along the surface; without, over `curl_rings` rings of
+    /// neighbours. Default 0.
     pub curl: f64,
-    /// Rings of neighbouring nodes the lift falls off over. Default 3.
+    /// Rings of neighbouring nodes the lift falls off over, without
+    /// `gap_band`. Default 3.
     pub curl_rings: usize,
     /// Lift factor from one ring to the next, in [0, 1]. Default 0.5.
     pub curl_falloff: f64,
@@ -122,6 +126,15 @@ pub struct Post {
     /// goes without `width`, `curl`, `walls`, `groove` and `split_islands`.
     /// Default false (the output is the remeshed, cracked surface).
     pub keep_geometry: bool,
+    /// Cut the cracks into the input's own triangles: the cracks simulated
+    /// on the remeshed surface are carried onto the input (each crossed
+    /// triangle split along them, [`crate::mesh::imprint`]) and the other
+    /// steps (width, walls, curl, grooves, lines, maps) run there, so the
+    /// surface away from the cracks keeps the input's triangles, UVs and
+    /// normals. Without remeshing (a surface already finer than the cell
+    /// size) the simulated surface is the input's and this changes
+    /// nothing. Default false.
+    pub cut_input: bool,
 }
 
 impl Default for Post {
@@ -159,6 +172,7 @@ impl Default for Post {
             groove_material: "crack_wall".into(),
             groove_profile: "v".into(),
             keep_geometry: false,
+            cut_input: false,
         }
     }
 }
@@ -311,6 +325,11 @@ impl Post {
         {
             return Err(
                 "post.keep_geometry keeps the input's surface as it is: use it without post.width, post.curl, post.walls, post.groove and post.split_islands".into(),
+            );
+        }
+        if self.keep_geometry && self.cut_input {
+            return Err(
+                "post.keep_geometry leaves the input uncut and post.cut_input cuts the cracks into it: give one, not both".into(),
             );
         }
         if !["v", "u"].contains(&self.groove_profile.as_str()) {

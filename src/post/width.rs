@@ -372,13 +372,24 @@ pub fn displace(mesh: &SimMesh, displacement: &[[f64; 3]], opts: &Post) -> Displ
         out.closed_nodes += 1;
     }
 
-    if local {
-        fade_into_band(mesh, &mut mv, opts.gap_band);
-    }
+    // With a gap band, the fraction of its crack node's move each node
+    // takes (1 on the cracks).
+    let share = local.then(|| fade_into_band(mesh, &mut mv, opts.gap_band));
 
     // Curling: crack nodes rise by a fraction of how far they moved, and
     // each ring of neighbours rises by `falloff` times the ring before.
-    if opts.curl > 0.0 && !groups.is_empty() {
+    // With a gap band the lift fades with the move over the band (a
+    // distance along the surface, whatever the tessellation); without,
+    // ring by ring.
+    if let (true, Some(share)) = (opts.curl > 0.0 && !groups.is_empty(), &share) {
+        let normals = vertex_normals(mesh, &rest);
+        for (i, &k) in share.iter().enumerate() {
+            if k > 0.0 {
+                let lift = opts.curl * v3::norm(mv[i]);
+                mv[i] = v3::add(mv[i], v3::scale(normals[i], lift));
+            }
+        }
+    } else if opts.curl > 0.0 && !groups.is_empty() {
         let normals = vertex_normals(mesh, &rest);
         let mut lift = vec![f64::NAN; mesh.n_vertices()];
         let mut ring: Vec<VertexId> = Vec::new();
@@ -449,7 +460,7 @@ pub fn displace(mesh: &SimMesh, displacement: &[[f64; 3]], opts: &Post) -> Displ
 /// farther away. The cells' interiors, their texture and the silhouette
 /// stay; each side of a crack is squeezed over a strip `band` times its
 /// own opening wide.
-fn fade_into_band(mesh: &SimMesh, mv: &mut [[f64; 3]], band: f64) {
+fn fade_into_band(mesh: &SimMesh, mv: &mut [[f64; 3]], band: f64) -> Vec<f64> {
     let nodes = crack_vertices(mesh);
     let sources: Vec<(VertexId, f64)> = nodes.iter().map(|&v| (v, v.idx() as f64)).collect();
     let (distance, nearest) = distance_field(mesh, mesh.positions(), &sources);
@@ -457,8 +468,11 @@ fn fade_into_band(mesh: &SimMesh, mv: &mut [[f64; 3]], band: f64) {
     for v in &nodes {
         on_crack[v.idx()] = true;
     }
+    // Per node: the fraction of its nearest crack node's move it takes.
+    let mut share = vec![0.0; mesh.n_vertices()];
     for i in 0..mv.len() {
         if on_crack[i] {
+            share[i] = 1.0;
             continue;
         }
         let (d, c) = (distance[i], nearest[i]);
@@ -466,7 +480,8 @@ fn fade_into_band(mesh: &SimMesh, mv: &mut [[f64; 3]], band: f64) {
             let m = mv[c as usize];
             let reach = band * v3::norm(m);
             if d < reach {
-                v3::scale(m, 1.0 - d / reach)
+                share[i] = 1.0 - d / reach;
+                v3::scale(m, share[i])
             } else {
                 [0.0; 3]
             }
@@ -474,6 +489,7 @@ fn fade_into_band(mesh: &SimMesh, mv: &mut [[f64; 3]], band: f64) {
             [0.0; 3]
         };
     }
+    share
 }
 
 /// Grooves (`[post] groove`): every copy of a split crack node moves
@@ -633,9 +649,25 @@ pub fn turn_normals(mesh: &mut SimMesh, positions: &[[f64; 3]]) {
     let before = vertex_normals(mesh, mesh.positions());
     let after = vertex_normals(mesh, positions);
     // The rotation of each wedge: from the first corner that uses it.
+    let moved = |v: VertexId| positions[v.idx()] != mesh.position(v);
+    let keeps: Vec<bool> = mesh
+        .vertices()
+        .map(|v| {
+            !moved(v)
+                && mesh
+                    .vertex_faces(v)
+                    .any(|f| !mesh.face_vertices(f).into_iter().any(moved))
+        })
+        .collect();
     let mut rot: Vec<Option<([f64; 3], [f64; 3])>> = vec![None; mesh.n_wedges()];
     for h in mesh.halfedges() {
         let (v, w) = (mesh.origin(h), mesh.wedge(h));
+        // A vertex that stays with a face that stays (at the border of
+        // what moves) keeps its normal, although faces on one side tilt:
+        // its faces on the other side keep their shading.
+        if keeps[v.idx()] {
+            continue;
+        }
         if rot[w.idx()].is_none() {
             rot[w.idx()] = Some((before[v.idx()], after[v.idx()]));
         }
