@@ -716,3 +716,81 @@ fn grooves_are_closed_v_and_u_channels_of_the_asked_width() {
     let (v, u) = (groove_triangles[0] as f64, groove_triangles[1] as f64);
     assert!((u / (7.0 * v) - 1.0).abs() < 0.01, "{groove_triangles:?}");
 }
+
+/// Vertices (position bits) and their UVs of the triangle primitives of
+/// `path` whose material is not `skip`.
+fn vertex_uvs(path: &Path, skip: &str) -> Vec<([u32; 3], [f32; 2])> {
+    let (doc, buffers, _) = gltf::import(path).unwrap();
+    let mut out = Vec::new();
+    for p in doc
+        .meshes()
+        .flat_map(|m| m.primitives().collect::<Vec<_>>())
+    {
+        if p.mode() != gltf::mesh::Mode::Triangles || p.material().name() == Some(skip) {
+            continue;
+        }
+        let r = p.reader(|b| Some(&buffers[b.index()]));
+        let uv: Vec<[f32; 2]> = r.read_tex_coords(0).unwrap().into_f32().collect();
+        for (q, t) in r.read_positions().unwrap().zip(uv) {
+            out.push((q.map(f32::to_bits), t));
+        }
+    }
+    out
+}
+
+#[test]
+fn mud_gaps_are_cut_into_the_inputs_own_triangles() {
+    // spot's triangles are 1.5 times as long as the simulated surface's:
+    // the mud presets cut their cracks into them instead of writing the
+    // remeshed surface, so away from the cracks the output is the input.
+    let Some(spot) = common::eval_data("obj/spot/spot_triangulated.obj") else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let reference = dir.path().join("reference.glb");
+    common::run_ok(["convert".as_ref(), spot.as_os_str(), reference.as_os_str()]);
+    let input = vertex_uvs(&reference, "");
+    let mut input_uv: std::collections::HashMap<[u32; 3], Vec<[f32; 2]>> = Default::default();
+    for (p, t) in &input {
+        input_uv.entry(*p).or_default().push(*t);
+    }
+    for (cut, extra) in [
+        (true, "post.cut_input=true"),
+        (false, "post.cut_input=false"),
+    ] {
+        let out = dir.path().join(format!("mud-{cut}.glb"));
+        let r = crack(&spot, &out, &["--preset", "mud", "--set", extra]);
+        let c = &r["meshes"][0]["post"]["cut_input"];
+        let output = vertex_uvs(&out, "crack_wall");
+        // Input vertices found unmoved in the output, with their own UVs.
+        let mut kept = std::collections::HashSet::new();
+        for (p, t) in &output {
+            if let Some(uvs) = input_uv.get(p) {
+                assert!(
+                    uvs.iter()
+                        .any(|u| (u[0] - t[0]).abs() < 1e-6 && (u[1] - t[1]).abs() < 1e-6),
+                    "an input vertex kept its position but not its UV: {t:?} vs {uvs:?}"
+                );
+                kept.insert(*p);
+            }
+        }
+        let share = kept.len() as f64 / input_uv.len() as f64;
+        if cut {
+            assert_eq!(c["skipped_segments"], 0, "{c}");
+            assert!(c["cut_edges"].as_u64().unwrap() > 100, "{c}");
+            // Only nodes on a crack (input vertices the cracks pass
+            // through, about a quarter here) or within twice their
+            // crack's opening move.
+            assert!(share > 0.6, "{share} of the input's vertices kept, {c}");
+            if let Some(v) = common::validator() {
+                v.assert_clean(&out);
+            }
+        } else {
+            assert!(c.is_null(), "{c}");
+            assert!(
+                share < 0.2,
+                "the remeshed surface shares {share} of the input's vertices"
+            );
+        }
+    }
+}

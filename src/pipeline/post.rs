@@ -52,6 +52,20 @@ pub fn apply(
         // Cutting into the input: from here on the mesh is the input's,
         // cut, with the simulation's values carried over.
         let cut;
+        let coarse = e.unremeshed.as_ref().and_then(|base| {
+            let ratio = base.mean_edge_length() / e.sim.mean_edge_length().max(1e-300);
+            (ratio > post.cut_input_max_ratio).then_some(ratio)
+        });
+        if let (true, Some(ratio)) = (post.cut_input, coarse) {
+            e.unremeshed = None;
+            detail.insert(
+                "cut_input".into(),
+                json!({ "kept_remeshed": format!(
+                    "the input's edges are {ratio:.2} times as long as the simulated surface's, above post.cut_input_max_ratio = {}: cut into them, the cracks would follow its triangles",
+                    post.cut_input_max_ratio
+                ) }),
+            );
+        }
         let r = match (post.cut_input, e.unremeshed.take()) {
             (true, Some(base)) => {
                 let t = Instant::now();

@@ -135,6 +135,11 @@ pub struct Post {
     /// size) the simulated surface is the input's and this changes
     /// nothing. Default false.
     pub cut_input: bool,
+    /// With `cut_input`: the coarsest input that is cut, as its mean edge
+    /// over the simulated surface's. A coarser input's edges would bend
+    /// the cracks along its own triangles (a low-poly plate); it keeps the
+    /// remeshed surface, and the report says so. Default 2.
+    pub cut_input_max_ratio: f64,
 }
 
 impl Default for Post {
@@ -173,6 +178,7 @@ impl Default for Post {
             groove_profile: "v".into(),
             keep_geometry: false,
             cut_input: false,
+            cut_input_max_ratio: 2.0,
         }
     }
 }
@@ -245,6 +251,7 @@ impl Post {
         nonneg("width", self.width)?;
         nonneg("max_width", self.max_width)?;
         nonneg("gap_band", self.gap_band)?;
+        nonneg("cut_input_max_ratio", self.cut_input_max_ratio)?;
         nonneg("curl", self.curl)?;
         nonneg("wall_depth", self.wall_depth)?;
         nonneg("wall_depth_relative", self.wall_depth_relative)?;

@@ -818,6 +818,69 @@ mod tests {
     }
 
     #[test]
+    fn with_a_gap_band_curling_fades_over_the_band_whatever_the_rings() {
+        let m = cracked_plate();
+        let d = pull_apart(&m, 0.3);
+        for rings in [1, 6] {
+            let out = displace(
+                &m,
+                &d,
+                &Post {
+                    gap_band: 4.0,
+                    curl: 0.5,
+                    curl_rings: rings,
+                    ..opts(1.0)
+                },
+            );
+            for v in m.vertices() {
+                let (p, q) = (m.position(v), out.positions[v.idx()]);
+                let dy = (p[1] - 3.0).abs();
+                // Lifted by half its move, 0.3 (1 - d / 1.2), up to 1.2.
+                let want = if dy >= 1.2 {
+                    0.0
+                } else {
+                    0.5 * 0.3 * (1.0 - dy / 1.2)
+                };
+                assert!((q[2] - want).abs() < 1e-9, "rings {rings}: {v:?} at {q:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn normals_stay_where_the_surface_stays() {
+        let mut input = grid_input(4, 4);
+        let n = input.positions.len();
+        input.wedge_channels.push(crate::mesh::Channel::new(
+            "NORMAL",
+            3,
+            crate::mesh::ChannelKind::UnitVector,
+            [0.0, 0.0, 1.0].repeat(n),
+        ));
+        let (mut m, _) = build(&input);
+        // One interior vertex rises: its faces tilt, and so would its
+        // neighbours' normals, although their other faces stay flat.
+        let lifted = m
+            .vertices()
+            .find(|&v| m.position(v) == [2.0, 2.0, 0.0])
+            .unwrap();
+        let mut moved: Vec<[f64; 3]> = m.positions().to_vec();
+        moved[lifted.idx()][2] = 0.5;
+        turn_normals(&mut m, &moved);
+        let ch = m.wedges().channel("NORMAL").unwrap();
+        for f in m.faces() {
+            for (v, w) in m.face_vertices(f).into_iter().zip(m.face_wedges(f)) {
+                let x = ch.get(w);
+                if v == lifted {
+                    // Its own faces are symmetric about it: still up.
+                    assert!((x[2] - 1.0).abs() < 1e-9, "{x:?}");
+                } else {
+                    assert_eq!(x, &[0.0, 0.0, 1.0], "{v:?} turned");
+                }
+            }
+        }
+    }
+
+    #[test]
     fn max_width_limits_the_gap() {
         let m = cracked_plate();
         let d = pull_apart(&m, 0.1);
