@@ -846,8 +846,8 @@ mod tests {
         }
     }
 
-    #[test]
-    fn normals_stay_where_the_surface_stays() {
+    /// A 4 x 4 grid whose corners carry the normal +z.
+    fn flat_plate_with_normals() -> SimMesh {
         let mut input = grid_input(4, 4);
         let n = input.positions.len();
         input.wedge_channels.push(crate::mesh::Channel::new(
@@ -856,7 +856,12 @@ mod tests {
             crate::mesh::ChannelKind::UnitVector,
             [0.0, 0.0, 1.0].repeat(n),
         ));
-        let (mut m, _) = build(&input);
+        build(&input).0
+    }
+
+    #[test]
+    fn normals_stay_where_the_surface_stays() {
+        let mut m = flat_plate_with_normals();
         // One interior vertex rises: its faces tilt, and so would its
         // neighbours' normals, although their other faces stay flat.
         let lifted = m
@@ -1000,15 +1005,7 @@ mod tests {
 
     #[test]
     fn normals_turn_with_the_surface() {
-        let mut input = grid_input(4, 4);
-        let n = input.positions.len();
-        input.wedge_channels.push(crate::mesh::Channel::new(
-            "NORMAL",
-            3,
-            crate::mesh::ChannelKind::UnitVector,
-            [0.0, 0.0, 1.0].repeat(n),
-        ));
-        let (mut m, _) = build(&input);
+        let mut m = flat_plate_with_normals();
         // Turn the whole plate 90 degrees about x, (x, y, z) -> (x, -z, y):
         // normals go from +z to -y.
         let rot: Vec<[f64; 3]> = m.positions().iter().map(|p| [p[0], -p[2], p[1]]).collect();
