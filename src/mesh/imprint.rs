@@ -406,7 +406,8 @@ impl Cutter {
                 .map(|f| bbox(&mesh.face_vertices(f).map(|v| mesh.position(v)))),
             cell,
         );
-        let shells = shells(&mesh);
+        // A shell: the faces joined across edges.
+        let (_, shells) = mesh.connected_components();
         let originals = mesh
             .faces()
             .map(|f| mesh.face_vertices(f).map(|v| mesh.position(v)))
@@ -744,34 +745,6 @@ impl Cutter {
         }
         self.split(g, t).map_err(|e| e.to_string())
     }
-}
-
-/// Per face: the index of its shell, the faces joined to it across edges
-/// (numbered in order of their first face).
-fn shells(mesh: &SimMesh) -> Vec<u32> {
-    let mut shell = vec![u32::MAX; mesh.n_faces()];
-    let mut next = 0;
-    let mut stack = Vec::new();
-    for f in mesh.faces() {
-        if shell[f.idx()] != u32::MAX {
-            continue;
-        }
-        shell[f.idx()] = next;
-        stack.push(f);
-        while let Some(g) = stack.pop() {
-            for h in mesh.face_halfedges(g) {
-                if let Some(t) = mesh.twin(h) {
-                    let n = mesh.face(t);
-                    if shell[n.idx()] == u32::MAX {
-                        shell[n.idx()] = next;
-                        stack.push(n);
-                    }
-                }
-            }
-        }
-        next += 1;
-    }
-    shell
 }
 
 /// Values of the cracked mesh at points of the same surface.

@@ -52,37 +52,38 @@ pub fn apply(
         // Cutting into the input: from here on the mesh is the input's,
         // cut, with the simulation's values carried over.
         let cut;
-        let coarse = e.unremeshed.as_ref().and_then(|base| {
-            let ratio = base.mean_edge_length() / e.sim.mean_edge_length().max(1e-300);
-            (ratio > post.cut_input_max_ratio).then_some(ratio)
-        });
-        if let (true, Some(ratio)) = (post.cut_input, coarse) {
-            e.unremeshed = None;
-            detail.insert(
-                "cut_input".into(),
-                json!({ "kept_remeshed": format!(
-                    "the input's edges are {ratio:.2} times as long as the simulated surface's, above post.cut_input_max_ratio = {}: cut into them, the cracks would follow its triangles",
-                    post.cut_input_max_ratio
-                ) }),
-            );
-        }
-        let r = match (post.cut_input, e.unremeshed.take()) {
-            (true, Some(base)) => {
-                let t = Instant::now();
-                match cut_into_input(&base, e, r) {
-                    Ok((report, d)) => {
-                        cut = report;
-                        detail.insert("cut_input".into(), d);
-                        out.time("cut_input", t.elapsed().as_secs_f64());
-                        &cut
-                    }
-                    Err(err) => {
-                        log::warn!(
-                            "{}: the cracks stay on the remeshed surface: {err}",
-                            e.label
-                        );
-                        detail.insert("cut_input".into(), json!({ "fell_back": err.to_string() }));
-                        r
+        let r = match e.unremeshed.take() {
+            Some(base) if post.cut_input => {
+                let ratio = base.mean_edge_length() / e.sim.mean_edge_length().max(1e-300);
+                if ratio > post.cut_input_max_ratio {
+                    detail.insert(
+                        "cut_input".into(),
+                        json!({ "kept_remeshed": format!(
+                            "the input's edges are {ratio:.2} times as long as the simulated surface's, above post.cut_input_max_ratio = {}: cut into them, the cracks would follow its triangles",
+                            post.cut_input_max_ratio
+                        ) }),
+                    );
+                    r
+                } else {
+                    let t = Instant::now();
+                    match cut_into_input(&base, e, r) {
+                        Ok((report, d)) => {
+                            cut = report;
+                            detail.insert("cut_input".into(), d);
+                            out.time("cut_input", t.elapsed().as_secs_f64());
+                            &cut
+                        }
+                        Err(err) => {
+                            log::warn!(
+                                "{}: the cracks stay on the remeshed surface: {err}",
+                                e.label
+                            );
+                            detail.insert(
+                                "cut_input".into(),
+                                json!({ "fell_back": err.to_string() }),
+                            );
+                            r
+                        }
                     }
                 }
             }

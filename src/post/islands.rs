@@ -29,30 +29,7 @@ impl Islands {
 
 /// The pieces the cracks (and the input's own borders) cut `mesh` into.
 pub fn face_islands(mesh: &SimMesh) -> Islands {
-    const NONE: u32 = u32::MAX;
-    let mut of_face = vec![NONE; mesh.n_faces()];
-    let mut count = 0usize;
-    let mut stack: Vec<FaceId> = Vec::new();
-    for f in mesh.faces() {
-        if of_face[f.idx()] != NONE {
-            continue;
-        }
-        let k = count as u32;
-        count += 1;
-        of_face[f.idx()] = k;
-        stack.push(f);
-        while let Some(g) = stack.pop() {
-            for h in mesh.face_halfedges(g) {
-                if let Some(t) = mesh.twin(h) {
-                    let n = mesh.face(t);
-                    if of_face[n.idx()] == NONE {
-                        of_face[n.idx()] = k;
-                        stack.push(n);
-                    }
-                }
-            }
-        }
-    }
+    let (count, of_face) = mesh.connected_components();
     Islands { of_face, count }
 }
 

@@ -372,22 +372,20 @@ pub fn displace(mesh: &SimMesh, displacement: &[[f64; 3]], opts: &Post) -> Displ
         out.closed_nodes += 1;
     }
 
-    // With a gap band, the fraction of its crack node's move each node
-    // takes (1 on the cracks).
-    let share = local.then(|| fade_into_band(mesh, &mut mv, opts.gap_band));
+    if local {
+        fade_into_band(mesh, &mut mv, opts.gap_band);
+    }
 
     // Curling: crack nodes rise by a fraction of how far they moved, and
     // each ring of neighbours rises by `falloff` times the ring before.
-    // With a gap band the lift fades with the move over the band (a
-    // distance along the surface, whatever the tessellation); without,
-    // ring by ring.
-    if let (true, Some(share)) = (opts.curl > 0.0 && !groups.is_empty(), &share) {
+    // With a gap band every node rises by a fraction of its own move, so
+    // the lift fades with the move over the band (a distance along the
+    // surface, whatever the tessellation); without, ring by ring.
+    if local && opts.curl > 0.0 && !groups.is_empty() {
         let normals = vertex_normals(mesh, &rest);
-        for (i, &k) in share.iter().enumerate() {
-            if k > 0.0 {
-                let lift = opts.curl * v3::norm(mv[i]);
-                mv[i] = v3::add(mv[i], v3::scale(normals[i], lift));
-            }
+        for (m, n) in mv.iter_mut().zip(&normals) {
+            let lift = opts.curl * v3::norm(*m);
+            *m = v3::add(*m, v3::scale(*n, lift));
         }
     } else if opts.curl > 0.0 && !groups.is_empty() {
         let normals = vertex_normals(mesh, &rest);
@@ -460,7 +458,7 @@ pub fn displace(mesh: &SimMesh, displacement: &[[f64; 3]], opts: &Post) -> Displ
 /// farther away. The cells' interiors, their texture and the silhouette
 /// stay; each side of a crack is squeezed over a strip `band` times its
 /// own opening wide.
-fn fade_into_band(mesh: &SimMesh, mv: &mut [[f64; 3]], band: f64) -> Vec<f64> {
+fn fade_into_band(mesh: &SimMesh, mv: &mut [[f64; 3]], band: f64) {
     let nodes = crack_vertices(mesh);
     let sources: Vec<(VertexId, f64)> = nodes.iter().map(|&v| (v, v.idx() as f64)).collect();
     let (distance, nearest) = distance_field(mesh, mesh.positions(), &sources);
@@ -468,11 +466,8 @@ fn fade_into_band(mesh: &SimMesh, mv: &mut [[f64; 3]], band: f64) -> Vec<f64> {
     for v in &nodes {
         on_crack[v.idx()] = true;
     }
-    // Per node: the fraction of its nearest crack node's move it takes.
-    let mut share = vec![0.0; mesh.n_vertices()];
     for i in 0..mv.len() {
         if on_crack[i] {
-            share[i] = 1.0;
             continue;
         }
         let (d, c) = (distance[i], nearest[i]);
@@ -480,8 +475,7 @@ fn fade_into_band(mesh: &SimMesh, mv: &mut [[f64; 3]], band: f64) -> Vec<f64> {
             let m = mv[c as usize];
             let reach = band * v3::norm(m);
             if d < reach {
-                share[i] = 1.0 - d / reach;
-                v3::scale(m, share[i])
+                v3::scale(m, 1.0 - d / reach)
             } else {
                 [0.0; 3]
             }
@@ -489,7 +483,6 @@ fn fade_into_band(mesh: &SimMesh, mv: &mut [[f64; 3]], band: f64) -> Vec<f64> {
             [0.0; 3]
         };
     }
-    share
 }
 
 /// Grooves (`[post] groove`): every copy of a split crack node moves
