@@ -42,8 +42,13 @@ pub struct RemeshOptions {
     /// Edges whose faces meet at a dihedral angle above this (degrees) are
     /// sharp creases, kept as feature lines. Default 40.
     pub crease_angle_deg: f64,
-    /// Also remesh surfaces whose mean edge is already below the target
+    /// Also remesh surfaces that are already fine enough everywhere
     /// (coarsening them). Default false: such a surface is left as it is.
+    /// A surface is fine enough when at most [`FINE_ENOUGH_LONG_SHARE`] of
+    /// its area lies in triangles with an edge longer than the remesher's
+    /// split length (4/3 of the target). A graded asset (fine bolts, large
+    /// flat panels) is remeshed even when its *mean* edge is below the
+    /// target: its large triangles would otherwise set the crack pattern.
     pub coarsen: bool,
     /// How far an edge may stray from a curved input surface, as a
     /// fraction of `target_edge`: where the input bends tighter than the
@@ -83,6 +88,34 @@ pub struct RemeshReport {
     pub feature_edges: usize,
     /// Mean edge length before and after.
     pub mean_edge: [f64; 2],
+    /// Share of the input's area in triangles with an edge longer than
+    /// 4/3 of the target (the split length).
+    pub long_edge_area_share: f64,
+}
+
+/// A surface with at most this share of its area in triangles that have an
+/// edge above the split length is fine enough to simulate as it is.
+pub const FINE_ENOUGH_LONG_SHARE: f64 = 0.1;
+
+/// Share of `mesh`'s area in triangles with an edge longer than `limit`
+/// (0 for a surface without area).
+pub fn long_edge_area_share(mesh: &SimMesh, limit: f64) -> f64 {
+    let mut long = 0.0;
+    let mut total = 0.0;
+    for f in mesh.faces() {
+        let [a, b, c] = mesh.face_vertices(f).map(|v| mesh.position(v));
+        let area = mesh.face_area(f);
+        total += area;
+        let longest = dist2(a, b).max(dist2(b, c)).max(dist2(c, a)).sqrt();
+        if longest > limit {
+            long += area;
+        }
+    }
+    if total > 0.0 {
+        long / total
+    } else {
+        0.0
+    }
 }
 
 /// About how many triangles a remesh of `mesh` to `target_edge` makes: the
@@ -101,8 +134,9 @@ pub fn estimate_triangles(mesh: &SimMesh, target_edge: f64) -> usize {
 }
 
 /// Remesh `mesh` isotropically to `options.target_edge`; see the module
-/// documentation. A surface whose mean edge is already at most the target
-/// is returned as it is unless `options.coarsen`.
+/// documentation. A surface that is already fine enough (see
+/// [`RemeshOptions::coarsen`]) is returned as it is unless
+/// `options.coarsen`.
 ///
 /// # Errors
 /// A target that is not a positive number, or a result that cannot be
@@ -118,13 +152,15 @@ pub fn remesh(
         )));
     }
     let mean = mesh.mean_edge_length();
+    let long_share = long_edge_area_share(mesh, 4.0 / 3.0 * target);
     let mut report = RemeshReport {
         triangles: [mesh.n_faces(), mesh.n_faces()],
         vertices: [mesh.n_vertices(), mesh.n_vertices()],
         mean_edge: [mean, mean],
+        long_edge_area_share: long_share,
         ..Default::default()
     };
-    if mean <= target && !options.coarsen {
+    if long_share <= FINE_ENOUGH_LONG_SHARE && !options.coarsen {
         return Ok((mesh.clone(), report));
     }
     let input = Input::new(mesh, options.crease_angle_deg);

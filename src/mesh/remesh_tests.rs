@@ -229,6 +229,37 @@ fn fine_surfaces_are_left_alone() {
     .is_err());
 }
 
+/// A graded surface, fine at one end and coarse at the other, is remeshed
+/// although its mean edge is below the target: the area in triangles
+/// longer than the split length decides, not the mean. After it, the large
+/// triangles are gone.
+#[test]
+fn graded_surfaces_are_remeshed_although_their_mean_edge_is_short() {
+    let mut input = grid_input(40, 10);
+    for p in &mut input.positions {
+        p[0] = 40.0 * (p[0] / 40.0).powi(3);
+    }
+    let (m, _) = build(&input);
+    let target = 1.5;
+    assert!(m.mean_edge_length() < target, "{}", m.mean_edge_length());
+    let share = long_edge_area_share(&m, 4.0 / 3.0 * target);
+    assert!(share > 0.4, "long share {share}");
+    let (r, rep) = remesh(
+        &m,
+        &RemeshOptions {
+            target_edge: target,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    r.validate().unwrap();
+    assert!(rep.remeshed);
+    assert_eq!(rep.long_edge_area_share, share);
+    let after = long_edge_area_share(&r, 4.0 / 3.0 * target);
+    assert!(after < 0.05, "long share after {after}");
+    assert!((r.total_area() - m.total_area()).abs() < 1e-9 * m.total_area());
+}
+
 /// A tangent channel keeps its handedness sign exactly (the fourth value is
 /// a sign, not a vector component).
 #[test]
