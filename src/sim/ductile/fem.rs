@@ -135,6 +135,19 @@ impl Element {
         }
     }
 
+    /// An undeformed element: no energy, no force.
+    pub fn at_rest() -> Element {
+        Element {
+            u: Matrix3::identity(),
+            v: Matrix3::identity(),
+            sigma: [1.0; 3],
+            // At rest `2 mu + 2 (lambda tr - 2 mu) / (s_i + s_j)` is 0.
+            twist: [0.0; 3],
+            psi: 0.0,
+            forces: [Vector3::zeros(); 4],
+        }
+    }
+
     /// The force differential for node displacements `dx`: `-K dx` with
     /// the projected (positive semi-definite) stiffness `K`.
     pub fn force_differential(

@@ -128,8 +128,20 @@ pub struct Ductile {
     scene_frame: ([f64; 3], f64),
     /// The multigrid cycle kept from an earlier step.
     mg: Option<KeptCycle>,
+    /// The elements at the end of the last step, with the positions and
+    /// weights they were computed at: the next step starts from the same
+    /// positions, so only tetrahedra whose weight the level set changed
+    /// need their decomposition again.
+    kept_elements: Option<KeptElements>,
     /// How many cycles were built.
     pub mg_builds: usize,
+}
+
+/// Elements kept from the end of a step.
+struct KeptElements {
+    x: Vec<[f64; 3]>,
+    weights: Vec<f64>,
+    elements: Vec<Element>,
 }
 
 /// A multigrid cycle kept across steps, and how its solves went.
@@ -258,6 +270,7 @@ impl Ductile {
             last_dv: Vec::new(),
             scene_frame: (lo, scale),
             mg: None,
+            kept_elements: None,
             mg_builds: 0,
         })
     }
@@ -291,11 +304,19 @@ impl Ductile {
     fn elements(&self, weights: &[f64]) -> Vec<Element> {
         (0..self.tets.len())
             .into_par_iter()
-            .map(|e| {
-                let x = self.tets[e].map(|n| self.x[n as usize]);
-                Element::at(x, &self.rest[e], weights[e], self.lame)
-            })
+            .map(|e| self.element(e, weights[e]))
             .collect()
+    }
+
+    /// Tetrahedron `e`'s state at weight `weight`; one without material
+    /// (weight 0, so it adds no force, stiffness or energy) is left at rest
+    /// without its decomposition.
+    fn element(&self, e: usize, weight: f64) -> Element {
+        if weight <= 0.0 {
+            return Element::at_rest();
+        }
+        let x = self.tets[e].map(|n| self.x[n as usize]);
+        Element::at(x, &self.rest[e], weight, self.lame)
     }
 
     /// Node masses: density times a quarter of each tetrahedron's weight.
@@ -377,10 +398,29 @@ impl Ductile {
         2.0 * self.pulled_by / self.length
     }
 
+    /// The elements at the current positions and `weights`: those kept
+    /// from the end of the last step when the positions are the same, with
+    /// the tetrahedra whose weight changed since computed again (the same
+    /// values as computing all of them).
+    fn elements_now(&mut self, weights: &[f64]) -> Vec<Element> {
+        match self.kept_elements.take() {
+            Some(kept) if kept.x == self.x => {
+                let mut elements = kept.elements;
+                elements
+                    .par_iter_mut()
+                    .enumerate()
+                    .filter(|(e, _)| kept.weights[*e] != weights[*e])
+                    .for_each(|(e, el)| *el = self.element(e, weights[e]));
+                elements
+            }
+            _ => self.elements(weights),
+        }
+    }
+
     /// Advance one step: elasticity by backward Euler, then the level set.
     pub fn step(&mut self) -> StepReport {
         let weights = self.weights();
-        let elements = self.elements(&weights);
+        let elements = self.elements_now(&weights);
         let mass = self.masses(&weights);
         let psi = self.nodal_energy(&elements, &weights);
         let dt = self.cfl_step(&psi);
@@ -400,6 +440,11 @@ impl Ductile {
         report.dt = dt;
         report.energy = elements.iter().zip(&weights).map(|(e, w)| e.psi * w).sum();
         let mass = self.masses(&weights);
+        self.kept_elements = Some(KeptElements {
+            x: self.x.clone(),
+            weights,
+            elements,
+        });
         report.kinetic = 0.5
             * self
                 .v

@@ -56,6 +56,11 @@ struct Level {
     /// The slots some row uses (the grid's tetrahedra couple a node to 14
     /// of its 26 neighbours; coarse levels use all).
     slots: Vec<usize>,
+    /// The rows again, only the used slots' blocks, node after node: the
+    /// residual reads them in one pass (the full rows are 27 blocks wide).
+    packed: Vec<Block>,
+    /// Each used slot's offset in node indices.
+    slot_steps: Vec<i64>,
 }
 
 impl Level {
@@ -83,10 +88,25 @@ impl Level {
         Some(self.index(m))
     }
 
-    /// The l1-Jacobi factors and the slots in use, from the rows.
+    /// The l1-Jacobi factors, the slots in use and the packed rows, from
+    /// the rows.
     fn set_smoother(&mut self) {
         self.slots = (0..27)
             .filter(|&s| self.a.iter().any(|row| row[s].iter().any(|&x| x != 0.0)))
+            .collect();
+        let [nx, ny, _] = self.dims;
+        self.slot_steps = self
+            .slots
+            .iter()
+            .map(|&s| {
+                let d = offset(s);
+                d[0] + d[1] * nx as i64 + d[2] * (nx * ny) as i64
+            })
+            .collect();
+        self.packed = self
+            .a
+            .iter()
+            .flat_map(|row| self.slots.iter().map(|&s| row[s]))
             .collect();
         self.smooth = self
             .a
@@ -106,27 +126,24 @@ impl Level {
             .collect();
     }
 
-    /// `r = b - A x`.
+    /// `r = b - A x`: each node's used slots in order, from the packed
+    /// rows; a node on the box's border skips its neighbours outside.
     fn residual(&self, b: &[[f64; 3]], x: &[[f64; 3]], r: &mut [[f64; 3]]) {
-        let [nx, ny, nz] = self.dims;
-        let stride = [1, nx as i64, (nx * ny) as i64];
+        let dims = self.dims;
+        let ns = self.slots.len();
         r.par_iter_mut()
             .with_min_len(MIN_LEN)
             .enumerate()
             .for_each(|(n, out)| {
                 let c = self.coords(n);
-                let interior = (0..3).all(|k| c[k] > 0 && c[k] + 1 < [nx, ny, nz][k]);
+                let interior = (0..3).all(|k| c[k] > 0 && c[k] + 1 < dims[k]);
                 let mut acc = b[n];
-                let row = &self.a[n];
-                for &s in &self.slots {
-                    let blk = &row[s];
-                    let d = offset(s);
+                let row = &self.packed[n * ns..(n + 1) * ns];
+                for ((blk, &step), &s) in row.iter().zip(&self.slot_steps).zip(&self.slots) {
                     if !interior && self.neighbour(n, s).is_none() {
                         continue;
                     }
-                    let m = (n as i64 + d[0] * stride[0] + d[1] * stride[1] + d[2] * stride[2])
-                        as usize;
-                    let y = x[m];
+                    let y = x[(n as i64 + step) as usize];
                     for k in 0..3 {
                         acc[k] -= blk[3 * k] * y[0] + blk[3 * k + 1] * y[1] + blk[3 * k + 2] * y[2];
                     }
@@ -206,6 +223,8 @@ fn coarsen(fine: &Level) -> Level {
         a: Vec::new(),
         smooth: Vec::new(),
         slots: Vec::new(),
+        packed: Vec::new(),
+        slot_steps: Vec::new(),
     };
     let n_coarse: usize = dims.iter().product();
     let a: Vec<[Block; 27]> = (0..n_coarse)
@@ -381,6 +400,8 @@ impl Multigrid {
             a: vec![[[0.0; 9]; 27]; n_nodes],
             smooth: Vec::new(),
             slots: Vec::new(),
+            packed: Vec::new(),
+            slot_steps: Vec::new(),
         };
         for (b, chunk) in op.tets.chunks(BATCH).enumerate() {
             let ks: Vec<[[Block; 4]; 4]> = (0..chunk.len())
@@ -433,6 +454,10 @@ impl Multigrid {
             levels.push(next);
         }
         let coarse = Dense::new(levels.last().expect("a level"));
+        // The cycle reads only the packed rows.
+        for level in &mut levels {
+            level.a = Vec::new();
+        }
         Multigrid { levels, coarse }
     }
 
@@ -457,7 +482,7 @@ impl Multigrid {
             level.residual(b, x, &mut r);
         }
         // Restrict the residual, solve the coarse level, interpolate.
-        let bc: Vec<[f64; 3]> = (0..coarse.a.len())
+        let bc: Vec<[f64; 3]> = (0..coarse.smooth.len())
             .into_par_iter()
             .map(|cn| {
                 let mut acc = [0.0; 3];
@@ -475,7 +500,7 @@ impl Multigrid {
                 })
             })
             .collect();
-        let mut xc = vec![[0.0; 3]; coarse.a.len()];
+        let mut xc = vec![[0.0; 3]; coarse.smooth.len()];
         self.cycle(l + 1, &bc, &mut xc);
         x.par_iter_mut().enumerate().for_each(|(n, x)| {
             for_parents(level.coords(n), |p, w| {
