@@ -148,6 +148,60 @@ impl Element {
         }
     }
 
+    /// The projected stress differential in the frame of the
+    /// decomposition, for a deformation differential `g` in that frame.
+    fn stress_differential(&self, g: &Matrix3<f64>, m: Lame) -> Matrix3<f64> {
+        let mut dp = Matrix3::zeros();
+        let tr = g[(0, 0)] + g[(1, 1)] + g[(2, 2)];
+        for i in 0..3 {
+            dp[(i, i)] = 2.0 * m.mu * g[(i, i)] + m.lambda * tr;
+        }
+        for (k, (i, j)) in [(0, 1), (0, 2), (1, 2)].into_iter().enumerate() {
+            let sym = 0.5 * (g[(i, j)] + g[(j, i)]);
+            let anti = 0.5 * (g[(i, j)] - g[(j, i)]);
+            dp[(i, j)] = 2.0 * m.mu * sym + self.twist[k] * anti;
+            dp[(j, i)] = 2.0 * m.mu * sym - self.twist[k] * anti;
+        }
+        dp
+    }
+
+    /// The projected stiffness `K` (forces `-K dx`): block `[c][d]`, row
+    /// major, couples corner `c`'s force to corner `d`'s displacement. The
+    /// stress differential's nine columns `T` (one per unit deformation
+    /// differential) are contracted with the shape gradients, `K[c][d]_ml =
+    /// weight sum_jb g_c[j] T[(m, j), (l, b)] g_d[b]`: the same as the
+    /// force differentials of the twelve unit displacements, at about half
+    /// their cost.
+    pub fn stiffness(&self, rest: &Rest, weight: f64, m: Lame) -> [[[f64; 9]; 4]; 4] {
+        // t[l][b] = dP for dF = e_l e_b^T.
+        let mut t = [[Matrix3::zeros(); 3]; 3];
+        for (l, row) in t.iter_mut().enumerate() {
+            for (b, out) in row.iter_mut().enumerate() {
+                let g = Matrix3::from_fn(|i, j| self.u[(l, i)] * self.v[(b, j)]);
+                *out = self.u * self.stress_differential(&g, m) * self.v.transpose();
+            }
+        }
+        let grads = rest.gradients();
+        // w[l][d] = sum_b t[l][b] g_d[b] (a 3 x 3 matrix over (m, j)).
+        let w: [[Matrix3<f64>; 4]; 3] = std::array::from_fn(|l| {
+            std::array::from_fn(|d| {
+                t[l][0] * grads[d][0] + t[l][1] * grads[d][1] + t[l][2] * grads[d][2]
+            })
+        });
+        let mut k = [[[0.0; 9]; 4]; 4];
+        for (c, kc) in k.iter_mut().enumerate() {
+            for (d, kcd) in kc.iter_mut().enumerate() {
+                for l in 0..3 {
+                    let col = w[l][d] * grads[c];
+                    for mm in 0..3 {
+                        kcd[3 * mm + l] = weight * col[mm];
+                    }
+                }
+            }
+        }
+        k
+    }
+
     /// The force differential for node displacements `dx`: `-K dx` with
     /// the projected (positive semi-definite) stiffness `K`.
     pub fn force_differential(
@@ -160,18 +214,7 @@ impl Element {
         let d_ds = Matrix3::from_columns(&[dx[1] - dx[0], dx[2] - dx[0], dx[3] - dx[0]]);
         let d_f = d_ds * rest.bm;
         let g = self.u.transpose() * d_f * self.v;
-        let mut dp = Matrix3::zeros();
-        let tr = g[(0, 0)] + g[(1, 1)] + g[(2, 2)];
-        for i in 0..3 {
-            dp[(i, i)] = 2.0 * m.mu * g[(i, i)] + m.lambda * tr;
-        }
-        for (k, (i, j)) in [(0, 1), (0, 2), (1, 2)].into_iter().enumerate() {
-            let sym = 0.5 * (g[(i, j)] + g[(j, i)]);
-            let anti = 0.5 * (g[(i, j)] - g[(j, i)]);
-            dp[(i, j)] = 2.0 * m.mu * sym + self.twist[k] * anti;
-            dp[(j, i)] = 2.0 * m.mu * sym - self.twist[k] * anti;
-        }
-        let dp = self.u * dp * self.v.transpose();
+        let dp = self.u * self.stress_differential(&g, m) * self.v.transpose();
         let dh = -weight * dp * rest.bm.transpose();
         let f1 = dh.column(0).into_owned();
         let f2 = dh.column(1).into_owned();

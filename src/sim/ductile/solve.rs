@@ -82,8 +82,7 @@ impl Ductile {
     }
 
     /// Tetrahedron `e`'s stiffness times `ck`, block `[c][d]` coupling
-    /// corner `c`'s force to corner `d`'s displacement: the force
-    /// differentials of the twelve unit displacements.
+    /// corner `c`'s force to corner `d`'s displacement.
     fn element_stiffness(
         &self,
         elements: &[Element],
@@ -91,23 +90,10 @@ impl Ductile {
         e: usize,
         ck: f64,
     ) -> [[[f64; 9]; 4]; 4] {
-        let mut k = [[[0.0; 9]; 4]; 4];
         if weights[e] <= 0.0 {
-            return k;
+            return [[[0.0; 9]; 4]; 4];
         }
-        for d in 0..4 {
-            for l in 0..3 {
-                let mut dx = [Vector3::zeros(); 4];
-                dx[d][l] = 1.0;
-                let f = elements[e].force_differential(dx, &self.rest[e], weights[e], self.lame);
-                for (c, fc) in f.iter().enumerate() {
-                    for m in 0..3 {
-                        k[c][d][3 * m + l] = -ck * fc[m];
-                    }
-                }
-            }
-        }
-        k
+        elements[e].stiffness(&self.rest[e], ck * weights[e], self.lame)
     }
 
     /// Elastic forces at every node.

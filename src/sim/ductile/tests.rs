@@ -175,6 +175,34 @@ fn forces_are_the_energy_gradient_and_the_differential_its_derivative() {
             df[n]
         );
     }
+    // The assembled stiffness is the differential's: K dx = -df, block by
+    // block, for the stretched element and a compressed (clamped) one.
+    let squashed = [
+        [0.0, 0.0, 0.0],
+        [0.5, 0.0, 0.0],
+        [0.0, 0.6, 0.0],
+        [0.0, 0.0, 0.4],
+    ];
+    for y in [x, squashed] {
+        let e = Element::at(y, &rest, w, m);
+        let k = e.stiffness(&rest, w, m);
+        let df = e.force_differential(dx, &rest, w, m);
+        for c in 0..4 {
+            let mut kdx = Vector3::zeros();
+            for d in 0..4 {
+                for mm in 0..3 {
+                    for l in 0..3 {
+                        kdx[mm] += k[c][d][3 * mm + l] * dx[d][l];
+                    }
+                }
+            }
+            assert!(
+                (kdx + df[c]).norm() < 1e-9 * df[c].norm().max(1.0),
+                "corner {c}: K dx {kdx:?} against -df {:?}",
+                -df[c]
+            );
+        }
+    }
     // Compressed: the projected stiffness stays positive semi-definite.
     let squashed = [
         [0.0, 0.0, 0.0],
