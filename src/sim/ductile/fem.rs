@@ -58,6 +58,9 @@ pub struct Element {
     pub u: Matrix3<f64>,
     /// See `u`.
     pub v: Matrix3<f64>,
+    /// The rest shape's inverse edge matrix times `v` (`B_m V`): the force
+    /// differential's two products with it are one each.
+    pub bv: Matrix3<f64>,
     /// Singular values.
     pub sigma: [f64; 3],
     /// Clamped eigenvalues of the three 2 x 2 blocks' antisymmetric parts
@@ -128,6 +131,7 @@ impl Element {
         Element {
             u,
             v,
+            bv: rest.bm * v,
             sigma,
             twist,
             psi,
@@ -135,11 +139,12 @@ impl Element {
         }
     }
 
-    /// An undeformed element: no energy, no force.
-    pub fn at_rest() -> Element {
+    /// An undeformed element of rest shape `rest`: no energy, no force.
+    pub fn at_rest(rest: &Rest) -> Element {
         Element {
             u: Matrix3::identity(),
             v: Matrix3::identity(),
+            bv: rest.bm,
             sigma: [1.0; 3],
             // At rest `2 mu + 2 (lambda tr - 2 mu) / (s_i + s_j)` is 0.
             twist: [0.0; 3],
@@ -207,15 +212,13 @@ impl Element {
     pub fn force_differential(
         &self,
         dx: [Vector3<f64>; 4],
-        rest: &Rest,
         weight: f64,
         m: Lame,
     ) -> [Vector3<f64>; 4] {
         let d_ds = Matrix3::from_columns(&[dx[1] - dx[0], dx[2] - dx[0], dx[3] - dx[0]]);
-        let d_f = d_ds * rest.bm;
-        let g = self.u.transpose() * d_f * self.v;
-        let dp = self.u * self.stress_differential(&g, m) * self.v.transpose();
-        let dh = -weight * dp * rest.bm.transpose();
+        // U^T (dDs B_m) V and (U dP V^T) B_m^T, with B_m V kept.
+        let g = self.u.transpose() * d_ds * self.bv;
+        let dh = -weight * (self.u * self.stress_differential(&g, m)) * self.bv.transpose();
         let f1 = dh.column(0).into_owned();
         let f2 = dh.column(1).into_owned();
         let f3 = dh.column(2).into_owned();

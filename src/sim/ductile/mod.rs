@@ -313,7 +313,7 @@ impl Ductile {
     /// without its decomposition.
     fn element(&self, e: usize, weight: f64) -> Element {
         if weight <= 0.0 {
-            return Element::at_rest();
+            return Element::at_rest(&self.rest[e]);
         }
         let x = self.tets[e].map(|n| self.x[n as usize]);
         Element::at(x, &self.rest[e], weight, self.lame)

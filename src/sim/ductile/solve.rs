@@ -28,7 +28,7 @@ impl Ductile {
                     return [Vector3::zeros(); 4];
                 }
                 let dx = self.tets[e].map(|n| Vector3::from(p[n as usize]));
-                elements[e].force_differential(dx, &self.rest[e], weights[e], self.lame)
+                elements[e].force_differential(dx, weights[e], self.lame)
             })
             .collect();
         self.node_tets
