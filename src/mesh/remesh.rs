@@ -26,6 +26,7 @@ use super::build::{MeshInput, WeldOptions};
 use super::error::MeshError;
 use super::halfedge::SimMesh;
 use super::ids::{FaceId, VertexId};
+pub use super::sizing::{long_edge_area_share, FINE_ENOUGH_LONG_SHARE};
 use super::spatial::{
     add, bbox, closest_on_segment, closest_on_triangle, cross, dist2, dot, norm, scale, sub, Grid,
 };
@@ -91,31 +92,6 @@ pub struct RemeshReport {
     /// Share of the input's area in triangles with an edge longer than
     /// 4/3 of the target (the split length).
     pub long_edge_area_share: f64,
-}
-
-/// A surface with at most this share of its area in triangles that have an
-/// edge above the split length is fine enough to simulate as it is.
-pub const FINE_ENOUGH_LONG_SHARE: f64 = 0.1;
-
-/// Share of `mesh`'s area in triangles with an edge longer than `limit`
-/// (0 for a surface without area).
-pub fn long_edge_area_share(mesh: &SimMesh, limit: f64) -> f64 {
-    let mut long = 0.0;
-    let mut total = 0.0;
-    for f in mesh.faces() {
-        let [a, b, c] = mesh.face_vertices(f).map(|v| mesh.position(v));
-        let area = mesh.face_area(f);
-        total += area;
-        let longest = dist2(a, b).max(dist2(b, c)).max(dist2(c, a)).sqrt();
-        if longest > limit {
-            long += area;
-        }
-    }
-    if total > 0.0 {
-        long / total
-    } else {
-        0.0
-    }
 }
 
 /// About how many triangles a remesh of `mesh` to `target_edge` makes: the

@@ -3,8 +3,34 @@
 //! follow, as on a knob, a hose or a bevel, edges shorten so that a chord
 //! strays at most a given distance from the surface.
 
-use super::spatial::{cross, dot, norm, scale, sub};
+use super::halfedge::SimMesh;
+use super::spatial::{cross, dist2, dot, norm, scale, sub};
 use std::collections::{HashMap, HashSet};
+
+/// A surface with at most this share of its area in triangles that have an
+/// edge above the split length is fine enough to simulate as it is.
+pub const FINE_ENOUGH_LONG_SHARE: f64 = 0.1;
+
+/// Share of `mesh`'s area in triangles with an edge longer than `limit`
+/// (0 for a surface without area).
+pub fn long_edge_area_share(mesh: &SimMesh, limit: f64) -> f64 {
+    let mut long = 0.0;
+    let mut total = 0.0;
+    for f in mesh.faces() {
+        let [a, b, c] = mesh.face_vertices(f).map(|v| mesh.position(v));
+        let area = mesh.face_area(f);
+        total += area;
+        let longest = dist2(a, b).max(dist2(b, c)).max(dist2(c, a)).sqrt();
+        if longest > limit {
+            long += area;
+        }
+    }
+    if total > 0.0 {
+        long / total
+    } else {
+        0.0
+    }
+}
 
 /// The edge length each vertex asks for: `target`, shortened to the
 /// length whose chord strays `chord_error` from a circle of the surface's
