@@ -26,6 +26,20 @@ fn valence6_fraction(m: &SimMesh) -> f64 {
     six as f64 / inner.max(1) as f64
 }
 
+/// `m` remeshed to `target` with the default options, checked valid.
+fn remesh_valid(m: &SimMesh, target: f64) -> (SimMesh, RemeshReport) {
+    let (r, rep) = remesh(
+        m,
+        &RemeshOptions {
+            target_edge: target,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    r.validate().unwrap();
+    (r, rep)
+}
+
 /// A 10 x 10 plate of coarse triangles with uv = (x, y) refines to
 /// near-equilateral triangles of the target size with exact UVs, the same
 /// boundary and the same area.
@@ -34,15 +48,7 @@ fn a_plate_refines_isotropically_with_exact_uvs() {
     let (m, _) = build(&grid_input(10, 10));
     let target = 0.25;
     let est = estimate_triangles(&m, target);
-    let (r, rep) = remesh(
-        &m,
-        &RemeshOptions {
-            target_edge: target,
-            ..Default::default()
-        },
-    )
-    .unwrap();
-    r.validate().unwrap();
+    let (r, rep) = remesh_valid(&m, target);
     assert!(rep.remeshed);
     let n = r.n_faces() as f64;
     assert!(
@@ -244,15 +250,7 @@ fn graded_surfaces_are_remeshed_although_their_mean_edge_is_short() {
     assert!(m.mean_edge_length() < target, "{}", m.mean_edge_length());
     let share = long_edge_area_share(&m, 4.0 / 3.0 * target);
     assert!(share > 0.4, "long share {share}");
-    let (r, rep) = remesh(
-        &m,
-        &RemeshOptions {
-            target_edge: target,
-            ..Default::default()
-        },
-    )
-    .unwrap();
-    r.validate().unwrap();
+    let (r, rep) = remesh_valid(&m, target);
     assert!(rep.remeshed);
     assert_eq!(rep.long_edge_area_share, share);
     let after = long_edge_area_share(&r, 4.0 / 3.0 * target);
