@@ -106,8 +106,10 @@ impl Level {
         Some(self.index(m))
     }
 
-    /// The l1-Jacobi factors, the slots in use and the packed rows, from
-    /// the rows.
+    /// What the cycle reads, from the rows: the slots in use, the packed
+    /// rows, the l1-Jacobi factors (which unknowns have a row, and the
+    /// fallback of a diagonal block that cannot be inverted), the inverted
+    /// diagonal blocks and the colours.
     fn set_smoother(&mut self) {
         self.slots = (0..27)
             .filter(|&s| self.a.iter().any(|row| row[s].iter().any(|&x| x != 0.0)))
@@ -156,26 +158,39 @@ impl Level {
         self.colours = colours;
     }
 
-    /// `r = b - A x`: each node's used slots in order, from the packed
-    /// rows. A node on the box's border has zero blocks towards the
-    /// neighbours it lacks; they multiply any node's (finite) values.
-    fn residual(&self, b: &[[f64; 3]], x: &[[f64; 3]], r: &mut [[f64; 3]]) {
+    /// `b_n - sum_m A_nm x_m` over node `n`'s used slots in order, from the
+    /// packed rows, leaving out its own block when `off_diagonal`. A node
+    /// on the box's border has zero blocks towards the neighbours it lacks;
+    /// they multiply any node's (finite) values.
+    fn row_residual(
+        &self,
+        n: usize,
+        b: &[[f64; 3]],
+        x: &[[f64; 3]],
+        off_diagonal: bool,
+    ) -> [f64; 3] {
         let ns = self.slots.len();
         let last = x.len() as i64 - 1;
+        let mut acc = b[n];
+        let row = &self.packed[n * ns..(n + 1) * ns];
+        for (blk, &step) in row.iter().zip(&self.slot_steps) {
+            if off_diagonal && step == 0 {
+                continue;
+            }
+            let y = x[neighbour_index(n, step, last)];
+            for k in 0..3 {
+                acc[k] -= blk[3 * k] * y[0] + blk[3 * k + 1] * y[1] + blk[3 * k + 2] * y[2];
+            }
+        }
+        acc
+    }
+
+    /// `r = b - A x`.
+    fn residual(&self, b: &[[f64; 3]], x: &[[f64; 3]], r: &mut [[f64; 3]]) {
         r.par_iter_mut()
             .with_min_len(MIN_LEN)
             .enumerate()
-            .for_each(|(n, out)| {
-                let mut acc = b[n];
-                let row = &self.packed[n * ns..(n + 1) * ns];
-                for (blk, &step) in row.iter().zip(&self.slot_steps) {
-                    let y = x[neighbour_index(n, step, last)];
-                    for k in 0..3 {
-                        acc[k] -= blk[3 * k] * y[0] + blk[3 * k + 1] * y[1] + blk[3 * k + 2] * y[2];
-                    }
-                }
-                *out = acc;
-            });
+            .for_each(|(n, out)| *out = self.row_residual(n, b, x, false));
     }
 
     /// One block Gauss-Seidel sweep over the colours in `order`: each node
@@ -183,8 +198,6 @@ impl Level {
     /// D_n^-1 (b_n - sum_{m != n} A_nm x_m)`. Forward then backward is
     /// symmetric, so the V-cycle stays a valid CG preconditioner.
     fn gauss_seidel(&self, b: &[[f64; 3]], x: &mut [[f64; 3]], order: &[usize]) {
-        let ns = self.slots.len();
-        let last = x.len() as i64 - 1;
         for &colour in order {
             let nodes = &self.colours[colour];
             let x_now: &[[f64; 3]] = x;
@@ -192,18 +205,7 @@ impl Level {
                 .par_iter()
                 .with_min_len(MIN_LEN / 8)
                 .map(|&n| {
-                    let mut acc = b[n];
-                    let row = &self.packed[n * ns..(n + 1) * ns];
-                    for (blk, &step) in row.iter().zip(&self.slot_steps) {
-                        if step == 0 {
-                            continue;
-                        }
-                        let y = x_now[neighbour_index(n, step, last)];
-                        for k in 0..3 {
-                            acc[k] -=
-                                blk[3 * k] * y[0] + blk[3 * k + 1] * y[1] + blk[3 * k + 2] * y[2];
-                        }
-                    }
+                    let acc = self.row_residual(n, b, x_now, true);
                     let d = &self.diag_inv[n];
                     std::array::from_fn(|k| {
                         d[3 * k] * acc[0] + d[3 * k + 1] * acc[1] + d[3 * k + 2] * acc[2]
