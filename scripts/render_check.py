@@ -3,15 +3,19 @@
 # an artist's solid view with textures), and checks that
 #   - at least MIN_CHANGED of the pixels change, and
 #   - at least MIN_NEAR of the changed pixels lie within NEAR_PX pixels of
-#     the output's crack lines (its LINES primitive, projected, hidden parts
-#     removed by ray casts).
+#     the output's cracks: its crack lines (its LINES primitive, projected,
+#     hidden parts removed by ray casts) and its visible gaps (the faces of
+#     the crack_wall material: a gap many pixels wide is the crack too,
+#     while its line runs along its middle). The share near the lines
+#     alone is printed as near_lines.
 # Prints one JSON line; exit status 1 when a check fails.
 #
 # Blender 3.4 (apt):  blender -b --factory-startup --python scripts/render_check.py -- IN OUT PREFIX [ENGINE]
 # Blender 5.0 (PyPI bpy):  tools/bpy5/bin/python scripts/render_check.py IN OUT PREFIX [ENGINE]
 # ENGINE: WORKBENCH (default: solid view with textures, base colour only) or
 # EEVEE (material preview: normal and occlusion maps shade too).
-# PREFIX names the two renders (PREFIX-input.png, PREFIX-output.png) and the
+# PREFIX names the renders (PREFIX-input.png, PREFIX-output.png, and
+# PREFIX-gaps.png when the output has walls) and the
 # picture of the difference (PREFIX-diff.png: changed pixels near crack
 # lines red, changed pixels away from them yellow, crack lines blue).
 import json, math, sys
@@ -26,6 +30,7 @@ from bpy_extras.object_utils import world_to_camera_view
 MIN_CHANGED = 0.005
 MIN_NEAR = 0.9
 NEAR_PX = 4
+WALL = "crack_wall"  # the material of the gaps' side walls
 THRESHOLD = 0.08  # a pixel changes when a channel moves by more than this
 W, H = 800, 600
 
@@ -143,6 +148,32 @@ def crack_line_mask(objs, cam):
     return mask, samples
 
 
+def gap_mask(cam, path):
+    """Visible gap pixels: the faces of the wall material (WALL), rendered
+    flat white on black (Workbench, material colours). A gap wider than a
+    few pixels is part of its crack, whose line runs along its middle."""
+    scene = bpy.context.scene
+    scene.camera = cam
+    scene.render.engine = "BLENDER_WORKBENCH"
+    sh = scene.display.shading
+    sh.light = "FLAT"
+    sh.color_type = "MATERIAL"
+    sh.show_shadows = False
+    sh.show_cavity = False
+    scene.world.color = (0.0, 0.0, 0.0)
+    scene.view_settings.view_transform = "Standard"
+    walls = 0
+    for m in bpy.data.materials:
+        wall = m.name == WALL or m.name.startswith(WALL + ".")
+        walls += wall
+        m.diffuse_color = (1.0, 1.0, 1.0, 1.0) if wall else (0.0, 0.0, 0.0, 1.0)
+    if not walls:
+        return numpy.zeros((H, W), dtype=bool)
+    scene.render.filepath = path
+    bpy.ops.render.render(write_still=True)
+    return pixels(path)[..., 0] > 0.5
+
+
 def grow(mask, r):
     out = mask.copy()
     for dy in range(-r, r + 1):
@@ -164,14 +195,18 @@ centre, radius = bounds(objs)
 render(prefix + "-input.png", centre, radius)
 objs = load(out)
 cam = render(prefix + "-output.png", centre, radius)
+engine = bpy.context.scene.render.engine
 lines, samples = crack_line_mask(objs, cam)
 a = pixels(prefix + "-input.png")
 b = pixels(prefix + "-output.png")
 changed = numpy.abs(a - b).max(axis=2) > THRESHOLD
-near = grow(lines, NEAR_PX)
+gaps = gap_mask(cam, prefix + "-gaps.png")
+near = grow(lines | gaps, NEAR_PX)
+near_lines = grow(lines, NEAR_PX)
 n_changed = int(changed.sum())
 frac_changed = n_changed / (W * H)
 frac_near = float((changed & near).sum()) / max(n_changed, 1)
+frac_near_lines = float((changed & near_lines).sum()) / max(n_changed, 1)
 # The difference as a picture: changed pixels red, crack lines blue.
 diff = numpy.ones((H, W, 4), dtype=numpy.float32)
 diff[..., :3] = 0.5 * b
@@ -186,12 +221,14 @@ img.save()
 ok = frac_changed >= MIN_CHANGED and frac_near >= MIN_NEAR
 print("RENDER_CHECK " + json.dumps({
     "blender": ".".join(map(str, version)),
-    "engine": bpy.context.scene.render.engine,
+    "engine": engine,
     "input": src,
     "output": out,
     "changed": round(frac_changed, 5),
     "near_cracks": round(frac_near, 4),
+    "near_lines": round(frac_near_lines, 4),
     "line_pixels": int(lines.sum()),
+    "gap_pixels": int(gaps.sum()),
     "line_samples": samples,
     "ok": ok,
 }))

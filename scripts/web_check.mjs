@@ -4,7 +4,9 @@
 // crack LINES hidden (only the surface and its maps are judged); the check
 // is the one of scripts/render_check.py: at least 0.5% of the pixels change
 // and at least 90% of the changed pixels lie within 4 pixels of the visible
-// crack lines (projected; hidden parts removed with a depth pass).
+// cracks: the crack lines (projected; hidden parts removed with a depth
+// pass) and the visible gaps (faces of the crack_wall material). The share
+// near the lines alone is printed as near_lines.
 //   node scripts/web_check.mjs REFERENCE.glb OUTPUT.glb PREFIX [REF2 OUT2 PREFIX2 ...]
 // Writes PREFIX-web.png (the output's render) and PREFIX-web-diff.png
 // (changed pixels near crack lines red, away from them yellow, visible
@@ -34,7 +36,7 @@ const PAGE = `<!doctype html><html><body style="margin:0">
 import * as THREE from "three";
 import { GLTFLoader } from "three/addons/loaders/GLTFLoader.js";
 import { RoomEnvironment } from "three/addons/environments/RoomEnvironment.js";
-const W = 800, H = 600, NEAR_PX = 4, THRESHOLD = 0.08 * 255;
+const W = 800, H = 600, NEAR_PX = 4, THRESHOLD = 0.08 * 255, WALL = "crack_wall";
 const renderer = new THREE.WebGLRenderer({ antialias: false, preserveDrawingBuffer: true });
 renderer.setPixelRatio(1);
 renderer.setSize(W, H);
@@ -113,22 +115,47 @@ try {
       }
     }
   }
-  // Grow the line mask by NEAR_PX.
-  const near = new Uint8Array(W * H);
-  for (let y = 0; y < H; y++) for (let x = 0; x < W; x++) {
-    if (!mask[y * W + x]) continue;
-    for (let dy = -NEAR_PX; dy <= NEAR_PX; dy++) for (let dx = -NEAR_PX; dx <= NEAR_PX; dx++) {
-      if (dx * dx + dy * dy > NEAR_PX * NEAR_PX) continue;
-      const xx = x + dx, yy = y + dy;
-      if (xx >= 0 && yy >= 0 && xx < W && yy < H) near[yy * W + xx] = 1;
+  // The visible gaps: faces of the wall material (WALL), white on black.
+  // A gap wider than a few pixels is part of its crack, whose line runs
+  // along the gap's middle: its sides count as the crack's too.
+  sb.overrideMaterial = null;
+  sb.background = new THREE.Color(0, 0, 0);
+  const white = new THREE.MeshBasicMaterial({ color: 0xffffff, side: THREE.DoubleSide });
+  const black = new THREE.MeshBasicMaterial({ color: 0x000000, side: THREE.DoubleSide });
+  const saved = [];
+  sb.traverse((o) => {
+    if (!o.isMesh) return;
+    saved.push([o, o.material]);
+    const m = Array.isArray(o.material) ? o.material[0] : o.material;
+    o.material = m && m.name === WALL ? white : black;
+  });
+  renderer.render(sb, cam);
+  const pg = read();
+  saved.forEach(([o, m]) => (o.material = m));
+  const gap = new Uint8Array(W * H);
+  for (let y = 0; y < H; y++) for (let x = 0; x < W; x++) gap[y * W + x] = pg[4 * ((H - 1 - y) * W + x)] > 127 ? 1 : 0;
+  // Grow a mask by NEAR_PX.
+  const grow = (m) => {
+    const g = new Uint8Array(W * H);
+    for (let y = 0; y < H; y++) for (let x = 0; x < W; x++) {
+      if (!m[y * W + x]) continue;
+      for (let dy = -NEAR_PX; dy <= NEAR_PX; dy++) for (let dx = -NEAR_PX; dx <= NEAR_PX; dx++) {
+        if (dx * dx + dy * dy > NEAR_PX * NEAR_PX) continue;
+        const xx = x + dx, yy = y + dy;
+        if (xx >= 0 && yy >= 0 && xx < W && yy < H) g[yy * W + xx] = 1;
+      }
     }
-  }
-  let changed = 0, close = 0, linePx = 0;
+    return g;
+  };
+  const nearLines = grow(mask);
+  const near = grow(mask.map((v, i) => v | gap[i]));
+  let changed = 0, close = 0, closeLines = 0, linePx = 0, gapPx = 0;
   for (let y = 0; y < H; y++) for (let x = 0; x < W; x++) {
     const k = 4 * ((H - 1 - y) * W + x);
     const diff = Math.max(Math.abs(pa[k] - pb[k]), Math.abs(pa[k + 1] - pb[k + 1]), Math.abs(pa[k + 2] - pb[k + 2]));
     if (mask[y * W + x]) linePx++;
-    if (diff > THRESHOLD) { changed++; if (near[y * W + x]) close++; }
+    if (gap[y * W + x]) gapPx++;
+    if (diff > THRESHOLD) { changed++; if (near[y * W + x]) close++; if (nearLines[y * W + x]) closeLines++; }
   }
   // The difference as a picture: changed pixels near crack lines red,
   // changed pixels away from them yellow, crack lines blue.
@@ -145,9 +172,9 @@ try {
   }
   g2.putImageData(img, 0, 0);
   window.diffPng = canvas.toDataURL("image/png");
-  sb.overrideMaterial = null;
+  sb.background = new THREE.Color(0.8, 0.8, 0.85);
   renderer.render(sb, cam);
-  window.result = { changed: changed / (W * H), near_cracks: close / Math.max(changed, 1), line_pixels: linePx, line_samples: samples };
+  window.result = { changed: changed / (W * H), near_cracks: close / Math.max(changed, 1), near_lines: closeLines / Math.max(changed, 1), line_pixels: linePx, gap_pixels: gapPx, line_samples: samples };
 } catch (err) {
   window.result = { error: String(err && err.stack || err) };
 }

@@ -61,6 +61,24 @@ impl SimMesh {
         }
     }
 
+    /// Give the face corners `corners` a new wedge holding the weighted
+    /// combination of `sources` (weights summing to 1, as
+    /// [`WedgeAttributes::push_interpolated`](super::attributes::WedgeAttributes::push_interpolated));
+    /// the wedges they used keep their values for any other corner. The
+    /// surface and its connectivity are unchanged. Returns the new wedge.
+    pub fn rewedge_corners(
+        &mut self,
+        corners: &[HalfedgeId],
+        sources: &[(WedgeId, f64)],
+    ) -> WedgeId {
+        let w = self.wedges.push_interpolated(sources);
+        for h in corners {
+            self.he_wedge[h.idx()] = w.0;
+        }
+        self.bump();
+        w
+    }
+
     fn push_vertex(&mut self, p: [f64; 3], source: u32, parent: Option<u32>) -> u32 {
         let v = self.positions.len() as u32;
         self.positions.push(p);

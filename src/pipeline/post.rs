@@ -6,7 +6,7 @@ use super::Post;
 use crate::bridge::{write_back_with, SimEntry};
 use crate::post::distance::{crack_vertices, distance_field};
 use crate::post::walls::{build_walls_uncrossed, WallOptions, Walls};
-use crate::post::width::{displace, groove, turn_normals};
+use crate::post::width::{displace, groove, resample_moved_wedges, turn_normals};
 use crate::scene::{
     Geometry, Material, Primitive, RawAccessor, RawGeometry, Scene, TriGeometry, VertexAttribute,
 };
@@ -235,6 +235,13 @@ pub fn apply(
             r.segments.clone()
         };
         if moves {
+            // Gaps opened locally and grooves open over a texture that
+            // stays in place; cells that shrink whole (no gap band) carry
+            // theirs along.
+            if post.gap_band > 0.0 || groove_width > 0.0 {
+                let n = resample_moved_wedges(&mut e.sim, &positions);
+                detail.insert("resampled_corners".into(), json!(n));
+            }
             turn_normals(&mut e.sim, &positions);
             e.sim
                 .set_positions(&positions)

@@ -13,7 +13,8 @@
 //! shortened nodes and flipped triangles are counted.
 
 use crate::math::v3;
-use crate::mesh::{FaceId, SimMesh, VertexId};
+use crate::mesh::spatial::closest_on_triangle;
+use crate::mesh::{FaceId, HalfedgeId, SimMesh, VertexId, WedgeId};
 use crate::post::distance::{crack_vertices, distance_field};
 use crate::post::Post;
 
@@ -634,6 +635,63 @@ pub fn shut(mesh: &SimMesh, positions: &mut [[f64; 3]], nodes: &[VertexId]) {
     );
 }
 
+/// Keep the surface's attributes in place while its vertices slide: the
+/// corners of every vertex that moves from its rest position to
+/// `positions` get new wedges holding the values (UVs, normal, tangent,
+/// colours) the rest surface has where the vertex now lies, read in each
+/// wedge's own faces at rest (at the nearest point of the nearest of
+/// them). A gap or a groove then opens over a texture that stays where it
+/// was, instead of squeezing the texture beside the crack: on a
+/// high-contrast map (an emissive pattern, a glossy normal map) a squeeze
+/// shows as detail sliding sideways far wider than the gap. Call before
+/// moving the mesh to `positions` (and before [`turn_normals`]). Returns
+/// how many wedges were made.
+pub fn resample_moved_wedges(mesh: &mut SimMesh, positions: &[[f64; 3]]) -> usize {
+    // The corners of each moved vertex, by wedge (copies of a crack vertex
+    // may share a wedge; each copy gets its own values).
+    let mut corners: Vec<(u32, u32, u32)> = mesh
+        .halfedges()
+        .filter(|&h| positions[mesh.origin(h).idx()] != mesh.position(mesh.origin(h)))
+        .map(|h| (mesh.origin(h).0, mesh.wedge(h).0, h.0))
+        .collect();
+    corners.sort_unstable();
+    // Per wedge of a moved vertex: its corners and the values' sources.
+    type Update = (Vec<HalfedgeId>, Vec<(WedgeId, f64)>);
+    let mut updates: Vec<Update> = Vec::new();
+    for run in corners.chunk_by(|a, b| (a.0, a.1) == (b.0, b.1)) {
+        let q = positions[run[0].0 as usize];
+        // The face of the wedge nearest to the new position (the first
+        // in corner order on a tie), read at the nearest point of it.
+        let mut best: Option<(f64, [f64; 3], FaceId)> = None;
+        for &(_, _, h) in run {
+            let f = mesh.face(HalfedgeId(h));
+            let t = mesh.face_vertices(f).map(|u| mesh.position(u));
+            let (p, l) = closest_on_triangle(q, t);
+            let d = v3::norm(v3::sub(q, p));
+            if best.is_none_or(|(bd, _, _)| d < bd) {
+                best = Some((d, l, f));
+            }
+        }
+        let Some((_, l, f)) = best else { continue };
+        let sum = l[0] + l[1] + l[2];
+        if sum.is_nan() || sum <= 0.0 {
+            continue;
+        }
+        let sources = mesh
+            .face_halfedges(f)
+            .into_iter()
+            .zip(l)
+            .map(|(h, t)| (mesh.wedge(h), t / sum))
+            .collect();
+        updates.push((run.iter().map(|c| HalfedgeId(c.2)).collect(), sources));
+    }
+    // New wedges only: the sources keep their values while others read them.
+    for (hs, sources) in &updates {
+        mesh.rewedge_corners(hs, sources);
+    }
+    updates.len()
+}
+
 /// Turn the wedges' `NORMAL` (and `TANGENT` direction) values of every
 /// moved vertex by the rotation taking its rest normal to its normal at
 /// `positions`, so shading follows curled edges while hard edges stay hard.
@@ -1010,6 +1068,60 @@ mod tests {
                 x[0].abs() < 1e-9 && (x[1] + 1.0).abs() < 1e-9 && x[2].abs() < 1e-9,
                 "{x:?}"
             );
+        }
+    }
+
+    #[test]
+    fn moved_vertices_read_the_texture_where_they_now_lie() {
+        // A 4 x 4 plate whose UVs are its x and y: a texture fixed on the
+        // surface means a moved vertex's UV is its new x and y.
+        let (mut m, _) = crate::mesh::shapes::build(&crate::mesh::shapes::grid_input(4, 4));
+        let uv_of = |m: &SimMesh, v: VertexId| -> Vec<[f64; 2]> {
+            let ch = m.wedges().channel("uv").unwrap();
+            m.halfedges()
+                .filter(|&h| m.origin(h) == v)
+                .map(|h| {
+                    let x = ch.get(m.wedge(h));
+                    [x[0], x[1]]
+                })
+                .collect()
+        };
+        let find = |m: &SimMesh, p: [f64; 3]| m.vertices().find(|&v| m.position(v) == p).unwrap();
+        let (a, b, still) = (
+            find(&m, [2.0, 2.0, 0.0]),
+            find(&m, [1.0, 3.0, 0.0]),
+            find(&m, [3.0, 1.0, 0.0]),
+        );
+        let mut to = m.positions().to_vec();
+        to[a.idx()] = [2.3, 1.8, 0.0];
+        // Off the surface: read where it projects onto its faces.
+        to[b.idx()] = [1.2, 3.0, 0.4];
+        // Off the plate's border: read at the nearest point of the face
+        // nearest to containing it.
+        let c = find(&m, [4.0, 2.0, 0.0]);
+        to[c.idx()] = [4.5, 2.0, 0.0];
+        let n = resample_moved_wedges(&mut m, &to);
+        assert_eq!(n, 3, "one wedge per moved vertex");
+        for uv in uv_of(&m, c) {
+            assert!(
+                (uv[0] - 4.0).abs() < 1e-12 && (uv[1] - 2.0).abs() < 1e-12,
+                "{uv:?}"
+            );
+        }
+        for uv in uv_of(&m, a) {
+            assert!(
+                (uv[0] - 2.3).abs() < 1e-12 && (uv[1] - 1.8).abs() < 1e-12,
+                "{uv:?}"
+            );
+        }
+        for uv in uv_of(&m, b) {
+            assert!(
+                (uv[0] - 1.2).abs() < 1e-12 && (uv[1] - 3.0).abs() < 1e-12,
+                "{uv:?}"
+            );
+        }
+        for uv in uv_of(&m, still) {
+            assert_eq!(uv, [3.0, 1.0]);
         }
     }
 }
