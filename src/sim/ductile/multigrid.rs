@@ -150,8 +150,13 @@ impl Level {
             .zip(&self.smooth)
             .map(|(row, smooth)| block_inverse(&row[13], smooth))
             .collect();
+        // Nodes without a row (no material near them, or fixed) keep x = 0
+        // in the smoother; they are left out of the colours.
         let mut colours = vec![Vec::new(); 8];
         for n in 0..self.a.len() {
+            if self.smooth[n] == [0.0; 3] {
+                continue;
+            }
             let c = self.coords(n);
             colours[(c[0] % 2) + 2 * (c[1] % 2) + 4 * (c[2] % 2)].push(n);
         }
@@ -185,27 +190,40 @@ impl Level {
         acc
     }
 
-    /// `r = b - A x`.
+    /// `r = b - A x` (a node without a row: `b`).
     fn residual(&self, b: &[[f64; 3]], x: &[[f64; 3]], r: &mut [[f64; 3]]) {
         r.par_iter_mut()
             .with_min_len(MIN_LEN)
             .enumerate()
-            .for_each(|(n, out)| *out = self.row_residual(n, b, x, false));
+            .for_each(|(n, out)| {
+                *out = if self.smooth[n] == [0.0; 3] {
+                    b[n]
+                } else {
+                    self.row_residual(n, b, x, false)
+                }
+            });
     }
 
     /// One block Gauss-Seidel sweep over the colours in `order`: each node
     /// of a colour solves its own unknowns with its neighbours held, `x_n =
     /// D_n^-1 (b_n - sum_{m != n} A_nm x_m)`. Forward then backward is
     /// symmetric, so the V-cycle stays a valid CG preconditioner.
-    fn gauss_seidel(&self, b: &[[f64; 3]], x: &mut [[f64; 3]], order: &[usize]) {
-        for &colour in order {
+    /// With `from_zero` (x is zero on entry) the first colour's
+    /// neighbours are known to be zero and are not read.
+    fn gauss_seidel(&self, b: &[[f64; 3]], x: &mut [[f64; 3]], order: &[usize], from_zero: bool) {
+        for (i, &colour) in order.iter().enumerate() {
             let nodes = &self.colours[colour];
             let x_now: &[[f64; 3]] = x;
+            let zero = from_zero && i == 0;
             let new: Vec<[f64; 3]> = nodes
                 .par_iter()
                 .with_min_len(MIN_LEN / 8)
                 .map(|&n| {
-                    let acc = self.row_residual(n, b, x_now, true);
+                    let acc = if zero {
+                        b[n]
+                    } else {
+                        self.row_residual(n, b, x_now, true)
+                    };
                     let d = &self.diag_inv[n];
                     std::array::from_fn(|k| {
                         d[3 * k] * acc[0] + d[3 * k + 1] * acc[1] + d[3 * k + 2] * acc[2]
@@ -570,8 +588,8 @@ impl Multigrid {
             *v = [0.0; 3];
         }
         let mut r = vec![[0.0; 3]; b.len()];
-        for _ in 0..SWEEPS {
-            level.gauss_seidel(b, x, &FORWARD);
+        for sweep in 0..SWEEPS {
+            level.gauss_seidel(b, x, &FORWARD, sweep == 0);
         }
         level.residual(b, x, &mut r);
         // Restrict the residual, solve the coarse level, interpolate.
@@ -606,7 +624,7 @@ impl Multigrid {
             });
         });
         for _ in 0..SWEEPS {
-            level.gauss_seidel(b, x, &BACKWARD);
+            level.gauss_seidel(b, x, &BACKWARD, false);
         }
     }
 }
