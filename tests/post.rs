@@ -794,3 +794,44 @@ fn mud_gaps_are_cut_into_the_inputs_own_triangles() {
         }
     }
 }
+
+/// A gap opens over a texture that stays in place: `plate_jittered.obj`'s
+/// UVs are its x and z (`u = x + 0.5`, `v = 0.5 - z` in the OBJ, so
+/// `v = 0.5 + z` in glTF, whose v runs down the image), so after `mud`
+/// every vertex of the cracked surface, moved or not, must carry the UV of
+/// the place it now lies over. Vertices that kept their rest UVs while the
+/// gaps opened (the texture squeezed beside each gap) miss it by their move.
+#[test]
+fn gaps_open_over_a_texture_that_stays_in_place() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = common::fixture("plate_jittered.obj");
+    let out = dir.path().join("mud.glb");
+    let r = crack(&input, &out, &["--preset", "mud"]);
+    let resampled = r["meshes"][0]["post"]["resampled_corners"]
+        .as_u64()
+        .unwrap_or(0);
+    let verts = vertex_uvs(&out, "crack_wall");
+    // On the plate (a vertex pushed past its border reads the border's UV).
+    let (mut worst, mut missed, mut on_plate) = (0.0f32, 0usize, 0usize);
+    for (p, t) in &verts {
+        let [x, _, z] = p.map(f32::from_bits);
+        if x.abs() > 0.4999 || z.abs() > 0.4999 {
+            continue;
+        }
+        on_plate += 1;
+        let miss = (t[0] - (x + 0.5)).abs().max((t[1] - (0.5 + z)).abs());
+        worst = worst.max(miss);
+        missed += usize::from(miss > 1e-5);
+    }
+    eprintln!(
+        "{on_plate} vertices on the plate, {resampled} corners resampled, {missed} miss their UV by more than 1e-5, worst by {worst:e}"
+    );
+    assert!(resampled > 100, "{}", r["meshes"][0]["post"]);
+    // A few crack vertices at junctions slide across another crack of
+    // their own fan; they read the nearest point of their own side.
+    assert!(
+        (missed as f64) < 0.02 * on_plate as f64,
+        "{missed} of {on_plate} vertices miss their UV"
+    );
+    assert!(worst < 5e-3, "a vertex's UV misses its place by {worst}");
+}

@@ -672,7 +672,8 @@ pub fn resample_moved_wedges(mesh: &mut SimMesh, positions: &[[f64; 3]]) -> usiz
                 best = Some((d, l, f));
             }
         }
-        let Some((_, l, f)) = best else { continue };
+        let Some((_, _, f)) = best else { continue };
+        let (f, l) = walk_to(mesh, f, q);
         let sum = l[0] + l[1] + l[2];
         if sum.is_nan() || sum <= 0.0 {
             continue;
@@ -690,6 +691,46 @@ pub fn resample_moved_wedges(mesh: &mut SimMesh, positions: &[[f64; 3]]) -> usiz
         mesh.rewedge_corners(hs, sources);
     }
     updates.len()
+}
+
+/// Most faces [`walk_to`] crosses.
+const MAX_WALK: usize = 64;
+
+/// From face `f`, the face of the rest surface over which `q` lies and the
+/// barycentric coordinates there (of the nearest point of it): walk across
+/// the edge `q` lies beyond while that edge joins the faces without a seam
+/// (the same wedges on both sides) or a crack, so a vertex that slid past
+/// its own narrow faces reads the texture of the face it now lies over.
+fn walk_to(mesh: &SimMesh, mut f: FaceId, q: [f64; 3]) -> (FaceId, [f64; 3]) {
+    for _ in 0..MAX_WALK {
+        let t = mesh.face_vertices(f).map(|u| mesh.position(u));
+        // Barycentric coordinates of q projected onto the face's plane.
+        let (e0, e1, e2) = (v3::sub(t[1], t[0]), v3::sub(t[2], t[0]), v3::sub(q, t[0]));
+        let (d00, d01, d11) = (v3::dot(e0, e0), v3::dot(e0, e1), v3::dot(e1, e1));
+        let (d20, d21) = (v3::dot(e2, e0), v3::dot(e2, e1));
+        let det = d00 * d11 - d01 * d01;
+        if det.is_nan() || det <= 1e-24 * d00 * d11 {
+            break;
+        }
+        let y = (d11 * d20 - d01 * d21) / det;
+        let z = (d00 * d21 - d01 * d20) / det;
+        let l = [1.0 - y - z, y, z];
+        let k = (0..3).min_by(|&a, &b| l[a].total_cmp(&l[b])).unwrap_or(0);
+        if l[k] >= 0.0 {
+            break;
+        }
+        // The edge opposite corner k, from corner k + 1 to corner k + 2.
+        let h = mesh.face_halfedges(f)[(k + 1) % 3];
+        let Some(tw) = mesh.twin(h) else { break };
+        let seamless = mesh.wedge(h) == mesh.wedge(mesh.next(tw))
+            && mesh.wedge(mesh.next(h)) == mesh.wedge(tw);
+        if !seamless {
+            break;
+        }
+        f = mesh.face(tw);
+    }
+    let t = mesh.face_vertices(f).map(|u| mesh.position(u));
+    (f, closest_on_triangle(q, t).1)
 }
 
 /// Turn the wedges' `NORMAL` (and `TANGENT` direction) values of every
