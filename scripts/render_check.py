@@ -59,6 +59,15 @@ def bounds(objs):
     return (lo + hi) / 2, (hi - lo).length / 2
 
 
+def workbench_shading(scene, light, color_type):
+    """Workbench's lighting and colour source, without shadows or cavity."""
+    sh = scene.display.shading
+    sh.light = light
+    sh.color_type = color_type
+    sh.show_shadows = False
+    sh.show_cavity = False
+
+
 def render(path, centre, radius):
     scene = bpy.context.scene
     cam = bpy.data.objects.new("cam", bpy.data.cameras.new("cam"))
@@ -90,11 +99,7 @@ def render(path, centre, radius):
         scene.collection.objects.link(sun)
     else:
         scene.render.engine = "BLENDER_WORKBENCH"
-    sh = scene.display.shading
-    sh.light = "STUDIO"
-    sh.color_type = "TEXTURE"
-    sh.show_shadows = False
-    sh.show_cavity = False
+    workbench_shading(scene, "STUDIO", "TEXTURE")
     scene.render.resolution_x = W
     scene.render.resolution_y = H
     scene.render.resolution_percentage = 100
@@ -155,11 +160,7 @@ def gap_mask(cam, path):
     scene = bpy.context.scene
     scene.camera = cam
     scene.render.engine = "BLENDER_WORKBENCH"
-    sh = scene.display.shading
-    sh.light = "FLAT"
-    sh.color_type = "MATERIAL"
-    sh.show_shadows = False
-    sh.show_cavity = False
+    workbench_shading(scene, "FLAT", "MATERIAL")
     scene.world.color = (0.0, 0.0, 0.0)
     scene.view_settings.view_transform = "Standard"
     walls = 0
