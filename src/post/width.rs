@@ -638,9 +638,9 @@ pub fn shut(mesh: &SimMesh, positions: &mut [[f64; 3]], nodes: &[VertexId]) {
 /// Keep the surface's attributes in place while its vertices slide: the
 /// corners of every vertex that moves from its rest position to
 /// `positions` get new wedges holding the values (UVs, normal, tangent,
-/// colours) the rest surface has where the vertex now lies, read in each
-/// wedge's own faces at rest (at the nearest point of the nearest of
-/// them). A gap or a groove then opens over a texture that stays where it
+/// colours) the rest surface has where the vertex now lies: from the
+/// nearest of the wedge's own faces at rest, across edges without a seam
+/// or a crack to the face it lies over ([`walk_to`]). A gap or a groove then opens over a texture that stays where it
 /// was, instead of squeezing the texture beside the crack: on a
 /// high-contrast map (an emissive pattern, a glossy normal map) a squeeze
 /// shows as detail sliding sideways far wider than the gap. Call before
