@@ -640,8 +640,9 @@ pub fn shut(mesh: &SimMesh, positions: &mut [[f64; 3]], nodes: &[VertexId]) {
 /// `positions` get new wedges holding the values (UVs, normal, tangent,
 /// colours) the rest surface has where the vertex now lies: from the
 /// nearest of the wedge's own faces at rest, across edges without a seam
-/// or a crack to the face it lies over (`walk_to`). A gap or a groove then opens over a texture that stays where it
-/// was, instead of squeezing the texture beside the crack: on a
+/// or a crack to the face it lies over (`walk_to`). A gap or a groove then
+/// opens over a texture that stays where it was, instead of squeezing the
+/// texture beside the crack: on a
 /// high-contrast map (an emissive pattern, a glossy normal map) a squeeze
 /// shows as detail sliding sideways far wider than the gap. Call before
 /// moving the mesh to `positions` (and before [`turn_normals`]). Returns
