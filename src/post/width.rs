@@ -661,19 +661,18 @@ pub fn resample_moved_wedges(mesh: &mut SimMesh, positions: &[[f64; 3]]) -> usiz
     let mut updates: Vec<Update> = Vec::new();
     for run in corners.chunk_by(|a, b| (a.0, a.1) == (b.0, b.1)) {
         let q = positions[run[0].0 as usize];
-        // The face of the wedge nearest to the new position (the first
-        // in corner order on a tie), read at the nearest point of it.
-        let mut best: Option<(f64, [f64; 3], FaceId)> = None;
+        // The walk starts from the face of the wedge nearest to the new
+        // position (the first in corner order on a tie).
+        let mut best: Option<(f64, FaceId)> = None;
         for &(_, _, h) in run {
             let f = mesh.face(HalfedgeId(h));
             let t = mesh.face_vertices(f).map(|u| mesh.position(u));
-            let (p, l) = closest_on_triangle(q, t);
-            let d = v3::norm(v3::sub(q, p));
-            if best.is_none_or(|(bd, _, _)| d < bd) {
-                best = Some((d, l, f));
+            let d = v3::norm(v3::sub(q, closest_on_triangle(q, t).0));
+            if best.is_none_or(|(bd, _)| d < bd) {
+                best = Some((d, f));
             }
         }
-        let Some((_, _, f)) = best else { continue };
+        let Some((_, f)) = best else { continue };
         let (f, l) = walk_to(mesh, f, q);
         let sum = l[0] + l[1] + l[2];
         if sum.is_nan() || sum <= 0.0 {
