@@ -82,31 +82,88 @@ pub struct Lame {
     pub lambda: f64,
 }
 
-/// The signed singular value decomposition of `f` (rotations only).
+/// The signed singular value decomposition of `f` (rotations only): `f =
+/// U diag(sigma) V^T` with `U`, `V` rotations, `sigma` descending in
+/// magnitude and only `sigma[2]` possibly negative (an inverted element).
+/// `V` diagonalises `f^T f` by cyclic Jacobi rotations; `U` is the
+/// orthonormalised `f V` (as McAdams et al. compute it), completed to a
+/// right-handed frame where `f` loses rank.
 pub fn svd_rotations(f: &Matrix3<f64>) -> (Matrix3<f64>, [f64; 3], Matrix3<f64>) {
-    let svd = f.svd(true, true);
-    let (mut u, s, vt) = (
-        svd.u.expect("u"),
-        svd.singular_values,
-        svd.v_t.expect("v_t"),
-    );
-    let mut v = vt.transpose();
-    // Sort descending (nalgebra does not promise an order).
-    let mut idx = [0usize, 1, 2];
-    idx.sort_by(|&a, &b| s[b].total_cmp(&s[a]));
-    let mut sigma = idx.map(|i| s[i]);
-    u = Matrix3::from_columns(&idx.map(|i| u.column(i).into_owned()));
-    v = Matrix3::from_columns(&idx.map(|i| v.column(i).into_owned()));
-    if u.determinant() < 0.0 {
-        u.set_column(2, &(-u.column(2)));
-        sigma[2] = -sigma[2];
+    let mut s = f.transpose() * f;
+    let mut v = Matrix3::<f64>::identity();
+    let scale = s[(0, 0)] + s[(1, 1)] + s[(2, 2)];
+    for _ in 0..JACOBI_SWEEPS {
+        let off = s[(0, 1)].powi(2) + s[(0, 2)].powi(2) + s[(1, 2)].powi(2);
+        if off <= (1e-17 * scale).powi(2) || off == 0.0 {
+            break;
+        }
+        for (p, q) in [(0, 1), (0, 2), (1, 2)] {
+            let apq = s[(p, q)];
+            if apq == 0.0 {
+                continue;
+            }
+            let theta = (s[(q, q)] - s[(p, p)]) / (2.0 * apq);
+            let t = theta.signum() / (theta.abs() + (theta * theta + 1.0).sqrt());
+            let c = 1.0 / (t * t + 1.0).sqrt();
+            let sn = t * c;
+            // S <- J^T S J, V <- V J with J the rotation in the (p, q) plane.
+            for k in 0..3 {
+                let (skp, skq) = (s[(k, p)], s[(k, q)]);
+                s[(k, p)] = c * skp - sn * skq;
+                s[(k, q)] = sn * skp + c * skq;
+            }
+            for k in 0..3 {
+                let (spk, sqk) = (s[(p, k)], s[(q, k)]);
+                s[(p, k)] = c * spk - sn * sqk;
+                s[(q, k)] = sn * spk + c * sqk;
+            }
+            for k in 0..3 {
+                let (vkp, vkq) = (v[(k, p)], v[(k, q)]);
+                v[(k, p)] = c * vkp - sn * vkq;
+                v[(k, q)] = sn * vkp + c * vkq;
+            }
+        }
     }
+    // Columns of B = F V in descending length, V's with them.
+    let b = f * v;
+    let mut idx = [0usize, 1, 2];
+    let len2 = [0, 1, 2].map(|i| b.column(i).norm_squared());
+    idx.sort_by(|&i, &j| len2[j].total_cmp(&len2[i]));
+    let mut v = Matrix3::from_columns(&idx.map(|i| v.column(i).into_owned()));
     if v.determinant() < 0.0 {
         v.set_column(2, &(-v.column(2)));
-        sigma[2] = -sigma[2];
     }
-    (u, sigma, v)
+    let b = f * v;
+    // U: Gram-Schmidt on B's first two columns, the third their cross
+    // product; the singular values are B's columns along U's.
+    let tiny = 1e-30 * scale.max(1e-300);
+    let b0 = b.column(0).into_owned();
+    let u0 = if b0.norm_squared() > tiny {
+        b0.normalize()
+    } else {
+        Vector3::x()
+    };
+    let b1 = b.column(1).into_owned();
+    let w1 = b1 - u0 * u0.dot(&b1);
+    let u1 = if w1.norm_squared() > tiny {
+        w1.normalize()
+    } else {
+        // Rank one or less: any unit vector across u0.
+        let a = if u0.x.abs() < 0.9 {
+            Vector3::x()
+        } else {
+            Vector3::y()
+        };
+        (a - u0 * u0.dot(&a)).normalize()
+    };
+    let u2 = u0.cross(&u1);
+    let sigma = [u0.dot(&b0), u1.dot(&b1), u2.dot(&b.column(2))];
+    (Matrix3::from_columns(&[u0, u1, u2]), sigma, v)
 }
+
+/// Most Jacobi sweeps (they converge quadratically: three or four reach
+/// rounding).
+const JACOBI_SWEEPS: usize = 12;
 
 impl Element {
     /// The element at positions `x` with rest shape `rest`, weighted by

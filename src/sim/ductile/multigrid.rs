@@ -10,8 +10,16 @@
 //! after it. Gauss-Seidel converges on any SPD operator with no damping
 //! factor to tune, and on the notched block it halves the CG's iterations
 //! against the l1-Jacobi smoother it replaced. The CG needs a number of
-//! iterations nearly independent of the grid's resolution. The CG's own
-//! products stay matrix-free.
+//! iterations nearly independent of the grid's resolution.
+//!
+//! The finest level is the step's operator itself (in double precision):
+//! in a step that builds the cycle, the CG's products read its rows, a
+//! sparse product cheaper than the matrix-free one. The cycle reads its own
+//! copy of every level's rows, made exactly symmetric and rounded to single
+//! precision: it only preconditions, and reading rows is most of its time.
+//! [`Multigrid::refine`] assembles the finest level again and keeps the
+//! coarser ones (a valid preconditioner still, built in a fraction of the
+//! time).
 //!
 //! The sweep runs over eight colours (the parities of a node's three
 //! coordinates): no two nodes of a colour share a stencil, so each colour
@@ -23,6 +31,10 @@ use rayon::prelude::*;
 
 /// A 3 x 3 block, row-major.
 type Block = [f64; 9];
+
+/// A block as the cycle stores it: single precision (the cycle only
+/// preconditions, and reading its rows is most of its time).
+type CycleBlock = [f32; 9];
 
 /// Gauss-Seidel sweeps before and after each coarse correction.
 const SWEEPS: usize = 1;
@@ -36,10 +48,6 @@ const COARSEST_NODES: usize = 400;
 
 /// Fewest nodes a thread takes in a pass (small levels run on one).
 const MIN_LEN: usize = 1024;
-
-/// Tets assembled together (their stiffness computed in parallel, then
-/// added in order).
-const BATCH: usize = 8192;
 
 /// The stencil slot of a neighbour at offset `d` (each component -1, 0, 1).
 fn slot(d: [i64; 3]) -> usize {
@@ -59,17 +67,20 @@ fn offset(s: usize) -> [i64; 3] {
 struct Level {
     /// Nodes along each axis.
     dims: [usize; 3],
-    /// Each node's row: a block per neighbour slot.
-    a: Vec<[Block; 27]>,
     /// Each unknown's l1-Jacobi factor: 1 over its row's absolute sum, 0
     /// for an unknown without a row (fixed, or no material near it).
     smooth: Vec<[f64; 3]>,
-    /// The slots some row uses (the grid's tetrahedra couple a node to 14
-    /// of its 26 neighbours; coarse levels use all).
+    /// The slots the rows use, ascending (the grid's tetrahedra couple a
+    /// node to 14 of its 26 neighbours; coarse levels use all).
     slots: Vec<usize>,
-    /// The rows again, only the used slots' blocks, node after node: the
-    /// residual reads them in one pass (the full rows are 27 blocks wide).
+    /// The rows, only the used slots' blocks, node after node (a node's
+    /// row is `slots.len()` blocks from `n * slots.len()`). Kept for the
+    /// finest level (the CG's products) and until the next level is built
+    /// for the others.
     packed: Vec<Block>,
+    /// The rows as the cycle reads them: made exactly symmetric (each
+    /// block and its mirror averaged) and rounded to single precision.
+    cycle_rows: Vec<CycleBlock>,
     /// Each used slot's offset in node indices.
     slot_steps: Vec<i64>,
     /// Each node's diagonal block inverted over its unknowns with a row
@@ -91,6 +102,17 @@ impl Level {
         (c[2] * self.dims[1] + c[1]) * self.dims[0] + c[0]
     }
 
+    /// Node `n`'s row: its used slots' blocks.
+    /// Nodes on this level.
+    fn nodes(&self) -> usize {
+        self.dims.iter().product()
+    }
+
+    fn row(&self, n: usize) -> &[Block] {
+        let ns = self.slots.len();
+        &self.packed[n * ns..(n + 1) * ns]
+    }
+
     /// The neighbour of `n` in slot `s`, if inside the box.
     fn neighbour(&self, n: usize, s: usize) -> Option<usize> {
         let c = self.coords(n);
@@ -106,34 +128,72 @@ impl Level {
         Some(self.index(m))
     }
 
-    /// What the cycle reads, from the rows: the slots in use, the packed
-    /// rows, the l1-Jacobi factors (which unknowns have a row, and the
-    /// fallback of a diagonal block that cannot be inverted), the inverted
-    /// diagonal blocks and the colours.
-    fn set_smoother(&mut self) {
-        self.slots = (0..27)
-            .filter(|&s| self.a.iter().any(|row| row[s].iter().any(|&x| x != 0.0)))
-            .collect();
-        let [nx, ny, _] = self.dims;
-        self.slot_steps = self
-            .slots
+    /// A level of `dims` nodes whose rows use `slots` (ascending, with
+    /// the centre), before its rows are set.
+    fn empty(dims: [usize; 3], slots: Vec<usize>) -> Level {
+        let [nx, ny, _] = dims;
+        let slot_steps = slots
             .iter()
             .map(|&s| {
                 let d = offset(s);
                 d[0] + d[1] * nx as i64 + d[2] * (nx * ny) as i64
             })
             .collect();
-        self.packed = self
-            .a
+        Level {
+            dims,
+            smooth: Vec::new(),
+            slots,
+            packed: Vec::new(),
+            cycle_rows: Vec::new(),
+            slot_steps,
+            diag_inv: Vec::new(),
+            colours: Vec::new(),
+        }
+    }
+
+    /// What the cycle reads: its symmetric single-precision rows, the
+    /// l1-Jacobi factors (which unknowns have a row, and the fallback of a
+    /// diagonal block that cannot be inverted), the inverted diagonal
+    /// blocks and the colours.
+    fn set_smoother(&mut self) {
+        let ns = self.slots.len();
+        let centre = self
+            .slots
             .iter()
-            .flat_map(|row| self.slots.iter().map(|&s| row[s]))
+            .position(|&s| s == 13)
+            .expect("the rows hold their diagonal block");
+        // A_nm and A_mn^T differ in their last bits (sums in other orders):
+        // their mean keeps the forward-backward sweep exactly symmetric
+        // once rounded.
+        let mut at = [usize::MAX; 27];
+        for (i, &s) in self.slots.iter().enumerate() {
+            at[s] = i;
+        }
+        let last = self.nodes() as i64 - 1;
+        self.cycle_rows = (0..self.nodes() * ns)
+            .into_par_iter()
+            .with_min_len(MIN_LEN)
+            .map(|i| {
+                let (n, si) = (i / ns, i % ns);
+                let blk = &self.packed[i];
+                let mirror = at[26 - self.slots[si]];
+                let m = n as i64 + self.slot_steps[si];
+                if mirror == usize::MAX || m < 0 || m > last {
+                    return blk.map(|x| x as f32);
+                }
+                let other = &self.packed[m as usize * ns + mirror];
+                std::array::from_fn(|j| {
+                    let (k, l) = (j / 3, j % 3);
+                    (0.5 * (blk[j] + other[3 * l + k])) as f32
+                })
+            })
             .collect();
         self.smooth = self
-            .a
-            .par_iter()
+            .packed
+            .par_chunks(ns)
             .map(|row| {
                 std::array::from_fn(|k| {
-                    if row[13][4 * k] <= 0.0 {
+                    if row[centre][4 * k] <= 0.0 {
                         return 0.0;
                     }
                     let sum: f64 = row
@@ -145,15 +205,22 @@ impl Level {
             })
             .collect();
         self.diag_inv = self
-            .a
-            .par_iter()
+            .packed
+            .par_chunks(ns)
             .zip(&self.smooth)
-            .map(|(row, smooth)| block_inverse(&row[13], smooth))
+            .map(|(row, smooth)| {
+                let d = &row[centre];
+                let sym = std::array::from_fn(|j| {
+                    let (k, l) = (j / 3, j % 3);
+                    f64::from((0.5 * (d[j] + d[3 * l + k])) as f32)
+                });
+                block_inverse(&sym, smooth)
+            })
             .collect();
         // Nodes without a row (no material near them, or fixed) keep x = 0
         // in the smoother; they are left out of the colours.
         let mut colours = vec![Vec::new(); 8];
-        for n in 0..self.a.len() {
+        for n in 0..self.smooth.len() {
             if self.smooth[n] == [0.0; 3] {
                 continue;
             }
@@ -174,17 +241,31 @@ impl Level {
         x: &[[f64; 3]],
         off_diagonal: bool,
     ) -> [f64; 3] {
-        let ns = self.slots.len();
         let last = x.len() as i64 - 1;
         let mut acc = b[n];
-        let row = &self.packed[n * ns..(n + 1) * ns];
+        let ns = self.slots.len();
+        let row = &self.cycle_rows[n * ns..(n + 1) * ns];
         for (blk, &step) in row.iter().zip(&self.slot_steps) {
             if off_diagonal && step == 0 {
                 continue;
             }
             let y = x[neighbour_index(n, step, last)];
+            let blk = blk.map(f64::from);
             for k in 0..3 {
                 acc[k] -= blk[3 * k] * y[0] + blk[3 * k + 1] * y[1] + blk[3 * k + 2] * y[2];
+            }
+        }
+        acc
+    }
+
+    /// `sum_m A_nm x_m` over node `n`'s used slots in order.
+    fn row_product(&self, n: usize, x: &[[f64; 3]]) -> [f64; 3] {
+        let last = x.len() as i64 - 1;
+        let mut acc = [0.0; 3];
+        for (blk, &step) in self.row(n).iter().zip(&self.slot_steps) {
+            let y = x[neighbour_index(n, step, last)];
+            for k in 0..3 {
+                acc[k] += blk[3 * k] * y[0] + blk[3 * k + 1] * y[1] + blk[3 * k + 2] * y[2];
             }
         }
         acc
@@ -325,25 +406,15 @@ fn for_children(fine: &Level, cc: [usize; 3], mut f: impl FnMut(usize, f64)) {
 /// The Galerkin coarse level `P^T A P` of `fine`.
 fn coarsen(fine: &Level) -> Level {
     let dims = fine.dims.map(|n| n / 2 + 1);
-    let mut coarse = Level {
-        dims,
-        a: Vec::new(),
-        smooth: Vec::new(),
-        slots: Vec::new(),
-        packed: Vec::new(),
-        slot_steps: Vec::new(),
-        diag_inv: Vec::new(),
-        colours: Vec::new(),
-    };
+    let scratch = Level::empty(dims, Vec::new());
     let n_coarse: usize = dims.iter().product();
     let a: Vec<[Block; 27]> = (0..n_coarse)
         .into_par_iter()
         .map(|cn| {
-            let cc = coarse.coords(cn);
+            let cc = scratch.coords(cn);
             let mut row = [[0.0; 9]; 27];
             for_children(fine, cc, |i, wi| {
-                for &s in &fine.slots {
-                    let blk = &fine.a[i][s];
+                for (blk, &s) in fine.row(i).iter().zip(&fine.slots) {
                     if blk.iter().all(|&x| x == 0.0) {
                         continue;
                     }
@@ -363,9 +434,124 @@ fn coarsen(fine: &Level) -> Level {
             row
         })
         .collect();
-    coarse.a = a;
+    // The slots some row uses, and the centre whatever it holds.
+    let slots: Vec<usize> = (0..27)
+        .filter(|&s| s == 13 || a.iter().any(|row| row[s].iter().any(|&x| x != 0.0)))
+        .collect();
+    let mut coarse = Level::empty(dims, slots);
+    coarse.packed = a
+        .iter()
+        .flat_map(|row| coarse.slots.iter().map(|&s| row[s]))
+        .collect();
     coarse.set_smoother();
     coarse
+}
+
+/// The finest level: the tetrahedra's stiffness added into each node's
+/// row, the mass on the diagonal, the fixed unknowns' rows and columns left
+/// out. A tetrahedron adds only to the rows of its two planes of nodes
+/// (its cube's layer along z): the layers of one parity touch disjoint
+/// planes and are added in parallel, the even ones first, each in the
+/// tetrahedra's order, so every row's sum runs in a fixed order.
+fn assemble(op: &Operator<'_>) -> Level {
+    let [nx, ny, nz] = op.dims;
+    let plane = nx * ny;
+    let coords = |n: u32| {
+        let n = n as usize;
+        [n % nx, (n / nx) % ny, n / plane].map(|c| c as i64)
+    };
+    // Slot of corner `d` in corner `c`'s row, for corners at `cs`.
+    let corner_slot =
+        |cs: &[[i64; 3]; 4], c: usize, d: usize| slot(std::array::from_fn(|a| cs[d][a] - cs[c][a]));
+    let used = op
+        .tets
+        .par_iter()
+        .fold(
+            || [false; 27],
+            |mut used, t| {
+                let cs = t.map(coords);
+                for c in 0..4 {
+                    for d in 0..4 {
+                        used[corner_slot(&cs, c, d)] = true;
+                    }
+                }
+                used
+            },
+        )
+        .reduce(|| [false; 27], |a, b| std::array::from_fn(|s| a[s] || b[s]));
+    let slots: Vec<usize> = (0..27).filter(|&s| used[s] || s == 13).collect();
+    let mut at = [usize::MAX; 27];
+    for (i, &s) in slots.iter().enumerate() {
+        at[s] = i;
+    }
+    let ns = slots.len();
+    // The tetrahedra of each layer, in their order.
+    let n_layers = nz.saturating_sub(1).max(1);
+    let mut layers: Vec<Vec<usize>> = vec![Vec::new(); n_layers];
+    let plane_u32 = plane as u32;
+    for (e, t) in op.tets.iter().enumerate() {
+        let z = t.iter().map(|&n| n / plane_u32).min().unwrap_or(0) as usize;
+        layers[z.min(n_layers - 1)].push(e);
+    }
+    let mut level = Level::empty(op.dims, slots);
+    let mut packed = vec![[0.0; 9]; plane * nz * ns];
+    let add_layer = |z: usize, rows: &mut [Block]| {
+        let first = z * plane;
+        for &e in &layers[z] {
+            let t = &op.tets[e];
+            let k = (op.stiffness)(e);
+            let cs = t.map(coords);
+            for (c, &n) in t.iter().enumerate() {
+                for d in 0..4 {
+                    let s = at[corner_slot(&cs, c, d)];
+                    let out = &mut rows[(n as usize - first) * ns + s];
+                    for (o, x) in out.iter_mut().zip(&k[c][d]) {
+                        *o += x;
+                    }
+                }
+            }
+        }
+    };
+    // Even layers: planes (2i, 2i + 1); odd ones: (2i + 1, 2i + 2).
+    packed
+        .par_chunks_mut(2 * plane * ns)
+        .enumerate()
+        .for_each(|(i, rows)| {
+            if 2 * i < layers.len() {
+                add_layer(2 * i, rows);
+            }
+        });
+    if plane * ns < packed.len() {
+        packed[plane * ns..]
+            .par_chunks_mut(2 * plane * ns)
+            .enumerate()
+            .for_each(|(i, rows)| {
+                if 2 * i + 1 < layers.len() {
+                    add_layer(2 * i + 1, rows);
+                }
+            });
+    }
+    // The mass on the diagonal; the fixed unknowns' rows and columns left
+    // out.
+    let centre = at[13];
+    packed.par_chunks_mut(ns).enumerate().for_each(|(n, row)| {
+        for k in 0..3 {
+            row[centre][4 * k] += op.mass[n];
+        }
+        for (blk, &s) in row.iter_mut().zip(&level.slots) {
+            let m = level.neighbour(n, s);
+            for k in 0..3 {
+                for l in 0..3 {
+                    let off = m.is_none_or(|m| op.fixed[m][l]);
+                    if op.fixed[n][k] || off {
+                        blk[3 * k + l] = 0.0;
+                    }
+                }
+            }
+        }
+    });
+    level.packed = packed;
+    level
 }
 
 /// The coarsest level solved directly: a Cholesky factor over its
@@ -381,7 +567,7 @@ struct Dense {
 
 impl Dense {
     fn new(level: &Level) -> Dense {
-        let n_nodes = level.a.len();
+        let n_nodes = level.smooth.len();
         let mut id = vec![[usize::MAX; 3]; n_nodes];
         let mut dofs = Vec::new();
         for (n, (ids, smooth)) in id.iter_mut().zip(&level.smooth).enumerate() {
@@ -395,7 +581,7 @@ impl Dense {
         let m = dofs.len();
         let mut a = vec![0.0; m * m];
         for (row, &(n, k)) in dofs.iter().enumerate() {
-            for (s, blk) in level.a[n].iter().enumerate() {
+            for (blk, &s) in level.row(n).iter().zip(&level.slots) {
                 let Some(q) = level.neighbour(n, s) else {
                     continue;
                 };
@@ -503,56 +689,7 @@ pub struct Operator<'a> {
 impl Multigrid {
     /// Assemble the operator and build the levels.
     pub fn new(op: &Operator<'_>) -> Multigrid {
-        let n_nodes: usize = op.dims.iter().product();
-        let mut fine = Level {
-            dims: op.dims,
-            a: vec![[[0.0; 9]; 27]; n_nodes],
-            smooth: Vec::new(),
-            slots: Vec::new(),
-            packed: Vec::new(),
-            slot_steps: Vec::new(),
-            diag_inv: Vec::new(),
-            colours: Vec::new(),
-        };
-        for (b, chunk) in op.tets.chunks(BATCH).enumerate() {
-            let ks: Vec<[[Block; 4]; 4]> = (0..chunk.len())
-                .into_par_iter()
-                .map(|i| (op.stiffness)(b * BATCH + i))
-                .collect();
-            for (t, k) in chunk.iter().zip(&ks) {
-                for (c, &n) in t.iter().enumerate() {
-                    let nc = fine.coords(n as usize);
-                    for (d, &m) in t.iter().enumerate() {
-                        let mc = fine.coords(m as usize);
-                        let s = slot(std::array::from_fn(|a| mc[a] as i64 - nc[a] as i64));
-                        let out = &mut fine.a[n as usize][s];
-                        for (o, x) in out.iter_mut().zip(&k[c][d]) {
-                            *o += x;
-                        }
-                    }
-                }
-            }
-        }
-        // The mass on the diagonal; the fixed unknowns' rows and columns
-        // left out.
-        let mut a = std::mem::take(&mut fine.a);
-        a.par_iter_mut().enumerate().for_each(|(n, row)| {
-            for k in 0..3 {
-                row[13][4 * k] += op.mass[n];
-            }
-            for (s, blk) in row.iter_mut().enumerate() {
-                let m = fine.neighbour(n, s);
-                for k in 0..3 {
-                    for l in 0..3 {
-                        let off = m.is_none_or(|m| op.fixed[m][l]);
-                        if op.fixed[n][k] || off {
-                            blk[3 * k + l] = 0.0;
-                        }
-                    }
-                }
-            }
-        });
-        fine.a = a;
+        let mut fine = assemble(op);
         fine.set_smoother();
         let mut levels = vec![fine];
         loop {
@@ -565,11 +702,28 @@ impl Multigrid {
             levels.push(next);
         }
         let coarse = Dense::new(levels.last().expect("a level"));
-        // The cycle reads only the packed rows.
-        for level in &mut levels {
-            level.a = Vec::new();
+        // The cycle reads its own rows; the products read the finest's.
+        for level in levels.iter_mut().skip(1) {
+            level.packed = Vec::new();
         }
         Multigrid { levels, coarse }
+    }
+
+    /// The finest level assembled again from `op`, the coarser ones kept.
+    pub fn refine(&mut self, op: &Operator<'_>) {
+        let mut fine = assemble(op);
+        fine.set_smoother();
+        self.levels[0] = fine;
+    }
+
+    /// `ap = A p` with the finest level's rows (the operator it was built
+    /// from, fixed unknowns' rows and columns left out: zero there).
+    pub fn product(&self, p: &[[f64; 3]], ap: &mut [[f64; 3]]) {
+        let level = &self.levels[0];
+        ap.par_iter_mut()
+            .with_min_len(MIN_LEN)
+            .enumerate()
+            .for_each(|(n, out)| *out = level.row_product(n, p));
     }
 
     /// `z = B r`, one V-cycle from zero.

@@ -49,7 +49,8 @@ impl Ductile {
     /// kept until the material tears (which changes the operator where it
     /// matters most) or a solve takes a quarter more iterations than the
     /// first solve with it (any SPD cycle is a valid preconditioner; only the
-    /// count of iterations depends on its age).
+    /// count of iterations depends on its age). Returns whether it built
+    /// one: its finest level is then this step's operator.
     fn refresh_multigrid(
         &mut self,
         elements: &[Element],
@@ -57,28 +58,48 @@ impl Ductile {
         mass: &[f64],
         fixed: &[[bool; 3]],
         (cm, ck): (f64, f64),
-    ) {
-        if let Some(mg) = &self.mg {
-            if !mg.torn && mg.last <= mg.iterations + mg.iterations / 4 + 2 {
-                return;
-            }
+    ) -> bool {
+        let kept = self.mg.take();
+        let working = kept
+            .as_ref()
+            .is_some_and(|mg| mg.last <= mg.iterations + mg.iterations / 4 + 2);
+        if working && !kept.as_ref().is_some_and(|mg| mg.torn) {
+            self.mg = kept;
+            return false;
         }
         let cm_mass: Vec<f64> = mass.iter().map(|m| cm * m).collect();
         let stiffness = |e: usize| self.element_stiffness(elements, weights, e, ck);
-        let multigrid = Multigrid::new(&Operator {
+        let op = Operator {
             dims: self.grid.nodes_per_axis(),
             tets: &self.tets,
             stiffness: &stiffness,
             mass: &cm_mass,
             fixed,
-        });
-        self.mg = Some(KeptCycle {
-            multigrid,
-            iterations: usize::MAX,
-            last: 0,
-            torn: false,
-        });
+        };
+        let (cycle, fresh) = match kept {
+            // Torn since built, but solving as fast as when built: this
+            // step's operator on the finest level, the coarser ones kept.
+            Some(mut mg) if working => {
+                mg.multigrid.refine(&op);
+                mg.torn = false;
+                (mg, false)
+            }
+            _ => (
+                KeptCycle {
+                    multigrid: Multigrid::new(&op),
+                    iterations: usize::MAX,
+                    last: 0,
+                    torn: false,
+                },
+                true,
+            ),
+        };
+        self.mg = Some(cycle);
+        if !fresh {
+            return true;
+        }
         self.mg_builds += 1;
+        true
     }
 
     /// Tetrahedron `e`'s stiffness times `ck`, block `[c][d]` coupling
@@ -215,9 +236,10 @@ impl Ductile {
         let apply = |p: &[[f64; 3]], kp: &[[f64; 3]], i: usize| -> [f64; 3] {
             std::array::from_fn(|k| cm * mass[i] * p[i][k] + ck * kp[i][k])
         };
-        if self.params.multigrid {
-            self.refresh_multigrid(elements, weights, mass, &fixed, (cm, ck));
-        }
+        // A cycle built for this step holds its operator, assembled: the
+        // CG's products read it (a kept cycle's is an earlier step's).
+        let assembled = self.params.multigrid
+            && self.refresh_multigrid(elements, weights, mass, &fixed, (cm, ck));
         // r = b - A x on the free unknowns.
         let kx = self.stiffness_product(elements, weights, &x);
         let mut r: Vec<[f64; 3]> = (0..n)
@@ -231,6 +253,11 @@ impl Ductile {
         if cg::dot(&r, &r).sqrt() > 0.0 {
             let (mut z, mut p, mut ap) = (vec![[0.0; 3]; n], vec![[0.0; 3]; n], vec![[0.0; 3]; n]);
             let product = |p: &[[f64; 3]], ap: &mut [[f64; 3]]| -> f64 {
+                if assembled {
+                    let mg = &self.mg.as_ref().expect("a cycle built").multigrid;
+                    mg.product(p, ap);
+                    return cg::dot(p, ap);
+                }
                 let kp = self.stiffness_product(elements, weights, p);
                 ap.par_iter_mut().enumerate().for_each(|(i, out)| {
                     let full = apply(p, &kp, i);

@@ -82,6 +82,56 @@ fn the_block_is_closed_and_outward() {
     assert!(d[3] < 0.0, "{d:?}");
 }
 
+/// The decomposition rebuilds `F` from rotations, with singular values
+/// descending in magnitude and only the last negative, for general,
+/// inverted, flattened, rank-deficient, repeated and near-identity
+/// deformations.
+#[test]
+fn the_signed_decomposition_is_rotations_and_sorted_values() {
+    use nalgebra::Matrix3;
+    let mut seed = 11u64;
+    let mut rnd = || {
+        seed = seed
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+    };
+    let mut cases: Vec<Matrix3<f64>> = vec![
+        Matrix3::identity(),
+        Matrix3::zeros(),
+        Matrix3::from_diagonal(&nalgebra::Vector3::new(2.0, 2.0, 2.0)),
+        Matrix3::from_diagonal(&nalgebra::Vector3::new(1.0, 1.0, -1.0)),
+        Matrix3::from_diagonal(&nalgebra::Vector3::new(3.0, 1e-9, 0.0)),
+        Matrix3::new(1.0, 2.0, 3.0, 2.0, 4.0, 6.0, 3.0, 6.0, 9.0),
+        Matrix3::new(0.0, 1.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0),
+    ];
+    for _ in 0..200 {
+        cases.push(Matrix3::from_fn(|_, _| rnd()));
+        cases.push(Matrix3::identity() + Matrix3::from_fn(|_, _| 1e-7 * rnd()));
+    }
+    for f in cases {
+        let (u, sigma, v) = super::fem::svd_rotations(&f);
+        for r in [&u, &v] {
+            assert!(
+                (r.transpose() * r - Matrix3::identity()).norm() < 1e-12,
+                "{f}"
+            );
+            assert!((r.determinant() - 1.0).abs() < 1e-12, "{f}");
+        }
+        let back = u * Matrix3::from_diagonal(&nalgebra::Vector3::from(sigma)) * v.transpose();
+        assert!(
+            (back - f).norm() <= 1e-12 * f.norm().max(1.0),
+            "{f}: {back}"
+        );
+        assert!(
+            sigma[0] >= sigma[1] && sigma[1] >= sigma[2].abs(),
+            "{f}: {sigma:?}"
+        );
+        assert!(sigma[1] >= 0.0);
+        assert_eq!(sigma[2] < 0.0, f.determinant() < -1e-12, "{f}: {sigma:?}");
+    }
+}
+
 #[test]
 fn inside_fractions_match_sampling() {
     // A fixed sequence of level sets and points (a small LCG).
