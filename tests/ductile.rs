@@ -110,8 +110,64 @@ fn tear_lines_follow_each_pieces_border_and_surface_steps_are_refused() {
     let o = crack(&common::fixture("notched_block.obj"), &refused, &args);
     assert!(!o.status.success());
     let err = String::from_utf8_lossy(&o.stderr);
-    assert!(err.contains("post.width, post.bake"), "{err}");
+    assert!(err.contains("has no post.width (its output"), "{err}");
     assert!(!refused.exists());
+}
+
+/// `post.bake` on a torn real asset (spot, closed, textured): each piece's
+/// tear border is baked into maps of its own, the bake is a stage of the
+/// report, and the original surface keeps the input's UVs (inside the
+/// texture, as varied as the input's: no vertex reads another triangle's).
+#[test]
+fn a_torn_asset_bakes_its_tear_border_and_keeps_its_uvs() {
+    let Some(spot) = common::eval_data("obj/spot/spot_triangulated.obj") else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("spot.glb");
+    let mut args = COARSE.to_vec();
+    args.extend(["--set", "post.bake=true", "--set", "post.bake_size=256"]);
+    let o = crack(&spot, &out, &args);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let r = report(&out);
+    assert!(common::stages(&r).contains(&"bake".to_string()), "{r}");
+    let bakes = r["meshes"][0]["post"]["bake"]["pieces"].as_array().unwrap();
+    assert!(!bakes.is_empty(), "{r}");
+    let (_, _, images) = gltf::import(&out).unwrap();
+    assert!(!images.is_empty(), "baked maps");
+    if let Some(v) = common::validator() {
+        v.assert_clean(&out);
+    }
+    // Without the bake, TEXCOORD_0 is the input's own.
+    let plain = dir.path().join("plain.glb");
+    let o = crack(&spot, &plain, &COARSE);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let (doc, buffers, _) = gltf::import(&plain).unwrap();
+    let mut textured = 0;
+    for prim in doc.meshes().flat_map(|m| m.primitives()) {
+        if prim.material().name() == Some("tear_interior") {
+            continue;
+        }
+        let reader = prim.reader(|b| Some(&buffers[b.index()]));
+        let n = reader.read_positions().unwrap().count();
+        let own: Vec<[f32; 2]> = reader.read_tex_coords(0).unwrap().into_f32().collect();
+        assert!(
+            own.iter()
+                .all(|uv| uv.iter().all(|&x| (-1e-4..=1.0001).contains(&x))),
+            "UVs inside the input's texture"
+        );
+        let distinct: std::collections::BTreeSet<[u32; 2]> = own
+            .iter()
+            .map(|uv| uv.map(|x| (x * 1e4).round() as u32))
+            .collect();
+        assert!(
+            distinct.len() * 2 >= n,
+            "{} distinct UVs over {n} vertices",
+            distinct.len()
+        );
+        textured += 1;
+    }
+    assert!(textured >= 2, "each piece shows the input's surface");
 }
 
 #[test]

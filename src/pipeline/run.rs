@@ -230,7 +230,6 @@ fn tear_run(
         ("walls", post.walls),
         ("groove", post.grooves()),
         ("attributes", post.attributes),
-        ("bake", post.bake),
         ("keep_geometry", post.keep_geometry),
         ("cut_input", post.cut_input),
     ]
@@ -240,7 +239,7 @@ fn tear_run(
     .collect();
     if !surface_only.is_empty() {
         return Err(Error::Usage(format!(
-            "{}: model = \"ductile\" has no post.{} (its output is the torn solid, each piece its own node, with post.lines for the tear's border)",
+            "{}: model = \"ductile\" has no post.{} (its output is the torn solid, each piece its own node, with post.lines and post.bake for the tear's border)",
             input.display(),
             surface_only.join(", post.")
         )));
@@ -257,9 +256,18 @@ fn tear_run(
         })?;
     }
     let frames = config.frames.as_ref().map(|f| (f, config.output.as_path()));
-    let (torn, files) =
-        super::tear::tear_meshes(scene, entries, params_of, input, frames, post.lines)?;
-    stages.push(Stage::new("tear", t.elapsed().as_secs_f64()));
+    let (torn, files) = super::tear::tear_meshes(scene, entries, params_of, input, frames, post)?;
+    // The bake has its own stage, when it runs.
+    let bake: Option<f64> = post.bake.then(|| {
+        torn.iter()
+            .filter_map(|(_, v)| v["bake"]["seconds"].as_f64())
+            .sum()
+    });
+    let seconds = t.elapsed().as_secs_f64();
+    stages.push(Stage::new("tear", seconds - bake.unwrap_or(0.0)));
+    if let Some(b) = bake {
+        stages.push(Stage::new("bake", b));
+    }
     let after: usize = torn
         .iter()
         .map(|(_, v)| v["triangles"].as_u64().unwrap_or(0) as usize)

@@ -8,13 +8,14 @@
 use super::frames::Frames;
 use super::post::material;
 use crate::bridge::SimEntry;
+use crate::post::Post;
 use crate::scene::{Geometry, Mesh, Node, Primitive, Scene, TriGeometry, VertexAttribute};
 use crate::sim::ductile::surface::TornSurface;
 use crate::sim::ductile::{Ductile, DuctileParams, DuctileReport};
 use crate::sim::SimParams;
 use parry3d::math::Vector;
 use parry3d::query::PointQuery;
-use parry3d::shape::{FeatureId, TriMesh};
+use parry3d::shape::TriMesh;
 use serde_json::{json, Value};
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -25,16 +26,20 @@ pub type Torn = (Vec<(usize, Value)>, Vec<PathBuf>);
 
 /// Tear every mesh of `entries`; each mesh's report as JSON, and the
 /// time-lapse frames when `frames` asks for them (one torn mesh only).
+/// Each piece's tear border (where its torn faces meet the original
+/// surface) becomes its crack lines with `post.lines` and its baked crack
+/// maps with `post.bake`.
 ///
 /// # Errors
-/// A mesh that is open (with its boundary loops) or cannot be embedded.
+/// A mesh that is open (with its boundary loops) or cannot be embedded, or
+/// a bake that fails (naming the mesh).
 pub fn tear_meshes(
     scene: &mut Scene,
     entries: &[SimEntry],
     params_of: &[SimParams],
     input: &Path,
     frames: Option<(&Frames, &Path)>,
-    lines: bool,
+    post: &Post,
 ) -> crate::Result<Torn> {
     let mut out = Vec::new();
     let mut written = Vec::new();
@@ -109,23 +114,34 @@ pub fn tear_meshes(
         let torn_triangles = surface.torn.iter().filter(|&&t| t).count();
         let pieces = replace_mesh(scene, e.mesh_index, &d, &surface, &p.ductile);
         let mut tear_lines = 0;
-        if lines {
-            for (mesh, segments) in pieces.iter().zip(tear_borders(&d, &surface)) {
+        let mut bakes = Vec::new();
+        let mut bake_seconds = 0.0;
+        for (k, (mesh, segments)) in pieces.iter().zip(tear_borders(&d, &surface)).enumerate() {
+            if post.lines {
                 tear_lines += segments.len();
                 super::post::add_crack_lines(scene, *mesh, &segments, &[]);
             }
+            if post.bake && !segments.is_empty() {
+                let t = Instant::now();
+                let label = format!("{} (piece {k})", e.label);
+                let widths = vec![1.0; segments.len()];
+                let b = super::bake::bake_mesh(scene, *mesh, &label, &segments, &widths, post)?;
+                bake_seconds += t.elapsed().as_secs_f64();
+                bakes.push(b);
+            }
         }
-        out.push((
-            e.mesh_index,
-            json!({
-                "ductile": report,
-                "seconds": seconds,
-                "triangles": surface.triangles.len(),
-                "torn_triangles": torn_triangles,
-                "tear_line_segments": tear_lines,
-                "pieces": surface.pieces,
-            }),
-        ));
+        let mut detail = json!({
+            "ductile": report,
+            "seconds": seconds,
+            "triangles": surface.triangles.len(),
+            "torn_triangles": torn_triangles,
+            "tear_line_segments": tear_lines,
+            "pieces": surface.pieces,
+        });
+        if post.bake {
+            detail["bake"] = json!({ "seconds": bake_seconds, "pieces": bakes });
+        }
+        out.push((e.mesh_index, detail));
     }
     Ok((out, written))
 }
@@ -195,74 +211,90 @@ fn boundary_loops(e: &SimEntry) -> usize {
     loops
 }
 
-/// The input's triangles for projection: every triangle primitive's, with
-/// where each came from.
+/// The input's triangles for projection, one set per triangle primitive
+/// (a vertex reads its attributes from the primitive its triangle shows,
+/// whose triangle indices and layout they follow).
 struct Source {
-    mesh: TriMesh,
-    /// (primitive, triangle) per source triangle.
-    origin: Vec<(usize, usize)>,
+    /// Per primitive: its triangles (positions about `centre`, single
+    /// precision as the projection takes them), if it has any.
+    prims: Vec<Option<TriMesh>>,
     centre: [f64; 3],
 }
 
 impl Source {
     fn of(mesh: &Mesh) -> Option<Source> {
-        let mut pos = Vec::new();
-        let mut tris = Vec::new();
-        let mut origin = Vec::new();
-        for (pi, p) in mesh.primitives.iter().enumerate() {
-            if let Geometry::Triangles(t) = &p.geometry {
-                let base = pos.len() as u32;
-                pos.extend(t.positions.iter().map(|q| q.map(f64::from)));
-                for (ti, tri) in t.triangles.iter().enumerate() {
-                    tris.push(tri.map(|i| i + base));
-                    origin.push((pi, ti));
-                }
-            }
+        let all = mesh.primitives.iter().filter_map(|p| match &p.geometry {
+            Geometry::Triangles(t) => Some(t.positions.iter().map(|q| q.map(f64::from))),
+            Geometry::Raw(_) => None,
+        });
+        let pos: Vec<[f64; 3]> = all.flatten().collect();
+        if pos.is_empty() {
+            return None;
         }
         let (lo, hi) = crate::sim::ductile::grid::bounds(&pos);
         let centre: [f64; 3] = std::array::from_fn(|k| 0.5 * (lo[k] + hi[k]));
-        let v: Vec<Vector> = pos
+        let prims = mesh
+            .primitives
             .iter()
-            .map(|p| {
-                Vector::new(
-                    (p[0] - centre[0]) as f32,
-                    (p[1] - centre[1]) as f32,
-                    (p[2] - centre[2]) as f32,
-                )
+            .map(|p| match &p.geometry {
+                Geometry::Triangles(t) if !t.triangles.is_empty() => {
+                    let v: Vec<Vector> = t
+                        .positions
+                        .iter()
+                        .map(|p| {
+                            Vector::new(
+                                (f64::from(p[0]) - centre[0]) as f32,
+                                (f64::from(p[1]) - centre[1]) as f32,
+                                (f64::from(p[2]) - centre[2]) as f32,
+                            )
+                        })
+                        .collect();
+                    TriMesh::new(v, t.triangles.clone()).ok()
+                }
+                _ => None,
             })
             .collect();
-        let mesh = TriMesh::new(v, tris).ok()?;
-        Some(Source {
-            mesh,
-            origin,
-            centre,
-        })
+        Some(Source { prims, centre })
     }
 
-    /// The closest input point to `p`: (primitive, triangle, point).
-    fn project(&self, p: [f64; 3]) -> Option<(usize, usize, [f64; 3])> {
+    /// The closest point to `p` on primitive `pi`: (triangle, point).
+    fn project_in(&self, pi: usize, p: [f64; 3]) -> Option<(usize, [f64; 3])> {
+        let mesh = self.prims.get(pi)?.as_ref()?;
         let c = self.centre;
         let q = Vector::new(
             (p[0] - c[0]) as f32,
             (p[1] - c[1]) as f32,
             (p[2] - c[2]) as f32,
         );
-        let (proj, feature) = self.mesh.project_local_point_and_get_feature(q);
-        let tri = match feature {
-            FeatureId::Face(f) => f as usize,
-            _ => proj.subshape as usize,
-        };
-        let (pi, ti) = *self.origin.get(tri % self.origin.len().max(1))?;
+        // The triangle is the projection's sub-shape (its feature is the
+        // triangle's own face, vertex or edge).
+        let (proj, _) = mesh.project_local_point_and_get_feature(q);
         let x = proj.point;
         Some((
-            pi,
-            ti,
+            proj.subshape as usize,
             [
                 f64::from(x.x) + c[0],
                 f64::from(x.y) + c[1],
                 f64::from(x.z) + c[2],
             ],
         ))
+    }
+
+    /// The closest input point to `p` over all primitives: (primitive,
+    /// triangle, point); the first primitive on a tie.
+    fn project(&self, p: [f64; 3]) -> Option<(usize, usize, [f64; 3])> {
+        let mut best: Option<(usize, usize, [f64; 3])> = None;
+        let mut nearest = f64::INFINITY;
+        for pi in 0..self.prims.len() {
+            if let Some((ti, q)) = self.project_in(pi, p) {
+                let d = crate::math::v3::norm(crate::math::v3::sub(q, p));
+                if d < nearest {
+                    nearest = d;
+                    best = Some((pi, ti, q));
+                }
+            }
+        }
+        best
     }
 }
 
@@ -277,7 +309,9 @@ fn barycentric(t: [[f64; 3]; 3], p: [f64; 3]) -> [f64; 3] {
     }
     let b1 = dot(cross(d, e2), n) / nn;
     let b2 = dot(cross(e1, d), n) / nn;
-    [1.0 - b1 - b2, b1, b2].map(|w| w.clamp(0.0, 1.0))
+    let w = [1.0 - b1 - b2, b1, b2].map(|w| w.clamp(0.0, 1.0));
+    let sum = w[0] + w[1] + w[2];
+    w.map(|x| x / sum)
 }
 
 /// Replace mesh `mesh_index` by the torn surface: one primitive per input
@@ -342,7 +376,7 @@ fn replace_mesh(
                 .collect();
             let (template, material_index) = match group {
                 Some(pi) => (
-                    old.primitives.get(pi),
+                    old.primitives.get(pi).map(|p| (pi, p)),
                     old.primitives.get(pi).and_then(|p| p.material),
                 ),
                 None => (None, Some(tear_mat)),
@@ -351,7 +385,7 @@ fn replace_mesh(
             prims.push(Primitive {
                 material: material_index,
                 geometry: Geometry::Triangles(geo),
-                rest: template.map(|p| p.rest.clone()).unwrap_or_default(),
+                rest: template.map(|(_, p)| p.rest.clone()).unwrap_or_default(),
             });
         }
         meshes.push(prims);
@@ -430,7 +464,7 @@ fn piece_geometry(
     d: &Ductile,
     s: &TornSurface,
     tris: &[usize],
-    template: Option<&Primitive>,
+    template: Option<(usize, &Primitive)>,
     source: Option<&Source>,
     on_torn: &[bool],
 ) -> TriGeometry {
@@ -447,7 +481,7 @@ fn piece_geometry(
             })
         })
         .collect();
-    let tgeo = template.and_then(|p| match &p.geometry {
+    let tgeo = template.and_then(|(_, p)| match &p.geometry {
         Geometry::Triangles(t) => Some(t),
         Geometry::Raw(_) => None,
     });
@@ -479,7 +513,10 @@ fn piece_geometry(
         let rest_scene = d.to_scene(s.rest[vi]);
         // The input point this vertex shows, and its attributes there.
         let hit = match (tgeo, source) {
-            (Some(_), Some(src)) if !on_torn[vi] => src.project(rest_scene),
+            (Some(_), Some(src)) if !on_torn[vi] => {
+                let pi = template.map_or(0, |(pi, _)| pi);
+                src.project_in(pi, rest_scene).map(|(ti, q)| (pi, ti, q))
+            }
             _ => None,
         };
         let rest_m = hit.map_or(s.rest[vi], |(_, _, p)| d.to_metres(p));
@@ -569,5 +606,76 @@ fn fill_missing_normals(geo: &mut TriGeometry) {
             let n = crate::math::v3::unit(*a).unwrap_or([0.0, 0.0, 1.0]);
             data[3 * i..3 * i + 3].copy_from_slice(&n.map(|x| x as f32));
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::Primitive;
+
+    /// A vertex reads the attributes of the input point it projects to: on
+    /// a sphere of two primitives whose UVs are linear in the position,
+    /// every projection lands in the triangle it names, and the UVs
+    /// interpolated there are the linear function at that point.
+    #[test]
+    fn projections_name_their_own_primitive_and_triangle() {
+        let ico = crate::mesh::shapes::icosphere_input(2);
+        let uv_of = |p: [f64; 3]| [p[0] + 0.5 * p[1], p[2] - 0.25 * p[0]];
+        let half = ico.triangles.len() / 2;
+        let prim = |tris: &[[u32; 3]]| Primitive {
+            material: None,
+            geometry: Geometry::Triangles(TriGeometry {
+                positions: ico.positions.iter().map(|p| p.map(|x| x as f32)).collect(),
+                attributes: vec![VertexAttribute {
+                    semantic: "TEXCOORD_0".into(),
+                    components: 2,
+                    data: ico
+                        .positions
+                        .iter()
+                        .flat_map(|&p| uv_of(p).map(|x| x as f32))
+                        .collect(),
+                }],
+                triangles: tris.to_vec(),
+                ..Default::default()
+            }),
+            rest: Default::default(),
+        };
+        let mesh = Mesh {
+            name: None,
+            primitives: vec![prim(&ico.triangles[..half]), prim(&ico.triangles[half..])],
+            weights: None,
+            rest: Default::default(),
+        };
+        let source = Source::of(&mesh).expect("a source");
+        let mut used = [false; 2];
+        for i in 0..400 {
+            // Points around the sphere, inside and outside it.
+            let (a, b) = (i as f64 * 2.399_963, (i as f64 / 400.0) * 2.0 - 1.0);
+            let r = if i % 2 == 0 { 1.1 } else { 0.9 };
+            let s = (1.0 - b * b).sqrt();
+            let p = [r * s * a.cos(), r * s * a.sin(), r * b];
+            let (pi, ti, q) = source.project(p).expect("a projection");
+            used[pi] = true;
+            let Geometry::Triangles(t) = &mesh.primitives[pi].geometry else {
+                unreachable!()
+            };
+            let corners = t.triangles[ti];
+            let w = barycentric(corners.map(|c| t.positions[c as usize].map(f64::from)), q);
+            let uv = t.attribute("TEXCOORD_0").expect("uvs");
+            let got: [f64; 2] = std::array::from_fn(|k| {
+                (0..3)
+                    .map(|j| w[j] * f64::from(uv.data[2 * corners[j] as usize + k]))
+                    .sum()
+            });
+            let want = uv_of(q);
+            for k in 0..2 {
+                assert!(
+                    (got[k] - want[k]).abs() < 1e-5,
+                    "point {p:?}: primitive {pi} triangle {ti} gives {got:?}, {want:?} at {q:?}"
+                );
+            }
+        }
+        assert!(used[0] && used[1], "both primitives are found");
     }
 }
