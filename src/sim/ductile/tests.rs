@@ -82,6 +82,16 @@ fn the_block_is_closed_and_outward() {
     assert!(d[3] < 0.0, "{d:?}");
 }
 
+/// A fixed sequence of numbers in [0, 1) from `seed` (a small LCG).
+fn lcg(mut seed: u64) -> impl FnMut() -> f64 {
+    move || {
+        seed = seed
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (seed >> 11) as f64 / (1u64 << 53) as f64
+    }
+}
+
 /// The decomposition rebuilds `F` from rotations, with singular values
 /// descending in magnitude and only the last negative, for general,
 /// inverted, flattened, rank-deficient, repeated and near-identity
@@ -89,13 +99,8 @@ fn the_block_is_closed_and_outward() {
 #[test]
 fn the_signed_decomposition_is_rotations_and_sorted_values() {
     use nalgebra::Matrix3;
-    let mut seed = 11u64;
-    let mut rnd = || {
-        seed = seed
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5
-    };
+    let mut uniform = lcg(11);
+    let mut rnd = || uniform() - 0.5;
     let mut cases: Vec<Matrix3<f64>> = vec![
         Matrix3::identity(),
         Matrix3::zeros(),
@@ -134,14 +139,8 @@ fn the_signed_decomposition_is_rotations_and_sorted_values() {
 
 #[test]
 fn inside_fractions_match_sampling() {
-    // A fixed sequence of level sets and points (a small LCG).
-    let mut s = 12345u64;
-    let mut rnd = || {
-        s = s
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        (s >> 11) as f64 / (1u64 << 53) as f64
-    };
+    // A fixed sequence of level sets and points.
+    let mut rnd = lcg(12345);
     for _ in 0..40 {
         let phi = [0; 4].map(|_| rnd() * 2.0 - 1.0);
         let mut inside = 0;
@@ -340,13 +339,8 @@ fn the_multigrid_cycle_is_symmetric_and_positive() {
     d.implicit_step(0.05, &weights, &elements, &mass);
     let mg = &d.mg.as_ref().expect("a cycle").multigrid;
     let n = d.x.len();
-    let mut seed = 7u64;
-    let mut rnd = || {
-        seed = seed
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5
-    };
+    let mut uniform = lcg(7);
+    let mut rnd = || uniform() - 0.5;
     // Free unknowns: nodes with material that are not pulled.
     let free: Vec<bool> = (0..n).map(|i| mass[i] > 0.0 && d.pulled[i] == 0).collect();
     let mut vector = || -> Vec<[f64; 3]> {
