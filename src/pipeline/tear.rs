@@ -449,7 +449,11 @@ fn tear_borders(d: &Ductile, s: &TornSurface) -> Vec<Vec<[[f64; 3]; 2]>> {
         for k in 0..3 {
             let (a, b) = (t[k], t[(k + 1) % 3]);
             if sides[&(a.min(b), a.max(b))][0] > 0 {
-                let at = |v: u32| d.to_scene(s.positions[v as usize]);
+                // Where the torn faces' vertices are (`piece_geometry`).
+                let at = |v: u32| {
+                    let v = v as usize;
+                    d.to_scene(d.deform(s.tet_of[v] as usize, s.rest[v]))
+                };
                 out[piece as usize].push([at(a), at(b)]);
             }
         }
@@ -512,14 +516,19 @@ fn piece_geometry(
         let vi = v as usize;
         let rest_scene = d.to_scene(s.rest[vi]);
         // The input point this vertex shows, and its attributes there.
+        // A vertex on the tear's border keeps its place (the torn faces
+        // share it) but shows the input's attributes there too.
         let hit = match (tgeo, source) {
-            (Some(_), Some(src)) if !on_torn[vi] => {
+            (Some(_), Some(src)) => {
                 let pi = template.map_or(0, |(pi, _)| pi);
                 src.project_in(pi, rest_scene).map(|(ti, q)| (pi, ti, q))
             }
             _ => None,
         };
-        let rest_m = hit.map_or(s.rest[vi], |(_, _, p)| d.to_metres(p));
+        let rest_m = match hit {
+            Some((_, _, p)) if !on_torn[vi] => d.to_metres(p),
+            _ => s.rest[vi],
+        };
         let tet = s.tet_of[vi] as usize;
         let now = d.to_scene(d.deform(tet, rest_m));
         positions.push(now.map(|x| x as f32));

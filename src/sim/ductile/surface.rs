@@ -2,7 +2,9 @@
 //! tetrahedron (marching tetrahedra, one vertex per cut grid edge, so the
 //! surface is closed), mapped through the tetrahedron's deformation. Each
 //! triangle is on the original surface or on the torn surface (where the
-//! material was inside at the start), and belongs to one piece.
+//! material was inside at the start), and belongs to one piece. The border
+//! between the two runs along an iso-line of the start's level set, not
+//! along the triangles' edges: triangles it crosses are split on it.
 
 use super::fem::edges;
 use super::Ductile;
@@ -50,6 +52,11 @@ impl Ductile {
     pub fn surface(&self, torn_depth: f64) -> TornSurface {
         let mut s = TornSurface::default();
         let mut vertex_of: HashMap<(u32, u32), u32> = HashMap::new();
+        // Per vertex: the start's level set there plus `torn_depth`
+        // (negative: torn).
+        let mut start: Vec<f64> = Vec::new();
+        // Per triangle: the tetrahedron it was cut from.
+        let mut tet_of_triangle: Vec<u32> = Vec::new();
         for (e, t) in self.tets.iter().enumerate() {
             let phi = t.map(|n| self.phi[n as usize]);
             let neg: Vec<usize> = (0..4).filter(|&i| phi[i] < 0.0).collect();
@@ -70,6 +77,8 @@ impl Ductile {
                     s.rest.push(lerp(&self.rest_x));
                     s.positions.push(lerp(&self.x));
                     s.tet_of.push(e as u32);
+                    let (sa, sb) = (self.phi0[key.0 as usize], self.phi0[key.1 as usize]);
+                    start.push(sa + w * (sb - sa) + torn_depth);
                     (s.rest.len() - 1) as u32
                 })
             };
@@ -92,7 +101,6 @@ impl Ductile {
                     .fold(nalgebra::Vector3::zeros(), |acc, (g, p)| acc + g * p);
                 [v[0], v[1], v[2]]
             };
-            let phi0 = t.map(|n| self.phi0[n as usize]);
             // Orientation from the corners moved off the nodes (a zero on a
             // node makes triangles of no area, whose normal says nothing).
             let edge_pairs: Vec<(usize, usize)> = match neg.len() {
@@ -121,14 +129,11 @@ impl Ductile {
                 if crate::math::v3::dot(n, grad) < 0.0 {
                     tri.swap(1, 2);
                 }
-                let [a, b, c] = tri.map(|v| s.rest[v as usize]);
-                // The start's level set at the triangle's centre.
-                let centre: [f64; 3] = std::array::from_fn(|k| (a[k] + b[k] + c[k]) / 3.0);
-                let start = self.interpolate(e, &phi0, centre);
                 s.triangles.push(tri);
-                s.torn.push(start < -torn_depth);
+                tet_of_triangle.push(e as u32);
             }
         }
+        self.split_on_the_border(&mut s, &mut start, &tet_of_triangle);
         let (piece, pieces) = pieces(&s.triangles, s.rest.len());
         // Slivers of rounding (pieces enclosing less than `SLIVER` of a
         // cube) are dropped; the rest are numbered again in order.
@@ -169,14 +174,61 @@ impl Ductile {
         s
     }
 
-    /// The linear interpolation of node values `v` of tetrahedron `e` at
-    /// rest point `p`.
-    fn interpolate(&self, e: usize, v: &[f64; 4], p: [f64; 3]) -> f64 {
-        let t = self.tets[e];
-        let x0 = self.rest_x[t[0] as usize];
-        let d = nalgebra::Vector3::new(p[0] - x0[0], p[1] - x0[1], p[2] - x0[2]);
-        let l = self.rest[e].bm * d;
-        v[0] * (1.0 - l[0] - l[1] - l[2]) + v[1] * l[0] + v[2] * l[1] + v[3] * l[2]
+    /// Class each triangle torn or original by `start` at its corners
+    /// (negative: torn), splitting those with corners on both sides along
+    /// the zero line of `start` (linear along each edge, one new vertex per
+    /// cut edge, shared by both its triangles: the surface stays closed).
+    /// A value within a thousandth of a cube of zero counts as original, so
+    /// no cut falls on a corner.
+    /// A new vertex is mapped by its triangle's tetrahedron, which holds
+    /// its edge.
+    fn split_on_the_border(&self, s: &mut TornSurface, start: &mut Vec<f64>, tets: &[u32]) {
+        let snap = 1e-3 * self.grid.h;
+        for g in start.iter_mut() {
+            if g.abs() < snap {
+                *g = snap;
+            }
+        }
+        let mut cut_of: HashMap<(u32, u32), u32> = HashMap::new();
+        let triangles = std::mem::take(&mut s.triangles);
+        for (tri, &e) in triangles.into_iter().zip(tets) {
+            let torn = tri.map(|v| start[v as usize] < 0.0);
+            if torn[0] == torn[1] && torn[1] == torn[2] {
+                s.triangles.push(tri);
+                s.torn.push(torn[0]);
+                continue;
+            }
+            // The corner alone on its side first, the order kept.
+            let i = (0..3)
+                .find(|&i| torn[i] != torn[(i + 1) % 3] && torn[i] != torn[(i + 2) % 3])
+                .expect("one corner alone");
+            let [a, b, c] = [tri[i], tri[(i + 1) % 3], tri[(i + 2) % 3]];
+            let mut cut = |p: u32, q: u32| -> u32 {
+                *cut_of.entry((p.min(q), p.max(q))).or_insert_with(|| {
+                    let (p, q) = (p.min(q), p.max(q));
+                    let (gp, gq) = (start[p as usize], start[q as usize]);
+                    let w = gp / (gp - gq);
+                    let lerp = |x: &[[f64; 3]]| {
+                        let (u, v) = (x[p as usize], x[q as usize]);
+                        [0, 1, 2].map(|k| u[k] + w * (v[k] - u[k]))
+                    };
+                    let (rest, now) = (lerp(&s.rest), lerp(&s.positions));
+                    s.rest.push(rest);
+                    s.positions.push(now);
+                    s.tet_of.push(e);
+                    start.push(snap);
+                    (s.rest.len() - 1) as u32
+                })
+            };
+            let (ab, ac) = (cut(a, b), cut(a, c));
+            let alone = torn[i];
+            s.triangles.push([a, ab, ac]);
+            s.torn.push(alone);
+            s.triangles.push([ab, b, c]);
+            s.torn.push(!alone);
+            s.triangles.push([ab, c, ac]);
+            s.torn.push(!alone);
+        }
     }
 }
 

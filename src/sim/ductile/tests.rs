@@ -656,6 +656,53 @@ fn the_torn_surface_is_closed_and_in_pieces() {
     assert!(s.pieces >= 2);
 }
 
+/// The border between the torn and the original surface follows an
+/// iso-line of the start's level set: no saw teeth at the grid's scale.
+/// Walking along it, the median turn from one border edge to the next is
+/// small (a border along triangle edges turns by 60 degrees or more at
+/// every other vertex).
+#[test]
+fn the_tear_border_is_smooth() {
+    let (_, _, d) = pull(&params(16), 1.0);
+    let s = d.surface(0.25 * d.grid.h);
+    let mut sides: std::collections::HashMap<(u32, u32), [usize; 2]> = Default::default();
+    for (t, &torn) in s.triangles.iter().zip(&s.torn) {
+        for k in 0..3 {
+            let (a, b) = (t[k], t[(k + 1) % 3]);
+            sides.entry((a.min(b), a.max(b))).or_default()[usize::from(torn)] += 1;
+        }
+    }
+    let mut around: std::collections::HashMap<u32, Vec<u32>> = Default::default();
+    for (&(a, b), n) in &sides {
+        if n[0] > 0 && n[1] > 0 {
+            around.entry(a).or_default().push(b);
+            around.entry(b).or_default().push(a);
+        }
+    }
+    let mut turns: Vec<f64> = around
+        .iter()
+        .filter(|(_, n)| n.len() == 2)
+        .map(|(&v, n)| {
+            let p = |i: u32| s.rest[i as usize];
+            let (u, w) = (
+                crate::math::v3::sub(p(v), p(n[0])),
+                crate::math::v3::sub(p(n[1]), p(v)),
+            );
+            let c =
+                crate::math::v3::dot(u, w) / (crate::math::v3::norm(u) * crate::math::v3::norm(w));
+            c.clamp(-1.0, 1.0).acos().to_degrees()
+        })
+        .collect();
+    assert!(turns.len() > 20, "{} border vertices", turns.len());
+    turns.sort_by(f64::total_cmp);
+    let median = turns[turns.len() / 2];
+    eprintln!(
+        "tear border: {} vertices, median turn {median:.1} degrees",
+        turns.len()
+    );
+    assert!(median < 30.0, "median turn {median:.1} degrees");
+}
+
 /// A grid whose nodes fall on the block's faces (40 cubes along its 2
 /// units: the sign of a node on a face is rounding) starts as one piece.
 #[test]
