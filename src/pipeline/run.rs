@@ -257,16 +257,13 @@ fn tear_run(
     }
     let frames = config.frames.as_ref().map(|f| (f, config.output.as_path()));
     let (torn, files) = super::tear::tear_meshes(scene, entries, params_of, input, frames, post)?;
-    // The bake has its own stage, when it runs.
-    let bake: Option<f64> = post.bake.then(|| {
-        torn.iter()
-            .filter_map(|(_, v)| v["bake"]["seconds"].as_f64())
-            .sum()
-    });
-    let seconds = t.elapsed().as_secs_f64();
-    stages.push(Stage::new("tear", seconds - bake.unwrap_or(0.0)));
-    if let Some(b) = bake {
-        stages.push(Stage::new("bake", b));
+    let bake: f64 = torn
+        .iter()
+        .filter_map(|(_, v)| v["bake"]["seconds"].as_f64())
+        .sum();
+    stages.push(Stage::new("tear", t.elapsed().as_secs_f64() - bake));
+    if post.bake {
+        stages.push(Stage::new("bake", bake));
     }
     let after: usize = torn
         .iter()

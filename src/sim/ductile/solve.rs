@@ -76,29 +76,25 @@ impl Ductile {
             mass: &cm_mass,
             fixed,
         };
-        let (cycle, fresh) = match kept {
+        let cycle = match kept {
             // Torn since built, but solving as fast as when built: this
             // step's operator on the finest level, the coarser ones kept.
             Some(mut mg) if working => {
                 mg.multigrid.refine(&op);
                 mg.torn = false;
-                (mg, false)
+                mg
             }
-            _ => (
-                KeptCycle {
-                    multigrid: Multigrid::new(&op),
-                    iterations: usize::MAX,
-                    last: 0,
-                    torn: false,
-                },
-                true,
-            ),
+            _ => KeptCycle {
+                multigrid: Multigrid::new(&op),
+                iterations: usize::MAX,
+                last: 0,
+                torn: false,
+            },
         };
         self.mg = Some(cycle);
-        if !fresh {
-            return true;
+        if !working {
+            self.mg_builds += 1;
         }
-        self.mg_builds += 1;
         true
     }
 
