@@ -35,6 +35,10 @@ use std::collections::HashMap;
 /// of rounding along the surface.
 pub const SLIVER: f64 = 1e-3;
 
+/// The inside fraction from which the tetrahedra around a node outside
+/// tie their pieces together, for the multigrid's coarse levels.
+const BRIDGE: f64 = 0.1;
+
 /// What one step did.
 #[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
 pub struct StepReport {
@@ -470,16 +474,47 @@ impl Ductile {
             * self.length
     }
 
-    /// The elastic step: at most `dt`, no node moving more than `cfl`
-    /// cells, and the torn front no more than `tear_cells`.
+    /// The fastest any material moves (m/s): the nodes inside, and the
+    /// points where the surface crosses an edge from a node inside to one
+    /// outside (a node outside carries material only up to there). A node
+    /// far outside a cut tetrahedron can move fast with next to no
+    /// material behind it (a torn sliver snapping back); the surface and
+    /// the material move only a fraction of that.
+    fn material_speed(&self) -> f64 {
+        let speed = |v: [f64; 3]| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+        (0..self.x.len())
+            .into_par_iter()
+            .map(|b| {
+                let phi_b = self.phi[b];
+                if phi_b < 0.0 {
+                    return speed(self.v[b]);
+                }
+                let mut fastest = 0.0f64;
+                for &(e, _) in &self.node_tets[b] {
+                    for &a in &self.tets[e as usize] {
+                        let phi_a = self.phi[a as usize];
+                        if phi_a < 0.0 {
+                            let t = phi_a / (phi_a - phi_b);
+                            let (va, vb) = (self.v[a as usize], self.v[b]);
+                            let v = std::array::from_fn(|k| va[k] + t * (vb[k] - va[k]));
+                            fastest = fastest.max(speed(v));
+                        }
+                    }
+                }
+                fastest
+            })
+            .reduce(|| 0.0, f64::max)
+    }
+
+    /// The elastic step: at most `dt`, no material moving more than `cfl`
+    /// cells ([`Ductile::material_speed`]), and the torn front no more
+    /// than `tear_cells`.
     fn cfl_step(&self, psi: &[f64]) -> f64 {
         let p = &self.params;
         let h = self.grid.h;
         let vmax = self
-            .v
-            .iter()
-            .map(|v| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt())
-            .fold(self.params.pull.speed * self.length, f64::max);
+            .material_speed()
+            .max(self.params.pull.speed * self.length);
         let front = self.front_speed(psi).max(1e-300);
         p.dt.min(p.cfl * h / vmax.max(1e-300))
             .min(p.tear_cells * h / front)
@@ -558,8 +593,13 @@ impl Ductile {
         report
     }
 
-    /// Pieces of material.
-    pub fn fragments(&self) -> usize {
+    /// Each tetrahedron's piece (the root of its union; `u32::MAX` for
+    /// one without a node inside) and the material each piece holds.
+    /// Tetrahedra sharing a node inside are one piece; with `bridge` < 1,
+    /// so are those sharing a node outside whose inside fractions are
+    /// both at least `bridge` (material there holds the pieces together
+    /// through that node).
+    fn piece_roots(&self, bridge: f64) -> (Vec<u32>, HashMap<u32, f64>) {
         let inside: Vec<bool> = self.phi.iter().map(|&p| p < 0.0).collect();
         let mut parent: Vec<u32> = (0..self.tets.len() as u32).collect();
         fn find(p: &mut [u32], mut x: u32) -> u32 {
@@ -571,30 +611,88 @@ impl Ductile {
         }
         // The material in a tetrahedron is convex (phi is linear in it):
         // tetrahedra sharing an inside node are one piece.
+        let mut joined: Vec<u32> = Vec::new();
         for (n, ts) in self.node_tets.iter().enumerate() {
-            if !inside[n] {
-                continue;
+            joined.clear();
+            if inside[n] {
+                joined.extend(ts.iter().map(|&(e, _)| e));
+            } else if bridge < 1.0 {
+                joined.extend(
+                    ts.iter()
+                        .map(|&(e, _)| e)
+                        .filter(|&e| self.inside(e as usize) >= bridge),
+                );
             }
-            for w in ts.windows(2) {
-                let (a, b) = (find(&mut parent, w[0].0), find(&mut parent, w[1].0));
+            for w in joined.windows(2) {
+                let (a, b) = (find(&mut parent, w[0]), find(&mut parent, w[1]));
                 if a != b {
                     parent[a.max(b) as usize] = a.min(b);
                 }
             }
         }
-        // A piece counts when it holds at least a thousandth of a cube of
-        // material: nodes on the surface whose sign is rounding make
-        // slivers of nothing.
+        let mut roots = vec![u32::MAX; self.tets.len()];
         let mut material: HashMap<u32, f64> = HashMap::new();
         for e in 0..self.tets.len() as u32 {
             if self.tets[e as usize].iter().any(|&n| inside[n as usize]) {
                 let r = find(&mut parent, e);
+                roots[e as usize] = r;
                 *material.entry(r).or_insert(0.0) +=
                     self.rest[e as usize].volume * self.inside(e as usize);
             }
         }
+        (roots, material)
+    }
+
+    /// Pieces of material.
+    pub fn fragments(&self) -> usize {
+        // A piece counts when it holds at least a thousandth of a cube of
+        // material: nodes on the surface whose sign is rounding make
+        // slivers of nothing.
         let least = SLIVER * self.grid.h.powi(3);
+        let (_, material) = self.piece_roots(f64::INFINITY);
         material.values().filter(|&&v| v >= least).count()
+    }
+
+    /// For the multigrid: the nodes of each piece holding at least a
+    /// twentieth of the material, and one more set with the rest (smaller
+    /// pieces), when the material is in more than one such piece; none
+    /// while it is whole. Pieces here are held together also through a
+    /// node outside whose tetrahedra on both sides hold a tenth of their
+    /// volume of material or more (a cut plane of nodes between two
+    /// sizeable slices of material still ties them; slivers hanging on to
+    /// a node in the gap do not). A node goes with the piece of its first
+    /// tetrahedron (in index order) that has one.
+    fn piece_nodes(&self) -> Vec<Vec<bool>> {
+        let (roots, material) = self.piece_roots(BRIDGE);
+        let total: f64 = material.values().sum();
+        let mut big: Vec<u32> = material
+            .iter()
+            .filter(|(_, &v)| v >= 0.05 * total)
+            .map(|(&r, _)| r)
+            .collect();
+        if big.len() < 2 {
+            return Vec::new();
+        }
+        big.sort_unstable();
+        let n = self.x.len();
+        let mut masks = vec![vec![false; n]; big.len() + 1];
+        let mut rest = false;
+        for (node, ts) in self.node_tets.iter().enumerate() {
+            let Some(r) = ts
+                .iter()
+                .map(|&(e, _)| roots[e as usize])
+                .find(|&r| r != u32::MAX)
+            else {
+                continue;
+            };
+            let k = big.binary_search(&r).unwrap_or(big.len());
+            rest |= k == big.len();
+            masks[k][node] = true;
+        }
+        if !rest {
+            masks.pop();
+        }
+        masks
     }
 
     /// Parameters.

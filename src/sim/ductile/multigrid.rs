@@ -12,6 +12,11 @@
 //! against the l1-Jacobi smoother it replaced. The CG needs a number of
 //! iterations nearly independent of the grid's resolution.
 //!
+//! Once the material has come apart, each piece gets coarse levels of its
+//! own (the interpolation reaching only its fine nodes): a coarse node
+//! straddling the tear would tie the pieces together, and on the torn
+//! `tear` preset the CG needed about three times the iterations.
+//!
 //! The finest level is the step's operator itself (in double precision):
 //! in a step that builds the cycle, the CG's products read its rows, a
 //! sparse product cheaper than the matrix-free one. The cycle reads its own
@@ -403,8 +408,10 @@ fn for_children(fine: &Level, cc: [usize; 3], mut f: impl FnMut(usize, f64)) {
     }
 }
 
-/// The Galerkin coarse level `P^T A P` of `fine`.
-fn coarsen(fine: &Level) -> Level {
+/// The Galerkin coarse level `P^T A P` of `fine`, with `P` interpolating
+/// only to the fine nodes in `mask` (empty: all of them).
+fn coarsen(fine: &Level, mask: &[bool]) -> Level {
+    let kept = |i: usize| mask.is_empty() || mask[i];
     let dims = fine.dims.map(|n| n / 2 + 1);
     let scratch = Level::empty(dims, Vec::new());
     let n_coarse: usize = dims.iter().product();
@@ -414,11 +421,14 @@ fn coarsen(fine: &Level) -> Level {
             let cc = scratch.coords(cn);
             let mut row = [[0.0; 9]; 27];
             for_children(fine, cc, |i, wi| {
+                if !kept(i) {
+                    return;
+                }
                 for (blk, &s) in fine.row(i).iter().zip(&fine.slots) {
                     if blk.iter().all(|&x| x == 0.0) {
                         continue;
                     }
-                    let Some(j) = fine.neighbour(i, s) else {
+                    let Some(j) = fine.neighbour(i, s).filter(|&j| kept(j)) else {
                         continue;
                     };
                     for_parents(fine.coords(j), |p, wp| {
@@ -663,11 +673,140 @@ impl Dense {
     }
 }
 
-/// The preconditioner: the levels from the grid's nodes down, and the
-/// coarsest level's factor.
+/// The preconditioner: the finest level (the grid's nodes) and below it
+/// either its own factor (a small grid) or one coarse hierarchy per piece
+/// of material (one for all while the material is whole).
 pub struct Multigrid {
+    fine: Level,
+    below: Below,
+}
+
+/// What corrects the finest level's smooth error.
+enum Below {
+    /// The finest level is small: solved directly.
+    Direct(Dense),
+    /// Coarse hierarchies, one per piece (their fine nodes disjoint).
+    Coarse(Vec<Hierarchy>),
+}
+
+/// The coarse levels of one piece: Galerkin products with the
+/// interpolation to the piece's fine nodes only, so the coarse levels of
+/// two pieces apart never tie them together (a coarse node straddling a
+/// tear would; the CG then needs three times the iterations).
+struct Hierarchy {
+    /// The fine nodes it corrects (empty: all).
+    mask: Vec<bool>,
+    /// From the level below the finest down.
     levels: Vec<Level>,
-    coarse: Dense,
+    /// The coarsest level's factor.
+    dense: Dense,
+}
+
+impl Hierarchy {
+    fn new(fine: &Level, mask: Vec<bool>) -> Hierarchy {
+        let mut levels = vec![coarsen(fine, &mask)];
+        loop {
+            let last = levels.last().expect("a level");
+            if small(last) {
+                break;
+            }
+            let next = coarsen(last, &[]);
+            levels.push(next);
+        }
+        let dense = Dense::new(levels.last().expect("a level"));
+        for level in &mut levels {
+            level.packed = Vec::new();
+        }
+        Hierarchy {
+            mask,
+            levels,
+            dense,
+        }
+    }
+
+    /// Add to `x` the coarse correction of the fine residual `r`.
+    fn correct(&self, fine: &Level, r: &[[f64; 3]], x: &mut [[f64; 3]]) {
+        let coarse = &self.levels[0];
+        let bc = restrict(fine, coarse, r, &self.mask);
+        let mut xc = vec![[0.0; 3]; coarse.nodes()];
+        v_cycle(&self.levels, &self.dense, &bc, &mut xc);
+        interpolate(fine, coarse, &xc, x, &self.mask);
+    }
+}
+
+/// Whether a level is solved directly.
+fn small(level: &Level) -> bool {
+    level.nodes() <= COARSEST_NODES || level.dims.iter().all(|&d| d <= 3)
+}
+
+/// The residual `r` of `level` restricted to `coarse` (`P^T r`), from the
+/// nodes in `mask` only (empty: all).
+fn restrict(level: &Level, coarse: &Level, r: &[[f64; 3]], mask: &[bool]) -> Vec<[f64; 3]> {
+    (0..coarse.nodes())
+        .into_par_iter()
+        .with_min_len(MIN_LEN / 8)
+        .map(|cn| {
+            let mut acc = [0.0; 3];
+            for_children(level, coarse.coords(cn), |i, w| {
+                if mask.is_empty() || mask[i] {
+                    for k in 0..3 {
+                        acc[k] += w * r[i][k];
+                    }
+                }
+            });
+            std::array::from_fn(|k| {
+                if coarse.smooth[cn][k] > 0.0 {
+                    acc[k]
+                } else {
+                    0.0
+                }
+            })
+        })
+        .collect()
+}
+
+/// `x += P xc` on the nodes of `level` in `mask` (empty: all) with a row.
+fn interpolate(level: &Level, coarse: &Level, xc: &[[f64; 3]], x: &mut [[f64; 3]], mask: &[bool]) {
+    x.par_iter_mut()
+        .with_min_len(MIN_LEN)
+        .enumerate()
+        .for_each(|(n, x)| {
+            if !(mask.is_empty() || mask[n]) || level.smooth[n] == [0.0; 3] {
+                return;
+            }
+            for_parents(level.coords(n), |p, w| {
+                let v = xc[coarse.index(p)];
+                for k in 0..3 {
+                    if level.smooth[n][k] > 0.0 {
+                        x[k] += w * v[k];
+                    }
+                }
+            });
+        });
+}
+
+/// One V-cycle from zero on `levels` (the last solved by `dense`).
+fn v_cycle(levels: &[Level], dense: &Dense, b: &[[f64; 3]], x: &mut [[f64; 3]]) {
+    if levels.len() == 1 {
+        dense.solve(b, x);
+        return;
+    }
+    let (level, coarse) = (&levels[0], &levels[1]);
+    for v in x.iter_mut() {
+        *v = [0.0; 3];
+    }
+    for sweep in 0..SWEEPS {
+        level.gauss_seidel(b, x, &FORWARD, sweep == 0);
+    }
+    let mut r = vec![[0.0; 3]; b.len()];
+    level.residual(b, x, &mut r);
+    let bc = restrict(level, coarse, &r, &[]);
+    let mut xc = vec![[0.0; 3]; coarse.nodes()];
+    v_cycle(&levels[1..], dense, &bc, &mut xc);
+    interpolate(level, coarse, &xc, x, &[]);
+    for _ in 0..SWEEPS {
+        level.gauss_seidel(b, x, &BACKWARD, false);
+    }
 }
 
 /// What the fine level is assembled from.
@@ -684,6 +823,9 @@ pub struct Operator<'a> {
     pub mass: &'a [f64],
     /// Fixed unknowns (their rows and columns are left out).
     pub fixed: &'a [[bool; 3]],
+    /// The nodes of each piece of material, when it is in more than one
+    /// (each gets its own coarse levels; none or one: one for all).
+    pub pieces: &'a [Vec<bool>],
 }
 
 impl Multigrid {
@@ -691,94 +833,68 @@ impl Multigrid {
     pub fn new(op: &Operator<'_>) -> Multigrid {
         let mut fine = assemble(op);
         fine.set_smoother();
-        let mut levels = vec![fine];
-        loop {
-            let last = levels.last().expect("a level");
-            let nodes: usize = last.dims.iter().product();
-            if nodes <= COARSEST_NODES || last.dims.iter().all(|&d| d <= 3) {
-                break;
-            }
-            let next = coarsen(last);
-            levels.push(next);
-        }
-        let coarse = Dense::new(levels.last().expect("a level"));
-        // The cycle reads its own rows; the products read the finest's.
-        for level in levels.iter_mut().skip(1) {
-            level.packed = Vec::new();
-        }
-        Multigrid { levels, coarse }
+        let below = if small(&fine) {
+            Below::Direct(Dense::new(&fine))
+        } else if op.pieces.len() > 1 {
+            Below::Coarse(
+                op.pieces
+                    .iter()
+                    .map(|mask| Hierarchy::new(&fine, mask.clone()))
+                    .collect(),
+            )
+        } else {
+            Below::Coarse(vec![Hierarchy::new(&fine, Vec::new())])
+        };
+        Multigrid { fine, below }
     }
 
     /// The finest level assembled again from `op`, the coarser ones kept.
     pub fn refine(&mut self, op: &Operator<'_>) {
         let mut fine = assemble(op);
         fine.set_smoother();
-        self.levels[0] = fine;
+        self.fine = fine;
+    }
+
+    /// How many coarse hierarchies it has (one per piece).
+    pub fn hierarchies(&self) -> usize {
+        match &self.below {
+            Below::Direct(_) => 1,
+            Below::Coarse(h) => h.len(),
+        }
     }
 
     /// `ap = A p` with the finest level's rows (the operator it was built
     /// from, fixed unknowns' rows and columns left out: zero there).
     pub fn product(&self, p: &[[f64; 3]], ap: &mut [[f64; 3]]) {
-        let level = &self.levels[0];
+        let level = &self.fine;
         ap.par_iter_mut()
             .with_min_len(MIN_LEN)
             .enumerate()
             .for_each(|(n, out)| *out = level.row_product(n, p));
     }
 
-    /// `z = B r`, one V-cycle from zero.
+    /// `z = B r`: one V-cycle from zero, each piece's coarse correction
+    /// added between the finest level's sweeps (the pieces' fine nodes are
+    /// disjoint, so the order of adding does not matter).
     pub fn apply(&self, r: &[[f64; 3]], z: &mut [[f64; 3]]) {
-        self.cycle(0, r, z);
-    }
-
-    fn cycle(&self, l: usize, b: &[[f64; 3]], x: &mut [[f64; 3]]) {
-        if l + 1 == self.levels.len() {
-            self.coarse.solve(b, x);
-            return;
-        }
-        let level = &self.levels[l];
-        let coarse = &self.levels[l + 1];
-        for v in x.iter_mut() {
+        let hierarchies = match &self.below {
+            Below::Direct(dense) => return dense.solve(r, z),
+            Below::Coarse(h) => h,
+        };
+        let fine = &self.fine;
+        for v in z.iter_mut() {
             *v = [0.0; 3];
         }
-        let mut r = vec![[0.0; 3]; b.len()];
         for sweep in 0..SWEEPS {
-            level.gauss_seidel(b, x, &FORWARD, sweep == 0);
+            fine.gauss_seidel(r, z, &FORWARD, sweep == 0);
         }
-        level.residual(b, x, &mut r);
-        // Restrict the residual, solve the coarse level, interpolate.
-        let bc: Vec<[f64; 3]> = (0..coarse.smooth.len())
-            .into_par_iter()
-            .map(|cn| {
-                let mut acc = [0.0; 3];
-                for_children(level, coarse.coords(cn), |i, w| {
-                    for k in 0..3 {
-                        acc[k] += w * r[i][k];
-                    }
-                });
-                std::array::from_fn(|k| {
-                    if coarse.smooth[cn][k] > 0.0 {
-                        acc[k]
-                    } else {
-                        0.0
-                    }
-                })
-            })
-            .collect();
-        let mut xc = vec![[0.0; 3]; coarse.smooth.len()];
-        self.cycle(l + 1, &bc, &mut xc);
-        x.par_iter_mut().enumerate().for_each(|(n, x)| {
-            for_parents(level.coords(n), |p, w| {
-                let v = xc[coarse.index(p)];
-                for k in 0..3 {
-                    if level.smooth[n][k] > 0.0 {
-                        x[k] += w * v[k];
-                    }
-                }
-            });
-        });
+        let mut res = vec![[0.0; 3]; r.len()];
+        fine.residual(r, z, &mut res);
+        for h in hierarchies {
+            h.correct(fine, &res, z);
+        }
         for _ in 0..SWEEPS {
-            level.gauss_seidel(b, x, &BACKWARD, false);
+            fine.gauss_seidel(r, z, &BACKWARD, false);
         }
     }
 }

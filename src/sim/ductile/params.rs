@@ -210,8 +210,9 @@ pub struct DuctileParams {
     pub stiffness_damping: f64,
     /// Largest time step, s. Default 0.05.
     pub dt: f64,
-    /// CFL number: no node moves more than this many cells an elastic
-    /// step, and the torn front no more than this many cells a level-set
+    /// CFL number: no material (a node inside, or where the surface
+    /// crosses an edge) moves more than this many cells an elastic step,
+    /// and the torn front no more than this many cells a level-set
     /// sub-step. Default 0.5.
     pub cfl: f64,
     /// Most cells the torn front advances during one elastic step (in

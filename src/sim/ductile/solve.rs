@@ -49,8 +49,10 @@ impl Ductile {
     /// kept until the material tears (which changes the operator where it
     /// matters most) or a solve takes a quarter more iterations than the
     /// first solve with it (any SPD cycle is a valid preconditioner; only the
-    /// count of iterations depends on its age). Returns whether it built
-    /// one: its finest level is then this step's operator.
+    /// count of iterations depends on its age). A tear that splits the
+    /// material (or sheds a piece) builds it anew: each piece gets its own
+    /// coarse levels. Returns whether it built one: its finest level is
+    /// then this step's operator.
     fn refresh_multigrid(
         &mut self,
         elements: &[Element],
@@ -67,6 +69,10 @@ impl Ductile {
             self.mg = kept;
             return false;
         }
+        let pieces = self.piece_nodes();
+        let split = kept
+            .as_ref()
+            .is_some_and(|mg| mg.multigrid.hierarchies() != pieces.len().max(1));
         let cm_mass: Vec<f64> = mass.iter().map(|m| cm * m).collect();
         let stiffness = |e: usize| self.element_stiffness(elements, weights, e, ck);
         let op = Operator {
@@ -75,11 +81,13 @@ impl Ductile {
             stiffness: &stiffness,
             mass: &cm_mass,
             fixed,
+            pieces: &pieces,
         };
         let cycle = match kept {
-            // Torn since built, but solving as fast as when built: this
-            // step's operator on the finest level, the coarser ones kept.
-            Some(mut mg) if working => {
+            // Torn since built, but solving as fast as when built and in
+            // as many pieces: this step's operator on the finest level, the
+            // coarser ones kept.
+            Some(mut mg) if working && !split => {
                 mg.multigrid.refine(&op);
                 mg.torn = false;
                 mg
@@ -91,10 +99,10 @@ impl Ductile {
                 torn: false,
             },
         };
-        self.mg = Some(cycle);
-        if !working {
+        if !working || split {
             self.mg_builds += 1;
         }
+        self.mg = Some(cycle);
         true
     }
 
