@@ -679,6 +679,8 @@ impl Dense {
 pub struct Multigrid {
     fine: Level,
     below: Below,
+    /// How many pieces it was built for (at least one).
+    pub pieces: usize,
 }
 
 /// What corrects the finest level's smooth error.
@@ -845,7 +847,11 @@ impl Multigrid {
         } else {
             Below::Coarse(vec![Hierarchy::new(&fine, Vec::new())])
         };
-        Multigrid { fine, below }
+        Multigrid {
+            fine,
+            below,
+            pieces: op.pieces.len().max(1),
+        }
     }
 
     /// The finest level assembled again from `op`, the coarser ones kept.
@@ -856,6 +862,7 @@ impl Multigrid {
     }
 
     /// How many coarse hierarchies it has (one per piece).
+    #[cfg(test)]
     pub fn hierarchies(&self) -> usize {
         match &self.below {
             Below::Direct(_) => 1,

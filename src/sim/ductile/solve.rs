@@ -72,7 +72,7 @@ impl Ductile {
         let pieces = self.piece_nodes();
         let split = kept
             .as_ref()
-            .is_some_and(|mg| mg.multigrid.hierarchies() != pieces.len().max(1));
+            .is_some_and(|mg| mg.multigrid.pieces != pieces.len().max(1));
         let cm_mass: Vec<f64> = mass.iter().map(|m| cm * m).collect();
         let stiffness = |e: usize| self.element_stiffness(elements, weights, e, ck);
         let op = Operator {
