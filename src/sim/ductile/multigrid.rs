@@ -34,6 +34,9 @@
 
 use rayon::prelude::*;
 
+mod dense;
+use dense::Dense;
+
 /// A 3 x 3 block, row-major.
 type Block = [f64; 9];
 
@@ -411,7 +414,6 @@ fn for_children(fine: &Level, cc: [usize; 3], mut f: impl FnMut(usize, f64)) {
 /// The Galerkin coarse level `P^T A P` of `fine`, with `P` interpolating
 /// only to the fine nodes in `mask` (empty: all of them).
 fn coarsen(fine: &Level, mask: &[bool]) -> Level {
-    let kept = |i: usize| mask.is_empty() || mask[i];
     let dims = fine.dims.map(|n| n / 2 + 1);
     let scratch = Level::empty(dims, Vec::new());
     let n_coarse: usize = dims.iter().product();
@@ -421,14 +423,14 @@ fn coarsen(fine: &Level, mask: &[bool]) -> Level {
             let cc = scratch.coords(cn);
             let mut row = [[0.0; 9]; 27];
             for_children(fine, cc, |i, wi| {
-                if !kept(i) {
+                if !in_mask(mask, i) {
                     return;
                 }
                 for (blk, &s) in fine.row(i).iter().zip(&fine.slots) {
                     if blk.iter().all(|&x| x == 0.0) {
                         continue;
                     }
-                    let Some(j) = fine.neighbour(i, s).filter(|&j| kept(j)) else {
+                    let Some(j) = fine.neighbour(i, s).filter(|&j| in_mask(mask, j)) else {
                         continue;
                     };
                     for_parents(fine.coords(j), |p, wp| {
@@ -564,115 +566,6 @@ fn assemble(op: &Operator<'_>) -> Level {
     level
 }
 
-/// The coarsest level solved directly: a Cholesky factor over its
-/// unknowns with a row (a pivot that vanishes drops its unknown).
-struct Dense {
-    /// (node, component) of each unknown.
-    dofs: Vec<(usize, usize)>,
-    /// Lower factor, row-major `n x n`.
-    l: Vec<f64>,
-    /// Unknowns whose pivot vanished (left at zero).
-    dropped: Vec<bool>,
-}
-
-impl Dense {
-    fn new(level: &Level) -> Dense {
-        let n_nodes = level.smooth.len();
-        let mut id = vec![[usize::MAX; 3]; n_nodes];
-        let mut dofs = Vec::new();
-        for (n, (ids, smooth)) in id.iter_mut().zip(&level.smooth).enumerate() {
-            for k in 0..3 {
-                if smooth[k] > 0.0 {
-                    ids[k] = dofs.len();
-                    dofs.push((n, k));
-                }
-            }
-        }
-        let m = dofs.len();
-        let mut a = vec![0.0; m * m];
-        for (row, &(n, k)) in dofs.iter().enumerate() {
-            for (blk, &s) in level.row(n).iter().zip(&level.slots) {
-                let Some(q) = level.neighbour(n, s) else {
-                    continue;
-                };
-                for l in 0..3 {
-                    let col = id[q][l];
-                    if col != usize::MAX {
-                        a[row * m + col] = blk[3 * k + l];
-                    }
-                }
-            }
-        }
-        // Symmetrise (the Galerkin sums differ in their last bits).
-        for i in 0..m {
-            for j in 0..i {
-                let s = 0.5 * (a[i * m + j] + a[j * m + i]);
-                a[i * m + j] = s;
-                a[j * m + i] = s;
-            }
-        }
-        let scale = (0..m).map(|i| a[i * m + i]).fold(0.0, f64::max);
-        let mut dropped = vec![false; m];
-        for j in 0..m {
-            let mut d = a[j * m + j];
-            for k in 0..j {
-                d -= a[j * m + k] * a[j * m + k];
-            }
-            if d <= 1e-12 * scale {
-                dropped[j] = true;
-                for i in j..m {
-                    a[i * m + j] = 0.0;
-                }
-                continue;
-            }
-            let d = d.sqrt();
-            a[j * m + j] = d;
-            for i in j + 1..m {
-                let mut x = a[i * m + j];
-                for k in 0..j {
-                    x -= a[i * m + k] * a[j * m + k];
-                }
-                a[i * m + j] = x / d;
-            }
-        }
-        Dense {
-            dofs,
-            l: a,
-            dropped,
-        }
-    }
-
-    fn solve(&self, b: &[[f64; 3]], x: &mut [[f64; 3]]) {
-        let m = self.dofs.len();
-        let mut y: Vec<f64> = self.dofs.iter().map(|&(n, k)| b[n][k]).collect();
-        for i in 0..m {
-            if self.dropped[i] {
-                y[i] = 0.0;
-                continue;
-            }
-            for k in 0..i {
-                y[i] -= self.l[i * m + k] * y[k];
-            }
-            y[i] /= self.l[i * m + i];
-        }
-        for i in (0..m).rev() {
-            if self.dropped[i] {
-                continue;
-            }
-            for k in i + 1..m {
-                y[i] -= self.l[k * m + i] * y[k];
-            }
-            y[i] /= self.l[i * m + i];
-        }
-        for v in x.iter_mut() {
-            *v = [0.0; 3];
-        }
-        for (&(n, k), v) in self.dofs.iter().zip(&y) {
-            x[n][k] = *v;
-        }
-    }
-}
-
 /// The preconditioner: the finest level (the grid's nodes) and below it
 /// either its own factor (a small grid) or one coarse hierarchy per piece
 /// of material (one for all while the material is whole).
@@ -750,7 +643,7 @@ fn restrict(level: &Level, coarse: &Level, r: &[[f64; 3]], mask: &[bool]) -> Vec
         .map(|cn| {
             let mut acc = [0.0; 3];
             for_children(level, coarse.coords(cn), |i, w| {
-                if mask.is_empty() || mask[i] {
+                if in_mask(mask, i) {
                     for k in 0..3 {
                         acc[k] += w * r[i][k];
                     }
@@ -773,7 +666,7 @@ fn interpolate(level: &Level, coarse: &Level, xc: &[[f64; 3]], x: &mut [[f64; 3]
         .with_min_len(MIN_LEN)
         .enumerate()
         .for_each(|(n, x)| {
-            if !(mask.is_empty() || mask[n]) || level.smooth[n] == [0.0; 3] {
+            if !in_mask(mask, n) || level.smooth[n] == [0.0; 3] {
                 return;
             }
             for_parents(level.coords(n), |p, w| {
@@ -794,6 +687,23 @@ fn v_cycle(levels: &[Level], dense: &Dense, b: &[[f64; 3]], x: &mut [[f64; 3]]) 
         return;
     }
     let (level, coarse) = (&levels[0], &levels[1]);
+    smoothed(level, b, x, |r, x| {
+        let bc = restrict(level, coarse, r, &[]);
+        let mut xc = vec![[0.0; 3]; coarse.nodes()];
+        v_cycle(&levels[1..], dense, &bc, &mut xc);
+        interpolate(level, coarse, &xc, x, &[]);
+    });
+}
+
+/// `x` from zero: Gauss-Seidel sweeps forward, `correct(r, x)` with their
+/// residual `r`, sweeps backward (symmetric whatever `correct` does, when
+/// it is symmetric itself).
+fn smoothed(
+    level: &Level,
+    b: &[[f64; 3]],
+    x: &mut [[f64; 3]],
+    correct: impl FnOnce(&[[f64; 3]], &mut [[f64; 3]]),
+) {
     for v in x.iter_mut() {
         *v = [0.0; 3];
     }
@@ -802,13 +712,15 @@ fn v_cycle(levels: &[Level], dense: &Dense, b: &[[f64; 3]], x: &mut [[f64; 3]]) 
     }
     let mut r = vec![[0.0; 3]; b.len()];
     level.residual(b, x, &mut r);
-    let bc = restrict(level, coarse, &r, &[]);
-    let mut xc = vec![[0.0; 3]; coarse.nodes()];
-    v_cycle(&levels[1..], dense, &bc, &mut xc);
-    interpolate(level, coarse, &xc, x, &[]);
+    correct(&r, x);
     for _ in 0..SWEEPS {
         level.gauss_seidel(b, x, &BACKWARD, false);
     }
+}
+
+/// Whether node `i` is in `mask` (empty: every node is).
+fn in_mask(mask: &[bool], i: usize) -> bool {
+    mask.is_empty() || mask[i]
 }
 
 /// What the fine level is assembled from.
@@ -837,15 +749,19 @@ impl Multigrid {
         fine.set_smoother();
         let below = if small(&fine) {
             Below::Direct(Dense::new(&fine))
-        } else if op.pieces.len() > 1 {
+        } else {
+            // An empty mask: every node.
+            let masks = if op.pieces.len() > 1 {
+                op.pieces.to_vec()
+            } else {
+                vec![Vec::new()]
+            };
             Below::Coarse(
-                op.pieces
-                    .iter()
-                    .map(|mask| Hierarchy::new(&fine, mask.clone()))
+                masks
+                    .into_iter()
+                    .map(|mask| Hierarchy::new(&fine, mask))
                     .collect(),
             )
-        } else {
-            Below::Coarse(vec![Hierarchy::new(&fine, Vec::new())])
         };
         Multigrid {
             fine,
@@ -889,19 +805,10 @@ impl Multigrid {
             Below::Coarse(h) => h,
         };
         let fine = &self.fine;
-        for v in z.iter_mut() {
-            *v = [0.0; 3];
-        }
-        for sweep in 0..SWEEPS {
-            fine.gauss_seidel(r, z, &FORWARD, sweep == 0);
-        }
-        let mut res = vec![[0.0; 3]; r.len()];
-        fine.residual(r, z, &mut res);
-        for h in hierarchies {
-            h.correct(fine, &res, z);
-        }
-        for _ in 0..SWEEPS {
-            fine.gauss_seidel(r, z, &BACKWARD, false);
-        }
+        smoothed(fine, r, z, |res, z| {
+            for h in hierarchies {
+                h.correct(fine, res, z);
+            }
+        });
     }
 }

@@ -1,0 +1,112 @@
+//! The multigrid's coarsest level, solved directly.
+
+use super::Level;
+
+/// The coarsest level solved directly: a Cholesky factor over its
+/// unknowns with a row (a pivot that vanishes drops its unknown).
+pub(super) struct Dense {
+    /// (node, component) of each unknown.
+    dofs: Vec<(usize, usize)>,
+    /// Lower factor, row-major `n x n`.
+    l: Vec<f64>,
+    /// Unknowns whose pivot vanished (left at zero).
+    dropped: Vec<bool>,
+}
+
+impl Dense {
+    pub(super) fn new(level: &Level) -> Dense {
+        let n_nodes = level.smooth.len();
+        let mut id = vec![[usize::MAX; 3]; n_nodes];
+        let mut dofs = Vec::new();
+        for (n, (ids, smooth)) in id.iter_mut().zip(&level.smooth).enumerate() {
+            for k in 0..3 {
+                if smooth[k] > 0.0 {
+                    ids[k] = dofs.len();
+                    dofs.push((n, k));
+                }
+            }
+        }
+        let m = dofs.len();
+        let mut a = vec![0.0; m * m];
+        for (row, &(n, k)) in dofs.iter().enumerate() {
+            for (blk, &s) in level.row(n).iter().zip(&level.slots) {
+                let Some(q) = level.neighbour(n, s) else {
+                    continue;
+                };
+                for l in 0..3 {
+                    let col = id[q][l];
+                    if col != usize::MAX {
+                        a[row * m + col] = blk[3 * k + l];
+                    }
+                }
+            }
+        }
+        // Symmetrise (the Galerkin sums differ in their last bits).
+        for i in 0..m {
+            for j in 0..i {
+                let s = 0.5 * (a[i * m + j] + a[j * m + i]);
+                a[i * m + j] = s;
+                a[j * m + i] = s;
+            }
+        }
+        let scale = (0..m).map(|i| a[i * m + i]).fold(0.0, f64::max);
+        let mut dropped = vec![false; m];
+        for j in 0..m {
+            let mut d = a[j * m + j];
+            for k in 0..j {
+                d -= a[j * m + k] * a[j * m + k];
+            }
+            if d <= 1e-12 * scale {
+                dropped[j] = true;
+                for i in j..m {
+                    a[i * m + j] = 0.0;
+                }
+                continue;
+            }
+            let d = d.sqrt();
+            a[j * m + j] = d;
+            for i in j + 1..m {
+                let mut x = a[i * m + j];
+                for k in 0..j {
+                    x -= a[i * m + k] * a[j * m + k];
+                }
+                a[i * m + j] = x / d;
+            }
+        }
+        Dense {
+            dofs,
+            l: a,
+            dropped,
+        }
+    }
+
+    pub(super) fn solve(&self, b: &[[f64; 3]], x: &mut [[f64; 3]]) {
+        let m = self.dofs.len();
+        let mut y: Vec<f64> = self.dofs.iter().map(|&(n, k)| b[n][k]).collect();
+        for i in 0..m {
+            if self.dropped[i] {
+                y[i] = 0.0;
+                continue;
+            }
+            for k in 0..i {
+                y[i] -= self.l[i * m + k] * y[k];
+            }
+            y[i] /= self.l[i * m + i];
+        }
+        for i in (0..m).rev() {
+            if self.dropped[i] {
+                continue;
+            }
+            for k in i + 1..m {
+                y[i] -= self.l[k * m + i] * y[k];
+            }
+            y[i] /= self.l[i * m + i];
+        }
+        for v in x.iter_mut() {
+            *v = [0.0; 3];
+        }
+        for (&(n, k), v) in self.dofs.iter().zip(&y) {
+            x[n][k] = *v;
+        }
+    }
+}
