@@ -21,6 +21,7 @@ pub mod fem;
 pub mod grid;
 mod multigrid;
 mod params;
+mod redistance;
 mod solve;
 pub mod surface;
 
@@ -436,6 +437,9 @@ impl Ductile {
         let elements = self.elements(&weights);
         let psi = self.nodal_energy(&elements, &weights);
         report.tearing_nodes = self.advance_level_set(&psi, dt);
+        if report.tearing_nodes > 0 && self.params.redistance {
+            self.redistance();
+        }
         if report.tearing_nodes > 0 {
             if let Some(mg) = &mut self.mg {
                 mg.torn = true;

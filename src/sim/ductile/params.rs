@@ -226,6 +226,11 @@ pub struct DuctileParams {
     /// Precondition the CG by a multigrid V-cycle (else by the stiffness'
     /// diagonal, as a reference). Default true.
     pub multigrid: bool,
+    /// Keep the level set inside a distance to the torn surface (the
+    /// text's step 4, see `redistance.rs`), so a crack crosses a section
+    /// at the same speed on any grid; false: the distance to the input's
+    /// surface throughout, as a reference. Default true.
+    pub redistance: bool,
     /// Most steps. Default 10,000.
     pub max_steps: usize,
     /// The pull.
@@ -255,6 +260,7 @@ impl Default for DuctileParams {
             tolerance: 1e-6,
             max_cg: 2000,
             multigrid: true,
+            redistance: true,
             max_steps: 10_000,
             pull: Pull::default(),
             tear_material: "tear_interior".into(),
