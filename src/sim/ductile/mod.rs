@@ -36,6 +36,11 @@ use std::collections::HashMap;
 /// of rounding along the surface.
 pub const SLIVER: f64 = 1e-3;
 
+/// The least material (in cubes) a node carries for its tearing to bound
+/// the step: a node left with less (its tetrahedra slivers, their
+/// deformation unchecked) tears as fast as its energy says, at no cost.
+const FRONT_MATERIAL: f64 = 1e-2;
+
 /// The inside fraction from which the tetrahedra around a node outside
 /// tie their pieces together, for the multigrid's coarse levels.
 const BRIDGE: f64 = 0.1;
@@ -428,7 +433,7 @@ impl Ductile {
         let elements = self.elements_now(&weights);
         let mass = self.masses(&weights);
         let psi = self.nodal_energy(&elements, &weights);
-        let dt = self.cfl_step(&psi);
+        let dt = self.cfl_step(&psi, &mass);
         let mut report = self.implicit_step(dt, &weights, &elements, &mass);
         self.time += dt;
         self.update_pulled_by();
@@ -463,15 +468,17 @@ impl Ductile {
         report
     }
 
-    /// The fastest the torn front moves anywhere (m/s), as
-    /// `advance_level_set` moves it.
-    fn front_speed(&self, psi: &[f64]) -> f64 {
+    /// The fastest the torn front moves (m/s), as `advance_level_set`
+    /// moves it, at the nodes carrying at least [`FRONT_MATERIAL`] of a
+    /// cube of material.
+    fn front_speed(&self, psi: &[f64], mass: &[f64]) -> f64 {
         let p = &self.params;
         let eps = p.eps * self.grid.h;
+        let least = FRONT_MATERIAL * p.density * self.grid.h.powi(3);
         psi.iter()
             .zip(&self.phi)
-            .zip(&self.node_tets)
-            .filter(|((&e, _), t)| e > p.kappa && !t.is_empty())
+            .zip(mass)
+            .filter(|((&e, _), &m)| e > p.kappa && m >= least)
             .map(|((&e, &phi), _)| eps * eps / (eps * eps + phi * phi) * (e - p.kappa) / p.kappa)
             .fold(0.0, f64::max)
             * p.tear_speed
@@ -513,54 +520,41 @@ impl Ductile {
     /// The elastic step: at most `dt`, no material moving more than `cfl`
     /// cells ([`Ductile::material_speed`]), and the torn front no more
     /// than `tear_cells`.
-    fn cfl_step(&self, psi: &[f64]) -> f64 {
+    fn cfl_step(&self, psi: &[f64], mass: &[f64]) -> f64 {
         let p = &self.params;
         let h = self.grid.h;
         let vmax = self
             .material_speed()
             .max(self.params.pull.speed * self.length);
-        let front = self.front_speed(psi).max(1e-300);
+        let front = self.front_speed(psi, mass).max(1e-300);
         p.dt.min(p.cfl * h / vmax.max(1e-300))
             .min(p.tear_cells * h / front)
     }
 
-    /// Over `dt`, in sub-steps in which the front moves at most `cfl`
-    /// cells: `phi += dt * tear_speed * L * eps^2 / (eps^2 + phi^2) *
-    /// max(0, Psi - kappa) / kappa`, the text's
-    /// `ds * delta_eps(phi) * (Psi - kappa)` with `delta_eps` of width `eps`
-    /// (a fraction of the grid spacing), scaled so the front moves at `tear_speed` where the energy
-    /// is twice the resistance, whatever the grid. Inward only. Returns how
+    /// Over `dt`, each node's `d phi / dt = tear_speed * L * eps^2 /
+    /// (eps^2 + phi^2) * max(0, Psi - kappa) / kappa` integrated exactly
+    /// (the energies held): the text's `ds * delta_eps(phi) * (Psi -
+    /// kappa)` with `delta_eps` of width `eps` (a fraction of the grid
+    /// spacing), scaled so the front moves at `tear_speed` where the energy
+    /// is twice the resistance, whatever the grid. Each node's equation is
+    /// its own, and `phi + phi^3 / (3 eps^2)` grows by the rate times `dt`:
+    /// no sub-steps, however fast a node tears. Inward only. Returns how
     /// many nodes moved.
     fn advance_level_set(&mut self, psi: &[f64], dt: f64) -> usize {
         let (eps, kappa) = (self.params.eps * self.grid.h, self.params.kappa);
-        let (cfl, tear_speed) = (self.params.cfl, self.params.tear_speed);
-        let active: Vec<bool> = self.node_tets.iter().map(|t| !t.is_empty()).collect();
-        let mut moved = vec![false; self.phi.len()];
-        let mut left = dt;
-        while left > 0.0 {
-            let front = self.front_speed(psi);
-            let sub = if front > 0.0 {
-                left.min(cfl * self.grid.h / front)
-            } else {
-                left
-            };
-            // The last sliver of time in one go (no endless tiny steps).
-            let sub = if left - sub < 1e-9 * dt { left } else { sub };
-            let rate = sub * tear_speed * self.length;
-            for n in 0..self.phi.len() {
-                if !active[n] || psi[n] <= kappa {
-                    continue;
-                }
-                let phi = self.phi[n];
-                let d = rate * eps * eps / (eps * eps + phi * phi) * (psi[n] - kappa) / kappa;
-                if d > 0.0 {
-                    self.phi[n] = phi + d;
-                    moved[n] = true;
-                }
+        let rate = dt * self.params.tear_speed * self.length;
+        let mut moved = 0;
+        for (n, phi) in self.phi.iter_mut().enumerate() {
+            if self.node_tets[n].is_empty() || psi[n] <= kappa {
+                continue;
             }
-            left -= sub;
+            let next = delta_integral(*phi, rate * (psi[n] - kappa) / kappa, eps);
+            if next > *phi {
+                *phi = next;
+                moved += 1;
+            }
         }
-        moved.iter().filter(|&&m| m).count()
+        moved
     }
 
     /// Run until the pull reaches `params.pull.distance` (or `max_steps`);
@@ -705,5 +699,27 @@ impl Ductile {
     }
 }
 
+/// The `phi` reached from `phi0` by `d phi / dt = eps^2 / (eps^2 + phi^2)`
+/// over a time `t` (at least `phi0`): the root of `g(phi) = g(phi0) + t`,
+/// `g(phi) = phi + phi^3 / (3 eps^2)` (increasing), by Cardano's formula
+/// for `phi^3 + 3 eps^2 phi - 3 eps^2 c = 0` and a Newton step.
+fn delta_integral(phi0: f64, t: f64, eps: f64) -> f64 {
+    let e2 = eps * eps;
+    let g = |x: f64| x + x * x * x / (3.0 * e2);
+    let c = g(phi0) + t;
+    if !(c.is_finite() && t > 0.0) {
+        return phi0;
+    }
+    // x = A - eps^2 / A, A = cbrt(u + sqrt(u^2 + eps^6)), u = 1.5 eps^2 c,
+    // taken on |u| (the root is odd in c).
+    let u = 1.5 * e2 * c.abs();
+    let a = (u + (u * u + e2 * e2 * e2).sqrt()).cbrt();
+    let mut x = (a - e2 / a).copysign(c);
+    x -= (g(x) - c) / (1.0 + x * x / e2);
+    x.max(phi0)
+}
+
+#[cfg(test)]
+mod level_set_tests;
 #[cfg(test)]
 mod tests;

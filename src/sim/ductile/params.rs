@@ -211,13 +211,13 @@ pub struct DuctileParams {
     /// Largest time step, s. Default 0.05.
     pub dt: f64,
     /// CFL number: no material (a node inside, or where the surface
-    /// crosses an edge) moves more than this many cells an elastic step,
-    /// and the torn front no more than this many cells a level-set
-    /// sub-step. Default 0.5.
+    /// crosses an edge) moves more than this many cells an elastic step.
+    /// Default 0.5.
     pub cfl: f64,
-    /// Most cells the torn front advances during one elastic step (in
-    /// level-set sub-steps of at most `cfl` cells, the elastic state held).
-    /// Default 4.
+    /// Most cells the torn front advances during one elastic step (each
+    /// node's level set integrated exactly over it, the elastic state
+    /// held; nodes left with under a hundredth of a cube of material do
+    /// not bound it). Default 4.
     pub tear_cells: f64,
     /// CG tolerance (relative residual). Default 1e-6.
     pub tolerance: f64,
@@ -231,6 +231,10 @@ pub struct DuctileParams {
     /// at the same speed on any grid; false: the distance to the input's
     /// surface throughout, as a reference. Default true.
     pub redistance: bool,
+    /// Passes of Taubin smoothing over the extracted torn surface (its
+    /// vertices off the original surface), softening the grid's terraces
+    /// where the tear steps between layers of nodes; 0: none. Default 10.
+    pub smooth_tear: usize,
     /// Most steps. Default 10,000.
     pub max_steps: usize,
     /// The pull.
@@ -261,6 +265,7 @@ impl Default for DuctileParams {
             max_cg: 2000,
             multigrid: true,
             redistance: true,
+            smooth_tear: 10,
             max_steps: 10_000,
             pull: Pull::default(),
             tear_material: "tear_interior".into(),

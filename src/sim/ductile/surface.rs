@@ -171,6 +171,7 @@ impl Ductile {
             .map(|&p| renumber[p as usize])
             .collect();
         s.pieces = kept as usize;
+        smooth_torn(&mut s, self.params.smooth_tear);
         s
     }
 
@@ -228,6 +229,66 @@ impl Ductile {
             s.torn.push(!alone);
             s.triangles.push([ab, c, ac]);
             s.torn.push(!alone);
+        }
+    }
+}
+
+/// Taubin's smoothing (a shrinking pass, `lambda` 0.5, and an inflating
+/// one, `mu` -0.53) of the vertices inside the torn surface, `passes`
+/// times, at rest and deformed alike: the torn surface is cut from a grid,
+/// and where the tear steps from one layer of nodes to the next it shows
+/// the grid's terraces. Vertices on an original triangle (the tear's
+/// border and the input's surface) stay put; the triangles stay as they
+/// are. Each pass reads the last one's positions only, so the order of
+/// the vertices does not matter.
+fn smooth_torn(s: &mut TornSurface, passes: usize) {
+    if passes == 0 {
+        return;
+    }
+    let n = s.rest.len();
+    let mut free = vec![true; n];
+    let mut neighbours: Vec<Vec<u32>> = vec![Vec::new(); n];
+    for (t, &torn) in s.triangles.iter().zip(&s.torn) {
+        for k in 0..3 {
+            let (a, b) = (t[k] as usize, t[(k + 1) % 3] as usize);
+            if !torn {
+                free[a] = false;
+            }
+            neighbours[a].push(b as u32);
+            neighbours[b].push(a as u32);
+        }
+    }
+    for (v, list) in neighbours.iter_mut().enumerate() {
+        list.sort_unstable();
+        list.dedup();
+        if list.is_empty() {
+            free[v] = false;
+        }
+    }
+    let moving: Vec<usize> = (0..n).filter(|&v| free[v]).collect();
+    for _ in 0..passes {
+        for factor in [0.5, -0.53] {
+            for x in [&mut s.rest, &mut s.positions] {
+                let moved: Vec<[f64; 3]> = moving
+                    .iter()
+                    .map(|&v| {
+                        let list = &neighbours[v];
+                        let mut mean = [0.0; 3];
+                        for &u in list {
+                            for k in 0..3 {
+                                mean[k] += x[u as usize][k];
+                            }
+                        }
+                        let p = x[v];
+                        std::array::from_fn(|k| {
+                            p[k] + factor * (mean[k] / list.len() as f64 - p[k])
+                        })
+                    })
+                    .collect();
+                for (&v, p) in moving.iter().zip(moved) {
+                    x[v] = p;
+                }
+            }
         }
     }
 }
