@@ -192,6 +192,25 @@ pub fn bounds(points: &[[f64; 3]]) -> ([f64; 3], [f64; 3]) {
     (lo, hi)
 }
 
+/// The edges (inside corner, outside corner) a linear function with node
+/// values `phi` crosses zero on, in order around the cut polygon (3 or
+/// 4; none when all corners are on one side). Inside: `phi < 0`.
+pub fn cut_edges(phi: [f64; 4]) -> Vec<(usize, usize)> {
+    let neg: Vec<usize> = (0..4).filter(|&i| phi[i] < 0.0).collect();
+    let pos: Vec<usize> = (0..4).filter(|&i| phi[i] >= 0.0).collect();
+    match neg.len() {
+        1 => pos.iter().map(|&p| (neg[0], p)).collect(),
+        3 => neg.iter().map(|&n| (n, pos[0])).collect(),
+        2 => vec![
+            (neg[0], pos[0]),
+            (neg[0], pos[1]),
+            (neg[1], pos[1]),
+            (neg[1], pos[0]),
+        ],
+        _ => Vec::new(),
+    }
+}
+
 /// The fraction of a tetrahedron's volume where the linear function with
 /// node values `phi` is negative: the material a cut tetrahedron keeps
 /// behind its cut plane.

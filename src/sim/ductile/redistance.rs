@@ -19,6 +19,7 @@
 //! (each node takes a neighbour's closest point, nearest first), in a
 //! fixed order.
 
+use super::grid::cut_edges;
 use super::Ductile;
 use crate::mesh::spatial::closest_on_triangle;
 use std::cmp::Reverse;
@@ -106,18 +107,7 @@ impl Ductile {
             let (p, q) = (self.rest_x[t[a] as usize], self.rest_x[t[b] as usize]);
             [0, 1, 2].map(|k| p[k] + w * (q[k] - p[k]))
         };
-        let neg: Vec<usize> = (0..4).filter(|&i| phi[i] < 0.0).collect();
-        let pos: Vec<usize> = (0..4).filter(|&i| phi[i] >= 0.0).collect();
-        match neg.len() {
-            1 => pos.iter().map(|&p| cross(neg[0], p)).collect(),
-            3 => neg.iter().map(|&m| cross(m, pos[0])).collect(),
-            _ => vec![
-                cross(neg[0], pos[0]),
-                cross(neg[0], pos[1]),
-                cross(neg[1], pos[1]),
-                cross(neg[1], pos[0]),
-            ],
-        }
+        cut_edges(phi).iter().map(|&(a, b)| cross(a, b)).collect()
     }
 }
 

@@ -7,6 +7,7 @@
 //! along the triangles' edges: triangles it crosses are split on it.
 
 use super::fem::edges;
+use super::grid::cut_edges;
 use super::Ductile;
 use std::collections::HashMap;
 
@@ -63,7 +64,6 @@ impl Ductile {
             if neg.is_empty() || neg.len() == 4 {
                 continue;
             }
-            let pos: Vec<usize> = (0..4).filter(|&i| phi[i] >= 0.0).collect();
             let mut corner = |a: usize, b: usize| -> u32 {
                 let (na, nb) = (t[a], t[b]);
                 let key = (na.min(nb), na.max(nb));
@@ -82,16 +82,8 @@ impl Ductile {
                     (s.rest.len() - 1) as u32
                 })
             };
-            let polygon: Vec<u32> = match neg.len() {
-                1 => pos.iter().map(|&p| corner(neg[0], p)).collect(),
-                3 => neg.iter().map(|&n| corner(n, pos[0])).collect(),
-                _ => vec![
-                    corner(neg[0], pos[0]),
-                    corner(neg[0], pos[1]),
-                    corner(neg[1], pos[1]),
-                    corner(neg[1], pos[0]),
-                ],
-            };
+            let edge_pairs = cut_edges(phi);
+            let polygon: Vec<u32> = edge_pairs.iter().map(|&(a, b)| corner(a, b)).collect();
             // Outward: along the level set's gradient (towards phi > 0).
             let grad = {
                 let g = self.rest[e].gradients();
@@ -103,16 +95,6 @@ impl Ductile {
             };
             // Orientation from the corners moved off the nodes (a zero on a
             // node makes triangles of no area, whose normal says nothing).
-            let edge_pairs: Vec<(usize, usize)> = match neg.len() {
-                1 => pos.iter().map(|&p| (neg[0], p)).collect(),
-                3 => neg.iter().map(|&n| (n, pos[0])).collect(),
-                _ => vec![
-                    (neg[0], pos[0]),
-                    (neg[0], pos[1]),
-                    (neg[1], pos[1]),
-                    (neg[1], pos[0]),
-                ],
-            };
             let off_node: Vec<[f64; 3]> = edge_pairs
                 .iter()
                 .map(|&(a, b)| {
