@@ -442,10 +442,10 @@ impl Ductile {
         let elements = self.elements(&weights);
         let psi = self.nodal_energy(&elements, &weights);
         report.tearing_nodes = self.advance_level_set(&psi, dt);
-        if report.tearing_nodes > 0 && self.params.redistance {
-            self.redistance();
-        }
         if report.tearing_nodes > 0 {
+            if self.params.redistance {
+                self.redistance();
+            }
             if let Some(mg) = &mut self.mg {
                 mg.torn = true;
             }
@@ -492,7 +492,7 @@ impl Ductile {
     /// material behind it (a torn sliver snapping back); the surface and
     /// the material move only a fraction of that.
     fn material_speed(&self) -> f64 {
-        let speed = |v: [f64; 3]| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+        let speed = crate::math::v3::norm;
         (0..self.x.len())
             .into_par_iter()
             .map(|b| {

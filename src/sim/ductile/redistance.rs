@@ -21,6 +21,7 @@
 
 use super::grid::cut_edges;
 use super::Ductile;
+use crate::math::v3::dist2;
 use crate::mesh::spatial::closest_on_triangle;
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;
@@ -34,9 +35,7 @@ impl Ductile {
         let mut best = vec![f64::INFINITY; n];
         let mut closest = vec![[0.0f64; 3]; n];
         let mut heap: BinaryHeap<Reverse<(u64, u32)>> = BinaryHeap::new();
-        let dist = |a: [f64; 3], b: [f64; 3]| {
-            ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
-        };
+        let dist = |a: [f64; 3], b: [f64; 3]| dist2(a, b).sqrt();
         // Seeds: the corners inside of every cut tetrahedron with a node
         // the tear moved, at their exact distance to its cut polygon.
         for t in &self.tets {
@@ -44,10 +43,10 @@ impl Ductile {
             let torn = t
                 .iter()
                 .any(|&v| self.phi[v as usize] > self.phi0[v as usize]);
-            let inside = phi.iter().filter(|&&p| p < 0.0).count();
-            if !torn || inside == 0 || inside == 4 {
+            if !torn {
                 continue;
             }
+            // Empty for a tetrahedron all on one side.
             let polygon = self.cut_polygon(t, phi);
             for (c, &v) in t.iter().enumerate() {
                 if phi[c] >= 0.0 {
@@ -99,8 +98,8 @@ impl Ductile {
     }
 
     /// The polygon where the level set `phi` crosses zero in tetrahedron
-    /// `t` (rest space; 3 or 4 corners in order around it), for a
-    /// tetrahedron with corners on both sides.
+    /// `t` (rest space; 3 or 4 corners in order around it; none for a
+    /// tetrahedron all on one side).
     fn cut_polygon(&self, t: &[u32; 4], phi: [f64; 4]) -> Vec<[f64; 3]> {
         let cross = |a: usize, b: usize| {
             let w = phi[a] / (phi[a] - phi[b]);

@@ -60,8 +60,8 @@ impl Ductile {
         let mut tet_of_triangle: Vec<u32> = Vec::new();
         for (e, t) in self.tets.iter().enumerate() {
             let phi = t.map(|n| self.phi[n as usize]);
-            let neg: Vec<usize> = (0..4).filter(|&i| phi[i] < 0.0).collect();
-            if neg.is_empty() || neg.len() == 4 {
+            let edge_pairs = cut_edges(phi);
+            if edge_pairs.is_empty() {
                 continue;
             }
             let mut corner = |a: usize, b: usize| -> u32 {
@@ -82,7 +82,6 @@ impl Ductile {
                     (s.rest.len() - 1) as u32
                 })
             };
-            let edge_pairs = cut_edges(phi);
             let polygon: Vec<u32> = edge_pairs.iter().map(|&(a, b)| corner(a, b)).collect();
             // Outward: along the level set's gradient (towards phi > 0).
             let grad = {
