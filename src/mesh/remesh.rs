@@ -61,6 +61,15 @@ pub struct RemeshOptions {
     /// The shortest edge the curvature may ask for, as a fraction of
     /// `target_edge`. Default 0.25.
     pub min_edge_fraction: f64,
+    /// How far each vertex is moved at random along the surface between
+    /// the first passes, as a fraction of its edge length (0: no jitter).
+    /// Local edits and smoothing keep a regular lattice as it is (a
+    /// coarsened grid stays a grid, rows and all), and cracks follow its
+    /// rows; jittered, the passes that follow settle into an irregular
+    /// mesh with no direction of its own. Default 0.3.
+    pub jitter: f64,
+    /// The seed of the jitter.
+    pub seed: u64,
 }
 
 impl Default for RemeshOptions {
@@ -69,9 +78,11 @@ impl Default for RemeshOptions {
             target_edge: 1.0,
             iterations: 5,
             crease_angle_deg: 40.0,
-            coarsen: false,
+            coarsen: true,
             chord_error: 0.02,
             min_edge_fraction: 0.25,
+            jitter: 0.3,
+            seed: 0,
         }
     }
 }
@@ -149,11 +160,25 @@ pub fn remesh(
             break;
         }
     }
-    for _ in 0..options.iterations {
+    // Jittered before the first collapses (a fine regular input would
+    // otherwise coarsen into a regular lattice) and after every pass but
+    // the last two, which settle the triangles' shapes.
+    let mut pass = 0u64;
+    let mut jitter = |w: &mut Work| {
+        if options.jitter > 0.0 {
+            w.jitter(&input, options.jitter, options.seed, pass);
+        }
+        pass += 1;
+    };
+    jitter(&mut w);
+    for i in 0..options.iterations {
         w.split_long();
         w.collapse_short();
         w.flip_to_valence();
         w.smooth(&input);
+        if i + 2 < options.iterations {
+            jitter(&mut w);
+        }
     }
     let out = w.to_input(mesh, &input);
     let (sim, _) = SimMesh::build(
@@ -769,7 +794,12 @@ impl Work {
                 input.closest_face(q, Some(chart)).map_or(q, |x| x.2)
             };
         }
-        // Keep a move only where no incident face turns over.
+        self.move_unless_turned(&next);
+    }
+
+    /// Move every vertex to `next` where none of its faces turns over
+    /// (checked against the moves made so far, in vertex order).
+    fn move_unless_turned(&mut self, next: &[[f64; 3]]) {
         for (v, &to) in next.iter().enumerate() {
             if to == self.pos[v] {
                 continue;
@@ -791,6 +821,70 @@ impl Work {
                 self.pos[v] = to;
             }
         }
+    }
+
+    /// Move every free vertex a seeded random distance along the surface:
+    /// up to `amount` of the shorter of its size and its edges, in a
+    /// uniformly random direction of its tangent plane (a vertex on a
+    /// feature line along the line), then back onto the input.
+    fn jitter(&mut self, input: &Input, amount: f64, seed: u64, pass: u64) {
+        let mut next = self.pos.clone();
+        for (v, slot) in next.iter_mut().enumerate() {
+            if self.dead_vertex[v] || self.corner[v] || self.vf[v].is_empty() {
+                continue;
+            }
+            let vv = v as u32;
+            let p = self.pos[v];
+            let nb = self.neighbours(vv);
+            if nb.is_empty() {
+                continue;
+            }
+            let edge = nb.iter().map(|&u| self.len(vv, u)).sum::<f64>() / nb.len() as f64;
+            let key = ((v as u64) << 8 | pass) * 2;
+            let (u1, u2) = (
+                0.5 + 0.5 * crate::math::hash_unit(seed, key),
+                crate::math::hash_unit(seed, key + 1),
+            );
+            let reach = amount * self.size[v].min(edge);
+            if self.nfeat[v] > 0 {
+                // Along the feature line: between its two neighbours on it.
+                let on: Vec<u32> = nb.into_iter().filter(|&u| self.is_feature(vv, u)).collect();
+                if on.len() != 2 {
+                    continue;
+                }
+                let d = sub(self.pos[on[1] as usize], self.pos[on[0] as usize]);
+                let l = norm(d);
+                if l <= 0.0 {
+                    continue;
+                }
+                let q = add(p, scale(d, u2 * reach / l));
+                *slot = input.closest_feature(q).unwrap_or(q);
+                continue;
+            }
+            let mut nrm = [0.0; 3];
+            for &f in &self.vf[v] {
+                nrm = add(nrm, self.face_normal(self.faces[f as usize]));
+            }
+            let l = norm(nrm);
+            if l <= 0.0 {
+                continue;
+            }
+            let n = scale(nrm, 1.0 / l);
+            // A tangent axis from the coordinate axis least along the normal.
+            let k = (0..3)
+                .min_by(|&a, &b| n[a].abs().total_cmp(&n[b].abs()))
+                .unwrap_or(0);
+            let mut axis = [0.0; 3];
+            axis[k] = 1.0;
+            let t1 = cross(n, axis);
+            let t1 = scale(t1, 1.0 / norm(t1));
+            let t2 = cross(n, t1);
+            let (r, a) = (reach * u1.sqrt(), std::f64::consts::PI * u2);
+            let q = add(p, add(scale(t1, r * a.cos()), scale(t2, r * a.sin())));
+            let chart = self.chart[self.vf[v][0] as usize];
+            *slot = input.closest_face(q, Some(chart)).map_or(q, |x| x.2);
+        }
+        self.move_unless_turned(&next);
     }
 
     /// The live faces along a Morton curve through their centroids (ties

@@ -211,20 +211,25 @@ fn curved_and_sharp_surfaces_stay_on_the_input() {
     assert!((rc.total_area() - c.total_area()).abs() < 1e-9 * c.total_area());
 }
 
-/// A surface already finer than the target is left as it is.
+/// A surface already finer than the target is left as it is when asked
+/// (`coarsen = false`); by default it is coarsened to about the triangles
+/// the target needs.
 #[test]
-fn fine_surfaces_are_left_alone() {
+fn fine_surfaces_are_coarsened_unless_asked_not_to() {
     let (m, _) = build(&grid_input(10, 10));
-    let (r, rep) = remesh(
-        &m,
-        &RemeshOptions {
-            target_edge: 3.0,
-            ..Default::default()
-        },
-    )
-    .unwrap();
+    let keep = RemeshOptions {
+        target_edge: 3.0,
+        coarsen: false,
+        ..Default::default()
+    };
+    let (r, rep) = remesh(&m, &keep).unwrap();
     assert!(!rep.remeshed);
     assert_eq!(r.n_faces(), m.n_faces());
+    let (r, rep) = remesh_valid(&m, 3.0);
+    assert!(rep.remeshed);
+    let est = estimate_triangles(&m, 3.0) as f64;
+    let n = r.n_faces() as f64;
+    assert!((0.6..1.6).contains(&(n / est)), "{n} faces, estimate {est}");
     assert!(remesh(
         &m,
         &RemeshOptions {
@@ -233,6 +238,75 @@ fn fine_surfaces_are_left_alone() {
         }
     )
     .is_err());
+}
+
+/// Length-weighted directions of the interior edges of a plate in the xy
+/// plane at least `margin` from its border `[0, size]^2`: 6 bins of 30
+/// degrees, and the share within 5 degrees of the x axis, the y axis and
+/// the grid's diagonal.
+fn edge_directions(m: &SimMesh, size: f64, margin: f64) -> ([f64; 6], f64) {
+    let mut bins = [0.0; 6];
+    let mut near_rows = 0.0;
+    for h in m.halfedges() {
+        if m.twin(h).is_none_or(|t| t.0 < h.0) {
+            continue;
+        }
+        let (a, b) = (m.position(m.origin(h)), m.position(m.dest(h)));
+        let mid = [0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1])];
+        if mid.iter().any(|&x| x < margin || x > size - margin) {
+            continue;
+        }
+        let l = m.edge_length(h);
+        let angle = (b[1] - a[1])
+            .atan2(b[0] - a[0])
+            .to_degrees()
+            .rem_euclid(180.0);
+        bins[((angle / 30.0) as usize).min(5)] += l;
+        if [0.0, 45.0, 90.0, 180.0]
+            .iter()
+            .any(|&r| (angle - r).abs() < 5.0)
+        {
+            near_rows += l;
+        }
+    }
+    let total: f64 = bins.iter().sum();
+    (bins.map(|b| b / total), near_rows / total)
+}
+
+/// A regular grid (rows, columns and one diagonal, as a subdivided plane
+/// from a DCC tool) coarsened to 2.2 times its edge: local edits and
+/// smoothing alone keep a lattice (the rows survive, and cracks follow
+/// them); jittered, the remeshed surface has no direction of its own:
+/// every 30-degree bin of edge directions within 15% of uniform, and no
+/// more edges within 5 degrees of the grid's three directions than chance
+/// (30 of 180 degrees: 0.167).
+#[test]
+fn a_regular_grid_coarsens_into_a_mesh_without_rows() {
+    let (m, _) = build(&grid_input(80, 80));
+    let (r, rep) = remesh_valid(&m, 2.2);
+    assert!(rep.remeshed);
+    let (bins, near_rows) = edge_directions(&r, 80.0, 6.0);
+    eprintln!("jittered: bins {bins:?}, near the rows {near_rows:.3}");
+    for (k, b) in bins.iter().enumerate() {
+        assert!(
+            (b * 6.0 - 1.0).abs() < 0.15,
+            "bin {k}: {b:.3} of the edge length (uniform 0.167): {bins:?}"
+        );
+    }
+    assert!(near_rows < 0.2, "near the rows {near_rows:.3}");
+    // Without the jitter the rows survive (so the test above can fail).
+    let (r, _) = remesh(
+        &m,
+        &RemeshOptions {
+            target_edge: 2.2,
+            jitter: 0.0,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    let (bins, near_rows) = edge_directions(&r, 80.0, 6.0);
+    eprintln!("not jittered: bins {bins:?}, near the rows {near_rows:.3}");
+    assert!(near_rows > 0.3, "near the rows {near_rows:.3}");
 }
 
 /// A graded surface, fine at one end and coarse at the other, is remeshed

@@ -721,6 +721,7 @@ fn remesh_to_cell_size(
         let options = remesh::RemeshOptions {
             target_edge: target,
             coarsen: p.coarsen,
+            seed: p.seed,
             ..Default::default()
         };
         let (sim, r) = remesh::remesh(&e.sim, &options)

@@ -114,12 +114,16 @@ pub struct SimParams {
     /// The cell size as a fraction of each simulated mesh's bounding-box
     /// diagonal (every preset sets one).
     pub cell_size_relative: Option<f64>,
-    /// With a cell size: remesh each simulated surface isotropically to
-    /// `cell size / 8` edges before cracking, refining coarse inputs (finer
-    /// ones are left as they are). Default true.
+    /// With a cell size: crack each surface on its own isotropic
+    /// simulation surface, remeshed to `cell size / 8` edges (refined when
+    /// coarse, coarsened when fine, jittered so no row of the input's
+    /// tessellation survives). Default true; false cracks the input's own
+    /// triangles.
     pub isotropic_remesh: bool,
-    /// With `isotropic_remesh`: also coarsen surfaces finer than needed.
-    /// Default false.
+    /// With `isotropic_remesh`: also remesh surfaces already fine enough
+    /// (at most 10% of their area in triangles with an edge above 4/3 of
+    /// the target). Default true; false leaves such a surface as it is,
+    /// and its rows show in the pattern.
     pub coarsen: bool,
     /// Most triangles the remeshed surface may have: a request above it is
     /// refused with the numbers before any work. Default 2,000,000.
@@ -270,7 +274,7 @@ impl Default for SimParams {
             cell_size: None,
             cell_size_relative: None,
             isotropic_remesh: true,
-            coarsen: false,
+            coarsen: true,
             max_triangles: 2_000_000,
         }
     }
