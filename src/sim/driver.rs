@@ -173,6 +173,7 @@ pub fn run_with(
         fin.seconds = t.elapsed().as_secs_f64();
         report.finish = Some(fin);
     }
+    st.segment_at.in_record_order(&mut report);
     report.energy[1] = energy(&st.els, &st.stress);
     report.triangles[1] = mesh.n_faces();
     report.nodes[1] = mesh.n_vertices();
@@ -366,6 +367,7 @@ pub(in crate::sim) fn start(
         cache: RoundCache::default(),
         implicit: ImplicitScratch::default(),
         film,
+        segment_at: Default::default(),
     };
     st.els.elements = (0..mesh.n_faces())
         .into_par_iter()

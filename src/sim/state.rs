@@ -53,6 +53,91 @@ pub(in crate::sim) struct State {
     pub(in crate::sim) frozen: Option<Vec<Sym3>>,
     /// A bonded film's state, when the run has a cell size.
     pub(in crate::sim) film: Option<crate::sim::film::Film>,
+    /// Where each recorded crack segment is in the report's `segments`,
+    /// by its ends' positions (see [`segment_key`]), and the piece that
+    /// follows it along the segment it was split from.
+    pub(in crate::sim) segment_at: SegmentIndex,
+}
+
+/// Recorded crack segments by their ends' positions, and per record the
+/// next piece of the segment it was split from (`usize::MAX`: none).
+#[derive(Default)]
+pub(in crate::sim) struct SegmentIndex {
+    at: std::collections::HashMap<[[u64; 3]; 2], usize>,
+    next: Vec<usize>,
+}
+
+impl SegmentIndex {
+    /// Record a new segment of the report (at index `i`).
+    fn add(&mut self, a: [f64; 3], b: [f64; 3], i: usize) {
+        self.at.insert(segment_key(a, b), i);
+        self.next.resize(i + 1, usize::MAX);
+    }
+
+    /// The report's segments (and times) in the order they were recorded,
+    /// each split one's pieces in place of it, one after the other along
+    /// it: chronological, and a crack's segments still follow each other.
+    pub(in crate::sim) fn in_record_order(&self, report: &mut SimReport) {
+        let n = report.segments.len();
+        if self.next.len() != n || self.next.iter().all(|&x| x == usize::MAX) {
+            return;
+        }
+        let mut piece = vec![false; n];
+        for &x in &self.next {
+            if x != usize::MAX {
+                piece[x] = true;
+            }
+        }
+        let mut order = Vec::with_capacity(n);
+        for head in (0..n).filter(|&i| !piece[i]) {
+            let mut i = head;
+            while i != usize::MAX {
+                order.push(i);
+                i = self.next[i];
+            }
+        }
+        report.segments = order.iter().map(|&i| report.segments[i]).collect();
+        report.segment_times = order.iter().map(|&i| report.segment_times[i]).collect();
+    }
+}
+
+/// A segment's key: its ends' position bits, in order.
+fn segment_key(a: [f64; 3], b: [f64; 3]) -> [[u64; 3]; 2] {
+    let (ka, kb) = (
+        a.map(|x| (x + 0.0).to_bits()),
+        b.map(|x| (x + 0.0).to_bits()),
+    );
+    if ka <= kb {
+        [ka, kb]
+    } else {
+        [kb, ka]
+    }
+}
+
+/// A later crack ran into the recorded segment `a`-`b` and split its edge
+/// at `q`: the record is split there too, so every junction is an end of
+/// the segments that meet at it (a stem ends where the crack it meets has
+/// a vertex, not in the middle of its segment).
+fn split_segment(
+    index: &mut SegmentIndex,
+    report: &mut SimReport,
+    a: [f64; 3],
+    b: [f64; 3],
+    q: [f64; 3],
+) {
+    let Some(i) = index.at.remove(&segment_key(a, b)) else {
+        return;
+    };
+    let [p0, p1] = report.segments[i];
+    let time = report.segment_times[i];
+    let j = report.segments.len();
+    report.segments[i] = [p0, q];
+    index.at.insert(segment_key(p0, q), i);
+    index.add(q, p1, j);
+    index.next[j] = index.next[i];
+    index.next[i] = j;
+    report.segments.push([q, p1]);
+    report.segment_times.push(time);
 }
 
 /// Working memory of the implicit rounds.
@@ -241,6 +326,12 @@ pub(in crate::sim) fn apply_event(
             fz[q.idx()] = fz[a.idx()] * (1.0 - t) + fz[b.idx()] * t;
         }
     }
+    for (&q, &(a, b, border)) in ev.inserted.iter().zip(&ev.inserted_on) {
+        if border {
+            let (pa, pb, pq) = (mesh.position(a), mesh.position(b), mesh.position(q));
+            split_segment(&mut st.segment_at, report, pa, pb, pq);
+        }
+    }
     if ev.segments.is_empty() {
         return false;
     }
@@ -264,11 +355,11 @@ pub(in crate::sim) fn apply_event(
     report.cracks += 1;
     report.crack_length += ev.length;
     report.first_crack_time.get_or_insert(report.time);
-    report.segments.extend(
-        ev.segments
-            .iter()
-            .map(|&(a, b)| [mesh.position(a), mesh.position(b)]),
-    );
+    for &(a, b) in &ev.segments {
+        let (pa, pb) = (mesh.position(a), mesh.position(b));
+        st.segment_at.add(pa, pb, report.segments.len());
+        report.segments.push([pa, pb]);
+    }
     report
         .segment_times
         .extend(ev.segments.iter().map(|_| report.time));
