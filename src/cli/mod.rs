@@ -151,8 +151,28 @@ enum Command {
         json: bool,
     },
     /// Compare two glTF (or OBJ) files structurally and geometrically; exit 0 when equivalent, 1 when not
+    ///
+    /// Exit codes: 0 equivalent, 1 the files differ, 2 a file cannot be read or bad usage.
+    ///
+    /// With --geometry, "B is A's own mesh": whether an output kept the input's
+    /// triangles, vertex positions, indices and attributes, whatever crackle
+    /// added on top. Per mesh (matched by index; counts and names must match)
+    /// the triangle primitives are taken in order, leaving out non-triangle
+    /// primitives (the crack LINES...) in both files and, in B, those whose
+    /// material is named crack_wall; their triangles are concatenated. The
+    /// triangle counts must match, and triangle t of A and of B are compared
+    /// corner by corner (same corner order): the position and every attribute
+    /// A's primitive has (same semantic and component count; morph target
+    /// displacements too) within the tolerance. Attributes only B has
+    /// (_CRACK_DISTANCE, _CRACK_TIME, TANGENT, a new TEXCOORD_n...) are ignored.
+    /// Node hierarchy, transforms and skin indices, skin, camera and animation
+    /// counts and the number of morph targets are compared; materials,
+    /// textures, images, samplers and added primitives are not. Vertices B has
+    /// beyond A's (split on the seams of a new UV set) and index buffers that
+    /// changed are reported on the "geometry:" line (and in summary.geometry of
+    /// --json), and are a difference only with --same-indices.
     Diff {
-        /// First file
+        /// First file (the reference: tolerances scale with its values)
         a: PathBuf,
         /// Second file
         b: PathBuf,
@@ -162,6 +182,12 @@ enum Command {
         /// Print the comparison as JSON on stdout
         #[arg(long)]
         json: bool,
+        /// Only whether B is A's own mesh: triangles corner by corner, nodes, skins, morph targets (not materials, textures or added primitives and attributes)
+        #[arg(long)]
+        geometry: bool,
+        /// With --geometry: a changed index buffer or vertex count (split vertices) is a difference too
+        #[arg(long, requires = "geometry")]
+        same_indices: bool,
     },
     /// Read, weld and write a mesh (.gltf or .glb output)
     Convert {
@@ -295,12 +321,15 @@ pub fn run(cli: Cli) -> anyhow::Result<u8> {
             b,
             tolerance,
             json,
+            geometry,
+            same_indices,
         } => {
             let same = diff::run(diff::DiffArgs {
                 a: &a,
                 b: &b,
                 tolerance,
                 json,
+                mode: diff::mode(geometry, same_indices),
                 read,
             })?;
             return Ok(if same { 0 } else { 1 });

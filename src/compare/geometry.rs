@@ -210,13 +210,7 @@ pub(super) fn evaluate(
             let lim = tol * p.scale;
             let (mut count, mut worst) = (0, 0.0_f64);
             for (i, &j) in pairing.iter().enumerate() {
-                let x = &p.a.data[i * c..(i + 1) * c];
-                let y = &p.b.data[j * c..(j + 1) * c];
-                let w = x
-                    .iter()
-                    .zip(y)
-                    .map(|(&x, &y)| delta(f64::from(x), f64::from(y)))
-                    .fold(0.0, f64::max);
+                let w = worst_delta(&p.a.data[i * c..(i + 1) * c], &p.b.data[j * c..(j + 1) * c]);
                 if w > lim {
                     count += 1;
                 }
@@ -229,6 +223,14 @@ pub(super) fn evaluate(
         differing,
         triangles_off,
     }
+}
+
+/// The largest [`delta`] of two vertices' components.
+pub(super) fn worst_delta(x: &[f32], y: &[f32]) -> f64 {
+    x.iter()
+        .zip(y)
+        .map(|(&x, &y)| delta(f64::from(x), f64::from(y)))
+        .fold(0.0, f64::max)
 }
 
 /// Quantised values of every vertex (`stride` per vertex), position first.

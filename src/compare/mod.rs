@@ -32,6 +32,35 @@
 //! tolerance but fall on either side of a cell boundary: in-order comparison
 //! has no such limit, and reordered files that differ by noise close to the
 //! tolerance can be reported as differing.
+//!
+//! **Geometry mode** ([`Mode::Geometry`], `crackle diff --geometry`): "b is
+//! a's own mesh", i.e. an output kept the input's triangles, vertex
+//! positions, indices and attributes, whatever crackle added on top.
+//! - Per mesh (matched by index; mesh counts and names must match), the
+//!   triangle primitives in order are taken, leaving out every primitive
+//!   that is not triangles (LINES, POINTS...) in both files and, in b, those
+//!   whose material is named `crack_wall`. Their triangles are concatenated
+//!   (each primitive's triangles in order); skinned and other passed-through
+//!   triangle primitives are decoded from their accessors (strips and fans
+//!   as glTF assembles them).
+//! - Triangle counts per mesh must match. Triangle `t` of a and triangle `t`
+//!   of b are compared corner by corner in the same corner order (a rotated
+//!   triangle differs): the position and every attribute a's primitive has
+//!   (same semantic, same component count; missing in b is a difference),
+//!   morph target displacements included, within the tolerance above (`s`
+//!   from a's primitive). Attributes only b has (`_CRACK_DISTANCE`,
+//!   `_CRACK_TIME`, `TANGENT`, a new `TEXCOORD_n`...) are ignored.
+//! - Indices: per primitive (a's k-th triangle primitive against b's), whether
+//!   b's triangles have the same indices as a's, and per mesh how many
+//!   vertices b has beyond a's (split vertices: a new UV set for baked maps
+//!   duplicates vertices on its seams) or fewer (merged). Neither is a
+//!   difference unless `same_indices` (`--same-indices`) is asked for; both
+//!   are in the summary ([`IndexSummary`]).
+//! - Still compared: scenes and their root nodes, node names, children,
+//!   meshes, local transforms and skin index, the skin, camera and animation
+//!   counts, and the number of morph targets of each pair of primitives that
+//!   share triangles. Not compared: materials, textures, images, samplers,
+//!   left-out primitives, primitive counts and b's extra attributes.
 
 use crate::scene::{mode, Geometry, Primitive, Scene};
 use crate::{Error, Result};
@@ -40,10 +69,29 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 mod geometry;
+mod same_mesh;
 use geometry::*;
+pub use same_mesh::{IndexSummary, MeshIndices, PrimitiveIndices};
 
 /// Most differences listed in the text output.
 const MAX_LINES: usize = 20;
+
+/// What [`compare_with`] looks at.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Mode {
+    /// Everything: structure, appearance, every primitive (`crackle diff`).
+    #[default]
+    Full,
+    /// "B is A's own mesh" (`crackle diff --geometry`): the triangles of
+    /// each mesh corner by corner, nodes, skins and morph target counts;
+    /// not materials, textures, images, samplers, added primitives or added
+    /// attributes (see the module documentation).
+    Geometry {
+        /// Any change of a primitive's indices or vertex count is a
+        /// difference (`--same-indices`).
+        same_indices: bool,
+    },
+}
 
 /// The comparison of two scenes.
 pub struct Comparison {
@@ -51,6 +99,11 @@ pub struct Comparison {
     pub tolerance: f64,
     /// Every difference found, in the order found.
     pub differences: Vec<Difference>,
+    /// With [`Mode::Geometry`]: vertex counts and how many triangles kept
+    /// their indices.
+    pub indices: Option<IndexSummary>,
+    /// Whether `--same-indices` was asked for.
+    same_indices: bool,
     a: Totals,
     b: Totals,
 }
@@ -62,8 +115,10 @@ impl Comparison {
     }
 
     /// The comparison as one JSON object; `a` and `b` name the files.
+    /// With [`Mode::Geometry`] it also has `"mode": "geometry"`,
+    /// `"same_indices"` and `summary.geometry` ([`IndexSummary::json`]).
     pub fn to_json(&self, a: &Path, b: &Path) -> Value {
-        json!({
+        let mut v = json!({
             "equivalent": self.equivalent(),
             "tolerance": self.tolerance,
             "a": a.display().to_string(),
@@ -74,21 +129,33 @@ impl Comparison {
                 "detail": x.detail,
             })).collect::<Vec<_>>(),
             "summary": {"a": self.a.json(), "b": self.b.json()},
-        })
+        });
+        if let Some(ix) = &self.indices {
+            v["mode"] = json!("geometry");
+            v["same_indices"] = json!(self.same_indices);
+            v["summary"]["geometry"] = ix.json();
+        }
+        v
     }
 
     /// The comparison as text: the verdict, at most 20 differences, and a
-    /// summary line per file.
+    /// summary line per file (with [`Mode::Geometry`] first a `geometry:`
+    /// line of vertex counts and kept indices).
     pub fn to_text(&self, a: &Path, b: &Path) -> String {
         let tol = self.tolerance;
+        let what = match (&self.indices, self.same_indices) {
+            (None, _) => String::new(),
+            (Some(_), false) => "geometry; ".into(),
+            (Some(_), true) => "geometry, same indices; ".into(),
+        };
         let mut s = String::new();
         if self.equivalent() {
-            let _ = writeln!(s, "equivalent (tolerance {tol:e})");
+            let _ = writeln!(s, "equivalent ({what}tolerance {tol:e})");
         } else {
             let n = self.differences.len();
             let _ = writeln!(
                 s,
-                "differ: {n} difference{} (tolerance {tol:e})",
+                "differ: {n} difference{} ({what}tolerance {tol:e})",
                 if n == 1 { "" } else { "s" }
             );
             for x in self.differences.iter().take(MAX_LINES) {
@@ -97,6 +164,9 @@ impl Comparison {
             if n > MAX_LINES {
                 let _ = writeln!(s, "  ... and {} more", n - MAX_LINES);
             }
+        }
+        if let Some(ix) = &self.indices {
+            let _ = writeln!(s, "geometry: {}", ix.line());
         }
         let _ = writeln!(s, "a: {}", self.a.line(a));
         let _ = writeln!(s, "b: {}", self.b.line(b));
@@ -107,14 +177,30 @@ impl Comparison {
 /// Compare scene `b` with scene `a` (the reference: tolerances scale with
 /// its values).
 pub fn compare(sa: &Scene, sb: &Scene, tolerance: f64) -> Comparison {
+    compare_with(sa, sb, tolerance, Mode::Full)
+}
+
+/// [`compare`] looking at what `mode` says.
+pub fn compare_with(sa: &Scene, sb: &Scene, tolerance: f64, mode: Mode) -> Comparison {
     let mut d = Differences {
         tol: tolerance,
         list: Vec::new(),
     };
-    compare_structure(sa, sb, &mut d);
+    let (indices, same_indices) = match mode {
+        Mode::Full => {
+            compare_structure(sa, sb, &mut d);
+            (None, false)
+        }
+        Mode::Geometry { same_indices } => (
+            Some(same_mesh::compare_same_mesh(sa, sb, same_indices, &mut d)),
+            same_indices,
+        ),
+    };
     Comparison {
         tolerance,
         differences: d.list,
+        indices,
+        same_indices,
         a: Totals::of(sa),
         b: Totals::of(sb),
     }
@@ -131,6 +217,20 @@ pub fn compare_files(
     tolerance: f64,
     options: &crate::io::ReadOptions,
 ) -> Result<Comparison> {
+    compare_files_with(a, b, tolerance, Mode::Full, options)
+}
+
+/// [`compare_files`] looking at what `mode` says.
+///
+/// # Errors
+/// Those of [`compare_files`].
+pub fn compare_files_with(
+    a: &Path,
+    b: &Path,
+    tolerance: f64,
+    mode: Mode,
+    options: &crate::io::ReadOptions,
+) -> Result<Comparison> {
     if !(tolerance.is_finite() && tolerance >= 0.0) {
         return Err(Error::Usage(format!(
             "--tolerance {tolerance} must be a finite number >= 0"
@@ -138,7 +238,7 @@ pub fn compare_files(
     }
     let sa = read(a, options)?;
     let sb = read(b, options)?;
-    Ok(compare(&sa, &sb, tolerance))
+    Ok(compare_with(&sa, &sb, tolerance, mode))
 }
 
 /// Read an asset; the error names the file.
@@ -328,6 +428,13 @@ fn delta(x: f64, y: f64) -> f64 {
 
 /// Compare everything; primitives' geometry right after their structure.
 fn compare_structure(a: &Scene, b: &Scene, d: &mut Differences) {
+    compare_nodes(a, b, d);
+    compare_meshes(a, b, d);
+    compare_counts(a, b, d, true);
+}
+
+/// Scenes and their root nodes; nodes' names, children, meshes and transforms.
+fn compare_nodes(a: &Scene, b: &Scene, d: &mut Differences) {
     // Scenes and their roots.
     d.ne(
         "scene_count",
@@ -396,8 +503,10 @@ fn compare_structure(a: &Scene, b: &Scene, d: &mut Differences) {
             d.push("node_transform", place, detail);
         }
     }
+}
 
-    // Meshes: names, primitives and their material, attributes, targets.
+/// The mesh count, compared.
+fn compare_mesh_count(a: &Scene, b: &Scene, d: &mut Differences) {
     d.ne(
         "mesh_count",
         "meshes",
@@ -405,15 +514,25 @@ fn compare_structure(a: &Scene, b: &Scene, d: &mut Differences) {
         a.meshes.len(),
         b.meshes.len(),
     );
+}
+
+/// The names of mesh `i` of both files, compared.
+fn compare_mesh_name(a: &Scene, b: &Scene, i: usize, d: &mut Differences) {
+    d.ne(
+        "mesh_name",
+        &mesh_place(a, i),
+        "name",
+        opt_name(a.meshes[i].name.as_deref()),
+        opt_name(b.meshes[i].name.as_deref()),
+    );
+}
+
+/// Meshes: names, primitives and their material, attributes, targets.
+fn compare_meshes(a: &Scene, b: &Scene, d: &mut Differences) {
+    compare_mesh_count(a, b, d);
     for (i, (x, y)) in a.meshes.iter().zip(&b.meshes).enumerate() {
         let place = mesh_place(a, i);
-        d.ne(
-            "mesh_name",
-            &place,
-            "name",
-            opt_name(x.name.as_deref()),
-            opt_name(y.name.as_deref()),
-        );
+        compare_mesh_name(a, b, i, d);
         d.ne(
             "primitive_count",
             &place,
@@ -475,8 +594,26 @@ fn compare_structure(a: &Scene, b: &Scene, d: &mut Differences) {
             }
         }
     }
+}
 
-    // Materials and the rest, by count (materials also by name).
+/// Materials (count and names), images, textures and samplers (with
+/// `appearance`), cameras, skins and animations, by count.
+fn compare_counts(a: &Scene, b: &Scene, d: &mut Differences, appearance: bool) {
+    if appearance {
+        compare_appearance(a, b, d);
+    }
+    let counts = [
+        ("cameras", a.cameras.len(), b.cameras.len()),
+        ("skins", a.skins.len(), b.skins.len()),
+        ("animations", a.animations.len(), b.animations.len()),
+    ];
+    for (what, x, y) in counts {
+        d.ne("count", what, "count", x, y);
+    }
+}
+
+/// Materials by count and name; images, textures and samplers by count.
+fn compare_appearance(a: &Scene, b: &Scene, d: &mut Differences) {
     d.ne(
         "material_count",
         "materials",
@@ -503,9 +640,6 @@ fn compare_structure(a: &Scene, b: &Scene, d: &mut Differences) {
     let counts = [
         ("textures", a.textures.len(), b.textures.len()),
         ("samplers", a.samplers.len(), b.samplers.len()),
-        ("cameras", a.cameras.len(), b.cameras.len()),
-        ("skins", a.skins.len(), b.skins.len()),
-        ("animations", a.animations.len(), b.animations.len()),
     ];
     for (what, x, y) in counts {
         d.ne("count", what, "count", x, y);
