@@ -22,7 +22,7 @@ pub struct SimEntry {
     /// Defects found while building it.
     pub report: DefectReport,
     /// The welded input before remeshing, kept when the cracks are to be
-    /// cut into it (`post.cut_input`).
+    /// cut into it (`post.output = "input"` with a stage that moves or cuts the surface).
     pub unremeshed: Option<SimMesh>,
     /// Per primitive of the mesh: the attribute semantics and sizes it had.
     layouts: Vec<Option<Vec<(String, usize)>>>,

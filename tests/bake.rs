@@ -409,17 +409,23 @@ fn kept_geometry_carries_lines_and_attributes_onto_the_input() {
 }
 
 #[test]
-fn kept_geometry_refuses_what_moves_the_surface() {
+fn the_output_is_the_input_or_the_simulation_surface() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("plate.glb");
     let o = common::crack(
         &common::fixture("plate_jittered.obj"),
         &out,
-        &["--preset", "wood-grain", "--set", "post.width=0.1", "-q"],
+        &[
+            "--preset",
+            "wood-grain",
+            "--set",
+            "post.output=remeshed",
+            "-q",
+        ],
     );
     assert!(!o.status.success());
     let err = String::from_utf8_lossy(&o.stderr);
-    assert!(err.contains("post.keep_geometry"), "{err}");
+    assert!(err.contains("post.output"), "{err}");
     assert!(!out.exists(), "no output");
 }
 

@@ -740,9 +740,9 @@ fn vertex_uvs(path: &Path, skip: &str) -> Vec<([u32; 3], [f32; 2])> {
 
 #[test]
 fn mud_gaps_are_cut_into_the_inputs_own_triangles() {
-    // spot's triangles are 1.5 times as long as the simulated surface's:
-    // the mud presets cut their cracks into them instead of writing the
-    // remeshed surface, so away from the cracks the output is the input.
+    // The mud presets cut their cracks into the input's own triangles
+    // (`post.output = "input"`, the default) instead of writing the
+    // simulation surface, so away from the cracks the output is the input.
     let Some(spot) = common::eval_data("obj/spot/spot_triangulated.obj") else {
         return;
     };
@@ -755,8 +755,8 @@ fn mud_gaps_are_cut_into_the_inputs_own_triangles() {
         input_uv.entry(*p).or_default().push(*t);
     }
     for (cut, extra) in [
-        (true, "post.cut_input=true"),
-        (false, "post.cut_input=false"),
+        (true, "post.output=input"),
+        (false, "post.output=simulation"),
     ] {
         let out = dir.path().join(format!("mud-{cut}.glb"));
         let r = crack(&spot, &out, &["--preset", "mud", "--set", extra]);

@@ -249,7 +249,7 @@ fn masks_from_a_pipeline_file_and_from_a_material() {
     std::fs::write(
         &pipe,
         "[simulation]\ncell_size_relative = 0.05\nshrink_rate = 0.0\n[[stress]]\nkind = \"uniform\"\nevolve = 0.05\n\
-         mask = { image = \"stains.png\", confine = true }\n[post]\nbake = true\nkeep_geometry = true\n",
+         mask = { image = \"stains.png\", confine = true }\n[post]\nbake = true\n",
     )
     .unwrap();
     let out = dir.path().join("file.glb");

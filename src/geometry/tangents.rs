@@ -167,42 +167,40 @@ pub fn with_generated_tangents(geo: &TriGeometry, uv_semantic: &str) -> Option<T
 
 /// A copy of `geo` with one more attribute, `semantic`, given per triangle
 /// corner (`components` values a corner, 1 to 4, corners in triangle order).
-/// Vertices whose corners get different values are split; a vertex keeps
-/// its other attributes and morph-target values. An attribute of that name
-/// already present is replaced.
+/// Every vertex keeps its index and takes the value of its first corner
+/// (in triangle order); a corner with another value gets a copy of its
+/// vertex (its other attributes and morph-target values), appended after
+/// the input's vertices, one per distinct value. So only the triangles
+/// that need a split vertex change, and a vertex no triangle uses stays
+/// (with zeros). An attribute of that name already present is replaced.
 pub fn with_corner_attribute(
     geo: &TriGeometry,
     semantic: &str,
     components: usize,
     corners: &[f32],
 ) -> TriGeometry {
-    let kept: Vec<&VertexAttribute> = geo
+    let kept: Vec<VertexAttribute> = geo
         .attributes
         .iter()
         .filter(|a| a.semantic != semantic)
+        .cloned()
         .collect();
-    let empty = |a: &VertexAttribute| VertexAttribute {
-        semantic: a.semantic.clone(),
-        components: a.components,
-        data: Vec::new(),
-    };
+    let n = geo.positions.len();
     let mut out = TriGeometry {
+        positions: geo.positions.clone(),
+        attributes: kept,
+        triangles: Vec::with_capacity(geo.triangles.len()),
+        targets: geo.targets.clone(),
         group: geo.group.clone(),
-        ..Default::default()
     };
-    let mut attrs: Vec<VertexAttribute> = kept.iter().map(|a| empty(a)).collect();
-    let mut targets: Vec<Vec<VertexAttribute>> = geo
-        .targets
-        .iter()
-        .map(|t| t.iter().map(empty).collect())
-        .collect();
     let mut added = VertexAttribute {
         semantic: semantic.into(),
         components,
-        data: Vec::new(),
+        data: vec![0.0; n * components],
     };
-    // One output vertex per (input vertex, value bits); at most 4 values.
-    let mut map: HashMap<(u32, [u32; 4]), u32> = HashMap::with_capacity(geo.positions.len());
+    // The value each vertex took first; copies by (vertex, value bits).
+    let mut first: Vec<Option<[u32; 4]>> = vec![None; n];
+    let mut copies: HashMap<(u32, [u32; 4]), u32> = HashMap::new();
     for (f, tri) in geo.triangles.iter().enumerate() {
         let mut new_tri = [0u32; 3];
         for k in 0..3 {
@@ -212,27 +210,37 @@ pub fn with_corner_attribute(
             for (b, x) in bits.iter_mut().zip(value) {
                 *b = x.to_bits();
             }
-            let key = (v, bits);
-            let next = out.positions.len() as u32;
-            new_tri[k] = *map.entry(key).or_insert_with(|| {
-                out.positions.push(geo.positions[v as usize]);
-                for (src, dst) in kept.iter().zip(attrs.iter_mut()) {
-                    dst.data.extend_from_slice(src.get(v as usize));
+            new_tri[k] = match first[v as usize] {
+                None => {
+                    first[v as usize] = Some(bits);
+                    added.data[v as usize * components..(v as usize + 1) * components]
+                        .copy_from_slice(value);
+                    v
                 }
-                for (st, dt) in geo.targets.iter().zip(targets.iter_mut()) {
-                    for (src, dst) in st.iter().zip(dt.iter_mut()) {
-                        dst.data.extend_from_slice(src.get(v as usize));
+                Some(b) if b == bits => v,
+                Some(_) => *copies.entry((v, bits)).or_insert_with(|| {
+                    let next = out.positions.len() as u32;
+                    out.positions.push(geo.positions[v as usize]);
+                    for a in out.attributes.iter_mut() {
+                        let c = a.components;
+                        a.data
+                            .extend_from_within(v as usize * c..(v as usize + 1) * c);
                     }
-                }
-                added.data.extend_from_slice(value);
-                next
-            });
+                    for t in out.targets.iter_mut() {
+                        for a in t.iter_mut() {
+                            let c = a.components;
+                            a.data
+                                .extend_from_within(v as usize * c..(v as usize + 1) * c);
+                        }
+                    }
+                    added.data.extend_from_slice(value);
+                    next
+                }),
+            };
         }
         out.triangles.push(new_tri);
     }
-    attrs.push(added);
-    out.attributes = attrs;
-    out.targets = targets;
+    out.attributes.push(added);
     out
 }
 

@@ -280,6 +280,89 @@ impl SimMesh {
         })
     }
 
+    /// Flips the interior edge of `h` (from `a` to `b` in face `(a, b, c)`,
+    /// its twin in face `(b, a, d)`) into the edge from `c` to `d`: the faces
+    /// become `(a, d, c)` and `(d, b, c)`, each keeping its id, group and
+    /// source. Corners keep their wedges, so the edge must not be a seam
+    /// (both faces use one wedge at `a` and one at `b`). Positions are not
+    /// checked: the caller decides whether the flip keeps the surface.
+    ///
+    /// # Errors
+    /// `h` out of range, a boundary edge, a seam, faces of two groups, or
+    /// `c` and `d` already joined.
+    pub fn flip_edge(&mut self, h: HalfedgeId) -> Result<(), MeshError> {
+        self.check_halfedge(h)?;
+        let refuse = |why: &str| Err(MeshError::InvalidEdit(format!("flip_edge {h}: {why}")));
+        let h0 = h.idx();
+        let o0 = self.he_twin[h0];
+        if o0 == INVALID {
+            return refuse("a boundary edge");
+        }
+        let o0 = o0 as usize;
+        let (f, g) = (h0 / 3, o0 / 3);
+        let (h1, h2) = (self.next(h).idx(), self.prev(h).idx());
+        let (o1, o2) = (
+            self.next(HalfedgeId(o0 as u32)).idx(),
+            self.prev(HalfedgeId(o0 as u32)).idx(),
+        );
+        let [a, b, c] = [h0, h1, h2].map(|x| self.he_origin[x]);
+        let d = self.he_origin[o2];
+        let [wa, wb, wc] = [h0, h1, h2].map(|x| self.he_wedge[x]);
+        let wd = self.he_wedge[o2];
+        if self.he_wedge[o1] != wa || self.he_wedge[o0] != wb {
+            return refuse("a seam");
+        }
+        if self.face_groups[f] != self.face_groups[g] {
+            return refuse("faces of two groups");
+        }
+        if c == d
+            || self.find_halfedge(VertexId(c), VertexId(d)).is_some()
+            || self.find_halfedge(VertexId(d), VertexId(c)).is_some()
+        {
+            return refuse("its far corners are already joined");
+        }
+        // The quad's outer edges (twin, crack flag): a->d, d->b, b->c, c->a.
+        let outer = [o1, o2, h1, h2].map(|x| (self.he_twin[x], self.he_crack[x]));
+        let (fs, gs) = (3 * f, 3 * g);
+        for (k, (v, w)) in [(a, wa), (d, wd), (c, wc)].into_iter().enumerate() {
+            self.he_origin[fs + k] = v;
+            self.he_wedge[fs + k] = w;
+        }
+        for (k, (v, w)) in [(d, wd), (b, wb), (c, wc)].into_iter().enumerate() {
+            self.he_origin[gs + k] = v;
+            self.he_wedge[gs + k] = w;
+        }
+        for (slot, (twin, crack)) in [fs, gs, gs + 1, fs + 2].into_iter().zip(outer) {
+            self.he_twin[slot] = twin;
+            if twin != INVALID {
+                self.he_twin[twin as usize] = slot as u32;
+            }
+            self.he_crack[slot] = crack;
+        }
+        self.link(fs + 1, gs + 2);
+        self.he_crack[fs + 1] = false;
+        self.he_crack[gs + 2] = false;
+        // A vertex whose outgoing halfedge was in the two faces takes one of
+        // the new ones (the boundary one, if it has one there).
+        let slots = [fs, fs + 1, fs + 2, gs, gs + 1, gs + 2];
+        for x in [a, b, c, d] {
+            let old = self.vertex_halfedge[x as usize] as usize;
+            if old / 3 != f && old / 3 != g {
+                continue;
+            }
+            let mine = slots.iter().copied().filter(|&s| self.he_origin[s] == x);
+            let pick = mine
+                .clone()
+                .find(|&s| self.he_twin[s] == INVALID)
+                .or_else(|| mine.clone().next());
+            if let Some(s) = pick {
+                self.vertex_halfedge[x as usize] = s as u32;
+            }
+        }
+        self.bump();
+        Ok(())
+    }
+
     /// Opens the interior edge of `h` into a crack: its two faces stop
     /// sharing it, leaving two boundary halfedges.
     ///
@@ -658,5 +741,72 @@ mod tests {
             3 + 16,
             "crack sides plus the 16 border edges"
         );
+    }
+
+    /// Flipping every interior edge of a grid once (where allowed) keeps
+    /// the mesh valid, its area and its UVs at every corner (each corner's
+    /// wedge still holds its vertex's own value); a flip refuses a border
+    /// edge and an edge whose far corners are joined already.
+    #[test]
+    fn edges_flip_and_the_mesh_stays_valid() {
+        let (mut m, _) = build(&grid_input(4, 4));
+        let area = m.total_area();
+        let inner: Vec<HalfedgeId> = m
+            .halfedges()
+            .filter(|&h| m.twin(h).is_some_and(|t| t.0 > h.0))
+            .collect();
+        // Only where the quad is convex (both new triangles face up), so
+        // the flip keeps the surface.
+        let up = |m: &SimMesh, t: [VertexId; 3]| {
+            let [a, b, c] = t.map(|v| m.position(v));
+            (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]) > 1e-12
+        };
+        let mut flipped = 0;
+        for h in inner {
+            let Some(t) = m.twin(h) else { continue };
+            let (a, b) = (m.origin(h), m.dest(h));
+            let (c, d) = (m.origin(m.prev(h)), m.origin(m.prev(t)));
+            if up(&m, [a, d, c]) && up(&m, [d, b, c]) && m.flip_edge(h).is_ok() {
+                flipped += 1;
+                m.validate().unwrap();
+            }
+        }
+        assert!(flipped > 10, "{flipped}");
+        assert!((m.total_area() - area).abs() < 1e-12);
+        for f in m.faces() {
+            for (v, w) in m.face_vertices(f).into_iter().zip(m.face_wedges(f)) {
+                let p = m.position(v);
+                assert_eq!(uv(&m, w), [p[0], p[1]], "face {f}");
+            }
+        }
+        let border = m.halfedges().find(|&h| m.twin(h).is_none()).unwrap();
+        assert!(m.flip_edge(border).is_err());
+        // Flipping back and forth returns the first triangulation.
+        let h = m.halfedges().find(|&h| m.twin(h).is_some()).unwrap();
+        let before: Vec<[VertexId; 3]> = m.faces().map(|f| m.face_vertices(f)).collect();
+        m.flip_edge(h).unwrap();
+        let f = m.face(h);
+        let back = m.face_halfedges(f)[1];
+        m.flip_edge(back).unwrap();
+        m.validate().unwrap();
+        let mut after: Vec<Vec<u32>> = m
+            .faces()
+            .map(|f| {
+                let mut v: Vec<u32> = m.face_vertices(f).iter().map(|x| x.0).collect();
+                v.sort_unstable();
+                v
+            })
+            .collect();
+        let mut want: Vec<Vec<u32>> = before
+            .iter()
+            .map(|t| {
+                let mut v: Vec<u32> = t.iter().map(|x| x.0).collect();
+                v.sort_unstable();
+                v
+            })
+            .collect();
+        after.sort();
+        want.sort();
+        assert_eq!(after, want);
     }
 }

@@ -3,12 +3,15 @@
 //! the input's own triangles, so that the surface away from the cracks is
 //! the input's (its triangles, UVs, normals and seams), only cut.
 //!
-//! Each crack end is inserted into the input as a vertex (snapped to a
-//! vertex or an edge it lies very close to, so no sliver is made); each
-//! crack segment is then walked across the input's faces from one end to
-//! the other, every crossed edge split where the segment crosses it (an
-//! edge split joins the new vertex to the opposite corners, so the walk
-//! always moves along an edge). The walked edges are opened into cracks.
+//! Each crack end is inserted into the input as a vertex exactly where it
+//! lies (an input vertex or edge only when it lies on one, to a millionth
+//! of the face); each crack segment is then walked across the input's
+//! faces from one end to the other, every crossed edge split exactly where
+//! the segment crosses it (an edge split joins the new vertex to the
+//! opposite corners, so the walk always moves along an edge). So a crack
+//! is a polyline on the input's surface, never moved onto the input's
+//! vertices or edges, and the input's own vertices stay where they were.
+//! The walked edges are opened into cracks.
 //! Corner attributes follow the splits by interpolation within the input's
 //! own faces, on each side of a seam.
 //!
@@ -31,12 +34,12 @@ use super::spatial::{
 use std::collections::BTreeMap;
 
 /// A point closer to a vertex than this barycentric distance is that
-/// vertex; closer to an edge, a point of that edge.
-const SNAP_VERTEX: f64 = 0.2;
-const SNAP_EDGE: f64 = 0.1;
+/// vertex; closer to an edge, a point of that edge: only rounding apart.
+const SNAP_VERTEX: f64 = 1e-6;
+const SNAP_EDGE: f64 = 1e-6;
 /// A crossing this close (as a fraction of the edge) to an end of the
-/// crossed edge moves to that end instead of splitting the edge.
-const SNAP_CROSSING: f64 = 0.2;
+/// crossed edge is that end: only rounding apart.
+const SNAP_CROSSING: f64 = 1e-6;
 /// Most crack segments, in percent, that may be left out of a cut.
 const MAX_SKIPPED_PERCENT: usize = 1;
 /// Most vertices the search along edges visits for one segment.
@@ -68,12 +71,15 @@ pub struct Imprinted {
     pub displacement: Vec<[f64; 3]>,
     /// Per vertex: the crack time there (NaN off the cracks).
     pub crack_time: Vec<f64>,
+    /// Per vertex, when [`imprint`] was given moves: the cracked mesh's
+    /// move there, on the vertex's side of any crack.
+    pub moves: Option<Vec<[f64; 3]>>,
     /// The cut edges as segments at rest, with their times.
     pub segments: Vec<[[f64; 3]; 2]>,
     /// Per segment: the time of the crack segment it was cut for.
     pub segment_times: Vec<f64>,
-    /// Crack ends moved onto an input vertex or edge within the snapping
-    /// distance, and edge crossings moved to an end of the edge.
+    /// Crack ends within rounding of an input vertex or edge, and edge
+    /// crossings within rounding of an end of the edge, taken to be there.
     pub snapped: usize,
     /// Segments a straight walk could not follow (across a crease or a
     /// seam), cut along the input's edges instead.
@@ -86,12 +92,15 @@ pub struct Imprinted {
     pub refined: usize,
     /// Segments left out: their ends are not joined by the input nearby.
     pub skipped: usize,
+    /// Edges next to the cut flipped so no needle lies along a crack
+    /// ([`settle`]).
+    pub settled: usize,
 }
 
 /// Cut the crack segments `segments` (at rest, on the surface of
 /// `cracked`; `times` per segment) into `base` (the same surface,
-/// triangulated otherwise) and carry `displacement` and `crack_time` (per
-/// vertex of `cracked`) over.
+/// triangulated otherwise) and carry `displacement`, `crack_time` and
+/// `moves` (per vertex of `cracked`; moves when given) over.
 ///
 /// # Errors
 /// [`MeshError::InvalidEdit`] when a segment cannot be walked across
@@ -104,6 +113,7 @@ pub fn imprint(
     times: &[f64],
     displacement: &[[f64; 3]],
     crack_time: &[f64],
+    moves: Option<&[[f64; 3]]>,
 ) -> Result<Imprinted, MeshError> {
     let mut cut = Cutter::new(base.clone());
     // The crack ends, once each (by their exact position).
@@ -166,8 +176,13 @@ pub fn imprint(
         snapped,
         along_edges_used,
         across_shells,
+        n_original,
+        children,
         ..
     } = cut;
+    // The faces the cut made or reshaped (and, below, those the
+    // refinement adds): where the triangulation may settle.
+    let reshaped: Vec<bool> = (0..n_original).map(|f| !children[f].is_empty()).collect();
     // Open the walked edges (halfedge ids survive opening; vertices may be
     // copied).
     let mut opened: Vec<(HalfedgeId, f64)> = Vec::new();
@@ -189,8 +204,14 @@ pub fn imprint(
         out_times.push(time);
     }
     let refined = refine_along_cracks(&mut mesh, cracked.mean_edge_length())?;
+    let settled = settle(&mut mesh, &reshaped);
     let sampler = Sampler::new(cracked);
     let mut disp = Vec::with_capacity(mesh.n_vertices());
+    let mut moved = Vec::with_capacity(if moves.is_some() {
+        mesh.n_vertices()
+    } else {
+        0
+    });
     let mut ctime = Vec::with_capacity(mesh.n_vertices());
     let on_crack = crack_flags(&mesh);
     for v in mesh.vertices() {
@@ -207,10 +228,16 @@ pub fn imprint(
                     value(displacement, b.idx()),
                     t,
                 ));
+                if let Some(m) = moves {
+                    moved.push(lerp3(value(m, a.idx()), value(m, b.idx()), t));
+                }
                 ctime.push(lerp_time(crack_time, a.idx(), b.idx(), t));
             }
             None => {
                 disp.push(sampler.face_value(p, displacement));
+                if let Some(m) = moves {
+                    moved.push(sampler.face_value(p, m));
+                }
                 ctime.push(f64::NAN);
             }
         }
@@ -219,6 +246,7 @@ pub fn imprint(
         mesh,
         displacement: disp,
         crack_time: ctime,
+        moves: moves.map(|_| moved),
         segments: out_segments,
         segment_times: out_times,
         snapped,
@@ -226,7 +254,93 @@ pub fn imprint(
         across_shells,
         skipped,
         refined,
+        settled,
     })
+}
+
+/// Two faces meeting at a larger angle than this (degrees) are not
+/// re-triangulated: a flip there would change the surface's shape.
+const SETTLE_MAX_DEG: f64 = 2.0;
+
+/// Edge flips toward a Delaunay triangulation where the cut made or
+/// reshaped faces (`reshaped`: per original face, faces appended since
+/// count as reshaped): an edge of such a face (or one across from it) is
+/// flipped when its two opposite angles add up to more than 180 degrees,
+/// its faces lie in one plane (within [`SETTLE_MAX_DEG`]), it is no crack,
+/// border, seam or material border, and the flip keeps both triangles
+/// facing the same way. A crack end or crossing that lies close to an
+/// input vertex or edge makes needles (a crossing at 1% of an edge: a
+/// triangle 1% high); needles turn over as soon as a gap opens beside
+/// them, and the opening would be shortened there. Settled, the short
+/// edge between the crack point and the input vertex has its third
+/// corners off to its sides. The input's vertices, the crack and the
+/// surface stay as they are; only faces next to the cut change. Returns
+/// how many edges were flipped.
+fn settle(mesh: &mut SimMesh, reshaped: &[bool]) -> usize {
+    let cos_max = SETTLE_MAX_DEG.to_radians().cos();
+    let mut near: Vec<bool> = (0..mesh.n_faces())
+        .map(|f| reshaped.get(f).copied().unwrap_or(true))
+        .collect();
+    let mut queue: std::collections::VecDeque<HalfedgeId> = mesh
+        .halfedges()
+        .filter(|&h| {
+            mesh.twin(h).is_some_and(|t| {
+                t.0 > h.0 && (near[mesh.face(h).idx()] || near[mesh.face(t).idx()])
+            })
+        })
+        .collect();
+    let mut queued = vec![false; mesh.n_halfedges()];
+    for h in &queue {
+        queued[h.idx()] = true;
+    }
+    let limit = 4 * queue.len() + 16;
+    let mut flips = 0;
+    while let Some(h) = queue.pop_front() {
+        queued[h.idx()] = false;
+        let Some(t) = mesh.twin(h) else { continue };
+        let a = mesh.position(mesh.origin(h));
+        let b = mesh.position(mesh.dest(h));
+        let c = mesh.position(mesh.origin(mesh.prev(h)));
+        let d = mesh.position(mesh.origin(mesh.prev(t)));
+        let angle = |p: [f64; 3]| {
+            let (u, v) = (sub(a, p), sub(b, p));
+            norm(cross(u, v)).atan2(dot(u, v))
+        };
+        if angle(c) + angle(d) <= std::f64::consts::PI + 1e-9 {
+            continue;
+        }
+        let nf = cross(sub(b, a), sub(c, a));
+        let ng = cross(sub(a, b), sub(d, b));
+        if dot(nf, ng) < cos_max * norm(nf) * norm(ng) {
+            continue;
+        }
+        let n = add(nf, ng);
+        let faces_up = |x: [f64; 3], y: [f64; 3], z: [f64; 3]| {
+            let m = cross(sub(y, x), sub(z, x));
+            dot(m, n) > 1e-9 * norm(m) * norm(n) && norm(m) > 0.0
+        };
+        if !(faces_up(a, d, c) && faces_up(d, b, c)) {
+            continue;
+        }
+        let (f, g) = (mesh.face(h), mesh.face(t));
+        if mesh.flip_edge(h).is_err() {
+            continue;
+        }
+        flips += 1;
+        if flips >= limit {
+            break;
+        }
+        for face in [f, g] {
+            near[face.idx()] = true;
+            for e in mesh.face_halfedges(face) {
+                if mesh.twin(e).is_some() && !queued[e.idx()] {
+                    queued[e.idx()] = true;
+                    queue.push_back(e);
+                }
+            }
+        }
+    }
+    flips
 }
 
 /// Split every edge leaving a crack (or leaving a vertex within `length`
@@ -508,7 +622,6 @@ impl Cutter {
         Ok(r.vertex)
     }
 
-    /// A vertex of the cut mesh at (or, snapped, very near) `p`.
     /// The shell (face-connected part of the input) of vertex `v`.
     fn shell_of(&self, v: VertexId) -> u32 {
         let f = self.mesh.face(self.mesh.vertex_halfedge(v));
@@ -516,7 +629,7 @@ impl Cutter {
     }
 
     /// A vertex at the point of face `f` with barycentric coordinates
-    /// `bary` (snapped to a corner or an edge very near it).
+    /// `bary` (a corner or a point of an edge when within rounding of it).
     fn insert_at(&mut self, f: FaceId, bary: [f64; 3]) -> Result<VertexId, MeshError> {
         let vs = self.mesh.face_vertices(f);
         let hs = self.mesh.face_halfedges(f);
@@ -968,27 +1081,25 @@ mod tests {
         let (cracked, segments, disp) = cracked_grid(&path);
         let times: Vec<f64> = (0..segments.len()).map(|i| i as f64).collect();
         let time = vec![f64::NAN; cracked.n_vertices()];
-        let im = imprint(&base, &cracked, &segments, &times, &disp, &time).expect("imprint");
+        let im = imprint(&base, &cracked, &segments, &times, &disp, &time, None).expect("imprint");
         im.mesh.validate().expect("valid cut mesh");
         assert_eq!(im.skipped, 0);
         // The cut follows the crack: its length and its distance.
         let length: f64 = im.segments.iter().map(|[a, b]| norm(sub(*b, *a))).sum();
         let want = 3.0 * 2f64.sqrt();
-        // Crossings within a fifth of an input edge (1 here) of its ends
-        // move to them, so no sliver is made.
+        // Exactly along the crack: every cut point on the diagonal, none
+        // moved onto an input vertex.
         assert!(
-            (length - want).abs() < 0.05 * want,
+            (length - want).abs() < 1e-9 * want,
             "cut length {length} vs {want}"
         );
         for [a, b] in &im.segments {
             for p in [a, b] {
                 let off = (p[0] - p[1]).abs() / 2f64.sqrt();
-                assert!(
-                    off <= SNAP_CROSSING + 1e-9,
-                    "cut point {p:?} {off} off the diagonal"
-                );
+                assert!(off <= 1e-12, "cut point {p:?} {off} off the diagonal");
             }
         }
+        assert_eq!(im.snapped, 0);
         let line_dir = scale([-1.0, 1.0, 0.0], 1.0 / 2f64.sqrt());
         check_sides(&im, line_dir, [0.5, 0.5, 0.0]);
         // Open along the whole crack: every cut edge is a crack on both

@@ -75,31 +75,26 @@ fn bake_group(
 ) -> Result<Value, String> {
     let size = post.bake_size;
     let dilate = post.bake_dilate;
-    let mut mat_json = material
+    let mat_json = material
         .and_then(|m| scene.materials.get(m))
         .map(|m| m.json.clone())
         .unwrap_or_default();
-    add_flat_normals(scene, mesh_index, prims);
     let t0 = std::time::Instant::now();
     // The UV set: the one asked for, unless missing or overlapping; then
-    // an atlas in TEXCOORD_0, the asset's own TEXCOORD_0 moved to `moved`.
-    let (set, moved, mut atlas_report) = match why_atlas(scene, mesh_index, prims, post) {
-        None => (post.bake_texcoord, 0, Value::Null),
-        Some((why, overlap)) => {
-            let (moved, report) = make_atlas(scene, mesh_index, prims, post, (&why, overlap))?;
-            (0, moved, report)
-        }
+    // an atlas in a new set (the asset's own sets stay as they are).
+    let (set, mut atlas_report) = match why_atlas(scene, mesh_index, prims, post) {
+        None => (post.bake_texcoord, Value::Null),
+        Some((why, overlap)) => make_atlas(scene, mesh_index, prims, post, (&why, overlap))?,
     };
     log::debug!(
         "bake: uvset+atlas done at {:.3} s",
         t0.elapsed().as_secs_f64()
     );
-    if moved != 0 {
-        retarget_texcoord_0(&mut mat_json, moved);
-    }
-    let reframe = tangents_for(scene, mesh_index, prims, &mat_json, set, moved != 0);
+    // The surface as viewers draw it, for the bake only: the output keeps
+    // its own attributes.
+    let (drawn, reframe) = as_drawn(scene, mesh_index, prims, &mat_json, set);
     log::debug!("bake: tangents done at {:.3} s", t0.elapsed().as_secs_f64());
-    let own = material_layers(scene, material, &mat_json, moved).map_err(|e| e.to_string())?;
+    let own = material_layers(scene, material, &mat_json).map_err(|e| e.to_string())?;
     let sets: Vec<u32> = [
         Some(set),
         own.base.as_ref().map(|l| l.tex_coord),
@@ -109,7 +104,7 @@ fn bake_group(
     .into_iter()
     .flatten()
     .collect();
-    let arrays = Arrays::gather(scene, mesh_index, prims, &sets, reframe);
+    let arrays = Arrays::gather(&drawn, &sets, reframe);
     let surface = Surface {
         positions: &arrays.positions,
         normals: &arrays.normals,
@@ -225,24 +220,10 @@ fn bake_group(
         "occlusionTexture".into(),
         json!({"index": tex_occl, "texCoord": set}),
     );
-    // The asset's own UVs, moved aside for the atlas, stay only while one
-    // of the variant's textures still reads them (no unused attribute).
-    let own_uvs_used = moved != 0 && reads_texcoord(&m, moved);
     scene.materials.push(Material { json: m });
     let variant = scene.materials.len() - 1;
     for &p in prims {
         scene.meshes[mesh_index].primitives[p].material = Some(variant);
-        let drop_uvs = moved != 0 && !own_uvs_used;
-        if drop_uvs || reframe {
-            let mut geo = tri_geometry(scene, mesh_index, p).clone();
-            geo.attributes.retain(|a| {
-                !(a.semantic == OWN_TANGENT || drop_uvs && a.semantic == set_name(moved))
-            });
-            set_geometry(scene, mesh_index, p, geo);
-        }
-    }
-    if let Value::Object(a) = &mut atlas_report {
-        a.insert("own_texcoord_0_kept".into(), json!(own_uvs_used));
     }
     Ok(json!({
         "material": base_name,
@@ -259,76 +240,74 @@ fn bake_group(
 }
 
 /// Where the material's own normal map's tangents wait while the baked set's
-/// are made (removed before the scene is written).
+/// are made, in [`as_drawn`]'s copies.
 const OWN_TANGENT: &str = "_CRACKLE_OWN_TANGENT";
 
-/// Gives the primitives `TANGENT`s of the baked UV set `set` (the frame the
-/// baked normal map is in, as viewers build it). When the material's own
-/// normal map reads another set (or an atlas replaced its set), that map's
-/// tangents, given or made, are kept as [`OWN_TANGENT`] to carry its normals
-/// over; returns whether they were.
-fn tangents_for(
-    scene: &mut Scene,
+/// Copies of the primitives as a viewer draws them, for the bake: flat
+/// normals where a primitive has none (glTF tells viewers to shade those
+/// flat), and the tangent frame of the baked UV set `set` as `TANGENT`:
+/// the given one, which viewers use, else MikkTSpace's (what glTF tells
+/// viewers to make). When the material's own normal map reads another set
+/// and no tangents are given, that map's frame (MikkTSpace of its set) is
+/// kept as [`OWN_TANGENT`] to carry its normals over; the flag says so.
+/// Nothing is written to the scene: the output keeps its own attributes.
+fn as_drawn(
+    scene: &Scene,
     mesh_index: usize,
     prims: &[usize],
     mat_json: &Map<String, Value>,
     set: u32,
-    atlas: bool,
-) -> bool {
+) -> (Vec<TriGeometry>, bool) {
     let own_set = mat_json
         .get("normalTexture")
         .map(|n| n.get("texCoord").and_then(Value::as_u64).unwrap_or(0) as u32);
-    let reframe = own_set.is_some_and(|s| s != set);
-    for &p in prims {
-        let mut geo = tri_geometry(scene, mesh_index, p).clone();
-        let given = geo.attributes.iter().position(|a| a.semantic == "TANGENT");
-        match (given, own_set) {
-            // Given tangents belong to the own normal map's set.
-            (Some(i), Some(_)) if reframe => geo.attributes[i].semantic = OWN_TANGENT.into(),
-            (None, Some(s)) if reframe => {
-                if let Some(mut with) = with_generated_tangents(&geo, &set_name(s)) {
-                    for a in &mut with.attributes {
-                        if a.semantic == "TANGENT" {
-                            a.semantic = OWN_TANGENT.into();
+    let given = prims.iter().all(|&p| {
+        tri_geometry(scene, mesh_index, p)
+            .attribute("TANGENT")
+            .is_some()
+    });
+    let reframe = !given && own_set.is_some_and(|s| s != set);
+    let drawn = prims
+        .iter()
+        .map(|&p| {
+            let mut geo = tri_geometry(scene, mesh_index, p).clone();
+            if geo.attribute("NORMAL").is_none() {
+                geo = with_flat_normals(&geo);
+            }
+            if !given {
+                geo.attributes.retain(|a| a.semantic != "TANGENT");
+                if let (true, Some(s)) = (reframe, own_set) {
+                    if let Some(mut with) = with_generated_tangents(&geo, &set_name(s)) {
+                        for a in &mut with.attributes {
+                            if a.semantic == "TANGENT" {
+                                a.semantic = OWN_TANGENT.into();
+                            }
                         }
+                        geo = with;
                     }
+                }
+                if let Some(with) = with_generated_tangents(&geo, &set_name(set)) {
                     geo = with;
                 }
             }
-            // Given tangents of another layout than the atlas: made anew.
-            (Some(i), None) if atlas => {
-                geo.attributes.remove(i);
-            }
-            _ => {}
-        }
-        if let Some(with) = with_generated_tangents(&geo, &set_name(set)) {
-            geo = with;
-        }
-        set_geometry(scene, mesh_index, p, geo);
-    }
-    reframe
+            geo
+        })
+        .collect();
+    (drawn, reframe)
 }
 
-/// Flat normals where a primitive has none (what a viewer would draw), so
-/// tangents can be made.
-fn add_flat_normals(scene: &mut Scene, mesh_index: usize, prims: &[usize]) {
-    for &p in prims {
-        let geo = tri_geometry(scene, mesh_index, p);
-        if geo.attribute("NORMAL").is_none() {
-            let corners: Vec<f32> = geo
-                .triangles
-                .iter()
-                .flat_map(|t| {
-                    let [a, b, c] = t.map(|i| geo.positions[i as usize].map(f64::from));
-                    let n = v3::unit(v3::cross(v3::sub(b, a), v3::sub(c, a)))
-                        .unwrap_or([0.0, 0.0, 1.0]);
-                    [n; 3].into_iter().flatten().map(|x| x as f32)
-                })
-                .collect();
-            let with = with_corner_attribute(geo, "NORMAL", 3, &corners);
-            set_geometry(scene, mesh_index, p, with);
-        }
-    }
+/// `geo` with flat normals (each corner its triangle's).
+fn with_flat_normals(geo: &TriGeometry) -> TriGeometry {
+    let corners: Vec<f32> = geo
+        .triangles
+        .iter()
+        .flat_map(|t| {
+            let [a, b, c] = t.map(|i| geo.positions[i as usize].map(f64::from));
+            let n = v3::unit(v3::cross(v3::sub(b, a), v3::sub(c, a))).unwrap_or([0.0, 0.0, 1.0]);
+            [n; 3].into_iter().flatten().map(|x| x as f32)
+        })
+        .collect();
+    with_corner_attribute(geo, "NORMAL", 3, &corners)
 }
 
 /// Why the asked UV set cannot take the maps (missing, overlapping, or an
@@ -366,11 +345,12 @@ fn why_atlas(
     })
 }
 
-/// An automatic atlas in TEXCOORD_0 of the primitives (viewers that show one
-/// UV set, as Blender's solid view, show the maps); their own TEXCOORD_0
-/// moves to the first free set, returned (0 when they had none) with the
-/// report's `atlas` entry. `why` says why, with the own set's overlap
-/// when [`why_atlas`] measured it.
+/// An automatic atlas in a new UV set of the primitives, the first one
+/// none of them has (the asset's own sets stay as they are); returns it with
+/// the report's `atlas` entry. `why` says why, with the own set's overlap
+/// when [`why_atlas`] measured it. A vertex whose corners get different
+/// atlas UVs (on a chart's or a repacked island's border) is split; every
+/// other vertex keeps its index.
 ///
 /// # Errors
 /// `bake_atlas = "never"`, no free UV set, or an atlas that does not fit.
@@ -393,36 +373,16 @@ fn make_atlas(
                 .is_some()
         })
     };
-    let moved = if !any_has(scene, 0) {
-        0
-    } else {
-        (1..8u32)
-            .find(|&k| !any_has(scene, k))
-            .ok_or("every TEXCOORD_0..7 set is taken; no room for an automatic atlas")?
-    };
-    if moved != 0 {
-        for &p in prims {
-            let mut geo = tri_geometry(scene, mesh_index, p).clone();
-            for a in &mut geo.attributes {
-                if a.semantic == set_name(0) {
-                    a.semantic = set_name(moved);
-                }
-            }
-            set_geometry(scene, mesh_index, p, geo);
-        }
-    }
+    let set = (0..8u32)
+        .find(|&k| !any_has(scene, k))
+        .ok_or("every TEXCOORD_0..7 set is taken; no room for an automatic atlas")?;
     let size = post.bake_size;
     let (positions, tris) = gather_positions(scene, mesh_index, prims);
     let padding = (ATLAS_PADDING_2048 * size / 2048).max(1);
     // A UV set that overlaps itself: its own islands repacked (textures
     // keep their seams and frames), unless they overlap even then (an
     // island wrapped onto itself); a mesh without one: charts of its own.
-    let (own, _) = gather_uvs(
-        scene,
-        mesh_index,
-        prims,
-        asked_after_move(post.bake_texcoord, moved),
-    );
+    let (own, _) = gather_uvs(scene, mesh_index, prims, post.bake_texcoord);
     let repacked = (own.len() == positions.len())
         .then_some(own)
         .and_then(|uvs| {
@@ -445,6 +405,7 @@ fn make_atlas(
         None => atlas::atlas(&positions, &tris, size, padding).map_err(|e| e.to_string())?,
     };
     let mut corner = 0;
+    let mut split = 0;
     for &p in prims {
         let geo = tri_geometry(scene, mesh_index, p);
         let n = geo.triangles.len() * 3;
@@ -453,11 +414,12 @@ fn make_atlas(
             .flat_map(|uv| uv.map(|x| x as f32))
             .collect();
         corner += n;
-        let with = with_corner_attribute(geo, &set_name(0), 2, &values);
+        let with = with_corner_attribute(geo, &set_name(set), 2, &values);
+        split += with.positions.len() - geo.positions.len();
         set_geometry(scene, mesh_index, p, with);
     }
-    let report = json!({"reason": why, "layout": kind, "charts": a.charts, "texels_per_unit": a.density, "texcoord": 0, "own_texcoord_0_moved_to": moved});
-    Ok((moved, report))
+    let report = json!({"reason": why, "layout": kind, "charts": a.charts, "texels_per_unit": a.density, "texcoord": set, "split_vertices": split});
+    Ok((set, report))
 }
 
 /// The material's base colour, normal and occlusion textures, decoded.
@@ -465,7 +427,6 @@ fn material_layers(
     scene: &Scene,
     material: Option<usize>,
     json: &Map<String, Value>,
-    moved: u32,
 ) -> Result<bake::Material, TextureError> {
     let factor = json
         .get("pbrMetallicRoughness")
@@ -503,7 +464,7 @@ fn material_layers(
             wrap_s: t.wrap_s,
             wrap_t: t.wrap_t,
             transform: t.transform,
-            tex_coord: if t.tex_coord == 0 { moved } else { t.tex_coord },
+            tex_coord: t.tex_coord,
         }))
     };
     let number = |slot: &str, key: &str| {
@@ -516,52 +477,6 @@ fn material_layers(
     out.normal = layer("normalTexture")?.map(|l| (l, number("normalTexture", "scale")));
     out.occlusion = layer("occlusionTexture")?.map(|l| (l, number("occlusionTexture", "strength")));
     Ok(out)
-}
-
-/// Point every textureInfo of a material (a `...Texture` object with an
-/// `index`, in the core material and its extensions) that reads
-/// `TEXCOORD_0` at `TEXCOORD_{to}` instead, `KHR_texture_transform`'s
-/// `texCoord` override included.
-fn retarget_texcoord_0(json: &mut Map<String, Value>, to: u32) {
-    for (key, value) in json.iter_mut() {
-        let Value::Object(obj) = value else { continue };
-        if key.ends_with("Texture") && obj.contains_key("index") {
-            let zero = obj.get("texCoord").and_then(Value::as_u64).unwrap_or(0) == 0;
-            if zero {
-                obj.insert("texCoord".into(), json!(to));
-            }
-            if let Some(Value::Object(t)) = obj
-                .get_mut("extensions")
-                .and_then(|e| e.get_mut("KHR_texture_transform"))
-            {
-                if t.get("texCoord").and_then(Value::as_u64) == Some(0) {
-                    t.insert("texCoord".into(), json!(to));
-                }
-            }
-        } else {
-            retarget_texcoord_0(obj, to);
-        }
-    }
-}
-
-/// Whether a textureInfo of the material (core or extension) reads
-/// `TEXCOORD_{set}`.
-fn reads_texcoord(json: &Map<String, Value>, set: u32) -> bool {
-    json.iter().any(|(key, value)| {
-        let Value::Object(obj) = value else {
-            return false;
-        };
-        if key.ends_with("Texture") && obj.contains_key("index") {
-            let over = obj
-                .get("extensions")
-                .and_then(|e| e.pointer("/KHR_texture_transform/texCoord"))
-                .and_then(Value::as_u64);
-            let tc = over.or_else(|| obj.get("texCoord").and_then(Value::as_u64));
-            tc.unwrap_or(0) == u64::from(set)
-        } else {
-            reads_texcoord(obj, set)
-        }
-    })
 }
 
 /// An image of PNG `bytes` and a texture showing it; the texture's index.
@@ -592,16 +507,6 @@ fn tri_geometry(scene: &Scene, mesh: usize, prim: usize) -> &TriGeometry {
 
 fn set_geometry(scene: &mut Scene, mesh: usize, prim: usize, geo: TriGeometry) {
     scene.meshes[mesh].primitives[prim].geometry = Geometry::Triangles(geo);
-}
-
-/// Where UV set `asked` is after TEXCOORD_0 moved to set `moved` (0: no
-/// move).
-fn asked_after_move(asked: u32, moved: u32) -> u32 {
-    if moved != 0 && asked == 0 {
-        moved
-    } else {
-        asked
-    }
 }
 
 /// Triangles of corners in order (0, 1, 2), (3, 4, 5), ...: an atlas's
@@ -660,19 +565,25 @@ struct Arrays {
 }
 
 impl Arrays {
-    /// `sets`: the UV sets wanted, each gathered once however often named;
-    /// `own`: whether to gather [`OWN_TANGENT`] too.
-    fn gather(scene: &Scene, mesh: usize, prims: &[usize], sets: &[u32], own: bool) -> Arrays {
+    /// The arrays of `geos` (one index space); `sets`: the UV sets
+    /// wanted, each gathered once however often named; `own`: whether to
+    /// gather [`OWN_TANGENT`] too.
+    fn gather(geos: &[TriGeometry], sets: &[u32], own: bool) -> Arrays {
         let mut sets = sets.to_vec();
         sets.sort_unstable();
         sets.dedup();
-        let (positions, triangles) = gather_positions(scene, mesh, prims);
+        let mut positions = Vec::new();
+        let mut triangles = Vec::new();
+        for geo in geos {
+            let base = positions.len() as u32;
+            positions.extend(geo.positions.iter().map(|q| q.map(f64::from)));
+            triangles.extend(geo.triangles.iter().map(|t| t.map(|i| i + base)));
+        }
         let mut normals = Vec::with_capacity(positions.len());
         let mut tangents = Vec::with_capacity(positions.len());
         let mut own_tangents = Vec::with_capacity(if own { positions.len() } else { 0 });
         let mut uvs: BTreeMap<u32, Vec<[f64; 2]>> = BTreeMap::new();
-        for &p in prims {
-            let geo = tri_geometry(scene, mesh, p);
+        for geo in geos {
             let n = geo.positions.len();
             // One attribute's component `k` of every vertex (`default` without it).
             let column = |sem: &str, k: usize, default: f64| -> Vec<f64> {
@@ -744,7 +655,8 @@ mod tests {
             }],
             ..Default::default()
         };
-        let a = Arrays::gather(&scene, 0, &[0, 1], &[0, 0], false);
+        let geos: Vec<TriGeometry> = [0, 1].map(|p| tri_geometry(&scene, 0, p).clone()).to_vec();
+        let a = Arrays::gather(&geos, &[0, 0], false);
         let uv = &a.uvs[&0];
         assert_eq!(uv.len(), a.positions.len());
         assert_eq!(uv[4], [0.75, 0.0]);

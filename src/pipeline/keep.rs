@@ -1,4 +1,5 @@
-//! `post.keep_geometry`: the output keeps the input's own triangles,
+//! An output that keeps the input as it is (`post.output = "input"`, nothing
+//! moving or cutting the surface): the output has the input's own triangles,
 //! vertices and attributes (morph targets, skins and UV layouts untouched);
 //! the cracks, simulated on the remeshed surface, are carried onto it. The
 //! crack segments are projected onto the input's faces, halved where the

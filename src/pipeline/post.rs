@@ -32,8 +32,9 @@ impl PostOutcome {
     }
 }
 
-/// A mesh's crack segments and their times (fractions of the run).
-type CrackLines = (Vec<[[f64; 3]; 2]>, Vec<f64>);
+/// A mesh's crack segments, their times (fractions of the run) and, when
+/// the segments moved with the gaps, where they lie at rest.
+type CrackLines = (Vec<[[f64; 3]; 2]>, Vec<f64>, Option<Vec<[[f64; 3]; 2]>>);
 
 /// Post-process every simulated mesh and write it back into `scene`:
 /// width and curling, walls, attributes, then the crack lines.
@@ -49,49 +50,6 @@ pub fn apply(
     let mut widths_of: Vec<Vec<f64>> = Vec::new();
     for (e, (_, r)) in entries.iter_mut().zip(reports) {
         let mut detail = serde_json::Map::new();
-        // Cutting into the input: from here on the mesh is the input's,
-        // cut, with the simulation's values carried over.
-        let cut;
-        let r = match e.unremeshed.take() {
-            Some(base) if post.cut_input => {
-                let ratio = base.mean_edge_length() / e.sim.mean_edge_length().max(1e-300);
-                if ratio > post.cut_input_max_ratio {
-                    detail.insert(
-                        "cut_input".into(),
-                        json!({ "kept_remeshed": format!(
-                            "the input's edges are {ratio:.2} times as long as the simulated surface's, above post.cut_input_max_ratio = {}: cut into them, the cracks would follow its triangles",
-                            post.cut_input_max_ratio
-                        ) }),
-                    );
-                    r
-                } else {
-                    let t = Instant::now();
-                    match cut_into_input(&base, e, r) {
-                        Ok((report, d)) => {
-                            cut = report;
-                            detail.insert("cut_input".into(), d);
-                            out.time("cut_input", t.elapsed().as_secs_f64());
-                            &cut
-                        }
-                        Err(err) => {
-                            log::warn!(
-                                "{}: the cracks stay on the remeshed surface: {err}",
-                                e.label
-                            );
-                            detail.insert(
-                                "cut_input".into(),
-                                json!({ "fell_back": err.to_string() }),
-                            );
-                            r
-                        }
-                    }
-                }
-            }
-            _ => r,
-        };
-        let mut positions: Vec<[f64; 3]> = e.sim.positions().to_vec();
-        // How far each crack opened, read at rest (before anything moves).
-        let opening = openings(&e.sim, &r.displacement, &r.segments);
         // Grooves: a width from the cell size (or, for models without one,
         // the bounding-box diagonal).
         let groove_width = if post.grooves() {
@@ -102,40 +60,83 @@ pub fn apply(
         } else {
             0.0
         };
+        let stage = if groove_width > 0.0 {
+            "groove"
+        } else {
+            "width"
+        };
         let moves = post.width > 0.0 || post.curl > 0.0 || groove_width > 0.0;
-        let mut mean_gap = 0.0;
-        if moves {
-            let t = Instant::now();
-            let d = if groove_width > 0.0 {
+        // Gaps and grooves open on the simulation surface, whose triangles
+        // the method made (well shaped, and a crack's nodes spaced alike).
+        let t = Instant::now();
+        let opened = moves.then(|| {
+            if groove_width > 0.0 {
                 groove(&e.sim, 0.5 * groove_width)
             } else {
                 displace(&e.sim, &r.displacement, post)
-            };
-            detail.insert(
-                if groove_width > 0.0 {
-                    "groove"
-                } else {
-                    "width"
+            }
+        });
+        out.time(stage, t.elapsed().as_secs_f64());
+        // Cutting into the input: from here on the mesh is the input's,
+        // cut, with the simulation's values (and the gaps' moves) carried
+        // over.
+        let cut;
+        let mut carried: Option<Vec<[f64; 3]>> = None;
+        let r = match e.unremeshed.take() {
+            Some(base) if post.cuts_input() => {
+                let t = Instant::now();
+                let moves_of = opened
+                    .as_ref()
+                    .map(|d| moves_from_rest(&e.sim, &d.positions));
+                match cut_into_input(&base, e, r, moves_of.as_deref()) {
+                    Ok((report, d, m)) => {
+                        cut = report;
+                        carried = m;
+                        detail.insert("cut_input".into(), d);
+                        out.time("cut_input", t.elapsed().as_secs_f64());
+                        &cut
+                    }
+                    Err(err) => {
+                        log::warn!(
+                            "{}: the cracks stay on the simulation surface: {err}",
+                            e.label
+                        );
+                        detail.insert("cut_input".into(), json!({ "fell_back": err.to_string() }));
+                        r
+                    }
                 }
-                .into(),
-                json!({
-                    "max_gap": d.max_gap,
-                    "mean_gap": d.mean_gap,
-                    "width_limited_nodes": d.width_limited,
-                    "inverted_triangles_prevented": d.inverted_triangles,
-                    "shortened_nodes": d.shortened_nodes,
-                }),
-            );
+            }
+            _ => r,
+        };
+        let mut positions: Vec<[f64; 3]> = e.sim.positions().to_vec();
+        // How far each crack opened, read at rest (before anything moves).
+        let opening = openings(&e.sim, &r.displacement, &r.segments);
+        let mut mean_gap = 0.0;
+        if let Some(d) = opened {
+            let mut info = json!({
+                "max_gap": d.max_gap,
+                "mean_gap": d.mean_gap,
+                "width_limited_nodes": d.width_limited,
+                "inverted_triangles_prevented": d.inverted_triangles,
+                "shortened_nodes": d.shortened_nodes,
+            });
             mean_gap = d.mean_gap;
-            positions = d.positions;
-            out.time(
-                if groove_width > 0.0 {
-                    "groove"
-                } else {
-                    "width"
-                },
-                t.elapsed().as_secs_f64(),
-            );
+            positions = match carried {
+                // The input's own vertices follow the gaps' moves; moves
+                // that would turn one of its triangles over are shortened.
+                Some(m) => {
+                    let t = Instant::now();
+                    for (p, m) in positions.iter_mut().zip(m) {
+                        *p = crate::math::v3::add(*p, m);
+                    }
+                    let n = crate::post::width::shorten(&e.sim, &mut positions, &[], 1.0);
+                    info["shortened_nodes_on_input"] = json!(n);
+                    out.time(stage, t.elapsed().as_secs_f64());
+                    positions
+                }
+                None => d.positions,
+            };
+            detail.insert(stage.into(), info);
         }
         let walls = if post.walls || groove_width > 0.0 {
             let t = Instant::now();
@@ -250,7 +251,7 @@ pub fn apply(
                     message: err.to_string(),
                 })?;
         }
-        if post.keep_geometry {
+        if post.keeps_input() {
             super::keep::add_attributes(scene, e, &extra);
         } else {
             write_back_with(scene, e, &extra);
@@ -272,11 +273,16 @@ pub fn apply(
             .map(|(t, o)| post.fade(t / end, if deepest > 0.0 { o / deepest } else { 1.0 }))
             .collect();
         widths_of.push(widths);
-        lines_of.push((segments, r.segment_times.iter().map(|t| t / end).collect()));
+        let rest = moves.then(|| r.segments.clone());
+        lines_of.push((
+            segments,
+            r.segment_times.iter().map(|t| t / end).collect(),
+            rest,
+        ));
         out.details.push(Value::Object(detail));
     }
     let mut timing = PostOutcome::default();
-    for ((((e, walls), (segments, times)), widths), detail) in entries
+    for ((((e, walls), (segments, times, rest)), widths), detail) in entries
         .iter()
         .zip(walls_of)
         .zip(lines_of)
@@ -287,20 +293,20 @@ pub fn apply(
         // Kept geometry: the cracks carried onto the input's surface; for
         // the maps, halved until they lie within a tenth of the baked
         // crack's width of it.
-        let (bake_segments, bake_widths) = if post.keep_geometry && post.bake {
+        let (bake_segments, bake_widths) = if post.keeps_input() && post.bake {
             let diagonal = super::Bounds::of(e.sim.positions().iter().copied()).diagonal();
             let tolerance = 0.1 * post.bake_width_for(diagonal);
             super::keep::onto_input(scene, e, &segments, &widths, tolerance)
         } else {
             (segments.clone(), widths)
         };
-        let (segments, times) = if post.keep_geometry && post.lines {
+        let (segments, times) = if post.keeps_input() && post.lines {
             super::keep::onto_input(scene, e, &segments, &times, 0.0)
         } else {
             (segments, times)
         };
         if post.lines {
-            add_crack_lines(scene, e.mesh_index, &segments, &times);
+            add_crack_lines(scene, e.mesh_index, &segments, &times, rest.as_deref());
         }
         if post.bake {
             let t = Instant::now();
@@ -359,12 +365,14 @@ pub fn apply(
 
 /// Cut the cracks of `e` (simulated on its remeshed surface, `r`) into
 /// `base`, its input: `e.sim` becomes the cut input, and the returned
-/// report carries the displacements, crack times and segments over.
+/// report carries the displacements, crack times and segments over, with
+/// `moves` (per vertex of the simulation surface) when given.
 fn cut_into_input(
     base: &crate::mesh::SimMesh,
     e: &mut SimEntry,
     r: &SimReport,
-) -> Result<(SimReport, Value), crate::mesh::error::MeshError> {
+    moves: Option<&[[f64; 3]]>,
+) -> Result<Cut, crate::mesh::error::MeshError> {
     let im = crate::mesh::imprint::imprint(
         base,
         &e.sim,
@@ -372,6 +380,7 @@ fn cut_into_input(
         &r.segment_times,
         &r.displacement,
         &r.crack_time,
+        moves,
     )?;
     let detail = json!({
         "triangles": [base.n_faces(), im.mesh.n_faces()],
@@ -382,6 +391,7 @@ fn cut_into_input(
         "cut_across_shells": im.across_shells,
         "skipped_segments": im.skipped,
         "refined_edges": im.refined,
+        "settled_edges": im.settled,
     });
     e.sim = im.mesh;
     let report = SimReport {
@@ -391,7 +401,20 @@ fn cut_into_input(
         segment_times: im.segment_times,
         ..r.clone()
     };
-    Ok((report, detail))
+    Ok((report, detail, im.moves))
+}
+
+/// The cut input's report, its details for the run report, and the moves
+/// carried onto its vertices.
+type Cut = (SimReport, Value, Option<Vec<[f64; 3]>>);
+
+/// Every vertex's move from its rest position in `mesh` to `positions`.
+fn moves_from_rest(mesh: &crate::mesh::SimMesh, positions: &[[f64; 3]]) -> Vec<[f64; 3]> {
+    mesh.positions()
+        .iter()
+        .zip(positions)
+        .map(|(r, p)| crate::math::v3::sub(*p, *r))
+        .collect()
 }
 
 /// `segments` (ends at crack vertices' rest positions) with each end moved
@@ -547,12 +570,14 @@ fn wall_primitive(
 /// Add the crack segments of mesh `mesh_index` as a LINES primitive with the
 /// `crack_lines` material; `_CRACK_TIME` gives each line vertex the time
 /// its segment formed at, as a fraction of the run (for shaders: grow
-/// cracks over time).
+/// cracks over time); `_CRACK_REST`, given `rest`, where each line vertex
+/// lies on the surface at rest (the lines themselves follow the gaps).
 pub(super) fn add_crack_lines(
     scene: &mut Scene,
     mesh_index: usize,
     segments: &[[[f64; 3]; 2]],
     times: &[f64],
+    rest: Option<&[[[f64; 3]; 2]]>,
 ) {
     if segments.is_empty() {
         return;
@@ -594,6 +619,14 @@ pub(super) fn add_crack_lines(
         let t: Vec<f32> = times.iter().flat_map(|&t| [t as f32; 2]).collect();
         let acc = f32_accessor(scene, "SCALAR", 1, t, "crack_time");
         geo.attributes.insert("_CRACK_TIME".into(), acc);
+    }
+    if let Some(rest) = rest.filter(|r| r.len() == segments.len()) {
+        let p: Vec<f32> = rest
+            .iter()
+            .flat_map(|s| s.iter().flat_map(|p| p.map(|x| x as f32)))
+            .collect();
+        let acc = f32_accessor(scene, "VEC3", 3, p, "crack_rest");
+        geo.attributes.insert("_CRACK_REST".into(), acc);
     }
     for _ in 0..n_targets(scene, mesh_index) {
         let acc = f32_accessor(scene, "VEC3", 3, vec![0.0; 3 * n], "crack_lines_target");

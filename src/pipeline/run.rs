@@ -230,8 +230,6 @@ fn tear_run(
         ("walls", post.walls),
         ("groove", post.grooves()),
         ("attributes", post.attributes),
-        ("keep_geometry", post.keep_geometry),
-        ("cut_input", post.cut_input),
     ]
     .into_iter()
     .filter(|(_, on)| *on)
@@ -304,7 +302,8 @@ fn tear_run(
 /// MikkTSpace tangents of its own triangles, as a viewer would make for the
 /// input: the normal map was made for that frame. Remeshing and cutting
 /// carry them like any attribute, where tangents made anew on the cracked
-/// mesh would turn the map's detail.
+/// mesh would turn the map's detail. Not for an output that keeps the
+/// input as it is: that one gets no attribute it did not have.
 fn add_missing_tangents(scene: &mut Scene) {
     let Scene {
         meshes, materials, ..
@@ -463,7 +462,7 @@ pub fn prepare(scene: &Scene, config: &Config, observer: &mut dyn Observer) -> R
     if let Some(stage) = remesh_to_cell_size(
         &mut entries,
         &params_of,
-        pipe.post.cut_input,
+        pipe.post.cuts_input(),
         input,
         observer,
     )? {
@@ -511,7 +510,9 @@ pub fn prepare(scene: &Scene, config: &Config, observer: &mut dyn Observer) -> R
 pub fn run(scene: &mut Scene, config: &Config, observer: &mut dyn Observer) -> Result<RunReport> {
     let pipe = &config.pipeline;
     let input = config.asset.as_path();
-    add_missing_tangents(scene);
+    if !pipe.post.keeps_input() {
+        add_missing_tangents(scene);
+    }
     let Prepared {
         mut entries,
         params: params_of,

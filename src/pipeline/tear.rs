@@ -119,7 +119,7 @@ pub fn tear_meshes(
         for (k, (mesh, segments)) in pieces.iter().zip(tear_borders(&d, &surface)).enumerate() {
             if post.lines {
                 tear_lines += segments.len();
-                super::post::add_crack_lines(scene, *mesh, &segments, &[]);
+                super::post::add_crack_lines(scene, *mesh, &segments, &[], None);
             }
             if post.bake && !segments.is_empty() {
                 let t = Instant::now();

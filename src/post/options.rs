@@ -117,29 +117,19 @@ pub struct Post {
     /// or `u` (walls dropping straight from the edges and rounding into
     /// the bottom, in [`U_ROWS`] rows). Default `v`.
     pub groove_profile: String,
-    /// Keep the input's own geometry: the output has the input's
-    /// triangles, vertices and attributes (morph targets, skins and UV
-    /// layouts untouched), and the cracks show only in what is drawn over
-    /// it: the baked maps, the crack lines (projected onto the input) and
-    /// the crack attributes (taken from the closest point of the simulated
-    /// surface). Nothing may move the surface or cut it into pieces, so it
-    /// goes without `width`, `curl`, `walls`, `groove` and `split_islands`.
-    /// Default false (the output is the remeshed, cracked surface).
-    pub keep_geometry: bool,
-    /// Cut the cracks into the input's own triangles: the cracks simulated
-    /// on the remeshed surface are carried onto the input (each crossed
-    /// triangle split along them, [`crate::mesh::imprint`]) and the other
-    /// steps (width, walls, curl, grooves, lines, maps) run there, so the
-    /// surface away from the cracks keeps the input's triangles, UVs and
-    /// normals. Without remeshing (a surface already finer than the cell
-    /// size) the simulated surface is the input's and this changes
-    /// nothing. Default false.
-    pub cut_input: bool,
-    /// With `cut_input`: the coarsest input that is cut, as its mean edge
-    /// over the simulated surface's. A coarser input's edges would bend
-    /// the cracks along its own triangles (a low-poly plate); it keeps the
-    /// remeshed surface, and the report says so. Default 2.
-    pub cut_input_max_ratio: f64,
+    /// What the output's surface is. `input` (the default): the artist's
+    /// own mesh. When nothing moves or cuts the surface (no `width`,
+    /// `curl`, `walls`, `groove` or `split_islands`), its triangles,
+    /// vertices and attributes come back unchanged (morph targets, skins
+    /// and UV layouts untouched) and the cracks show in what is added over
+    /// it: the baked maps, the crack lines (on the input's surface) and the
+    /// crack attributes; otherwise the cracks, simulated on the private
+    /// simulation surface, are cut into the input's triangles exactly
+    /// along their curves ([`crate::mesh::imprint`]) and the gaps, walls,
+    /// curls, grooves and pieces are made there, the rest of the input's
+    /// tessellation as it was. `simulation`: the simulation surface,
+    /// cracked, in place of the input's triangles.
+    pub output: String,
 }
 
 impl Default for Post {
@@ -176,9 +166,7 @@ impl Default for Post {
             groove_depth: 0.0,
             groove_material: "crack_wall".into(),
             groove_profile: "v".into(),
-            keep_geometry: false,
-            cut_input: false,
-            cut_input_max_ratio: 2.0,
+            output: "input".into(),
         }
     }
 }
@@ -193,6 +181,24 @@ pub const U_ROWS: usize = 4;
 pub struct OptionsError(pub String);
 
 impl Post {
+    /// Whether a stage moves the surface or cuts it into pieces (gaps,
+    /// curls, walls, grooves, pieces).
+    pub fn changes_surface(&self) -> bool {
+        self.width > 0.0 || self.curl > 0.0 || self.walls || self.grooves() || self.split_islands
+    }
+
+    /// Whether the output is the input's own mesh as it was, the cracks
+    /// drawn over it (`output = "input"`, nothing moving the surface).
+    pub fn keeps_input(&self) -> bool {
+        self.output == "input" && !self.changes_surface()
+    }
+
+    /// Whether the cracks are cut into the input's own mesh
+    /// (`output = "input"` with a stage that moves or cuts the surface).
+    pub fn cuts_input(&self) -> bool {
+        self.output == "input" && self.changes_surface()
+    }
+
     /// Whether cracks are cut as grooves.
     pub fn grooves(&self) -> bool {
         self.groove > 0.0 || self.groove_relative > 0.0
@@ -251,7 +257,6 @@ impl Post {
         nonneg("width", self.width)?;
         nonneg("max_width", self.max_width)?;
         nonneg("gap_band", self.gap_band)?;
-        nonneg("cut_input_max_ratio", self.cut_input_max_ratio)?;
         nonneg("curl", self.curl)?;
         nonneg("wall_depth", self.wall_depth)?;
         nonneg("wall_depth_relative", self.wall_depth_relative)?;
@@ -323,21 +328,11 @@ impl Post {
                 "post.groove cuts the cracks as channels of its own width: use it without post.width, post.walls and post.curl".into(),
             );
         }
-        if self.keep_geometry
-            && (self.width > 0.0
-                || self.curl > 0.0
-                || self.walls
-                || self.grooves()
-                || self.split_islands)
-        {
-            return Err(
-                "post.keep_geometry keeps the input's surface as it is: use it without post.width, post.curl, post.walls, post.groove and post.split_islands".into(),
-            );
-        }
-        if self.keep_geometry && self.cut_input {
-            return Err(
-                "post.keep_geometry leaves the input uncut and post.cut_input cuts the cracks into it: give one, not both".into(),
-            );
+        if !["input", "simulation"].contains(&self.output.as_str()) {
+            return Err(format!(
+                "post.output must be \"input\" (the artist's mesh) or \"simulation\" (the simulation surface), got \"{}\"",
+                self.output
+            ));
         }
         if !["v", "u"].contains(&self.groove_profile.as_str()) {
             return Err(format!(

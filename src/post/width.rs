@@ -25,6 +25,10 @@ pub const MAX_HALVINGS: usize = 12;
 /// as collapsed.
 const MIN_AREA_FRACTION: f64 = 1e-3;
 
+/// Rounds in which the corners of a flipped triangle move toward their mean
+/// move before moves are halved.
+const MAX_EVENINGS: usize = 6;
+
 /// The displaced surface and what it took.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Displaced {
@@ -438,7 +442,6 @@ pub fn displace(mesh: &SimMesh, displacement: &[[f64; 3]], opts: &Post) -> Displ
     let mut shortened = vec![false; mesh.n_vertices()];
     out.inverted_triangles = unflip(mesh, &links, &mut mv, &mut positions, &mut shortened);
     out.shortened_nodes = shortened.iter().filter(|&&s| s).count();
-
     let mut sum = 0.0;
     for g in &groups {
         let w = spread(g, |v| positions[v.idx()]);
@@ -531,6 +534,40 @@ fn unflip(
     };
     let mut flipped = bad(positions);
     let first = flipped.len();
+    // First the corners of each flipped triangle move more alike (half way
+    // to their mean move, a few times), a crack node together with the
+    // nodes tied to it (its copies keep their gap): a needle beside a
+    // crack, or a triangle inside a bend of one, every corner pushed into
+    // it, then moves as one and the gap keeps its width. What is still
+    // flipped is shortened below.
+    for _ in 0..MAX_EVENINGS {
+        if flipped.is_empty() {
+            break;
+        }
+        let mut sum: std::collections::BTreeMap<u32, ([f64; 3], f64)> = Default::default();
+        for &f in &flipped {
+            let vs = mesh.face_vertices(f);
+            let mean = v3::scale(
+                vs.iter().fold([0.0; 3], |s, v| v3::add(s, mv[v.idx()])),
+                1.0 / 3.0,
+            );
+            for v in vs {
+                let e = sum.entry(v.0).or_insert(([0.0; 3], 0.0));
+                e.0 = v3::add(e.0, v3::sub(mean, mv[v.idx()]));
+                e.1 += 1.0;
+            }
+        }
+        for (v, (s, n)) in sum {
+            let delta = v3::scale(s, 0.5 / n);
+            for u in links.of(VertexId(v)) {
+                let i = u.idx();
+                mv[i] = v3::add(mv[i], delta);
+                positions[i] = v3::add(mesh.position(u), mv[i]);
+                shortened[i] = true;
+            }
+        }
+        flipped = bad(positions);
+    }
     for round in 0..=MAX_HALVINGS {
         if flipped.is_empty() {
             break;

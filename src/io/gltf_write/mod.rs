@@ -418,19 +418,6 @@ fn build_document(
                         continue;
                     }
                     triangles += t.triangles.len();
-                    // Normal-mapped materials need tangents; generate MikkTSpace ones if missing.
-                    let generated = p
-                        .material
-                        .and_then(|m| scene.materials.get(m))
-                        .and_then(|m| m.json.get("normalTexture"))
-                        .and_then(|nt| {
-                            let set = nt.get("texCoord").and_then(Value::as_u64).unwrap_or(0);
-                            crate::geometry::tangents::with_generated_tangents(
-                                t,
-                                &format!("TEXCOORD_{set}"),
-                            )
-                        });
-                    let t = generated.as_ref().unwrap_or(t);
                     let (attrs, indices, targets) = write_triangles(&mut bin, t)?;
                     pj.insert("attributes".into(), Value::Object(attrs));
                     pj.insert("indices".into(), indices.into());
@@ -796,9 +783,9 @@ fn write_triangles(
     t: &TriGeometry,
 ) -> std::result::Result<WrittenTriangles, String> {
     let n = t.positions.len();
-    let mut remap = vec![u32::MAX; n];
-    let mut order = Vec::new();
-    let mut indices = Vec::with_capacity(t.triangles.len() * 3);
+    // Vertices keep their order (an unused one is left out): an output
+    // that keeps the input's mesh keeps its vertex order and indices.
+    let mut used = vec![false; n];
     for tri in &t.triangles {
         for &v in tri {
             let v = v as usize;
@@ -807,13 +794,20 @@ fn write_triangles(
                     "internal: triangle index {v} out of range ({n} vertices)"
                 ));
             }
-            if remap[v] == u32::MAX {
-                remap[v] = order.len() as u32;
-                order.push(v);
-            }
-            indices.push(remap[v]);
+            used[v] = true;
         }
     }
+    let mut remap = vec![u32::MAX; n];
+    let mut order = Vec::with_capacity(n);
+    for (v, _) in used.iter().enumerate().filter(|(_, &u)| u) {
+        remap[v] = order.len() as u32;
+        order.push(v);
+    }
+    let indices: Vec<u32> = t
+        .triangles
+        .iter()
+        .flat_map(|tri| tri.map(|v| remap[v as usize]))
+        .collect();
     let mut attrs = Map::new();
     let pos: Vec<f32> = order.iter().flat_map(|&v| t.positions[v]).collect();
     attrs.insert(
