@@ -3,297 +3,544 @@
 //! the input's edges and paired parallel cracks. `crackle stats` prints
 //! them for an output file; tests use them to check patterns.
 //!
-//! A pattern is a welded triangle surface (a crack's two sides share their
-//! vertices) and its crack edges as vertex pairs. Lengths are in the
-//! surface's units.
+//! A pattern ([`PatternInput`]) is a surface (triangles welded by
+//! position), its crack network (a graph of line segments) and the edges of
+//! the surface the cracks cut. **Cells** are the regions the cracks and the
+//! surface's border enclose on the surface: its faces joined across every
+//! edge that is not cut; their areas are the surface's. **Degrees, open
+//! tips, junction angles, orientations, lengths and pairs** come from the
+//! crack graph alone: the lines' ends welded within a millionth of the
+//! pattern's size (its bounding-box diagonal), each segment split where
+//! another segment's end lies on it (a crack ending on an earlier one whose
+//! segment was written whole). An end of degree 1 is an open tip unless it
+//! lies within that millionth of the surface's border.
+//!
+//! Reading an output ([`PatternInput::from_scene`]), each mesh's crack
+//! lines (its LINES primitives) are one of three kinds:
+//!
+//! - **Opened** (the lines carry `_CRACK_REST`: outputs cut and opened into
+//!   gaps, as mud): the surface is cut along the cracks already and its
+//!   sides moved apart. Its triangles (welded by exact position, the
+//!   `crack_wall` faces left out) fall apart into the cells but where a
+//!   gap's sides still meet (at its tips); the cuts are the edges the walls
+//!   hang from and those still on the network at rest. The crack graph is
+//!   the network at rest (`_CRACK_REST`, on the uncut surface). The border
+//!   is that of the surface and its walls together (not the gaps' own
+//!   outlines), and a crack end whose gap does not close (the end is no
+//!   vertex of the surface: its sides moved apart) reached it.
+//! - **Cut in place** (every line segment is an edge of the surface): the
+//!   cells are separated along the lines.
+//! - **Kept** (else: the input's own triangles came back uncut, the lines
+//!   lying on them across their faces): the lines are cut into a copy of
+//!   the surface ([`crate::mesh::imprint::imprint`]), and the cells
+//!   separated along the cut.
+//!
+//! Lengths are in the surface's units (mesh-local coordinates). Every
+//! search is a lookup in a uniform grid within a distance, so the work is
+//! about linear in the surface and the lines.
 
 use crate::math::v3::{add, cross, dot, norm, scale, sub};
-use crate::mesh::spatial::{closest_on_segment, Grid};
-use crate::mesh::SimMesh;
+use crate::mesh::spatial::{bbox, closest_on_segment};
+use crate::mesh::{MeshInput, SimMesh, WeldOptions};
 use crate::scene::{Geometry, Scene};
-use std::collections::{HashMap, HashSet};
+use std::cmp::Reverse;
+use std::collections::{BinaryHeap, HashMap, HashSet};
 
-/// A surface and its cracks; see the module documentation.
+/// A line segment.
+type Seg = [[f64; 3]; 2];
+
+/// Tolerances (welding, on the border, on an edge) relative to the size
+/// of the pattern or reference: its bounding-box diagonal.
+const TOLERANCE: f64 = 1e-6;
+
+/// A surface, its crack graph and its cuts; see the module documentation.
 #[derive(Clone, Debug, Default)]
 pub struct PatternInput {
-    /// Welded vertex positions.
+    /// Vertex positions: the surface's, and the crack graph's nodes (which
+    /// may or may not be vertices of the surface).
     pub positions: Vec<[f64; 3]>,
-    /// Triangles (indices into `positions`).
+    /// The surface's triangles (indices into `positions`).
     pub triangles: Vec<[u32; 3]>,
-    /// Crack edges (indices into `positions`).
+    /// The crack graph's edges (indices into `positions`).
     pub cracks: Vec<[u32; 2]>,
+    /// Edges of the triangles the cells are separated along, besides the
+    /// cracks that are edges of the triangles.
+    pub cuts: Vec<[u32; 2]>,
+    /// The surface's border, where crack ends are not open tips (a point as
+    /// a segment of length 0); empty: the triangles' edges with one face
+    /// that are not cut.
+    pub border: Vec<[[f64; 3]; 2]>,
+    /// What could not be read as asked (lines that could not be cut into
+    /// the surface), for the user.
+    pub notes: Vec<String>,
 }
 
-/// Edges of an input surface, for the share of crack length along them.
+/// Edges of an input surface: the share of crack length along them, and
+/// its border for open tips.
 pub struct ReferenceEdges {
-    segments: Vec<[[f64; 3]; 2]>,
-    grid: Grid,
+    segments: Vec<Seg>,
+    grid: Buckets,
+    boundary: Vec<Seg>,
     eps: f64,
 }
 
 impl ReferenceEdges {
     /// The edges of the triangles `triangles` over `positions`.
     pub fn new(positions: &[[f64; 3]], triangles: &[[u32; 3]]) -> ReferenceEdges {
-        let mut set: HashSet<(u32, u32)> = HashSet::new();
-        for t in triangles {
-            for k in 0..3 {
-                let (a, b) = (t[k], t[(k + 1) % 3]);
-                set.insert((a.min(b), a.max(b)));
+        let mut edges: Vec<(u32, u32)> = triangles.iter().flat_map(edges_of).collect();
+        edges.sort_unstable();
+        let (mut segments, mut boundary) = (Vec::new(), Vec::new());
+        for run in edges.chunk_by(|a, b| a == b) {
+            segments.push([positions[run[0].0 as usize], positions[run[0].1 as usize]]);
+            if run.len() == 1 {
+                boundary.push(segments[segments.len() - 1]);
             }
         }
-        let mut edges: Vec<(u32, u32)> = set.into_iter().collect();
-        edges.sort_unstable();
-        let segments: Vec<[[f64; 3]; 2]> = edges
-            .iter()
-            .map(|&(a, b)| [positions[a as usize], positions[b as usize]])
-            .collect();
-        let mean =
-            segments.iter().map(|s| dist(s[0], s[1])).sum::<f64>() / segments.len().max(1) as f64;
-        let (lo, hi) = bounds(positions);
-        let eps = 1e-6 * dist(lo, hi);
-        let grid = Grid::new(segments.iter().map(|s| bbox2(s[0], s[1])), mean.max(1e-300));
+        let eps = TOLERANCE * diagonal(positions);
+        let grid = Buckets::of_segments(&segments, mean_length(&segments).max(4.0 * eps));
         ReferenceEdges {
             segments,
             grid,
+            boundary,
             eps,
         }
     }
 
-    /// Whether segment `a`-`b` lies along one of the edges.
-    fn holds(&self, a: [f64; 3], b: [f64; 3]) -> bool {
-        let mid = scale(add(a, b), 0.5);
-        let mut found = false;
-        self.grid.search(mid, |i| {
-            let s = self.segments[i];
-            if dist(closest_on_segment(a, s[0], s[1]), a) <= self.eps
-                && dist(closest_on_segment(b, s[0], s[1]), b) <= self.eps
-            {
-                found = true;
-                return Some(0.0);
-            }
-            None
-        });
-        found
+    /// The share of the length of `cracks` (over `pos`) along the edges:
+    /// each segment's length times the share of 8 points spread along it
+    /// that lie on an edge parallel to it.
+    fn share(&self, pos: &[[f64; 3]], cracks: &[[u32; 2]]) -> f64 {
+        let (mut along, mut total) = (0.0, 0.0);
+        for [a, b] in cracks.iter().map(|c| c.map(|v| pos[v as usize])) {
+            let l = dist(a, b);
+            let on_edge = |k: &usize| {
+                let p = add(a, scale(sub(b, a), (*k as f64 + 0.5) / 8.0));
+                self.grid.near(p, self.eps, |i| {
+                    let [s, t] = self.segments[i];
+                    dot(sub(b, a), sub(t, s)).abs() >= (1.0 - 1e-6) * l * dist(s, t)
+                        && dist(closest_on_segment(p, s, t), p) <= self.eps
+                })
+            };
+            along += l * (0..8).filter(on_edge).count() as f64 / 8.0;
+            total += l;
+        }
+        along / total.max(f64::MIN_POSITIVE)
     }
 }
 
 /// The statistics of a pattern.
 #[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
 pub struct PatternStats {
-    /// Surface area.
+    /// Surface area (of the output's surface as it lies; walls left out).
     pub area: f64,
-    /// Total crack length.
+    /// Total length of the crack graph.
     pub crack_length: f64,
     /// Crack length per area.
     pub crack_length_per_area: f64,
     /// `2 * area / crack_length`: the spacing of parallel cracks that would
-    /// give this density.
+    /// give this density over the whole surface.
     pub spacing: f64,
-    /// Pieces of the surface the cracks (and the surface's own border)
-    /// separate.
+    /// Regions of the surface the cracks and its border enclose (see the
+    /// module documentation), each above a billionth of the area.
     pub cells: usize,
     /// Mean equivalent-circle diameter `sqrt(4 A / pi)` of the cells.
     pub mean_cell_diameter: f64,
     /// Cell areas at the 10, 25, 50, 75 and 90 percentiles.
     pub cell_area_quantiles: [f64; 5],
-    /// Junctions by crack degree: vertices where 1, 2, 3 and 4 or more
-    /// crack edges meet.
+    /// Nodes of the crack graph by degree: where 1, 2, 3 and 4 or more
+    /// crack segments meet.
     pub degree: [usize; 4],
-    /// Open crack ends off the surface's border (degree 1).
+    /// Open crack ends: nodes of degree 1 of the crack graph off the
+    /// surface's border (the input's border when a reference is given).
     pub dangling_tips: usize,
     /// Degree-3 junctions with one angle above 150 degrees.
     pub t_junctions: usize,
     /// Degree-3 junctions with every angle within 90..150 degrees.
     pub y_junctions: usize,
-    /// Angles at degree-3 junctions, histogram of 12 bins of 15 degrees
-    /// over 0..180.
+    /// Angles at degree-3 junctions (in the plane of the surface where the
+    /// node is a vertex of it, else of the crack directions), histogram of
+    /// 12 bins of 15 degrees over 0..180.
     pub junction_angles: [usize; 12],
-    /// The most crack edges meeting at one vertex.
+    /// The most crack segments meeting at one node.
     pub max_degree: usize,
     /// Crack length by orientation in the plane of the two largest
     /// bounding-box extents: 6 bins of 30 degrees over 0..180, as
     /// fractions of the crack length.
     pub orientation: [f64; 6],
-    /// The share of crack length along the reference edges, when given.
+    /// The share of crack length along the reference edges, when given
+    /// (the crack graph at rest for opened outputs).
     pub along_reference_edges: Option<f64>,
     /// The share of crack length with another crack parallel to it (within
-    /// 20 degrees) closer than `paired_distance`.
+    /// 20 degrees) closer than `paired_distance` to its middle, not counting
+    /// cracks joined to it within `2 * paired_distance` along the graph.
     pub paired: f64,
-    /// The distance `paired` used (a quarter of `spacing`).
+    /// The distance `paired` used: a quarter of the median equivalent-circle
+    /// diameter of the cells enclosed by cracks (cells with a crack on
+    /// their outline and none of the surface's border; when every cell
+    /// touches the border, of all cells with a crack on their outline; when
+    /// the cracks separate no cells, a quarter of `spacing`). So a pattern
+    /// covering part of the surface is paired at its own cells' size, not
+    /// at its density over the whole surface.
     pub paired_distance: f64,
 }
 
 impl PatternInput {
-    /// A cracked simulation mesh's pattern (its vertices welded by position).
+    /// A cracked simulation mesh's pattern: its vertices welded by
+    /// position, its crack edges the cracks.
     pub fn from_sim_mesh(mesh: &SimMesh) -> PatternInput {
         let mut w = Welder::default();
         let ids: Vec<u32> = mesh.positions().iter().map(|p| w.id(*p)).collect();
+        let id = |v: crate::mesh::VertexId| ids[v.idx()];
         let triangles = mesh
             .faces()
-            .map(|f| mesh.face_vertices(f).map(|v| ids[v.idx()]))
+            .map(|f| mesh.face_vertices(f).map(id))
             .collect();
-        let mut cracks = Vec::new();
-        for h in mesh.halfedges() {
-            if mesh.is_crack_halfedge(h) {
-                let (a, b) = (ids[mesh.origin(h).idx()], ids[mesh.dest(h).idx()]);
-                cracks.push([a.min(b), a.max(b)]);
-            }
-        }
+        let mut cracks: Vec<[u32; 2]> = mesh
+            .halfedges()
+            .filter(|&h| mesh.is_crack_halfedge(h))
+            .map(|h| [id(mesh.origin(h)), id(mesh.dest(h))])
+            .map(|[a, b]| [a.min(b), a.max(b)])
+            .collect();
         cracks.sort_unstable();
         cracks.dedup();
         PatternInput {
             positions: w.positions,
             triangles,
             cracks,
+            ..Default::default()
         }
     }
 
-    /// The pattern of a crackle output: every mesh's triangles (mesh-local
-    /// coordinates; faces of a `crack_wall` material left out) welded by
-    /// position, and the crack lines of its LINES primitives.
+    /// The pattern of a crackle output: every mesh's surface (mesh-local
+    /// coordinates), its crack lines and its cuts, each mesh read as the
+    /// module documentation says.
     pub fn from_scene(scene: &Scene) -> PatternInput {
         let mut out = PatternInput::default();
         for mesh in &scene.meshes {
-            let mut w = Welder::default();
-            let mut tris = Vec::new();
-            let mut cracks = Vec::new();
-            for p in &mesh.primitives {
-                let wall = p
-                    .material
-                    .and_then(|m| scene.materials.get(m))
-                    .and_then(|m| m.json.get("name"))
-                    .and_then(|n| n.as_str())
-                    .is_some_and(|n| n == "crack_wall");
-                match &p.geometry {
-                    Geometry::Triangles(t) if !wall => {
-                        let ids: Vec<u32> =
-                            t.positions.iter().map(|q| w.id(q.map(f64::from))).collect();
-                        tris.extend(t.triangles.iter().map(|x| x.map(|v| ids[v as usize])));
-                    }
-                    Geometry::Raw(r) if r.mode == crate::scene::mode::LINES => {
-                        let Some(pos) = r
-                            .attributes
-                            .get("POSITION")
-                            .and_then(|&i| scene.accessors.get(i))
-                            .and_then(crate::io::accessor::decode_raw)
-                            .filter(|(c, _)| *c == 3)
-                            .map(|(_, v)| v)
-                        else {
-                            continue;
-                        };
-                        let n = pos.len() / 3;
-                        let idx: Vec<usize> = match r.indices.and_then(|i| scene.accessors.get(i)) {
-                            Some(a) => match crate::io::accessor::decode_raw(a) {
-                                Some((1, v)) => v.into_iter().map(|x| x as usize).collect(),
-                                _ => continue,
-                            },
-                            None => (0..n).collect(),
-                        };
-                        for s in idx.chunks_exact(2) {
-                            if s[0] < n && s[1] < n {
-                                let p = |i: usize| [pos[3 * i], pos[3 * i + 1], pos[3 * i + 2]];
-                                cracks.push((p(s[0]), p(s[1])));
-                            }
-                        }
-                    }
-                    _ => {}
-                }
-            }
+            let name = mesh.name.as_deref().unwrap_or("");
+            let part = MeshParts::read(scene, mesh).pattern(name);
             let base = out.positions.len() as u32;
-            let crack_ids: Vec<[u32; 2]> = cracks
-                .into_iter()
-                .map(|(a, b)| {
-                    let (x, y) = (w.id(a) + base, w.id(b) + base);
-                    [x.min(y), x.max(y)]
-                })
-                .collect();
+            let shift = |e: &[u32; 2]| e.map(|v| v + base);
+            out.positions.extend(part.positions);
             out.triangles
-                .extend(tris.into_iter().map(|t| t.map(|v| v + base)));
-            out.positions.extend(w.positions);
-            out.cracks.extend(crack_ids);
+                .extend(part.triangles.iter().map(|t| t.map(|v| v + base)));
+            out.cracks.extend(part.cracks.iter().map(shift));
+            out.cuts.extend(part.cuts.iter().map(shift));
+            out.border.extend(part.border);
+            out.notes.extend(part.notes);
         }
-        out.cracks = split_at_junctions(&out.positions, out.cracks);
-        out.cracks.sort_unstable();
-        out.cracks.dedup();
-        out.cracks.retain(|c| c[0] != c[1]);
         out
     }
 }
 
-/// Split every crack segment at the crack ends lying inside it. A crack
-/// that runs into an earlier one ends on it, but the earlier crack's line
-/// segment may have been written whole: without the split that junction
-/// is an open end, and the earlier crack's two halves there are not crack
-/// edges of the surface. "On it" is within a millionth of the pattern's
-/// size (line positions are stored in single precision).
-fn split_at_junctions(positions: &[[f64; 3]], cracks: Vec<[u32; 2]>) -> Vec<[u32; 2]> {
-    let mut count = vec![0u32; positions.len()];
-    for c in &cracks {
-        count[c[0] as usize] += 1;
-        count[c[1] as usize] += 1;
-    }
-    let mut lo = [f64::INFINITY; 3];
-    let mut hi = [f64::NEG_INFINITY; 3];
-    let mut total = 0.0;
-    for c in &cracks {
-        let (a, b) = (positions[c[0] as usize], positions[c[1] as usize]);
-        total += dist(a, b);
-        for k in 0..3 {
-            lo[k] = lo[k].min(a[k]).min(b[k]);
-            hi[k] = hi[k].max(a[k]).max(b[k]);
+/// One mesh of an output as read: its triangles welded by exact position,
+/// its crack lines where they lie and at rest (`_CRACK_REST`, else where
+/// they lie), and whether any carried `_CRACK_REST`.
+#[derive(Default)]
+struct MeshParts {
+    welder: Welder,
+    surface: Vec<[u32; 3]>,
+    walls: Vec<[u32; 3]>,
+    lines: Vec<Seg>,
+    rest: Vec<Seg>,
+    opened: bool,
+}
+
+impl MeshParts {
+    fn read(scene: &Scene, mesh: &crate::scene::Mesh) -> MeshParts {
+        let mut m = MeshParts::default();
+        for p in &mesh.primitives {
+            let material = p.material.and_then(|i| scene.materials.get(i));
+            let name = material.and_then(|i| i.json.get("name")?.as_str());
+            match &p.geometry {
+                Geometry::Triangles(t) => {
+                    let ids: Vec<u32> = t
+                        .positions
+                        .iter()
+                        .map(|q| m.welder.id(q.map(f64::from)))
+                        .collect();
+                    let tris = t.triangles.iter().map(|x| x.map(|v| ids[v as usize]));
+                    match name {
+                        Some("crack_wall") => m.walls.extend(tris),
+                        _ => m.surface.extend(tris),
+                    }
+                }
+                Geometry::Raw(r) if r.mode == crate::scene::mode::LINES => {
+                    let Some(lines) = line_segments(scene, r, "POSITION") else {
+                        continue;
+                    };
+                    let rest =
+                        line_segments(scene, r, "_CRACK_REST").filter(|s| s.len() == lines.len());
+                    m.opened |= rest.is_some();
+                    m.rest.extend(rest.unwrap_or_else(|| lines.clone()));
+                    m.lines.extend(lines);
+                }
+                _ => {}
+            }
         }
+        m
     }
-    if cracks.is_empty() || total <= 0.0 {
-        return cracks;
-    }
-    let eps = 1e-6 * dist(lo, hi);
-    let boxes = cracks.iter().map(|c| {
-        let (a, b) = (positions[c[0] as usize], positions[c[1] as usize]);
-        (
-            [0, 1, 2].map(|k| a[k].min(b[k]) - eps),
-            [0, 1, 2].map(|k| a[k].max(b[k]) + eps),
-        )
-    });
-    let grid = Grid::new(boxes, total / cracks.len() as f64);
-    // Per segment: the ends inside it, with their parameter along it.
-    let mut cuts: HashMap<usize, Vec<(f64, u32)>> = HashMap::new();
-    for (v, _) in count.iter().enumerate().filter(|(_, &n)| n == 1) {
-        let p = positions[v];
-        let mut best: Option<(f64, usize)> = None;
-        grid.search(p, |i| {
-            let c = cracks[i];
-            if c[0] as usize != v && c[1] as usize != v {
-                let (a, b) = (positions[c[0] as usize], positions[c[1] as usize]);
-                let d = dist(closest_on_segment(p, a, b), p);
-                if d <= eps
-                    && (dist(p, a) > eps && dist(p, b) > eps)
-                    && best.is_none_or(|x| d < x.0)
-                {
-                    best = Some((d, i));
+
+    /// The mesh's pattern; `name` for notes.
+    fn pattern(self, name: &str) -> PatternInput {
+        let surface = &self.welder.positions;
+        let points: Vec<[f64; 3]> = self.rest.iter().flatten().copied().collect();
+        let tol = TOLERANCE * diagonal(&[surface.as_slice(), &points].concat());
+        // Faces on each edge: (surface, walls); the border has one in all.
+        let mut on_edge: HashMap<(u32, u32), (u32, u32)> = HashMap::new();
+        for (tris, wall) in [(&self.surface, 0), (&self.walls, 1)] {
+            for e in tris.iter().flat_map(edges_of) {
+                let c = on_edge.entry(e).or_default();
+                (c.0, c.1) = (c.0 + 1 - wall, c.1 + wall);
+            }
+        }
+        let mut border_edges: Vec<&(u32, u32)> = on_edge
+            .iter()
+            .filter(|(_, c)| c.0 + c.1 == 1)
+            .map(|(e, _)| e)
+            .collect();
+        border_edges.sort_unstable();
+        let at = |v: u32| surface[v as usize];
+        let mut border: Vec<Seg> = border_edges.iter().map(|e| [at(e.0), at(e.1)]).collect();
+        let (nodes, edges, first) = line_graph(&points, tol);
+        let segs: Vec<Seg> = edges.iter().map(|e| e.map(|v| nodes[v as usize])).collect();
+        // Is every line segment an edge of the surface?
+        let vertex = |v: u32| self.welder.map.get(&key(nodes[v as usize])).copied();
+        let in_place: Option<Vec<[u32; 2]>> = edges
+            .iter()
+            .map(|e| {
+                let (a, b) = (vertex(e[0])?, vertex(e[1])?);
+                let c = on_edge.get(&(a.min(b), a.max(b)))?;
+                (c.0 > 0).then_some([a.min(b), a.max(b)])
+            })
+            .collect();
+        let (mut notes, mut cut_surface) = (Vec::new(), None);
+        let cuts = if self.opened {
+            // Ends whose gap does not close (no vertex of the surface)
+            // reached the border.
+            let mut degree = vec![0u32; nodes.len()];
+            edges
+                .iter()
+                .flatten()
+                .for_each(|&v| degree[v as usize] += 1);
+            for (n, &d) in degree.iter().enumerate() {
+                let end = self.lines[first[n] / 2][first[n] % 2];
+                if d == 1 && !self.welder.map.contains_key(&key(end)) {
+                    border.push([nodes[n]; 2]);
                 }
             }
-            Some(best.map_or(eps * eps, |b| b.0 * b.0).max(eps * eps))
+            opened_cuts(surface, &on_edge, &segs, tol)
+        } else if let Some(cracks) = in_place {
+            return PatternInput {
+                positions: self.welder.positions,
+                triangles: self.surface,
+                cracks,
+                border,
+                ..Default::default()
+            };
+        } else {
+            match cut_in(surface, &self.surface, &segs) {
+                Ok(p) => cut_surface.insert(p).cracks.clone(),
+                Err(err) => {
+                    notes.push(format!(
+                        "mesh '{name}': its crack lines could not be cut into its surface \
+                         ({err}); its cells are the surface's own pieces"
+                    ));
+                    Vec::new()
+                }
+            }
+        };
+        let s = cut_surface.unwrap_or(PatternInput {
+            positions: self.welder.positions,
+            triangles: self.surface,
+            ..Default::default()
+        });
+        let base = s.positions.len() as u32;
+        PatternInput {
+            positions: [s.positions.as_slice(), &nodes].concat(),
+            triangles: s.triangles,
+            cracks: edges.iter().map(|e| e.map(|v| v + base)).collect(),
+            cuts,
+            border,
+            notes,
+        }
+    }
+}
+
+/// The cuts of an opened surface (`on_edge`: its edges' faces, surface and
+/// walls): the edges walls hang from, and those lying on the network at
+/// rest `segs` within `tol` (where a gap did not open).
+fn opened_cuts(
+    surface: &[[f64; 3]],
+    on_edge: &HashMap<(u32, u32), (u32, u32)>,
+    segs: &[Seg],
+    tol: f64,
+) -> Vec<[u32; 2]> {
+    let grid = Buckets::of_segments(segs, mean_length(segs).max(4.0 * tol));
+    let on = |p| {
+        grid.near(p, tol, |i| {
+            dist(closest_on_segment(p, segs[i][0], segs[i][1]), p) <= tol
+        })
+    };
+    let mut cuts: Vec<[u32; 2]> = on_edge
+        .iter()
+        .filter(|&(&(a, b), c)| {
+            let (p, q) = (surface[a as usize], surface[b as usize]);
+            c.0 > 0 && (c.1 > 0 || on(p) && on(q) && on(scale(add(p, q), 0.5)))
+        })
+        .map(|(e, _)| [e.0, e.1])
+        .collect();
+    cuts.sort_unstable();
+    cuts
+}
+
+/// The segments of a LINES primitive's VEC3 attribute `semantic`.
+fn line_segments(scene: &Scene, r: &crate::scene::RawGeometry, semantic: &str) -> Option<Vec<Seg>> {
+    let decode = |i: usize| crate::io::accessor::decode_raw(scene.accessors.get(i)?);
+    let pos = decode(*r.attributes.get(semantic)?)
+        .filter(|(c, _)| *c == 3)?
+        .1;
+    let n = pos.len() / 3;
+    let idx: Vec<usize> = match r.indices {
+        Some(i) => match decode(i)? {
+            (1, v) => v.into_iter().map(|x| x as usize).collect(),
+            _ => return None,
+        },
+        None => (0..n).collect(),
+    };
+    let p = |i: usize| [pos[3 * i], pos[3 * i + 1], pos[3 * i + 2]];
+    let ok = |s: &&[usize]| s[0] < n && s[1] < n;
+    Some(
+        idx.chunks_exact(2)
+            .filter(ok)
+            .map(|s| [p(s[0]), p(s[1])])
+            .collect(),
+    )
+}
+
+/// The surface `positions`/`triangles` with the segments `segments` (on
+/// it) cut in: [`crate::mesh::imprint::imprint`] with the surface as both
+/// meshes, zero displacements and no times.
+fn cut_in(
+    positions: &[[f64; 3]],
+    triangles: &[[u32; 3]],
+    segments: &[Seg],
+) -> Result<PatternInput, crate::mesh::MeshError> {
+    let input = MeshInput {
+        positions: positions.to_vec(),
+        triangles: triangles.to_vec(),
+        ..Default::default()
+    };
+    let exact = WeldOptions {
+        relative_tolerance: 0.0,
+    };
+    let (base, _) = SimMesh::build(&input, &exact)?;
+    let (n, nan) = (base.n_vertices(), vec![f64::NAN; segments.len()]);
+    let zero = vec![[0.0; 3]; n];
+    let im = crate::mesh::imprint::imprint(
+        &base,
+        &base,
+        segments,
+        &nan,
+        &zero,
+        &vec![f64::NAN; n],
+        None,
+    )?;
+    Ok(PatternInput::from_sim_mesh(&im.mesh))
+}
+
+/// The crack graph of the line segments `points` (consecutive pairs): the
+/// ends welded within `tol` (each node at its first point), each segment
+/// split at the ends lying on it within `tol`. Its nodes, edges, and each
+/// node's first point.
+fn line_graph(points: &[[f64; 3]], tol: f64) -> (Vec<[f64; 3]>, Vec<[u32; 2]>, Vec<usize>) {
+    let mut parent: Vec<usize> = (0..points.len()).collect();
+    fn root(p: &mut [usize], mut i: usize) -> usize {
+        while p[i] != i {
+            p[i] = p[p[i]];
+            i = p[i];
+        }
+        i
+    }
+    let mut grid = Buckets::new(4.0 * tol);
+    for (i, &p) in points.iter().enumerate() {
+        grid.near(p, tol, |j| {
+            if dist(points[j], p) <= tol {
+                let (a, b) = (root(&mut parent, i), root(&mut parent, j));
+                parent[a.max(b)] = a.min(b);
+            }
+            false
+        });
+        grid.map.entry(grid.at(p)).or_default().push(i as u32);
+    }
+    let (mut node_of, mut nodes, mut first) =
+        (vec![u32::MAX; points.len()], Vec::new(), Vec::new());
+    let mut map = Vec::with_capacity(points.len());
+    for i in 0..points.len() {
+        let r = root(&mut parent, i);
+        if node_of[r] == u32::MAX {
+            node_of[r] = nodes.len() as u32;
+            nodes.push(points[r]);
+            first.push(r);
+        }
+        map.push(node_of[r]);
+    }
+    let pairs = map
+        .chunks_exact(2)
+        .map(|e| [e[0].min(e[1]), e[0].max(e[1])]);
+    let mut edges: Vec<[u32; 2]> = pairs.filter(|e| e[0] != e[1]).collect();
+    edges.sort_unstable();
+    edges.dedup();
+    let mut edges = split_within(&nodes, edges, tol);
+    edges.sort_unstable();
+    edges.dedup();
+    edges.retain(|e| e[0] != e[1]);
+    (nodes, edges, first)
+}
+
+/// Split every crack segment at the crack ends lying inside it, within
+/// `eps`. A crack that runs into an earlier one ends on it, but the
+/// earlier crack's line segment may have been written whole: without the
+/// split that junction is an open end.
+fn split_within(positions: &[[f64; 3]], cracks: Vec<[u32; 2]>, eps: f64) -> Vec<[u32; 2]> {
+    let mut count = vec![0u32; positions.len()];
+    cracks
+        .iter()
+        .flatten()
+        .for_each(|&v| count[v as usize] += 1);
+    let segs: Vec<Seg> = cracks
+        .iter()
+        .map(|c| c.map(|v| positions[v as usize]))
+        .collect();
+    let grid = Buckets::of_segments(&segs, mean_length(&segs).max(4.0 * eps));
+    // Per segment: the ends inside it, with their parameter along it.
+    let mut cuts: HashMap<usize, Vec<(f64, u32)>> = HashMap::new();
+    for v in (0..positions.len()).filter(|&v| count[v] == 1) {
+        let p = positions[v];
+        let mut best: Option<(f64, usize)> = None;
+        grid.near(p, eps, |i| {
+            let [a, b] = segs[i];
+            let d = dist(closest_on_segment(p, a, b), p);
+            let inside = !cracks[i].contains(&(v as u32)) && dist(p, a) > eps && dist(p, b) > eps;
+            if inside && d <= eps && best.is_none_or(|x| (d, i) < x) {
+                best = Some((d, i));
+            }
+            false
         });
         if let Some((_, i)) = best {
-            let c = cracks[i];
-            let (a, b) = (positions[c[0] as usize], positions[c[1] as usize]);
+            let [a, b] = segs[i];
             let t = dot(sub(p, a), sub(b, a)) / dot(sub(b, a), sub(b, a));
             cuts.entry(i).or_default().push((t, v as u32));
         }
     }
     let mut out = Vec::with_capacity(cracks.len() + cuts.len());
     for (i, c) in cracks.into_iter().enumerate() {
-        match cuts.get_mut(&i) {
-            None => out.push(c),
-            Some(inner) => {
-                inner.sort_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
-                let mut prev = c[0];
-                for &(_, v) in inner.iter() {
-                    out.push([prev.min(v), prev.max(v)]);
-                    prev = v;
-                }
-                out.push([prev.min(c[1]), prev.max(c[1])]);
-            }
+        let mut inner = cuts.remove(&i).unwrap_or_default();
+        inner.sort_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
+        let mut prev = c[0];
+        for v in inner.into_iter().map(|x| x.1).chain([c[1]]) {
+            out.push([prev.min(v), prev.max(v)]);
+            prev = v;
         }
     }
     out
@@ -308,9 +555,8 @@ struct Welder {
 
 impl Welder {
     fn id(&mut self, p: [f64; 3]) -> u32 {
-        let key = p.map(|x| (x + 0.0).to_bits());
         let next = self.positions.len() as u32;
-        let id = *self.map.entry(key).or_insert(next);
+        let id = *self.map.entry(key(p)).or_insert(next);
         if id == next {
             self.positions.push(p);
         }
@@ -318,23 +564,83 @@ impl Welder {
     }
 }
 
-/// The statistics of `input`; see [`PatternStats`].
-pub fn pattern_stats(input: &PatternInput, reference: Option<&ReferenceEdges>) -> PatternStats {
-    let pos = &input.positions;
-    let n = pos.len();
-    let crack_set: HashSet<(u32, u32)> = input.cracks.iter().map(|c| (c[0], c[1])).collect();
-    // Faces across each edge; cells by union-find across non-crack edges.
-    let mut edge_faces: HashMap<(u32, u32), Vec<u32>> = HashMap::new();
-    for (f, t) in input.triangles.iter().enumerate() {
-        for k in 0..3 {
-            let (a, b) = (t[k], t[(k + 1) % 3]);
-            edge_faces
-                .entry((a.min(b), a.max(b)))
-                .or_default()
-                .push(f as u32);
+fn key(p: [f64; 3]) -> [u64; 3] {
+    p.map(|x| (x + 0.0).to_bits())
+}
+
+/// Items by the cells of a uniform grid (a segment in the cells of points
+/// at most half a cell apart along it); only looked up, never iterated, so
+/// results do not depend on hashing.
+struct Buckets {
+    cell: f64,
+    map: HashMap<[i64; 3], Vec<u32>>,
+}
+
+impl Buckets {
+    fn new(cell: f64) -> Buckets {
+        let cell = [1.0, cell][(cell.is_finite() && cell > 0.0) as usize];
+        Buckets {
+            cell,
+            map: HashMap::new(),
         }
     }
-    let mut parent: Vec<u32> = (0..input.triangles.len() as u32).collect();
+
+    fn of_segments(segs: &[Seg], cell: f64) -> Buckets {
+        let mut b = Buckets::new(cell);
+        for (i, [p, q]) in segs.iter().enumerate() {
+            let n = (dist(*p, *q) / (0.5 * b.cell)).ceil().clamp(1.0, 1e6) as usize;
+            let mut last = None;
+            for k in 0..=n {
+                let c = b.at(add(*p, scale(sub(*q, *p), k as f64 / n as f64)));
+                if last.replace(c) != Some(c) {
+                    b.map.entry(c).or_default().push(i as u32);
+                }
+            }
+        }
+        b
+    }
+
+    fn at(&self, p: [f64; 3]) -> [i64; 3] {
+        p.map(|x| (x / self.cell).floor() as i64)
+    }
+
+    /// Call `f` on every item that may lie within `r` of `p` (some more
+    /// than once) until it returns true; whether it did.
+    fn near(&self, p: [f64; 3], r: f64, mut f: impl FnMut(usize) -> bool) -> bool {
+        // A segment's closest point lies within a quarter cell of a sample.
+        let r = r + 0.25 * self.cell;
+        let (a, b) = (self.at(p.map(|x| x - r)), self.at(p.map(|x| x + r)));
+        for x in a[0]..=b[0] {
+            for y in a[1]..=b[1] {
+                for z in a[2]..=b[2] {
+                    let items = self.map.get(&[x, y, z]).map_or(&[][..], |v| &v[..]);
+                    if items.iter().any(|&i| f(i as usize)) {
+                        return true;
+                    }
+                }
+            }
+        }
+        false
+    }
+}
+
+/// A cell: its area, whether a cut lies on its outline, and whether the
+/// surface's border does.
+type Cell = (f64, bool, bool);
+
+/// The cells of `input` (above a billionth of the area), the surface's
+/// area, and its border edges (with one face, not cut).
+fn cells(input: &PatternInput) -> (Vec<Cell>, f64, Vec<Seg>) {
+    let pos = &input.positions;
+    let pair = |c: &[u32; 2]| (c[0].min(c[1]), c[0].max(c[1]));
+    let cut: HashSet<(u32, u32)> = input.cracks.iter().chain(&input.cuts).map(pair).collect();
+    let nf = input.triangles.len();
+    let mut edges: Vec<((u32, u32), u32)> = Vec::with_capacity(3 * nf);
+    for (f, t) in input.triangles.iter().enumerate() {
+        edges.extend(edges_of(t).map(|e| (e, f as u32)));
+    }
+    edges.sort_unstable();
+    let mut parent: Vec<u32> = (0..nf as u32).collect();
     fn find(p: &mut [u32], mut x: u32) -> u32 {
         while p[x as usize] != x {
             p[x as usize] = p[p[x as usize] as usize];
@@ -342,277 +648,251 @@ pub fn pattern_stats(input: &PatternInput, reference: Option<&ReferenceEdges>) -
         }
         x
     }
-    let mut border: HashSet<u32> = HashSet::new();
-    let mut keys: Vec<&(u32, u32)> = edge_faces.keys().collect();
-    keys.sort_unstable();
-    for e in keys {
-        let fs = &edge_faces[e];
-        if fs.len() == 1 && !crack_set.contains(e) {
-            border.insert(e.0);
-            border.insert(e.1);
-        }
-        if crack_set.contains(e) {
+    let (mut on_cut, mut on_border, mut border) = (vec![false; nf], vec![false; nf], Vec::new());
+    for run in edges.chunk_by(|x, y| x.0 == y.0) {
+        let (a, b) = run[0].0;
+        if cut.contains(&(a, b)) {
+            run.iter().for_each(|e| on_cut[e.1 as usize] = true);
             continue;
         }
-        for w in fs.windows(2) {
-            let (a, b) = (find(&mut parent, w[0]), find(&mut parent, w[1]));
-            if a != b {
-                parent[a.max(b) as usize] = a.min(b);
-            }
+        if run.len() == 1 {
+            on_border[run[0].1 as usize] = true;
+            border.push([pos[a as usize], pos[b as usize]]);
+        }
+        for w in run.windows(2) {
+            let (x, y) = (find(&mut parent, w[0].1), find(&mut parent, w[1].1));
+            parent[x.max(y) as usize] = x.min(y);
         }
     }
-    let face_area = |t: &[u32; 3]| {
-        let p = t.map(|v| pos[v as usize]);
-        0.5 * norm(cross(sub(p[1], p[0]), sub(p[2], p[0])))
-    };
-    let mut cell_area: HashMap<u32, f64> = HashMap::new();
+    let mut cell: Vec<Cell> = vec![(0.0, false, false); nf];
     let mut area = 0.0;
     for (f, t) in input.triangles.iter().enumerate() {
-        let a = face_area(t);
-        area += a;
-        *cell_area.entry(find(&mut parent, f as u32)).or_default() += a;
-    }
-    let mut cells: Vec<f64> = cell_area
-        .into_values()
-        .filter(|&a| a > 1e-9 * area)
-        .collect();
-    cells.sort_by(f64::total_cmp);
-    let quantile = |q: f64| {
-        if cells.is_empty() {
-            0.0
-        } else {
-            cells[((q * (cells.len() - 1) as f64).round() as usize).min(cells.len() - 1)]
-        }
-    };
-    let mean_cell_diameter = if cells.is_empty() {
-        0.0
-    } else {
-        cells
-            .iter()
-            .map(|a| (4.0 * a / std::f64::consts::PI).sqrt())
-            .sum::<f64>()
-            / cells.len() as f64
-    };
-    // Crack graph.
-    let mut adj: Vec<Vec<u32>> = vec![Vec::new(); n];
-    let mut crack_length = 0.0;
-    for c in &input.cracks {
-        adj[c[0] as usize].push(c[1]);
-        adj[c[1] as usize].push(c[0]);
-        crack_length += dist(pos[c[0] as usize], pos[c[1] as usize]);
-    }
-    // Vertex normals for junction angles.
-    let mut normal = vec![[0.0; 3]; n];
-    for t in &input.triangles {
         let p = t.map(|v| pos[v as usize]);
-        let nn = cross(sub(p[1], p[0]), sub(p[2], p[0]));
-        for &v in t {
-            normal[v as usize] = add(normal[v as usize], nn);
-        }
+        let a = 0.5 * norm(cross(sub(p[1], p[0]), sub(p[2], p[0])));
+        let c = &mut cell[find(&mut parent, f as u32) as usize];
+        area += a;
+        *c = (c.0 + a, c.1 | on_cut[f], c.2 | on_border[f]);
+    }
+    let roots = (0..nf).filter(|&f| parent[f] == f as u32 && cell[f].0 > 1e-9 * area);
+    (roots.map(|f| cell[f]).collect(), area, border)
+}
+
+/// The statistics of `input`; see [`PatternStats`]. With `reference` (the
+/// input's surface), the share of crack length along its edges, and open
+/// tips off its border.
+pub fn pattern_stats(input: &PatternInput, reference: Option<&ReferenceEdges>) -> PatternStats {
+    let pos = &input.positions;
+    let tol = TOLERANCE * diagonal(pos);
+    let (cells, area, own_border) = cells(input);
+    let mut sorted: Vec<f64> = cells.iter().map(|c| c.0).collect();
+    sorted.sort_by(f64::total_cmp);
+    let quantile = |q: f64| {
+        let i = (q * sorted.len().saturating_sub(1) as f64).round() as usize;
+        sorted.get(i).copied().unwrap_or(0.0)
+    };
+    let diameter = |a: &f64| (4.0 * a / std::f64::consts::PI).sqrt();
+    let mut adj: Vec<Vec<u32>> = vec![Vec::new(); pos.len()];
+    let mut crack_length = 0.0;
+    for e in &input.cracks {
+        adj[e[0] as usize].push(e[1]);
+        adj[e[1] as usize].push(e[0]);
+        crack_length += dist(pos[e[0] as usize], pos[e[1] as usize]);
     }
     let mut s = PatternStats {
         area,
         crack_length,
         crack_length_per_area: if area > 0.0 { crack_length / area } else { 0.0 },
-        spacing: if crack_length > 0.0 {
-            2.0 * area / crack_length
-        } else {
-            f64::INFINITY
-        },
-        cells: cells.len(),
-        mean_cell_diameter,
+        spacing: 2.0 * area / crack_length,
+        cells: sorted.len(),
+        mean_cell_diameter: sorted.iter().map(diameter).sum::<f64>() / sorted.len().max(1) as f64,
         cell_area_quantiles: [0.1, 0.25, 0.5, 0.75, 0.9].map(quantile),
         ..Default::default()
     };
-    for v in 0..n {
-        let d = adj[v].len();
-        if d == 0 {
-            continue;
-        }
-        s.max_degree = s.max_degree.max(d);
-        s.degree[(d - 1).min(3)] += 1;
-        if d == 1 && !border.contains(&(v as u32)) {
+    let border: &[Seg] = match reference {
+        Some(r) => &r.boundary,
+        None if !input.border.is_empty() => &input.border,
+        None => &own_border,
+    };
+    let grid = Buckets::of_segments(border, mean_length(border).max(4.0 * tol));
+    let on_border = |p| {
+        grid.near(p, tol, |i| {
+            dist(closest_on_segment(p, border[i][0], border[i][1]), p) <= tol
+        })
+    };
+    let mut normals = vec![[0.0; 3]; pos.len()];
+    for t in &input.triangles {
+        let p = t.map(|v| pos[v as usize]);
+        let n = cross(sub(p[1], p[0]), sub(p[2], p[0]));
+        t.iter()
+            .for_each(|&v| normals[v as usize] = add(normals[v as usize], n));
+    }
+    for (v, near) in adj.iter().enumerate().filter(|(_, a)| !a.is_empty()) {
+        s.max_degree = s.max_degree.max(near.len());
+        s.degree[(near.len() - 1).min(3)] += 1;
+        if near.len() == 1 && !on_border(pos[v]) {
             s.dangling_tips += 1;
         }
-        if d == 3 {
-            let mut nv = normal[v];
-            if norm(nv) == 0.0 {
-                // A crack vertex off the triangles (an opened crack's line):
-                // the plane of its crack directions.
-                let d: Vec<[f64; 3]> = adj[v]
-                    .iter()
-                    .map(|&u| sub(pos[u as usize], pos[v]))
-                    .collect();
-                nv = [(0, 1), (1, 2), (0, 2)]
-                    .map(|(i, j)| cross(d[i], d[j]))
-                    .into_iter()
-                    .max_by(|a, b| norm(*a).total_cmp(&norm(*b)))
-                    .unwrap_or([0.0; 3]);
-            }
-            let ln = norm(nv);
-            if ln == 0.0 {
-                continue;
-            }
-            let nv = scale(nv, 1.0 / ln);
-            // Directions in the tangent plane, sorted by angle about the normal.
-            let e1 = {
-                let d0 = sub(pos[adj[v][0] as usize], pos[v]);
-                let t = sub(d0, scale(nv, dot(d0, nv)));
-                scale(t, 1.0 / norm(t).max(1e-300))
-            };
-            let e2 = cross(nv, e1);
-            let mut ang: Vec<f64> = adj[v]
-                .iter()
-                .map(|&u| {
-                    let d = sub(pos[u as usize], pos[v]);
-                    dot(d, e2)
-                        .atan2(dot(d, e1))
-                        .rem_euclid(std::f64::consts::TAU)
-                })
-                .collect();
-            ang.sort_by(f64::total_cmp);
-            let gaps = [
-                ang[1] - ang[0],
-                ang[2] - ang[1],
-                std::f64::consts::TAU - ang[2] + ang[0],
-            ]
-            .map(f64::to_degrees);
-            for g in gaps {
-                s.junction_angles[((g / 15.0) as usize).min(11)] += 1;
-            }
-            if gaps.iter().any(|&g| g > 150.0) {
-                s.t_junctions += 1;
-            } else if gaps.iter().all(|&g| (90.0..=150.0).contains(&g)) {
-                s.y_junctions += 1;
-            }
+        if near.len() == 3 {
+            junction(&mut s, pos, v, near, normals[v]);
         }
     }
-    // Orientation in the plane of the two largest extents.
-    let (lo, hi) = bounds(pos);
-    let ext = sub(hi, lo);
-    let mut axes = [0usize, 1, 2];
-    axes.sort_by(|&a, &b| ext[b].total_cmp(&ext[a]));
-    for c in &input.cracks {
-        let d = sub(pos[c[1] as usize], pos[c[0] as usize]);
-        let l = norm(d);
-        let (x, y) = (d[axes[0]], d[axes[1]]);
-        if x == 0.0 && y == 0.0 {
-            continue;
-        }
-        let a = y.atan2(x).to_degrees().rem_euclid(180.0);
-        s.orientation[((a / 30.0) as usize).min(5)] += l / crack_length;
-    }
-    s.along_reference_edges = reference.map(|r| {
-        let along: f64 = input
-            .cracks
-            .iter()
-            .filter(|c| r.holds(pos[c[0] as usize], pos[c[1] as usize]))
-            .map(|c| dist(pos[c[0] as usize], pos[c[1] as usize]))
-            .sum();
-        if crack_length > 0.0 {
-            along / crack_length
-        } else {
-            0.0
-        }
-    });
-    s.paired_distance = 0.25 * s.spacing;
-    s.paired = paired_share(input, &adj, s.paired_distance, crack_length);
+    s.orientation = orientation(pos, &input.cracks, crack_length);
+    s.along_reference_edges = reference.map(|r| r.share(pos, &input.cracks));
+    // Pairs at a quarter of the cells' own size.
+    let enclosed = |c: &&Cell| c.1 && !c.2;
+    let mut own: Vec<f64> = if cells.iter().any(|c| enclosed(&c)) {
+        cells.iter().filter(enclosed).map(|c| c.0).collect()
+    } else if cells.len() > 1 {
+        cells.iter().filter(|c| c.1).map(|c| c.0).collect()
+    } else {
+        Vec::new()
+    };
+    own.sort_by(f64::total_cmp);
+    s.paired_distance = match own.get(own.len().saturating_sub(1) / 2) {
+        Some(a) => 0.25 * diameter(a),
+        None if s.spacing.is_finite() => 0.25 * s.spacing,
+        None => 0.0,
+    };
+    s.paired = paired_share(pos, &input.cracks, &adj, s.paired_distance, crack_length);
     s
 }
 
+/// Count the degree-3 junction at `v` (neighbours `adj`, surface normal
+/// `nv`, or zero off the surface: then the plane of its crack directions)
+/// into the angle histogram and the T / Y counts.
+fn junction(s: &mut PatternStats, pos: &[[f64; 3]], v: usize, adj: &[u32], nv: [f64; 3]) {
+    let dirs: Vec<[f64; 3]> = adj.iter().map(|&u| sub(pos[u as usize], pos[v])).collect();
+    let planes = [(0, 1), (1, 2), (0, 2)].map(|(i, j)| cross(dirs[i], dirs[j]));
+    let widest = planes
+        .into_iter()
+        .max_by(|a, b| norm(*a).total_cmp(&norm(*b)));
+    let nv = if norm(nv) > 0.0 {
+        nv
+    } else {
+        widest.unwrap_or([0.0; 3])
+    };
+    if norm(nv) == 0.0 {
+        return;
+    }
+    let nv = scale(nv, 1.0 / norm(nv));
+    // Directions in the tangent plane, sorted by angle about the normal.
+    let t = sub(dirs[0], scale(nv, dot(dirs[0], nv)));
+    let e1 = scale(t, 1.0 / norm(t).max(1e-300));
+    let e2 = cross(nv, e1);
+    let tau = std::f64::consts::TAU;
+    let mut ang: Vec<f64> = dirs
+        .iter()
+        .map(|&d| dot(d, e2).atan2(dot(d, e1)).rem_euclid(tau))
+        .collect();
+    ang.sort_by(f64::total_cmp);
+    let gaps = [ang[1] - ang[0], ang[2] - ang[1], tau - ang[2] + ang[0]].map(f64::to_degrees);
+    for g in gaps {
+        s.junction_angles[((g / 15.0) as usize).min(11)] += 1;
+    }
+    if gaps.iter().any(|&g| g > 150.0) {
+        s.t_junctions += 1;
+    } else if gaps.iter().all(|&g| (90.0..=150.0).contains(&g)) {
+        s.y_junctions += 1;
+    }
+}
+
+/// Crack length by orientation in the plane of the two largest extents.
+fn orientation(pos: &[[f64; 3]], cracks: &[[u32; 2]], total: f64) -> [f64; 6] {
+    let (lo, hi) = bbox(pos);
+    let ext = sub(hi, lo);
+    let mut axes = [0usize, 1, 2];
+    axes.sort_by(|&a, &b| ext[b].total_cmp(&ext[a]));
+    let mut bins = [0.0; 6];
+    for c in cracks {
+        let d = sub(pos[c[1] as usize], pos[c[0] as usize]);
+        let (x, y) = (d[axes[0]], d[axes[1]]);
+        if x != 0.0 || y != 0.0 {
+            let a = y.atan2(x).to_degrees().rem_euclid(180.0);
+            bins[((a / 30.0) as usize).min(5)] += norm(d) / total;
+        }
+    }
+    bins
+}
+
 /// The share of crack length with a parallel crack (within 20 degrees)
-/// closer than `r`, not counting cracks joined to it within `2 r` along
-/// the crack graph.
-fn paired_share(input: &PatternInput, adj: &[Vec<u32>], r: f64, total: f64) -> f64 {
+/// closer than `r` to its middle, not counting cracks joined to it within
+/// `2 r` along the crack graph (found by Dijkstra from its ends).
+fn paired_share(
+    pos: &[[f64; 3]],
+    cracks: &[[u32; 2]],
+    adj: &[Vec<u32>],
+    r: f64,
+    total: f64,
+) -> f64 {
     if !(r.is_finite() && r > 0.0) || total <= 0.0 {
         return 0.0;
     }
-    let pos = &input.positions;
-    let segs = &input.cracks;
-    let mids: Vec<[f64; 3]> = segs
-        .iter()
-        .map(|c| scale(add(pos[c[0] as usize], pos[c[1] as usize]), 0.5))
-        .collect();
-    let grid = Grid::new(mids.iter().map(|m| (*m, *m)), r);
+    let segs: Vec<Seg> = cracks.iter().map(|c| c.map(|v| pos[v as usize])).collect();
+    let grid = Buckets::of_segments(&segs, mean_length(&segs).max(r));
     let cos20 = 20f64.to_radians().cos();
+    // Path lengths from the current segment's ends (the nodes set listed).
+    let (mut best, mut touched) = (vec![f64::INFINITY; pos.len()], Vec::new());
     let mut paired = 0.0;
-    for (i, c) in segs.iter().enumerate() {
-        let (a, b) = (pos[c[0] as usize], pos[c[1] as usize]);
-        let d = sub(b, a);
-        let l = norm(d);
-        if l == 0.0 {
-            continue;
-        }
-        // Vertices within 2 r of this segment along the cracks.
-        let near = graph_ball(adj, pos, [c[0], c[1]], 2.0 * r);
-        let mut hit = false;
-        grid.search(mids[i], |j| {
-            if hit || j == i {
-                return None;
+    for (i, &[a, b]) in segs.iter().enumerate() {
+        let (d, l, m) = (sub(b, a), dist(a, b), scale(add(a, b), 0.5));
+        let mut grown = false;
+        let hit = grid.near(m, r, |j| {
+            let [p, q] = segs[j];
+            let parallel = dot(d, sub(q, p)).abs() >= cos20 * l * dist(p, q);
+            if j == i || !parallel || dist(p, q) == 0.0 || dist(closest_on_segment(m, p, q), m) >= r
+            {
+                return false;
             }
-            let o = segs[j];
-            if near.contains(&o[0]) && near.contains(&o[1]) {
-                return None;
+            if !grown {
+                for v in touched.drain(..) {
+                    best[v as usize] = f64::INFINITY;
+                }
+                let mut heap: BinaryHeap<Reverse<(u64, u32)>> =
+                    cracks[i].iter().map(|&s| Reverse((0u64, s))).collect();
+                // Lengths are >= 0: their bits order as they do.
+                while let Some(Reverse((bits, v))) = heap.pop() {
+                    let dv = f64::from_bits(bits);
+                    if best[v as usize] <= dv {
+                        continue;
+                    }
+                    if best[v as usize].is_infinite() {
+                        touched.push(v);
+                    }
+                    best[v as usize] = dv;
+                    for &u in &adj[v as usize] {
+                        let du = dv + dist(pos[v as usize], pos[u as usize]);
+                        if du <= 2.0 * r && du < best[u as usize] {
+                            heap.push(Reverse((du.to_bits(), u)));
+                        }
+                    }
+                }
+                grown = true;
             }
-            let (p, q) = (pos[o[0] as usize], pos[o[1] as usize]);
-            let e = sub(q, p);
-            let le = norm(e);
-            if le == 0.0 || (dot(d, e) / (l * le)).abs() < cos20 {
-                return None;
-            }
-            let m = mids[j];
-            let gap = dist(closest_on_segment(m, a, b), m);
-            if gap < r {
-                hit = true;
-                return Some(0.0);
-            }
-            None
+            cracks[j].iter().all(|&v| best[v as usize].is_infinite())
         });
-        if hit {
-            paired += l;
-        }
+        paired += if hit && l > 0.0 { l } else { 0.0 };
     }
     paired / total
 }
 
-/// Crack-graph vertices within path length `r` of `seeds`.
-fn graph_ball(adj: &[Vec<u32>], pos: &[[f64; 3]], seeds: [u32; 2], r: f64) -> HashSet<u32> {
-    let mut best: HashMap<u32, f64> = HashMap::new();
-    let mut stack: Vec<(u32, f64)> = seeds.iter().map(|&s| (s, 0.0)).collect();
-    while let Some((v, d)) = stack.pop() {
-        if best.get(&v).is_some_and(|&b| b <= d) {
-            continue;
-        }
-        best.insert(v, d);
-        for &u in &adj[v as usize] {
-            let nd = d + dist(pos[v as usize], pos[u as usize]);
-            if nd <= r {
-                stack.push((u, nd));
-            }
-        }
-    }
-    best.into_keys().collect()
+/// The two ends of each edge of triangle `t`, smaller first.
+fn edges_of(t: &[u32; 3]) -> impl Iterator<Item = (u32, u32)> + '_ {
+    (0..3).map(|k| (t[k].min(t[(k + 1) % 3]), t[k].max(t[(k + 1) % 3])))
 }
-
 fn dist(a: [f64; 3], b: [f64; 3]) -> f64 {
     norm(sub(a, b))
 }
-fn bounds(p: &[[f64; 3]]) -> ([f64; 3], [f64; 3]) {
-    let mut lo = [f64::INFINITY; 3];
-    let mut hi = [f64::NEG_INFINITY; 3];
-    for q in p {
-        for k in 0..3 {
-            lo[k] = lo[k].min(q[k]);
-            hi[k] = hi[k].max(q[k]);
-        }
-    }
-    if p.is_empty() {
-        return ([0.0; 3], [0.0; 3]);
-    }
-    (lo, hi)
+fn mean_length(segs: &[Seg]) -> f64 {
+    segs.iter().map(|s| dist(s[0], s[1])).sum::<f64>() / segs.len().max(1) as f64
 }
-fn bbox2(a: [f64; 3], b: [f64; 3]) -> ([f64; 3], [f64; 3]) {
-    bounds(&[a, b])
+/// The bounding-box diagonal of `p` (0 when empty).
+fn diagonal(p: &[[f64; 3]]) -> f64 {
+    let (lo, hi) = bbox(p);
+    if p.is_empty() {
+        0.0
+    } else {
+        dist(lo, hi)
+    }
 }
 
 #[cfg(test)]

@@ -50,6 +50,7 @@ fn a_cross_makes_four_cells_and_one_junction_of_four() {
             positions,
             triangles,
             cracks,
+            ..Default::default()
         },
         None,
     );
@@ -79,6 +80,7 @@ fn a_crack_ending_on_another_is_a_t_junction() {
             positions,
             triangles,
             cracks,
+            ..Default::default()
         },
         None,
     );
@@ -102,6 +104,7 @@ fn an_open_crack_has_two_dangling_tips_and_cuts_nothing() {
             positions,
             triangles,
             cracks,
+            ..Default::default()
         },
         None,
     );
@@ -118,11 +121,19 @@ fn close_parallel_cracks_are_paired_far_ones_are_not() {
             positions: positions.clone(),
             triangles: triangles.clone(),
             cracks: close,
+            ..Default::default()
         },
         None,
     );
-    // spacing 2 * 64 / 16 = 8, paired below 2: the cracks are 1 apart.
-    assert!((s.paired_distance - 2.0).abs() < 1e-12);
+    // Cells of 24, 8 and 32 all touch the border: the median's (24)
+    // diameter sqrt(96 / pi) = 5.53, paired below 1.38: the cracks are 1
+    // apart.
+    let d = (96.0 / std::f64::consts::PI).sqrt();
+    assert!(
+        (s.paired_distance - d / 4.0).abs() < 1e-12,
+        "{}",
+        s.paired_distance
+    );
     assert!((s.paired - 1.0).abs() < 1e-12, "{}", s.paired);
     let far: Vec<[u32; 2]> = [vertical(&id, 1, 0, 8), vertical(&id, 6, 0, 8)].concat();
     let s = pattern_stats(
@@ -130,6 +141,7 @@ fn close_parallel_cracks_are_paired_far_ones_are_not() {
             positions,
             triangles,
             cracks: far,
+            ..Default::default()
         },
         None,
     );
@@ -148,6 +160,7 @@ fn cracks_along_the_input_edges_are_counted() {
         positions,
         triangles,
         cracks,
+        ..Default::default()
     };
     assert_eq!(
         pattern_stats(&input, Some(&same)).along_reference_edges,
@@ -175,11 +188,12 @@ fn a_crack_ending_inside_a_whole_segment_of_another_is_joined_to_it() {
             positions: positions.clone(),
             triangles: triangles.clone(),
             cracks: cracks.clone(),
+            ..Default::default()
         },
         None,
     );
     assert_eq!(unsplit.dangling_tips, 1, "the check can fail: {unsplit:?}");
-    let mut cracks = split_at_junctions(&positions, cracks);
+    let mut cracks = split_within(&positions, cracks, 1e-6);
     cracks.sort_unstable();
     assert!(cracks.contains(&[id(2, 1), id(2, 2)]) && cracks.contains(&[id(2, 2), id(2, 3)]));
     assert_eq!(cracks.len(), 6);
@@ -188,9 +202,71 @@ fn a_crack_ending_inside_a_whole_segment_of_another_is_joined_to_it() {
             positions,
             triangles,
             cracks,
+            ..Default::default()
         },
         None,
     );
     assert_eq!(s.cells, 3);
     assert_eq!((s.t_junctions, s.dangling_tips), (1, 0));
+}
+
+/// Lines lying across the faces of an uncut surface (a kept output) are cut
+/// into it: a line across a 4 x 4 grid and one ending on it (inside its
+/// segment) make three cells and a T-junction.
+#[test]
+fn lines_across_the_faces_of_a_kept_surface_enclose_cells() {
+    let (positions, triangles, _) = grid(4);
+    let mut m = MeshParts::default();
+    for t in &triangles {
+        m.surface
+            .push(t.map(|v| m.welder.id(positions[v as usize])));
+    }
+    m.lines = vec![
+        [[2.3, 0.0, 0.0], [2.3, 4.0, 0.0]],
+        [[0.0, 1.6, 0.0], [2.3, 1.6, 0.0]],
+    ];
+    m.rest = m.lines.clone();
+    let p = m.pattern("grid");
+    assert!(p.notes.is_empty(), "{:?}", p.notes);
+    let s = pattern_stats(&p, None);
+    assert_eq!(s.cells, 3, "{s:?}");
+    // Areas 2.3 x 1.6, 2.3 x 2.4 and 1.7 x 4.
+    let want = [3.68, 5.52, 5.52, 6.8, 6.8];
+    for (got, want) in s.cell_area_quantiles.iter().zip(want) {
+        assert!((got - want).abs() < 1e-9, "{:?}", s.cell_area_quantiles);
+    }
+    assert_eq!((s.t_junctions, s.dangling_tips), (1, 0), "{s:?}");
+    assert!((s.crack_length - 6.3).abs() < 1e-9);
+}
+
+/// A pattern covering a small part of the surface is paired at its own
+/// cells' size: on a 16 x 16 grid, a 2 x 2 block of unit cells at one
+/// corner's middle pairs nothing, where a quarter of 2A/L (6.4) would pair
+/// every crack.
+#[test]
+fn a_partial_pattern_is_paired_at_its_own_cells_size() {
+    let (positions, triangles, id) = grid(16);
+    let mut cracks = Vec::new();
+    for k in 7..=9 {
+        cracks.extend(vertical(&id, k, 7, 9));
+        cracks.extend(horizontal(&id, k, 7, 9));
+    }
+    let s = pattern_stats(
+        &PatternInput {
+            positions,
+            triangles,
+            cracks,
+            ..Default::default()
+        },
+        None,
+    );
+    assert_eq!(s.cells, 5, "{s:?}");
+    assert!(s.spacing / 4.0 > 6.0, "{}", s.spacing);
+    let d = (4.0 / std::f64::consts::PI).sqrt();
+    assert!(
+        (s.paired_distance - d / 4.0).abs() < 1e-12,
+        "{}",
+        s.paired_distance
+    );
+    assert_eq!(s.paired, 0.0);
 }

@@ -16,6 +16,9 @@ pub fn run(
     if pattern.triangles.is_empty() {
         anyhow::bail!("{}: no triangles to measure", file.display());
     }
+    for note in &pattern.notes {
+        log::warn!("{}: {note}", file.display());
+    }
     let reference = match input {
         Some(path) => {
             let s = crackle::io::read_with(path, read)
