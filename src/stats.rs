@@ -53,6 +53,13 @@ type Seg = [[f64; 3]; 2];
 /// of the pattern or reference: its bounding-box diagonal.
 const TOLERANCE: f64 = 1e-6;
 
+/// How far (relative to the diagonal) a crack end may lie off the
+/// reference's border and still end on it: the network was simulated on a
+/// surface whose border is a chain of chords of the reference's, and a
+/// crack meets it anywhere along a chord (on the teapot's rims, up to
+/// 2e-4 of the diagonal off the curved border).
+const BORDER_SAG: f64 = 1e-3;
+
 /// A surface, its crack graph and its cuts; see the module documentation.
 #[derive(Clone, Debug, Default)]
 pub struct PatternInput {
@@ -713,10 +720,14 @@ pub fn pattern_stats(input: &PatternInput, reference: Option<&ReferenceEdges>) -
         None if !input.border.is_empty() => &input.border,
         None => &own_border,
     };
-    let grid = Buckets::of_segments(border, mean_length(border).max(4.0 * tol));
+    let near = match reference {
+        Some(_) => BORDER_SAG * diagonal(pos),
+        None => tol,
+    };
+    let grid = Buckets::of_segments(border, mean_length(border).max(4.0 * near));
     let on_border = |p| {
-        grid.near(p, tol, |i| {
-            dist(closest_on_segment(p, border[i][0], border[i][1]), p) <= tol
+        grid.near(p, near, |i| {
+            dist(closest_on_segment(p, border[i][0], border[i][1]), p) <= near
         })
     };
     let mut normals = vec![[0.0; 3]; pos.len()];

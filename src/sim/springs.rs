@@ -11,7 +11,7 @@
 
 use crate::math::hash_unit;
 use crate::math::v3;
-use crate::mesh::{HalfedgeId, SimMesh};
+use crate::mesh::{HalfedgeId, SimMesh, VertexId};
 pub use crate::sim::params::{DryingLaw, SpringParams};
 use crate::sim::{Observer, SimError, SimParams, SimReport, Snapshot};
 
@@ -426,6 +426,9 @@ pub fn run(
             )));
         }
     }
+    if report.cracks < params.max_cracks && join_near_tips(mesh, &mut st, &mut report, unit)? > 0 {
+        st.rebuild_adjacency(mesh);
+    }
     let (e1, _) = st.energy(sp.mass);
     report.energy[1] = e1;
     report.triangles[1] = mesh.n_faces();
@@ -437,6 +440,113 @@ pub fn run(
             .collect();
     report.crack_time = st.crack_time;
     Ok(report)
+}
+
+/// A crack tip that stopped right beside another crack (closer to one of
+/// its edges, across one of the tip's faces, than half the tip's shorter
+/// spring to that edge's ends or half the mean edge; or a neighbour on
+/// another crack closer than half the mean edge) snaps the spring to the
+/// nearer of those vertices: the ligament left is far thinner than a
+/// spring and would not hold, and the tip then meets the crack (a
+/// T-junction instead of a near miss). A tip is a vertex whose crack
+/// sides lead to one rest position (the far end's copies on the two sides
+/// are one). Returns how many tips were joined.
+fn join_near_tips(
+    mesh: &mut SimMesh,
+    st: &mut Springs,
+    report: &mut SimReport,
+    unit: f64,
+) -> Result<usize, SimError> {
+    let key = |a: VertexId, b: VertexId| (a.0.min(b.0), a.0.max(b.0));
+    let mut spring_of: std::collections::BTreeMap<(u32, u32), usize> = Default::default();
+    for (i, sp) in st.springs.iter().enumerate() {
+        if !sp.broken {
+            spring_of.insert(key(mesh.origin(sp.h), mesh.dest(sp.h)), i);
+        }
+    }
+    // Crack tips: vertices whose crack sides all lead to one neighbour
+    // (by rest position: the far end's copies on the two sides are one).
+    let mut along: Vec<Vec<u32>> = vec![Vec::new(); mesh.n_vertices()];
+    let mut border = vec![false; mesh.n_vertices()];
+    for h in mesh.halfedges() {
+        let (a, b) = (mesh.origin(h), mesh.dest(h));
+        if mesh.is_crack_halfedge(h) {
+            along[a.idx()].push(b.0);
+            along[b.idx()].push(a.0);
+        } else if mesh.twin(h).is_none() {
+            border[a.idx()] = true;
+            border[b.idx()] = true;
+        }
+    }
+    let mut snap: Vec<usize> = Vec::new();
+    for v in mesh.vertices() {
+        let mut n: Vec<[u64; 3]> = along[v.idx()]
+            .iter()
+            .map(|&u| st.x0[u as usize].map(f64::to_bits))
+            .collect();
+        n.sort_unstable();
+        n.dedup();
+        let p = st.x0[v.idx()];
+        if n.len() != 1 || border[v.idx()] || st.fixed[v.idx()] {
+            continue;
+        }
+        let mut best: Option<(f64, usize)> = None;
+        for f in mesh.vertex_faces(v) {
+            let hs = mesh.face_halfedges(f);
+            let Some(&g) = hs
+                .iter()
+                .find(|&&g| mesh.origin(g) != v && mesh.dest(g) != v)
+            else {
+                continue;
+            };
+            if !mesh.is_crack_halfedge(g) {
+                continue;
+            }
+            let (a, b) = (mesh.origin(g), mesh.dest(g));
+            let (pa, pb) = (st.x0[a.idx()], st.x0[b.idx()]);
+            let ab = v3::sub(pb, pa);
+            let t = (v3::dot(v3::sub(p, pa), ab) / v3::dot(ab, ab).max(1e-300)).clamp(0.0, 1.0);
+            let d = v3::norm(v3::sub(p, v3::add(pa, v3::scale(ab, t))));
+            let (la, lb) = (v3::norm(v3::sub(pa, p)), v3::norm(v3::sub(pb, p)));
+            let (w, l) = if la <= lb { (a, la) } else { (b, lb) };
+            // Normalised units: the mean edge is 1.
+            if d < 0.5 * l.max(1.0) && best.is_none_or(|x| d < x.0) {
+                if let Some(&i) = spring_of.get(&key(v, w)) {
+                    best = Some((d, i));
+                }
+            }
+        }
+        // A neighbour on another crack, closer than half the mean edge:
+        // the tip all but reached it.
+        for f in mesh.vertex_faces(v) {
+            for w in mesh.face_vertices(f) {
+                let l = v3::norm(v3::sub(st.x0[w.idx()], p));
+                if w == v
+                    || along[w.idx()].is_empty()
+                    || n.contains(&st.x0[w.idx()].map(f64::to_bits))
+                    || l >= 0.5
+                {
+                    continue;
+                }
+                if best.is_none_or(|x| l < x.0) {
+                    if let Some(&i) = spring_of.get(&key(v, w)) {
+                        best = Some((l, i));
+                    }
+                }
+            }
+        }
+        if let Some((_, i)) = best {
+            snap.push(i);
+        }
+    }
+    snap.sort_unstable();
+    snap.dedup();
+    for &i in &snap {
+        if !st.springs[i].broken {
+            break_spring(mesh, st, i, report, unit)?;
+        }
+    }
+    Ok(snap.len())
 }
 
 /// Break spring `i` at the report's time: open its edge (unless it is on
