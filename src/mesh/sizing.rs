@@ -5,7 +5,7 @@
 
 use super::halfedge::SimMesh;
 use super::spatial::{cross, dist2, dot, norm, scale, sub};
-use std::collections::{HashMap, HashSet};
+use std::collections::{BTreeMap, HashSet};
 
 /// A surface with at most this share of its area in triangles that have an
 /// edge above the split length is fine enough to simulate as it is.
@@ -56,7 +56,8 @@ pub(crate) fn edge_sizes(
         return size;
     }
     let floor = shortest.min(target);
-    let mut faces_of: HashMap<(u32, u32), Vec<u32>> = HashMap::new();
+    // Ordered: the sums below take the edges in one order every run.
+    let mut faces_of: BTreeMap<(u32, u32), Vec<u32>> = BTreeMap::new();
     for (f, t) in faces.iter().enumerate() {
         for k in 0..3 {
             let (a, b) = (t[k], t[(k + 1) % 3]);

@@ -6,7 +6,6 @@ use crate::mesh::{FaceId, SimMesh, VertexId};
 use parry3d::bounding_volume::Aabb;
 use parry3d::math::Vector;
 use parry3d::partitioning::{Bvh, BvhBuildStrategy};
-use std::collections::BTreeMap;
 
 /// Passes of [`build_walls_uncrossed`] that halve the crossing nodes'
 /// moves before the next ones shut them.
@@ -127,38 +126,9 @@ pub fn crossings(mesh: &SimMesh, top: &[[f64; 3]], walls: &Walls) -> (usize, Vec
     }
     let mut nodes: Vec<VertexId> = Vec::new();
     let mut count = 0;
-    // Walls hanging from one stretch of crack (their sides' ends are the
-    // same crack vertices, or neighbours along the crack: their copies
-    // share roots) bound the same gap: where one side's nodes slid a little
-    // along a crack cut into short pieces (an input's edges crossed close
-    // together) they overlap there, out of sight inside the gap, and
-    // shortening the moves would shut the gap.
-    let roots = mesh.vertex_roots();
-    let mut along: BTreeMap<u32, Vec<u32>> = BTreeMap::new();
-    for &h in &walls.sides {
-        let (u, v) = (roots[mesh.origin(h).idx()], roots[mesh.dest(h).idx()]);
-        along.entry(u).or_default().push(v);
-        along.entry(v).or_default().push(u);
-    }
-    let ends = |t: usize| {
-        let h = walls.sides[t];
-        [mesh.origin(h), mesh.dest(h)].map(|v| roots[v.idx()])
-    };
-    let near = |a: usize, b: usize| {
-        let eb = ends(b);
-        ends(a).iter().any(|r| {
-            eb.contains(r)
-                || along
-                    .get(r)
-                    .is_some_and(|n| n.iter().any(|x| eb.contains(x)))
-        })
-    };
     for (a, b) in intersecting_pairs(&pos, &tris) {
         if a >= n_walls && b >= n_walls {
             continue; // surface with surface: not the walls' doing
-        }
-        if a < n_walls && b < n_walls && near(a, b) {
-            continue;
         }
         count += 1;
         for t in [a, b] {
