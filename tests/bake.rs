@@ -216,44 +216,40 @@ fn the_ducks_own_texture_is_kept_under_the_cracks() {
     let o = common::crack(&duck, &out, &["--preset", "glaze", "-q"]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     // The Duck's UVs mirror its two halves onto one texture: cracks baked
-    // there would show on both sides, so it gets an atlas, in TEXCOORD_0.
+    // there would show on both sides, so it gets an atlas, in a UV set of
+    // its own (the Duck's TEXCOORD_0 stays, as the artist made it).
     let d = bake_detail(&common::report(&out));
     let reason = d["materials"][0]["atlas"]["reason"].as_str().unwrap_or("");
     assert!(reason.contains("overlaps itself"), "{d}");
+    assert_eq!(d["materials"][0]["texcoord"], 1, "{d}");
     let input = read(&duck);
     let scene = read(&out);
     let (mi, t) = cracked(&scene);
     let baked = texture(&scene, mi, "baseColorTexture");
     let occl = texture(&scene, mi, "occlusionTexture");
     let own = texture(&input, 0, "baseColorTexture");
-    // Nothing reads the Duck's own UVs any more: they are not written.
-    assert!(t.attribute("TEXCOORD_1").is_none(), "an unused UV set");
-    let atlas = t.attribute("TEXCOORD_0").unwrap();
+    let atlas = t.attribute("TEXCOORD_1").expect("the atlas");
+    let own_uv = t.attribute("TEXCOORD_0").expect("the Duck's own UVs");
     let Geometry::Triangles(inp) = &input.meshes[0].primitives[0].geometry else {
         unreachable!()
     };
-    let own_uv = inp.attribute("TEXCOORD_0").unwrap();
-    // The Duck's node scales its mesh; both meshes share that frame.
-    let nearest = |p: [f32; 3]| {
-        (0..inp.positions.len())
-            .min_by(|&a, &b| {
-                let d = |i: usize| {
-                    let q = inp.positions[i];
-                    (0..3).map(|k| (q[k] - p[k]).powi(2)).sum::<f32>()
-                };
-                d(a).total_cmp(&d(b))
-            })
-            .unwrap()
-    };
+    // Every corner keeps its position and its own UVs.
+    let input_uv = inp.attribute("TEXCOORD_0").unwrap();
+    assert_eq!(t.triangles.len(), inp.triangles.len());
+    for (a, b) in t.triangles.iter().zip(&inp.triangles) {
+        for k in 0..3 {
+            assert_eq!(t.positions[a[k] as usize], inp.positions[b[k] as usize]);
+            assert_eq!(own_uv.get(a[k] as usize), input_uv.get(b[k] as usize));
+        }
+    }
     // At every vertex away from the cracks, the baked map (through the
-    // atlas) shows what the Duck's texture shows there (through the UVs of
-    // the nearest input vertex; the Duck is remeshed).
+    // atlas) shows what the Duck's texture shows there (through its own
+    // UVs).
     let diffs: Vec<f32> = (0..atlas.len())
-        .step_by(7)
         .filter(|&v| at(&occl, atlas.get(v))[0] > 0.999)
         .map(|v| {
             let a = at(&baked, atlas.get(v));
-            let b = at(&own, own_uv.get(nearest(t.positions[v])));
+            let b = at(&own, own_uv.get(v));
             (0..3).map(|c| (a[c] - b[c]).abs()).fold(0.0, f32::max)
         })
         .collect();
@@ -297,7 +293,10 @@ fn kept_geometry_bakes_the_ducks_own_islands_repacked() {
     // Each triangle's atlas UVs are its own UVs scaled and moved: no
     // island is turned, mirrored or sheared, so texture edges stay on the
     // island seams and a normal map keeps its frame.
-    let atlas = t.attribute("TEXCOORD_0").unwrap();
+    // The repacked islands are a UV set of their own.
+    let set = format!("TEXCOORD_{}", d["materials"][0]["texcoord"]);
+    assert_eq!(set, "TEXCOORD_1", "{d}");
+    let atlas = t.attribute(&set).unwrap();
     let own_uv = inp.attribute("TEXCOORD_0").unwrap();
     let mut worst = 0.0f64;
     for (a, b) in t.triangles.iter().zip(&inp.triangles) {

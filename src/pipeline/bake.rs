@@ -222,8 +222,14 @@ fn bake_group(
     );
     scene.materials.push(Material { json: m });
     let variant = scene.materials.len() - 1;
-    for &p in prims {
+    let mut tangent_splits = 0;
+    for (&p, drawn) in prims.iter().zip(&drawn) {
         scene.meshes[mesh_index].primitives[p].material = Some(variant);
+        if let Some(with) = with_drawn_tangents(tri_geometry(scene, mesh_index, p), drawn) {
+            tangent_splits +=
+                with.positions.len() - tri_geometry(scene, mesh_index, p).positions.len();
+            set_geometry(scene, mesh_index, p, with);
+        }
     }
     Ok(json!({
         "material": base_name,
@@ -236,7 +242,31 @@ fn bake_group(
         "dilated_texels": raster.dilated,
         "crack_texels": maps.crack_texels,
         "png_bytes": bytes,
+        "tangent_split_vertices": tangent_splits,
     }))
+}
+
+/// `geo` with the tangents the baked normal map was made in (`drawn`'s,
+/// MikkTSpace of the baked set), when it has normals and no tangents of
+/// its own: viewers then read the map in the frame it was baked in (the
+/// glTF validator asks for them). A vertex whose corners take different
+/// tangents is copied (at a mirrored UV seam, say); nothing else changes.
+/// Without normals glTF tells viewers to draw flat and ignore tangents:
+/// none are added.
+fn with_drawn_tangents(geo: &TriGeometry, drawn: &TriGeometry) -> Option<TriGeometry> {
+    if geo.attribute("TANGENT").is_some() || geo.attribute("NORMAL").is_none() {
+        return None;
+    }
+    let t = drawn.attribute("TANGENT").filter(|a| a.components == 4)?;
+    if drawn.triangles.len() != geo.triangles.len() {
+        return None;
+    }
+    let corners: Vec<f32> = drawn
+        .triangles
+        .iter()
+        .flat_map(|tri| tri.iter().flat_map(|&v| t.get(v as usize).to_vec()))
+        .collect();
+    Some(with_corner_attribute(geo, "TANGENT", 4, &corners))
 }
 
 /// Where the material's own normal map's tangents wait while the baked set's
@@ -250,7 +280,9 @@ const OWN_TANGENT: &str = "_CRACKLE_OWN_TANGENT";
 /// viewers to make). When the material's own normal map reads another set
 /// and no tangents are given, that map's frame (MikkTSpace of its set) is
 /// kept as [`OWN_TANGENT`] to carry its normals over; the flag says so.
-/// Nothing is written to the scene: the output keeps its own attributes.
+/// Nothing is written to the scene here: the output keeps its own
+/// attributes (and takes these tangents only where it has normals and no
+/// tangents, [`with_drawn_tangents`]).
 fn as_drawn(
     scene: &Scene,
     mesh_index: usize,
