@@ -83,13 +83,31 @@ fn plate_cracks_validly_and_deterministically() {
             .materials
             .iter()
             .any(|m| m.name() == Some("crack_lines")));
-        // The cracks really separate the surface: welding the output gives more than one component.
-        let (entries, _) = crackle::bridge::build_sim_meshes(&back, &Default::default());
-        assert!(
-            entries[0].report.boundary_edges > 96,
-            "cracks add boundary edges"
+        // Nothing opens a gap: the output is the input's own mesh, the
+        // cracks drawn over it.
+        assert_eq!(
+            back.triangle_count(),
+            crackle::io::read(&input).unwrap().triangle_count(),
+            "the input's triangles"
         );
     }
+    // The simulation surface, asked for, is split along the cracks: welding
+    // it leaves them open.
+    let out = dir.path().join("plate-sim.glb");
+    let rep = dir.path().join("plate-sim.json");
+    crack(
+        &input,
+        &out,
+        &rep,
+        "2",
+        &["--set", "post.output=\"simulation\""],
+    );
+    let back = crackle::io::read(&out).unwrap();
+    let (entries, _) = crackle::bridge::build_sim_meshes(&back, &Default::default());
+    assert!(
+        entries[0].report.boundary_edges > 96,
+        "cracks add boundary edges"
+    );
     assert!(
         bytes[0] == bytes[1],
         "1 and 2 threads give byte-identical output"
@@ -157,7 +175,9 @@ fn open_edges(scene: &crackle::scene::Scene) -> usize {
 }
 
 /// Crack an eval-data mesh with the defaults: it must finish with cracks, a
-/// valid file, open crack edges, and the input's materials and UVs kept.
+/// valid file, the input's own triangles (the cracks drawn over them), and
+/// the input's materials and UVs kept; its simulation surface, asked for,
+/// has the crack edges open.
 fn eval_mesh_cracks(rel: &str) {
     let Some(input) = common::eval_data(rel) else {
         return;
@@ -179,11 +199,25 @@ fn eval_mesh_cracks(rel: &str) {
     }
     let before = crackle::io::read(&input).unwrap();
     let after = crackle::io::read(&out).unwrap();
+    assert_eq!(
+        after.triangle_count(),
+        before.triangle_count(),
+        "{rel}: the input's own triangles"
+    );
+    let sim_out = dir.path().join("sim.glb");
+    crack(
+        &input,
+        &sim_out,
+        &dir.path().join("sim.json"),
+        "2",
+        &["--set", "post.output=\"simulation\""],
+    );
+    let sim = crackle::io::read(&sim_out).unwrap();
     assert!(
-        open_edges(&after) > open_edges(&before) + 20,
-        "{rel}: the output is split along the cracks ({} -> {} open edges)",
+        open_edges(&sim) > open_edges(&before) + 20,
+        "{rel}: the simulation surface is split along the cracks ({} -> {} open edges)",
         open_edges(&before),
-        open_edges(&after)
+        open_edges(&sim)
     );
     let names = |s: &crackle::scene::Scene| {
         s.materials

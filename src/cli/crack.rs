@@ -350,12 +350,13 @@ pub fn run(a: CrackArgs) -> Result<()> {
     if !a.quiet {
         let run = &report.run;
         eprintln!(
-            "{} -> {}: {} cracks, crack length {:.3}, {} -> {} triangles, {} relaxation steps",
+            "{} -> {}: {} cracks, crack length {:.3}, {} -> {} triangles (simulated on {}), {} relaxation steps",
             a.input.display(),
             a.output.display(),
             run.cracks,
             run.crack_length,
-            run.triangles.before,
+            report.mesh_triangles.before,
+            report.mesh_triangles.after,
             run.triangles.after,
             run.relaxation_steps
         );

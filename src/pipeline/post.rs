@@ -76,7 +76,9 @@ pub fn apply(
                 displace(&e.sim, &r.displacement, post)
             }
         });
-        out.time(stage, t.elapsed().as_secs_f64());
+        if moves {
+            out.time(stage, t.elapsed().as_secs_f64());
+        }
         // Cutting into the input: from here on the mesh is the input's,
         // cut, with the simulation's values (and the gaps' moves) carried
         // over.

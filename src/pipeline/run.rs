@@ -172,6 +172,9 @@ pub struct CrackReport {
     pub bytes: u64,
     /// The files the input refers to (buffers, images, material libraries).
     pub sources: Vec<String>,
+    /// Triangles of the scene's meshes as read and as written (the
+    /// simulation's own are `triangles`).
+    pub mesh_triangles: BeforeAfter<usize>,
     /// The run.
     #[serde(flatten)]
     pub run: RunReport,
@@ -380,6 +383,7 @@ pub fn crack_file(
     observer.stage("read");
     let mut scene = read_crackable(&config.asset, &config.read)?;
     let read = Stage::new("read", t.elapsed().as_secs_f64());
+    let triangles_read = scene.triangle_count();
     // `run` post-processes `scene` in place (and writes the frames).
     let mut run = run(&mut scene, &config, observer)?;
     if let Some(s) = run.stages.iter_mut().find(|s| s.name == "texture") {
@@ -410,6 +414,10 @@ pub fn crack_file(
             .iter()
             .map(|f| f.display().to_string())
             .collect(),
+        mesh_triangles: BeforeAfter {
+            before: triangles_read,
+            after: scene.triangle_count(),
+        },
         run,
     })
 }

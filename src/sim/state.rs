@@ -457,13 +457,21 @@ pub(in crate::sim) fn observe(
     report: &SimReport,
 ) {
     if observer.wants_state() {
+        // In the order the finished report gives them (each split record's
+        // pieces in its place), so the last frame is the output.
+        let mut ordered = SimReport {
+            segments: report.segments.clone(),
+            segment_times: report.segment_times.clone(),
+            ..Default::default()
+        };
+        st.segment_at.in_record_order(&mut ordered);
         observer.state(&Snapshot {
             mesh,
             time: report.time,
             displacement: &st.displacement,
             crack_time: &st.crack_time,
-            segments: &report.segments,
-            segment_times: &report.segment_times,
+            segments: &ordered.segments,
+            segment_times: &ordered.segment_times,
             energy: energy(&st.els, &st.stress),
         });
     }
