@@ -714,9 +714,11 @@ fn grooves_are_closed_v_and_u_channels_of_the_asked_width() {
     // less where a row would be degenerate, or walls were uncrossed
     // differently).
     let (v, u) = (groove_triangles[0] as f64, groove_triangles[1] as f64);
-    // Cut into the input, more rows meet a short edge of its own or cross
-    // another wall and are left out (0.94 of 7 per V on the sphere).
-    assert!((u / (7.0 * v) - 1.0).abs() < 0.08, "{groove_triangles:?}");
+    // Cut into the input, rows that would meet a short edge of its own or
+    // cross another wall are left out (0.89 to 0.98 of 7 per V on the
+    // sphere, with the remesher's choices); never more than 7.
+    let share = u / (7.0 * v);
+    assert!((0.85..=1.0 + 1e-9).contains(&share), "{groove_triangles:?}");
 }
 
 /// Vertices (position bits) and their UVs of the triangle primitives of

@@ -66,7 +66,9 @@ pub struct RemeshOptions {
     /// Local edits and smoothing keep a regular lattice as it is (a
     /// coarsened grid stays a grid, rows and all), and cracks follow its
     /// rows; jittered, the passes that follow settle into an irregular
-    /// mesh with no direction of its own. Default 0.3.
+    /// mesh with no direction of its own. Only an input already fine
+    /// enough is jittered (a coarse one is refined, not coarsened).
+    /// Default 0.3.
     pub jitter: f64,
     /// The seed of the jitter.
     pub seed: u64,
@@ -160,12 +162,17 @@ pub fn remesh(
             break;
         }
     }
-    // Jittered before the first collapses (a fine regular input would
-    // otherwise coarsen into a regular lattice) and after every pass but
-    // the last two, which settle the triangles' shapes.
+    // A fine input (one that would have been left as it is) is jittered
+    // before the first collapses (a fine regular input would otherwise
+    // coarsen into a regular lattice) and after every pass but the last
+    // two, which settle the triangles' shapes. A coarse one is refined by
+    // splits, flips and smoothing, which leave no lattice to break, and
+    // is not: the jitter's projections doubled the teapot's remesh at
+    // 0.02 (10.7 s against 4.7 s).
+    let fine = long_share <= FINE_ENOUGH_LONG_SHARE;
     let mut pass = 0u64;
     let mut jitter = |w: &mut Work| {
-        if options.jitter > 0.0 {
+        if fine && options.jitter > 0.0 {
             w.jitter(&input, options.jitter, options.seed, pass);
         }
         pass += 1;
