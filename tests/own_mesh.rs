@@ -10,26 +10,22 @@ mod measure;
 #[path = "common/shapes.rs"]
 mod shapes;
 
-use common::{eval_data, run, run_ok};
+use common::{eval_data, run};
 use std::path::{Path, PathBuf};
 
 /// `crackle crack INPUT OUT --preset P EXTRA`, with its report; returns the
 /// report.
 fn crack(input: &Path, out: &Path, preset: &str, extra: &[&str]) -> serde_json::Value {
-    let rep = out.with_extension("json");
-    let mut args: Vec<String> = vec![
-        "-q".into(),
-        "crack".into(),
-        input.display().to_string(),
-        out.display().to_string(),
-        "--preset".into(),
-        preset.into(),
-        "--report".into(),
-        rep.display().to_string(),
-    ];
-    args.extend(extra.iter().map(|s| s.to_string()));
-    run_ok(&args);
-    serde_json::from_slice(&std::fs::read(&rep).unwrap()).unwrap()
+    let mut args = vec!["-q", "--preset", preset];
+    args.extend(extra);
+    let o = common::crack(input, out, &args);
+    assert!(
+        o.status.success(),
+        "{preset} on {}: {}",
+        input.display(),
+        String::from_utf8_lossy(&o.stderr)
+    );
+    common::report(out)
 }
 
 /// The cell size a run used (the film's, or, for the spring model, eight

@@ -3,7 +3,6 @@
 //! `#[path = "common/shapes.rs"] mod shapes;`. Positions carry 17 significant digits.
 #![allow(dead_code)]
 
-use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -148,74 +147,18 @@ pub fn latlong_sphere(nu: usize, nv: usize) -> String {
     obj_text(&format!("UV sphere {nu}x{nv}, poles on z"), &v, &f)
 }
 
-/// OBJ of a unit icosphere: an icosahedron with each triangle split into 4, `subdivisions` times.
+/// OBJ of a unit icosphere: an icosahedron with each triangle split into 4,
+/// `subdivisions` times (the crate's own test shape, written as a file).
 pub fn icosphere(subdivisions: u32) -> String {
-    let t = (1.0 + 5f64.sqrt()) / 2.0;
-    let unit = |p: P3| {
-        let n = (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt();
-        [p[0] / n, p[1] / n, p[2] / n]
-    };
-    let mut v: Vec<P3> = [
-        [-1.0, t, 0.0],
-        [1.0, t, 0.0],
-        [-1.0, -t, 0.0],
-        [1.0, -t, 0.0],
-        [0.0, -1.0, t],
-        [0.0, 1.0, t],
-        [0.0, -1.0, -t],
-        [0.0, 1.0, -t],
-        [t, 0.0, -1.0],
-        [t, 0.0, 1.0],
-        [-t, 0.0, -1.0],
-        [-t, 0.0, 1.0],
-    ]
-    .iter()
-    .map(|&p| unit(p))
-    .collect();
-    let mut f: Vec<[usize; 3]> = vec![
-        [0, 11, 5],
-        [0, 5, 1],
-        [0, 1, 7],
-        [0, 7, 10],
-        [0, 10, 11],
-        [1, 5, 9],
-        [5, 11, 4],
-        [11, 10, 2],
-        [10, 7, 6],
-        [7, 1, 8],
-        [3, 9, 4],
-        [3, 4, 2],
-        [3, 2, 6],
-        [3, 6, 8],
-        [3, 8, 9],
-        [4, 9, 5],
-        [2, 4, 11],
-        [6, 2, 10],
-        [8, 6, 7],
-        [9, 8, 1],
-    ];
-    for _ in 0..subdivisions {
-        let mut cache: BTreeMap<(usize, usize), usize> = BTreeMap::new();
-        let mut midpoint = |a: usize, b: usize, v: &mut Vec<P3>| {
-            *cache.entry((a.min(b), a.max(b))).or_insert_with(|| {
-                let (p, q) = (v[a], v[b]);
-                v.push(unit([p[0] + q[0], p[1] + q[1], p[2] + q[2]]));
-                v.len() - 1
-            })
-        };
-        let mut next = Vec::with_capacity(4 * f.len());
-        for &[a, b, c] in &f {
-            let ab = midpoint(a, b, &mut v);
-            let bc = midpoint(b, c, &mut v);
-            let ca = midpoint(c, a, &mut v);
-            next.extend([[a, ab, ca], [b, bc, ab], [c, ca, bc], [ab, bc, ca]]);
-        }
-        f = next;
-    }
-    let faces: Vec<Vec<usize>> = f.iter().map(|t| t.to_vec()).collect();
+    let m = crackle::mesh::shapes::icosphere_input(subdivisions as usize);
+    let faces: Vec<Vec<usize>> = m
+        .triangles
+        .iter()
+        .map(|t| t.iter().map(|&i| i as usize).collect())
+        .collect();
     obj_text(
         &format!("icosphere, {subdivisions} subdivisions"),
-        &v,
+        &m.positions,
         &faces,
     )
 }
