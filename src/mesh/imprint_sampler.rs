@@ -1,6 +1,6 @@
 //! Values of the cracked mesh sampled at points of the same surface: the
-//! closest face's interpolated value, or the crack side facing a
-//! direction.
+//! closest face's interpolated value, or the face of the crack side facing
+//! a direction.
 
 use super::value;
 use crate::mesh::halfedge::SimMesh;
@@ -9,13 +9,22 @@ use crate::mesh::spatial::{
     add, bbox, closest_on_segment, closest_on_triangle, dist2, dot, norm, scale, sub, Grid,
 };
 
+/// How much farther than the closest crack side (in mean edge lengths of
+/// the cracked mesh) [`Sampler::crack_side_along`] still considers a side:
+/// the cut's crack lies within the snapping distance of the simulated one.
+const SIDE_REACH: f64 = 0.03;
+
+/// How far (in mean edge lengths of the cracked mesh) from a crack vertex
+/// [`Sampler::crack_side`] looks for its side's face.
+const SIDE_STEP: f64 = 0.01;
+
 /// Values of the cracked mesh at points of the same surface.
 pub(super) struct Sampler<'a> {
     mesh: &'a SimMesh,
     faces: Grid,
-    /// The crack halfedges (both sides of every crack edge).
-    cracks: Vec<HalfedgeId>,
-    crack_grid: Option<Grid>,
+    /// The crack sides (halfedges without a twin on a crack).
+    sides: Vec<HalfedgeId>,
+    side_grid: Option<Grid>,
     cell: f64,
 }
 
@@ -27,13 +36,13 @@ impl<'a> Sampler<'a> {
                 .map(|f| bbox(&mesh.face_vertices(f).map(|v| mesh.position(v)))),
             cell,
         );
-        let cracks: Vec<HalfedgeId> = mesh
+        let sides: Vec<HalfedgeId> = mesh
             .halfedges()
             .filter(|&h| mesh.is_crack_halfedge(h) && mesh.twin(h).is_none())
             .collect();
-        let crack_grid = (!cracks.is_empty()).then(|| {
+        let side_grid = (!sides.is_empty()).then(|| {
             Grid::new(
-                cracks
+                sides
                     .iter()
                     .map(|&h| bbox(&[mesh.position(mesh.origin(h)), mesh.position(mesh.dest(h))])),
                 cell,
@@ -42,14 +51,15 @@ impl<'a> Sampler<'a> {
         Sampler {
             mesh,
             faces,
-            cracks,
-            crack_grid,
+            sides,
+            side_grid,
             cell,
         }
     }
 
-    /// `values` (per vertex) interpolated at the closest point of `p`.
-    pub(super) fn face_value(&self, p: [f64; 3], values: &[[f64; 3]]) -> [f64; 3] {
+    /// The face closest to `p` (the first by index on a tie) and the
+    /// barycentric coordinates of its closest point.
+    fn closest(&self, p: [f64; 3]) -> Option<(FaceId, [f64; 3])> {
         let mut best: Option<(f64, usize, [f64; 3])> = None;
         self.faces.search(p, |f| {
             let t = self
@@ -63,67 +73,99 @@ impl<'a> Sampler<'a> {
             }
             best.map(|b| b.0)
         });
-        let Some((_, f, bary)) = best else {
+        best.map(|(_, f, bary)| (FaceId(f as u32), bary))
+    }
+
+    /// `values` (per vertex) interpolated at the closest point of `p`.
+    pub(super) fn face_value(&self, p: [f64; 3], values: &[[f64; 3]]) -> [f64; 3] {
+        let Some((f, bary)) = self.closest(p) else {
             return [0.0; 3];
         };
-        let vs = self.mesh.face_vertices(FaceId(f as u32));
+        let vs = self.mesh.face_vertices(f);
         (0..3).fold([0.0; 3], |s, k| {
             add(s, scale(value(values, vs[k].idx()), bary[k]))
         })
     }
 
-    /// The crack side at `p` facing `dir`: the ends of the closest crack
-    /// halfedge whose face lies most towards `dir`, and `p`'s parameter
-    /// along it.
-    pub(super) fn crack_side(&self, p: [f64; 3], dir: [f64; 3]) -> Option<([VertexId; 2], f64)> {
-        let grid = self.crack_grid.as_ref()?;
+    /// The face of the crack side at `p` facing `dir` and the barycentric
+    /// coordinates of `p`'s closest point on it: the face closest to a
+    /// point a hundredth of an edge from `p` along `dir`. `dir` points into
+    /// the sector of the surface a copy of a crack vertex owns (the middle
+    /// of its fan), so the face lies on that copy's side of every crack
+    /// meeting there, at a junction too, and its corners are that side's
+    /// copies of the cracked mesh's vertices.
+    pub(super) fn crack_side(
+        &self,
+        p: [f64; 3],
+        dir: [f64; 3],
+    ) -> Option<([VertexId; 3], [f64; 3])> {
+        let l = norm(dir);
+        if l.is_nan() || l <= 0.0 {
+            return None;
+        }
+        let q = add(p, scale(dir, SIDE_STEP * self.cell / l));
+        let f = self.closest(q)?.0;
+        let vs = self.mesh.face_vertices(f);
+        let bary = closest_on_triangle(p, vs.map(|v| self.mesh.position(v))).1;
+        Some((vs, bary))
+    }
+
+    /// The crack side at `p` running the way of `dir` (the direction of a
+    /// crack side of the other mesh leaving `p`: both meshes keep their
+    /// faces to the left of their sides, so a side running the same way
+    /// has its material on the same side of the crack): among the sides
+    /// near the closest one, the one whose direction is closest to `dir`.
+    /// Its ends and `p`'s parameter along it.
+    pub(super) fn crack_side_along(
+        &self,
+        p: [f64; 3],
+        dir: [f64; 3],
+    ) -> Option<([VertexId; 2], f64)> {
+        let grid = self.side_grid.as_ref()?;
+        let reach = SIDE_REACH * self.cell;
         let mut near: Vec<(f64, usize)> = Vec::new();
         let mut best = f64::INFINITY;
         grid.search(p, |i| {
-            let h = self.cracks[i];
+            let h = self.sides[i];
             let (a, b) = (
                 self.mesh.position(self.mesh.origin(h)),
                 self.mesh.position(self.mesh.dest(h)),
             );
-            let d = dist2(p, closest_on_segment(p, a, b));
+            let d = dist2(p, closest_on_segment(p, a, b)).sqrt();
             best = best.min(d);
             near.push((d, i));
-            Some(best)
+            Some((best + reach) * (best + reach))
         });
-        // Every halfedge within a hair of the closest distance: the sides
-        // of the closest crack edge (and, at a junction, of its
-        // neighbours).
-        let tol = best * (1.0 + 1e-6) + 1e-12 * self.cell * self.cell;
         near.sort_by_key(|x| x.1);
         near.dedup_by_key(|x| x.1);
+        let l = norm(dir);
+        if l.is_nan() || l <= 0.0 {
+            return None;
+        }
         let mut pick: Option<(f64, usize)> = None;
         for &(d, i) in &near {
-            if d > tol {
+            if d > best + reach {
                 continue;
             }
-            let h = self.cracks[i];
-            let a = self.mesh.position(self.mesh.origin(h));
-            let b = self.mesh.position(self.mesh.dest(h));
-            let c = self.mesh.position(self.mesh.dest(self.mesh.next(h)));
-            // Into the face, perpendicular to the edge.
-            let e = sub(b, a);
-            let ee = dot(e, e);
-            if ee <= 0.0 {
+            let h = self.sides[i];
+            let e = sub(
+                self.mesh.position(self.mesh.dest(h)),
+                self.mesh.position(self.mesh.origin(h)),
+            );
+            let le = norm(e);
+            if le <= 0.0 {
                 continue;
             }
-            let ac = sub(c, a);
-            let inward = sub(ac, scale(e, dot(ac, e) / ee));
-            let li = norm(inward);
-            if li <= 0.0 {
-                continue;
-            }
-            let s = dot(inward, dir) / li;
+            let s = dot(e, dir) / (le * l);
             if pick.is_none_or(|(ps, _)| s > ps) {
                 pick = Some((s, i));
             }
         }
-        let (_, i) = pick?;
-        let h = self.cracks[i];
+        let (score, i) = pick?;
+        if score <= 0.0 {
+            return None;
+        }
+        let h = self.sides[i];
         let (va, vb) = (self.mesh.origin(h), self.mesh.dest(h));
         let (a, b) = (self.mesh.position(va), self.mesh.position(vb));
         let e = sub(b, a);

@@ -400,7 +400,8 @@ impl Bottoms {
             }
             slot_of_root[r as usize] = s;
         }
-        let normal = bottom_normals(mesh, roots, &slot_of_root, crack, rest.len());
+        let mut normal = bottom_normals(mesh, roots, &slot_of_root, crack, rest.len());
+        smooth_along_cracks(mesh, roots, &slot_of_root, crack, &mut normal, depth);
         let position = rest
             .iter()
             .zip(&normal)
@@ -495,6 +496,65 @@ fn unit_or_zero(v: P3, mag: f64) -> P3 {
 /// Whether `v` is exactly the zero vector (the "no normal" marker).
 fn is_zero(v: P3) -> bool {
     v == [0.0; 3]
+}
+
+/// Most passes of [`smooth_along_cracks`].
+const MAX_SMOOTHING_PASSES: usize = 200;
+
+/// Smooth the bottom normals along the cracks over about the walls'
+/// `depth`: passes of averaging each slot's normal with its neighbours'
+/// along crack edges, as many as a diffusion needs to reach `depth` (the
+/// square of `depth` over the mean crack edge length). A wall hangs
+/// `depth` below its crack, so a bottom line that follows the normals of
+/// single faces zigzags wherever a coarse faceted surface (an input cut
+/// along the cracks, its large faces meeting at a few degrees) turns
+/// under it, and the walls of a narrow gap cross below the surface; the
+/// walls of a fine surface hang as before.
+fn smooth_along_cracks(
+    mesh: &SimMesh,
+    roots: &[u32],
+    slot_of_root: &[usize],
+    crack: &[HalfedgeId],
+    normal: &mut [P3],
+    depth: f64,
+) {
+    let slot = |v: VertexId| slot_of_root[roots[v.idx()] as usize];
+    let mut pairs: Vec<(usize, usize)> = Vec::new();
+    let mut length = 0.0;
+    for &h in crack {
+        let (a, b) = (slot(mesh.origin(h)), slot(mesh.dest(h)));
+        if a != b && a != NONE && b != NONE {
+            pairs.push((a.min(b), a.max(b)));
+            length += v3::norm(v3::sub(
+                mesh.position(mesh.dest(h)),
+                mesh.position(mesh.origin(h)),
+            ));
+        }
+    }
+    if pairs.is_empty() || depth.is_nan() || depth <= 0.0 {
+        return;
+    }
+    let spacing = length / pairs.len() as f64;
+    pairs.sort_unstable();
+    pairs.dedup();
+    let passes = ((depth / spacing).powi(2).ceil() as usize).min(MAX_SMOOTHING_PASSES);
+    for _ in 0..passes {
+        let mut sum: Vec<P3> = normal.to_vec();
+        for &(a, b) in &pairs {
+            if !is_zero(normal[a]) && !is_zero(normal[b]) {
+                sum[a] = v3::add(sum[a], normal[b]);
+                sum[b] = v3::add(sum[b], normal[a]);
+            }
+        }
+        for (n, s) in normal.iter_mut().zip(&sum) {
+            if !is_zero(*n) {
+                let l = v3::norm(*s);
+                if l > 0.0 {
+                    *n = v3::scale(*s, 1.0 / l);
+                }
+            }
+        }
+    }
 }
 
 /// The outward unit normal of every bottom slot (see the module docs for the
@@ -1559,6 +1619,45 @@ mod tests {
         assert_eq!(open_edges(&m, &top, &w), vec![]);
         let (positions, tris) = union(&m, &top, &w);
         assert_eq!(intersecting_pairs(&positions, &tris), vec![]);
+    }
+
+    /// On a coarse faceted surface the bottom line does not follow single
+    /// faces: a crack across a roof ridge (two planes at 43.6 degrees) has
+    /// its bottom normals turn smoothly over about the walls' depth, not by
+    /// half the ridge's angle from one slot to the next.
+    #[test]
+    fn bottom_normals_turn_smoothly_over_a_ridge() {
+        let (mut m, _) = build(&grid_input(8, 4));
+        let path: Vec<[f64; 2]> = (0..=8).map(|i| [i as f64, 2.0]).collect();
+        open_path(&mut m, &path);
+        let roof: Vec<P3> = m
+            .positions()
+            .iter()
+            .map(|p| [p[0], p[1], 0.4 * (4.0 - (p[0] - 4.0).abs())])
+            .collect();
+        m.set_positions(&roof).unwrap();
+        let crack = crack_halfedges(&m);
+        let roots = m.vertex_roots();
+        let depth = 3.0;
+        let b = Bottoms::new(&m, &roots, &crack, depth);
+        let raw = bottom_normals(&m, &roots, &b.slot_of_root, &crack, b.rest.len());
+        let slot = |v: VertexId| b.slot_of_root[roots[v.idx()] as usize];
+        let turn = |n: &[P3]| {
+            crack
+                .iter()
+                .map(|&h| {
+                    let (x, y) = (n[slot(m.origin(h))], n[slot(m.dest(h))]);
+                    v3::dot(x, y).clamp(-1.0, 1.0).acos().to_degrees()
+                })
+                .fold(0.0, f64::max)
+        };
+        let (before, after) = (turn(&raw), turn(&b.normal));
+        assert!(before > 20.0, "{before}");
+        assert!(after < 0.5 * before, "{after} degrees from slot to slot");
+        for n in &b.normal {
+            assert!((v3::norm(*n) - 1.0).abs() < 1e-12);
+            assert!(n[2] > 0.9, "{n:?}: the roof's normals point up");
+        }
     }
 
     /// Requirement 7, fallback: two triangles folded flat onto each other
