@@ -1605,11 +1605,17 @@ mod tests {
         let b = Bottoms::new(&m, &roots, &crack, depth);
         assert_eq!(b.rest.len(), 6);
         let normal = bottom_normals(&m, &roots, &b.slot_of_root, &crack, 6);
-        for ((&rest, &n), &bottom) in b.rest.iter().zip(&normal).zip(&b.position) {
+        for (((&rest, &n), &smooth), &bottom) in
+            b.rest.iter().zip(&normal).zip(&b.normal).zip(&b.position)
+        {
             let radial = v3::scale(rest, 1.0 / v3::norm(rest));
             assert!((v3::norm(n) - 1.0).abs() < 1e-12);
             assert!(v3::dot(n, radial) > 0.99);
-            assert_eq!(bottom, v3::sub(rest, v3::scale(n, depth)));
+            // Smoothed along the crack (over the depth, a third of an
+            // edge here: one pass), still about radial.
+            assert!((v3::norm(smooth) - 1.0).abs() < 1e-12);
+            assert!(v3::dot(smooth, radial) > 0.97);
+            assert_eq!(bottom, v3::sub(rest, v3::scale(smooth, depth)));
             assert!((v3::norm(bottom) - (1.0 - depth)).abs() < 0.01);
         }
         let top = separate(&m, 0.02, false);
