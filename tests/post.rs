@@ -801,6 +801,25 @@ fn mud_gaps_are_cut_into_the_inputs_own_triangles() {
     }
 }
 
+/// Of the surface vertices of an output of `plate_jittered.obj` that lie on
+/// the plate (a vertex pushed past its border reads the border's UV): how
+/// many there are, how many miss the UV of the place they lie over
+/// (`u = x + 0.5`, `v = 0.5 + z`) by more than 1e-5, and the worst miss.
+fn plate_uv_misses(out: &Path) -> (usize, usize, f32) {
+    let (mut worst, mut missed, mut on_plate) = (0.0f32, 0usize, 0usize);
+    for (p, t) in &vertex_uvs(out, "crack_wall") {
+        let [x, _, z] = p.map(f32::from_bits);
+        if x.abs() > 0.4999 || z.abs() > 0.4999 {
+            continue;
+        }
+        on_plate += 1;
+        let miss = (t[0] - (x + 0.5)).abs().max((t[1] - (0.5 + z)).abs());
+        worst = worst.max(miss);
+        missed += usize::from(miss > 1e-5);
+    }
+    (on_plate, missed, worst)
+}
+
 /// A gap opens over a texture that stays in place: `plate_jittered.obj`'s
 /// UVs are its x and z (`u = x + 0.5`, `v = 0.5 - z` in the OBJ, so
 /// `v = 0.5 + z` in glTF, whose v runs down the image), so after `mud`
@@ -816,19 +835,7 @@ fn gaps_open_over_a_texture_that_stays_in_place() {
     let resampled = r["meshes"][0]["post"]["resampled_corners"]
         .as_u64()
         .unwrap_or(0);
-    let verts = vertex_uvs(&out, "crack_wall");
-    // On the plate (a vertex pushed past its border reads the border's UV).
-    let (mut worst, mut missed, mut on_plate) = (0.0f32, 0usize, 0usize);
-    for (p, t) in &verts {
-        let [x, _, z] = p.map(f32::from_bits);
-        if x.abs() > 0.4999 || z.abs() > 0.4999 {
-            continue;
-        }
-        on_plate += 1;
-        let miss = (t[0] - (x + 0.5)).abs().max((t[1] - (0.5 + z)).abs());
-        worst = worst.max(miss);
-        missed += usize::from(miss > 1e-5);
-    }
+    let (on_plate, missed, worst) = plate_uv_misses(&out);
     eprintln!(
         "{on_plate} vertices on the plate, {resampled} corners resampled, {missed} miss their UV by more than 1e-5, worst by {worst:e}"
     );
@@ -877,17 +884,7 @@ fn gaps_cut_into_the_plates_own_triangles_are_clean() {
             "{preset}: {} pairs with a wall cross",
             crossing.len()
         );
-        let verts = vertex_uvs(&out, "crack_wall");
-        let (mut missed, mut on_plate) = (0usize, 0usize);
-        for (p, t) in &verts {
-            let [x, _, z] = p.map(f32::from_bits);
-            if x.abs() > 0.4999 || z.abs() > 0.4999 {
-                continue;
-            }
-            on_plate += 1;
-            let miss = (t[0] - (x + 0.5)).abs().max((t[1] - (0.5 + z)).abs());
-            missed += usize::from(miss > 1e-5);
-        }
+        let (on_plate, missed, _) = plate_uv_misses(&out);
         eprintln!("{preset}: {missed} of {on_plate} vertices miss their UV, {cut}");
         // Junction vertices sliding across another crack of their own fan
         // read their own side's nearest point: on the simulation surface

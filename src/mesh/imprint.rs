@@ -100,7 +100,8 @@ pub struct Imprinted {
     /// Segments left out: their ends are not joined by the input nearby.
     pub skipped: usize,
     /// Edges next to the cut flipped so no needle lies along a crack
-    /// ([`settle`]).
+    /// ([`settle`]), or beside a walk so it cuts no sliver
+    /// ([`Cutter::flip_beside`]).
     pub settled: usize,
 }
 
@@ -225,28 +226,20 @@ pub fn imprint(
     for v in mesh.vertices() {
         let p = mesh.position(v);
         // A copy of a crack vertex takes its values from the cracked
-        // mesh's crack side running the way of its own side (the side
-        // leaving it, or else the one arriving); a crack tip (no side of
-        // its own) from the face its fan faces.
-        let along = on_crack[v.idx()]
-            .then(|| {
-                let out = mesh
-                    .vertex_outgoing(v)
-                    .find(|&h| mesh.twin(h).is_none() && mesh.is_crack_halfedge(h));
-                out.map(|h| sub(mesh.position(mesh.dest(h)), p))
-            })
-            .flatten();
-        let side = along.and_then(|d| sampler.crack_side_along(p, d));
-        let face = if side.is_none() && on_crack[v.idx()] {
-            mesh.fan_middle(v)
-                .and_then(|(_, d)| sampler.crack_side(p, d))
+        // mesh's crack side running the way of the copy's own side leaving
+        // it; failing that, from the face its fan faces.
+        let corners: Option<(Vec<VertexId>, Vec<f64>)> = if on_crack[v.idx()] {
+            mesh.vertex_outgoing(v)
+                .find(|&h| mesh.twin(h).is_none() && mesh.is_crack_halfedge(h))
+                .and_then(|h| sampler.crack_side_along(p, sub(mesh.position(mesh.dest(h)), p)))
+                .map(|([a, b], t)| (vec![a, b], vec![1.0 - t, t]))
+                .or_else(|| {
+                    let (_, d) = mesh.fan_middle(v)?;
+                    let (vs, bary) = sampler.crack_side(p, d)?;
+                    Some((vs.to_vec(), bary.to_vec()))
+                })
         } else {
             None
-        };
-        let corners: Option<(Vec<VertexId>, Vec<f64>)> = match (side, face) {
-            (Some(([a, b], t)), _) => Some((vec![a, b], vec![1.0 - t, t])),
-            (None, Some((vs, bary))) => Some((vs.to_vec(), bary.to_vec())),
-            _ => None,
         };
         match corners {
             Some((vs, w)) => {
@@ -369,7 +362,7 @@ fn side_time(times: &[f64], vs: &[VertexId], bary: &[f64]) -> f64 {
     if weight > 0.0 {
         sum / weight
     } else {
-        // Only a corner's own time counts: the nearest corner with one.
+        // Only a corner's own time counts: the first corner with one.
         vs.iter()
             .map(|u| times.get(u.idx()).copied().unwrap_or(f64::NAN))
             .find(|t| !t.is_nan())
