@@ -451,7 +451,7 @@ fn cut_in(
         &nan,
         &zero,
         &vec![f64::NAN; n],
-        None,
+        &[],
     )?;
     Ok(PatternInput::from_sim_mesh(&im.mesh))
 }

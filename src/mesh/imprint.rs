@@ -78,9 +78,9 @@ pub struct Imprinted {
     pub displacement: Vec<[f64; 3]>,
     /// Per vertex: the crack time there (NaN off the cracks).
     pub crack_time: Vec<f64>,
-    /// Per vertex, when [`imprint`] was given moves: the cracked mesh's
-    /// move there, on the vertex's side of any crack.
-    pub moves: Option<Vec<[f64; 3]>>,
+    /// Per array [`imprint`] was given to carry, per vertex: the array's
+    /// value there, on the vertex's side of any crack.
+    pub carried: Vec<Vec<[f64; 3]>>,
     /// The cut edges as segments at rest, with their times.
     pub segments: Vec<[[f64; 3]; 2]>,
     /// Per segment: the time of the crack segment it was cut for.
@@ -107,8 +107,9 @@ pub struct Imprinted {
 
 /// Cut the crack segments `segments` (at rest, on the surface of
 /// `cracked`; `times` per segment) into `base` (the same surface,
-/// triangulated otherwise) and carry `displacement`, `crack_time` and
-/// `moves` (per vertex of `cracked`; moves when given) over.
+/// triangulated otherwise) and carry `displacement`, `crack_time` and each
+/// array of `carry` (all per vertex of `cracked`: the gaps' moves, the
+/// walls' bottom line) over.
 ///
 /// # Errors
 /// [`MeshError::InvalidEdit`] when a segment cannot be walked across
@@ -121,7 +122,7 @@ pub fn imprint(
     times: &[f64],
     displacement: &[[f64; 3]],
     crack_time: &[f64],
-    moves: Option<&[[f64; 3]]>,
+    carry: &[&[[f64; 3]]],
 ) -> Result<Imprinted, MeshError> {
     let mut cut = Cutter::new(base.clone(), SNAP_LENGTH * cracked.mean_edge_length());
     // The crack ends, once each (by their exact position).
@@ -216,11 +217,10 @@ pub fn imprint(
     let settled = flipped + settle(&mut mesh, &reshaped);
     let sampler = Sampler::new(cracked);
     let mut disp = Vec::with_capacity(mesh.n_vertices());
-    let mut moved = Vec::with_capacity(if moves.is_some() {
-        mesh.n_vertices()
-    } else {
-        0
-    });
+    let mut carried: Vec<Vec<[f64; 3]>> = carry
+        .iter()
+        .map(|_| Vec::with_capacity(mesh.n_vertices()))
+        .collect();
     let mut ctime = Vec::with_capacity(mesh.n_vertices());
     let on_crack = crack_flags(&mesh);
     for v in mesh.vertices() {
@@ -249,15 +249,15 @@ pub fn imprint(
                     })
                 };
                 disp.push(at(displacement));
-                if let Some(m) = moves {
-                    moved.push(at(m));
+                for (out, values) in carried.iter_mut().zip(carry) {
+                    out.push(at(values));
                 }
                 ctime.push(side_time(crack_time, &vs, &w));
             }
             None => {
                 disp.push(sampler.face_value(p, displacement));
-                if let Some(m) = moves {
-                    moved.push(sampler.face_value(p, m));
+                for (out, values) in carried.iter_mut().zip(carry) {
+                    out.push(sampler.face_value(p, values));
                 }
                 ctime.push(f64::NAN);
             }
@@ -267,7 +267,7 @@ pub fn imprint(
         mesh,
         displacement: disp,
         crack_time: ctime,
-        moves: moves.map(|_| moved),
+        carried,
         segments: out_segments,
         segment_times: out_times,
         snapped,
@@ -957,7 +957,7 @@ mod tests {
         let (cracked, segments, disp) = cracked_grid(&path);
         let times: Vec<f64> = (0..segments.len()).map(|i| i as f64).collect();
         let time = vec![f64::NAN; cracked.n_vertices()];
-        let im = imprint(&base, &cracked, &segments, &times, &disp, &time, None).expect("imprint");
+        let im = imprint(&base, &cracked, &segments, &times, &disp, &time, &[]).expect("imprint");
         im.mesh.validate().expect("valid cut mesh");
         assert_eq!(im.skipped, 0);
         // The cut follows the crack: every cut point within the snapping

@@ -5,7 +5,7 @@
 use super::Post;
 use crate::bridge::{write_back_with, SimEntry};
 use crate::post::distance::{crack_vertices, distance_field};
-use crate::post::walls::{build_walls_uncrossed, WallOptions, Walls};
+use crate::post::walls::{bottom_offsets, build_walls_uncrossed, Hang, WallOptions, Walls};
 use crate::post::width::{displace, groove, resample_moved_wedges, turn_normals};
 use crate::scene::{
     Geometry, Material, Primitive, RawAccessor, RawGeometry, Scene, TriGeometry, VertexAttribute,
@@ -84,16 +84,37 @@ pub fn apply(
         // over.
         let cut;
         let mut carried: Option<Vec<[f64; 3]>> = None;
+        let mut hung: Option<BottomLine> = None;
         let r = match e.unremeshed.take() {
             Some(base) if post.cuts_input() => {
                 let t = Instant::now();
-                let moves_of = opened
-                    .as_ref()
-                    .map(|d| moves_from_rest(&e.sim, &d.positions));
-                match cut_into_input(&base, e, r, moves_of.as_deref()) {
-                    Ok((report, d, m)) => {
+                // The gaps' moves and the walls' bottom line, made on the
+                // simulation surface (its walls uncrossed there), go
+                // across with the cracks.
+                let sim = opened.as_ref().map(|d| {
+                    let mut top = d.positions.clone();
+                    let bottoms = (post.walls || groove_width > 0.0).then(|| {
+                        let opts = wall_options(post, groove_width, d.mean_gap);
+                        build_walls_uncrossed(&e.sim, &mut top, &opts, None);
+                        bottom_offsets(&e.sim, &top, &opts)
+                    });
+                    (moves_from_rest(&e.sim, &top), bottoms)
+                });
+                let mut carry: Vec<&[[f64; 3]]> = Vec::new();
+                if let Some((m, bottoms)) = &sim {
+                    carry.push(m);
+                    if let Some((o, n)) = bottoms {
+                        carry.extend([o.as_slice(), n.as_slice()]);
+                    }
+                }
+                match cut_into_input(&base, e, r, &carry) {
+                    Ok((report, d, mut c)) => {
                         cut = report;
-                        carried = m;
+                        if c.len() == 3 {
+                            let n = c.pop().unwrap_or_default();
+                            hung = c.pop().map(|o| (o, n));
+                        }
+                        carried = c.pop();
                         detail.insert("cut_input".into(), d);
                         out.time("cut_input", t.elapsed().as_secs_f64());
                         &cut
@@ -142,31 +163,15 @@ pub fn apply(
         }
         let walls = if post.walls || groove_width > 0.0 {
             let t = Instant::now();
-            let depth = if groove_width > 0.0 {
-                if post.groove_depth > 0.0 {
-                    post.groove_depth
-                } else {
-                    groove_width
-                }
-            } else if post.wall_depth > 0.0 {
-                post.wall_depth
-            } else {
-                post.wall_depth_relative * mean_gap
-            };
+            let opts = wall_options(post, groove_width, mean_gap);
+            let depth = opts.depth;
             // Walls passing through the surface or each other (narrow,
             // sheared gaps at junctions) have their moves shortened.
-            let (w, fix) = build_walls_uncrossed(
-                &e.sim,
-                &mut positions,
-                &WallOptions {
-                    depth,
-                    rows: if groove_width > 0.0 {
-                        post.groove_rows()
-                    } else {
-                        0
-                    },
-                },
-            );
+            let hang = hung.as_ref().map(|(o, n)| Hang {
+                offsets: o,
+                normals: n,
+            });
+            let (w, fix) = build_walls_uncrossed(&e.sim, &mut positions, &opts, hang);
             if fix.crossing_after > 0 {
                 log::info!(
                     "{}: {} wall triangle pairs cross",
@@ -365,15 +370,38 @@ pub fn apply(
     Ok(out)
 }
 
+/// The walls' (or grooves') depth and profile: the groove's depth (its
+/// width unless given), else the wall depth, given or relative to the
+/// mean gap.
+fn wall_options(post: &Post, groove_width: f64, mean_gap: f64) -> WallOptions {
+    let depth = if groove_width > 0.0 {
+        if post.groove_depth > 0.0 {
+            post.groove_depth
+        } else {
+            groove_width
+        }
+    } else if post.wall_depth > 0.0 {
+        post.wall_depth
+    } else {
+        post.wall_depth_relative * mean_gap
+    };
+    let rows = if groove_width > 0.0 {
+        post.groove_rows()
+    } else {
+        0
+    };
+    WallOptions { depth, rows }
+}
+
 /// Cut the cracks of `e` (simulated on its remeshed surface, `r`) into
 /// `base`, its input: `e.sim` becomes the cut input, and the returned
 /// report carries the displacements, crack times and segments over, with
-/// `moves` (per vertex of the simulation surface) when given.
+/// the arrays of `carry` (per vertex of the simulation surface).
 fn cut_into_input(
     base: &crate::mesh::SimMesh,
     e: &mut SimEntry,
     r: &SimReport,
-    moves: Option<&[[f64; 3]]>,
+    carry: &[&[[f64; 3]]],
 ) -> Result<Cut, crate::mesh::error::MeshError> {
     let im = crate::mesh::imprint::imprint(
         base,
@@ -382,7 +410,7 @@ fn cut_into_input(
         &r.segment_times,
         &r.displacement,
         &r.crack_time,
-        moves,
+        carry,
     )?;
     let detail = json!({
         "triangles": [base.n_faces(), im.mesh.n_faces()],
@@ -403,12 +431,16 @@ fn cut_into_input(
         segment_times: im.segment_times,
         ..r.clone()
     };
-    Ok((report, detail, im.moves))
+    Ok((report, detail, im.carried))
 }
 
-/// The cut input's report, its details for the run report, and the moves
+/// A walls' bottom line per vertex: offsets from rest and unit normals
+/// ([`bottom_offsets`]).
+type BottomLine = (Vec<[f64; 3]>, Vec<[f64; 3]>);
+
+/// The cut input's report, its details for the run report, and the arrays
 /// carried onto its vertices.
-type Cut = (SimReport, Value, Option<Vec<[f64; 3]>>);
+type Cut = (SimReport, Value, Vec<Vec<[f64; 3]>>);
 
 /// Every vertex's move from its rest position in `mesh` to `positions`.
 fn moves_from_rest(mesh: &crate::mesh::SimMesh, positions: &[[f64; 3]]) -> Vec<[f64; 3]> {

@@ -114,7 +114,10 @@ use std::collections::BTreeMap;
 use crate::math::v3;
 use crate::mesh::{FaceId, HalfedgeId, SimMesh, VertexId};
 
+mod bottoms;
 mod uncross;
+pub use bottoms::bottom_offsets;
+use bottoms::Bottoms;
 pub use uncross::*;
 
 /// A point or vector.
@@ -225,22 +228,32 @@ impl Walls {
 /// If `top` has fewer entries than the mesh has vertices (and there are
 /// walls to build).
 pub fn build_walls(mesh: &SimMesh, top: &[[f64; 3]], opts: &WallOptions) -> Walls {
-    if !(opts.depth > 0.0 && opts.depth.is_finite()) {
+    build_walls_hung(mesh, top, opts, None)
+}
+
+/// A bottom line given per vertex of a mesh ([`bottom_offsets`] of another
+/// mesh of the same surface, carried across): each crack vertex's bottom
+/// as an offset from its rest position, and its unit normal.
+#[derive(Clone, Copy, Debug)]
+pub struct Hang<'a> {
+    /// Per vertex: its bottom minus its rest position.
+    pub offsets: &'a [[f64; 3]],
+    /// Per vertex: the outward unit normal its wall hangs along.
+    pub normals: &'a [[f64; 3]],
+}
+
+/// [`build_walls`], with the bottom line from `hang` where given: each
+/// bottom vertex at the mean of its crack vertices' given bottoms, which
+/// already follow the surface.
+pub fn build_walls_hung(
+    mesh: &SimMesh,
+    top: &[[f64; 3]],
+    opts: &WallOptions,
+    hang: Option<Hang>,
+) -> Walls {
+    let Some((roots, crack, bottoms, lines)) = bottom_line(mesh, top, opts, hang) else {
         return Walls::default();
-    }
-    let crack = crack_halfedges(mesh);
-    if crack.is_empty() {
-        return Walls::default();
-    }
-    assert!(
-        top.len() >= mesh.n_vertices(),
-        "build_walls: {} top positions for {} vertices",
-        top.len(),
-        mesh.n_vertices()
-    );
-    let roots = mesh.vertex_roots();
-    let mut bottoms = Bottoms::new(mesh, &roots, &crack, opts.depth);
-    let grid = RootGrid::new(mesh, &roots, &bottoms, &crack);
+    };
     let next = chain_next(mesh, &crack);
     let arc = arc_starts(mesh, &crack, &next, top);
     // Fold-backs (crack tips): side `i` ends at a tip when the side after it
@@ -257,20 +270,6 @@ pub fn build_walls(mesh: &SimMesh, top: &[[f64; 3]], opts: &WallOptions) -> Wall
             tip_at_start[j] = true;
         }
     }
-
-    let lines: Vec<Vec<(f64, usize)>> = crack
-        .iter()
-        .map(|&h| {
-            let su = bottoms.slot_of(&roots, mesh.origin(h));
-            let sv = bottoms.slot_of(&roots, mesh.dest(h));
-            let mut line = vec![(0.0, su)];
-            line.extend(grid.on_segment(&bottoms.rest, su, sv));
-            line.push((1.0, sv));
-            line
-        })
-        .collect();
-    bottoms.follow_the_surface(mesh, &roots, &crack, &lines, top);
-
     let closed = closed_sides(mesh, &crack, &lines, &bottoms, &roots, top);
 
     let mut out = Walls::default();
@@ -301,6 +300,49 @@ pub fn build_walls(mesh: &SimMesh, top: &[[f64; 3]], opts: &WallOptions) -> Wall
         );
     }
     out
+}
+
+/// The roots of `mesh`'s vertices, its crack sides, their bottom vertices
+/// (moved along with the crack, or hung from `hang`) and each side's
+/// bottom line (`(parameter, slot)`, junctions on it included); `None`
+/// when there are no walls to build.
+type BottomLine = (Vec<u32>, Vec<HalfedgeId>, Bottoms, Vec<Vec<(f64, usize)>>);
+
+fn bottom_line(
+    mesh: &SimMesh,
+    top: &[[f64; 3]],
+    opts: &WallOptions,
+    hang: Option<Hang>,
+) -> Option<BottomLine> {
+    let crack = crack_halfedges(mesh);
+    if !(opts.depth > 0.0 && opts.depth.is_finite()) || crack.is_empty() {
+        return None;
+    }
+    assert!(
+        top.len() >= mesh.n_vertices(),
+        "build_walls: {} top positions for {} vertices",
+        top.len(),
+        mesh.n_vertices()
+    );
+    let roots = mesh.vertex_roots();
+    let mut bottoms = Bottoms::new(mesh, &roots, &crack, opts.depth);
+    let grid = RootGrid::new(mesh, &roots, &bottoms, &crack);
+    let lines: Vec<Vec<(f64, usize)>> = crack
+        .iter()
+        .map(|&h| {
+            let su = bottoms.slot_of(&roots, mesh.origin(h));
+            let sv = bottoms.slot_of(&roots, mesh.dest(h));
+            let mut line = vec![(0.0, su)];
+            line.extend(grid.on_segment(&bottoms.rest, su, sv));
+            line.push((1.0, sv));
+            line
+        })
+        .collect();
+    match hang {
+        Some(h) => bottoms.hang_from(mesh, &roots, &crack, h),
+        None => bottoms.follow_the_surface(mesh, &roots, &crack, &lines, top),
+    }
+    Some((roots, crack, bottoms, lines))
 }
 
 /// Which crack sides stayed shut: the side `u -> v` and an opposite side
@@ -355,276 +397,6 @@ fn crack_halfedges(mesh: &SimMesh) -> Vec<HalfedgeId> {
     mesh.halfedges()
         .filter(|&h| mesh.is_crack_halfedge(h) && mesh.is_boundary_halfedge(h))
         .collect()
-}
-
-/// The bottom vertices: one slot per root vertex of a crack vertex, in
-/// increasing root id, except that roots with exactly the same rest position
-/// share a slot (see the module docs).
-#[derive(Clone, Debug)]
-struct Bottoms {
-    /// Slot of each vertex id that is the root of a crack vertex, else
-    /// [`NONE`]. Several roots map to one slot when their rest positions
-    /// are equal.
-    slot_of_root: Vec<usize>,
-    /// Rest position of each slot's root.
-    rest: Vec<P3>,
-    /// Bottom position of each slot: `rest - depth * n`, with `n` the
-    /// slot's outward unit (or, failing every fallback, zero) normal from
-    /// [`bottom_normals`], later moved along the surface by
-    /// [`Bottoms::follow_the_surface`].
-    position: Vec<P3>,
-    /// Each slot's outward unit (or zero) normal.
-    normal: Vec<P3>,
-}
-
-impl Bottoms {
-    fn new(mesh: &SimMesh, roots: &[u32], crack: &[HalfedgeId], depth: f64) -> Self {
-        let mut list: Vec<u32> = crack
-            .iter()
-            .flat_map(|&h| [mesh.origin(h), mesh.dest(h)])
-            .map(|v| roots[v.idx()])
-            .collect();
-        list.sort_unstable();
-        list.dedup();
-        // One slot per distinct rest position, in increasing root id.
-        let mut slot_of_root = vec![NONE; mesh.n_vertices()];
-        let mut slot_at: BTreeMap<[u64; 3], usize> = BTreeMap::new();
-        let mut rest: Vec<P3> = Vec::new();
-        for &r in &list {
-            let p = mesh.position(VertexId(r));
-            let key = p.map(|x| (x + 0.0).to_bits()); // -0.0 and 0.0 alike
-            let next = rest.len();
-            let s = *slot_at.entry(key).or_insert(next);
-            if s == next {
-                rest.push(p);
-            }
-            slot_of_root[r as usize] = s;
-        }
-        let mut normal = bottom_normals(mesh, roots, &slot_of_root, crack, rest.len());
-        smooth_along_cracks(mesh, roots, &slot_of_root, crack, &mut normal, depth);
-        let position = rest
-            .iter()
-            .zip(&normal)
-            .map(|(&p, &n)| v3::sub(p, v3::scale(n, depth)))
-            .collect();
-        Bottoms {
-            slot_of_root,
-            rest,
-            position,
-            normal,
-        }
-    }
-
-    /// Move every bottom vertex along the surface with the crack line: by
-    /// the tangential part (perpendicular to the slot's normal) of the mean
-    /// move `top - rest` of the crack vertices of the slot, or, at a
-    /// T-junction, of the spanning sides' edges at the junction's parameter
-    /// alone (`lines`, one per crack side): the split side's copies there
-    /// open into the branch, and a bottom pulled after them slants the
-    /// spanning side's wall under the split side's.
-    fn follow_the_surface(
-        &mut self,
-        mesh: &SimMesh,
-        roots: &[u32],
-        crack: &[HalfedgeId],
-        lines: &[Vec<(f64, usize)>],
-        top: &[P3],
-    ) {
-        let n = self.rest.len();
-        let mut sum = vec![[0.0; 3]; n];
-        let mut count = vec![0.0f64; n];
-        // At T-junctions: the spanning sides' moves alone.
-        let mut span_sum = vec![[0.0; 3]; n];
-        let mut span_count = vec![0.0f64; n];
-        let mut seen = vec![false; mesh.n_vertices()];
-        let moved = |v: VertexId| v3::sub(top[v.idx()], mesh.position(v));
-        for (&h, line) in crack.iter().zip(lines) {
-            let (u, v) = (mesh.origin(h), mesh.dest(h));
-            for w in [u, v] {
-                if !seen[w.idx()] {
-                    seen[w.idx()] = true;
-                    let s = self.slot_of(roots, w);
-                    sum[s] = v3::add(sum[s], moved(w));
-                    count[s] += 1.0;
-                }
-            }
-            let (mu, mv) = (moved(u), moved(v));
-            for &(t, s) in &line[1..line.len() - 1] {
-                let m = v3::add(v3::scale(mu, 1.0 - t), v3::scale(mv, t));
-                span_sum[s] = v3::add(span_sum[s], m);
-                span_count[s] += 1.0;
-            }
-        }
-        for s in 0..n {
-            if span_count[s] > 0.0 {
-                sum[s] = span_sum[s];
-                count[s] = span_count[s];
-            }
-        }
-        for s in 0..n {
-            if count[s] == 0.0 {
-                continue;
-            }
-            let mean = v3::scale(sum[s], 1.0 / count[s]);
-            if !mean.iter().all(|x| x.is_finite()) {
-                continue;
-            }
-            let nrm = self.normal[s];
-            let along = v3::sub(mean, v3::scale(nrm, v3::dot(mean, nrm)));
-            self.position[s] = v3::add(self.position[s], along);
-        }
-    }
-
-    /// The bottom slot of crack vertex `v`.
-    fn slot_of(&self, roots: &[u32], v: VertexId) -> usize {
-        self.slot_of_root[roots[v.idx()] as usize]
-    }
-}
-
-/// `v / |v|`, or zero when `|v|` is not finite or not above `1e-12 * mag`,
-/// where `mag` is the sum of the magnitudes added up into `v` (so that
-/// cancellation noise counts as zero).
-fn unit_or_zero(v: P3, mag: f64) -> P3 {
-    let l = v3::norm(v);
-    if l.is_finite() && l > 0.0 && l > 1e-12 * mag {
-        v3::scale(v, 1.0 / l)
-    } else {
-        [0.0; 3]
-    }
-}
-
-/// Whether `v` is exactly the zero vector (the "no normal" marker).
-fn is_zero(v: P3) -> bool {
-    v == [0.0; 3]
-}
-
-/// Most passes of [`smooth_along_cracks`].
-const MAX_SMOOTHING_PASSES: usize = 200;
-
-/// Smooth the bottom normals along the cracks over about the walls'
-/// `depth`: passes of averaging each slot's normal with its neighbours'
-/// along crack edges, as many as a diffusion needs to reach `depth` (the
-/// square of `depth` over the mean crack edge length). A wall hangs
-/// `depth` below its crack, so a bottom line that follows the normals of
-/// single faces zigzags wherever a coarse faceted surface (an input cut
-/// along the cracks, its large faces meeting at a few degrees) turns
-/// under it, and the walls of a narrow gap cross below the surface; the
-/// walls of a fine surface hang as before.
-fn smooth_along_cracks(
-    mesh: &SimMesh,
-    roots: &[u32],
-    slot_of_root: &[usize],
-    crack: &[HalfedgeId],
-    normal: &mut [P3],
-    depth: f64,
-) {
-    let slot = |v: VertexId| slot_of_root[roots[v.idx()] as usize];
-    let mut pairs: Vec<(usize, usize)> = Vec::new();
-    let mut length = 0.0;
-    for &h in crack {
-        let (a, b) = (slot(mesh.origin(h)), slot(mesh.dest(h)));
-        if a != b && a != NONE && b != NONE {
-            pairs.push((a.min(b), a.max(b)));
-            length += v3::norm(v3::sub(
-                mesh.position(mesh.dest(h)),
-                mesh.position(mesh.origin(h)),
-            ));
-        }
-    }
-    if pairs.is_empty() || depth.is_nan() || depth <= 0.0 {
-        return;
-    }
-    let spacing = length / pairs.len() as f64;
-    pairs.sort_unstable();
-    pairs.dedup();
-    let passes = ((depth / spacing).powi(2).ceil() as usize).min(MAX_SMOOTHING_PASSES);
-    for _ in 0..passes {
-        let mut sum: Vec<P3> = normal.to_vec();
-        for &(a, b) in &pairs {
-            if !is_zero(normal[a]) && !is_zero(normal[b]) {
-                sum[a] = v3::add(sum[a], normal[b]);
-                sum[b] = v3::add(sum[b], normal[a]);
-            }
-        }
-        for (n, s) in normal.iter_mut().zip(&sum) {
-            if !is_zero(*n) {
-                let l = v3::norm(*s);
-                if l > 0.0 {
-                    *n = v3::scale(*s, 1.0 / l);
-                }
-            }
-        }
-    }
-}
-
-/// The outward unit normal of every bottom slot (see the module docs for the
-/// fallbacks).
-fn bottom_normals(
-    mesh: &SimMesh,
-    roots: &[u32],
-    slot_of_root: &[usize],
-    crack: &[HalfedgeId],
-    n_slots: usize,
-) -> Vec<P3> {
-    let slot = |v: VertexId| slot_of_root[roots[v.idx()] as usize];
-    // Area-weighted sum over the faces around every copy of each root; a
-    // face counts once per root even if two of its corners share it.
-    let mut sum = vec![[0.0; 3]; n_slots];
-    let mut mag = vec![0.0; n_slots];
-    for f in mesh.faces() {
-        let vs = mesh.face_vertices(f);
-        let [a, b, c] = vs.map(|v| mesh.position(v));
-        let w = v3::cross(v3::sub(b, a), v3::sub(c, a));
-        let mut seen = [NONE; 3];
-        for (k, &v) in vs.iter().enumerate() {
-            let s = slot(v);
-            if s == NONE || seen.contains(&s) {
-                continue;
-            }
-            seen[k] = s;
-            sum[s] = v3::add(sum[s], w);
-            mag[s] += v3::norm(w);
-        }
-    }
-    let mut normal: Vec<P3> = sum
-        .iter()
-        .zip(&mag)
-        .map(|(&s, &m)| unit_or_zero(s, m))
-        .collect();
-
-    // Fallback 1: mean of the neighbouring (along crack edges) normals.
-    let first = normal.clone();
-    let mut nsum = vec![[0.0; 3]; n_slots];
-    let mut ncount = vec![0.0; n_slots];
-    for &h in crack {
-        let (a, b) = (slot(mesh.origin(h)), slot(mesh.dest(h)));
-        for (x, y) in [(a, b), (b, a)] {
-            if x != y && is_zero(first[x]) && !is_zero(first[y]) {
-                nsum[x] = v3::add(nsum[x], first[y]);
-                ncount[x] += 1.0;
-            }
-        }
-    }
-    for ((n, &s), &c) in normal.iter_mut().zip(&nsum).zip(&ncount) {
-        if is_zero(*n) {
-            *n = unit_or_zero(s, c);
-        }
-    }
-
-    // Fallback 2: the normal of the face of the first crack side (in id
-    // order) at the slot. Otherwise it stays zero.
-    for &h in crack {
-        for v in [mesh.origin(h), mesh.dest(h)] {
-            let s = slot(v);
-            if is_zero(normal[s]) {
-                let n = mesh.face_normal(mesh.face(h));
-                if n.iter().all(|x| x.is_finite()) {
-                    normal[s] = n;
-                }
-            }
-        }
-    }
-    normal
 }
 
 /// A uniform spatial hash over the rest positions of the bottom slots, to
@@ -937,6 +709,7 @@ mod tests {
     use super::*;
     use crate::mesh::shapes::{build, grid_input, icosphere_input, Lcg};
     use crate::mesh::MeshInput;
+    use bottoms::bottom_normals;
     use std::collections::BTreeSet;
 
     const DEPTH: f64 = 0.5;
@@ -1877,5 +1650,62 @@ mod tests {
             }
         }
         assert!(junctions > 30, "T-junctions exercised: {junctions}");
+    }
+
+    /// Walls hung from the bottom line [`bottom_offsets`] reads off a mesh
+    /// are the walls built on it (junctions, tips and T-junctions
+    /// included), and stay watertight; hung from another line, every
+    /// bottom vertex is where that line puts it.
+    #[test]
+    fn walls_hang_from_a_given_bottom_line() {
+        for seed in 0..40u64 {
+            let m = random_network(seed, seed % 2 == 1);
+            let top = separate(&m, 0.01, false);
+            let opts = WallOptions {
+                depth: 0.05,
+                rows: 0,
+            };
+            let (offsets, normals) = bottom_offsets(&m, &top, &opts);
+            let own = build_walls(&m, &top, &opts);
+            let hang = Hang {
+                offsets: &offsets,
+                normals: &normals,
+            };
+            let hung = build_walls_hung(&m, &top, &opts, Some(hang));
+            assert_eq!(own.triangles, hung.triangles, "seed {seed}");
+            for (a, b) in own.positions.iter().zip(&hung.positions) {
+                assert!(
+                    v3::norm(v3::sub(*a, *b)) < 1e-12,
+                    "seed {seed}: {a:?} {b:?}"
+                );
+            }
+            // Another line: every bottom at 0.9 of its rest position.
+            let shrunk: Vec<P3> = m.positions().iter().map(|p| v3::scale(*p, -0.1)).collect();
+            let radial: Vec<P3> = m
+                .positions()
+                .iter()
+                .map(|p| v3::scale(*p, 1.0 / v3::norm(*p)))
+                .collect();
+            let hang = Hang {
+                offsets: &shrunk,
+                normals: &radial,
+            };
+            let w = build_walls_hung(&m, &top, &opts, Some(hang));
+            assert_well_formed(&w);
+            assert_eq!(open_edges(&m, &top, &w), vec![], "seed {seed}");
+            let bottoms: Vec<P3> = crack_halfedges(&m)
+                .iter()
+                .flat_map(|&h| [m.origin(h), m.dest(h)])
+                .map(|v| v3::scale(m.position(v), 0.9))
+                .collect();
+            let tops: BTreeSet<[u64; 3]> = top.iter().map(|p| p.map(f64::to_bits)).collect();
+            for p in &w.positions {
+                let near = |q: &P3| v3::norm(v3::sub(*p, *q)) < 1e-12;
+                assert!(
+                    tops.contains(&p.map(f64::to_bits)) || bottoms.iter().any(near),
+                    "seed {seed}: {p:?}"
+                );
+            }
+        }
     }
 }

@@ -34,14 +34,16 @@ pub struct Uncrossing {
 /// ([`crate::post::width::shut`]), until none
 /// crosses or [`MAX_HALVINGS`](crate::post::width::MAX_HALVINGS) passes
 /// are done; the passes that left the fewest crossings are kept. `top` is
-/// updated in place.
+/// updated in place. The bottom line hangs from `hang` where given
+/// ([`build_walls_hung`]).
 pub fn build_walls_uncrossed(
     mesh: &SimMesh,
     top: &mut [[f64; 3]],
     opts: &WallOptions,
+    hang: Option<Hang>,
 ) -> (Walls, Uncrossing) {
     let max = crate::post::width::MAX_HALVINGS;
-    let mut walls = build_walls(mesh, top, opts);
+    let mut walls = build_walls_hung(mesh, top, opts, hang);
     let (mut count, mut nodes) = crossings(mesh, top, &walls);
     let mut fix = Uncrossing {
         crossing_before: count,
@@ -62,7 +64,7 @@ pub fn build_walls_uncrossed(
         } else {
             crate::post::width::shut(mesh, top, &nodes);
         }
-        walls = build_walls(mesh, top, opts);
+        walls = build_walls_hung(mesh, top, opts, hang);
         (count, nodes) = crossings(mesh, top, &walls);
         fix.passes += 1;
         if count < best.as_ref().map_or(fix.crossing_before, |b| b.0) {
@@ -80,7 +82,7 @@ pub fn build_walls_uncrossed(
         }
         None => {
             top.copy_from_slice(&given);
-            walls = build_walls(mesh, top, opts);
+            walls = build_walls_hung(mesh, top, opts, hang);
             fix.crossing_after = fix.crossing_before;
         }
     }
