@@ -1042,3 +1042,135 @@ fn the_library_runs_a_batch_without_the_command_line() {
     };
     assert_eq!(batch::triage(&plan, &forced, false).todo, [0, 1]);
 }
+
+/// Nothing from outside the asset folder lands in the output: a copy rule
+/// refuses a buffer linked to a file outside the folder and an image
+/// linked to `/proc/self/environ` (the asset fails, named; the others go
+/// on). They were copied, exit 0.
+#[cfg(unix)]
+#[test]
+fn copies_take_nothing_from_outside_the_asset_folder() {
+    use std::os::unix::fs::symlink;
+    let t = tempfile::tempdir().unwrap();
+    let secret = t.path().join("secret.txt");
+    std::fs::write(&secret, "TOKEN=hunter2").unwrap();
+    // Row 1: copy rules and links out of the asset folder.
+    let lib = t.path().join("lib");
+    for f in ["textured_quad.gltf", "checker.png"] {
+        copy(&common::fixture(f), &lib.join("quad").join(f));
+    }
+    symlink(&secret, lib.join("quad/textured_quad.bin")).unwrap();
+    copy(
+        &common::fixture("textured_quad.gltf"),
+        &lib.join("env/quad.gltf"),
+    );
+    copy(
+        &common::fixture("textured_quad.bin"),
+        &lib.join("env/textured_quad.bin"),
+    );
+    symlink("/proc/self/environ", lib.join("env/checker.png")).unwrap();
+    copy(
+        &common::fixture("hierarchy.glb"),
+        &lib.join("fine/hierarchy.glb"),
+    );
+    let rules = t.path().join("rules.toml");
+    std::fs::write(&rules, "unmatched = \"copy\"\n").unwrap();
+    let out = t.path().join("out");
+    let rep = t.path().join("r.json");
+    let o = batch(&[
+        p(&lib),
+        "-r",
+        "--out",
+        p(&out),
+        "--rules",
+        p(&rules),
+        "--report",
+        p(&rep),
+    ]);
+    assert_ne!(o.status.code(), Some(0), "two assets refused");
+    let r = report(&rep);
+    assert_eq!(r["totals"]["failed"], 2, "{r}");
+    assert_eq!(r["totals"]["copied"], 1, "{r}");
+    assert!(out.join("fine/hierarchy.glb").is_file());
+    for f in files(&out) {
+        let bytes = std::fs::read(out.join(&f)).unwrap();
+        let text = String::from_utf8_lossy(&bytes);
+        assert!(!text.contains("hunter2"), "{f:?} holds the outside file");
+        assert!(!text.contains("PATH="), "{f:?} holds the environment");
+    }
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(stderr.contains("outside the asset's folder"), "{stderr}");
+}
+
+/// Links planted under temporary names in an asset tree that holds
+/// `--out` are never written through, and the output is a file, not a
+/// link (the temporary was `.NAME.crackle-tmp-PID-N`, written through a
+/// link of that name).
+#[cfg(unix)]
+#[test]
+fn planted_temporaries_are_never_written_through() {
+    use std::os::unix::fs::symlink;
+    let t = tempfile::tempdir().unwrap();
+    let tree = t.path().join("tree");
+    copy(&common::fixture("cube.obj"), &tree.join("a.obj"));
+    let out = tree.join("out");
+    std::fs::create_dir_all(&out).unwrap();
+    let victim = t.path().join("victim.txt");
+    std::fs::write(&victim, "precious").unwrap();
+    // Process ids are handed out in turn: the batch's is most likely
+    // among the next few thousand (the names the old writer used).
+    let me = std::process::id();
+    for pid in me + 1..me + 3000 {
+        for n in 0..2 {
+            let name = format!(".a.glb.crackle-tmp-{pid}-{n}");
+            symlink(&victim, out.join(name)).unwrap();
+        }
+    }
+    let o = batch(&[
+        p(&tree.join("a.obj")),
+        "--out",
+        p(&out),
+        "--preset",
+        "glaze",
+        "-q",
+    ]);
+    assert_eq!(
+        o.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    assert_eq!(std::fs::read_to_string(&victim).unwrap(), "precious");
+    let written = std::fs::symlink_metadata(out.join("a.glb")).unwrap();
+    assert!(
+        written.file_type().is_file(),
+        "the output is a file, not a link"
+    );
+}
+
+/// A folder link inside `--out` is not written through: the asset fails,
+/// named (a copy replaced a file wherever the link pointed).
+#[cfg(unix)]
+#[test]
+fn folder_links_inside_the_output_are_not_written_through() {
+    use std::os::unix::fs::symlink;
+    let t = tempfile::tempdir().unwrap();
+    let lib3 = t.path().join("lib3");
+    copy(&common::fixture("cube.obj"), &lib3.join("sub/a.obj"));
+    let out3 = t.path().join("out3");
+    let elsewhere = t.path().join("elsewhere");
+    std::fs::create_dir_all(&out3).unwrap();
+    std::fs::create_dir_all(&elsewhere).unwrap();
+    symlink(&elsewhere, out3.join("sub")).unwrap();
+    let o = batch(&[p(&lib3), "-r", "--out", p(&out3), "--preset", "glaze"]);
+    assert_ne!(o.status.code(), Some(0));
+    assert!(
+        std::fs::read_dir(&elsewhere).unwrap().next().is_none(),
+        "nothing written through the folder link"
+    );
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        stderr.contains("symbolic link inside the output folder"),
+        "{stderr}"
+    );
+}

@@ -682,3 +682,30 @@ fn help_shows_the_library_defaults() {
         );
     }
 }
+
+/// `--report` naming the input or the output is refused before any work;
+/// both stay as they were (the report overwrote them).
+#[test]
+fn a_report_never_overwrites_the_input_or_the_output() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = dir.path().join("cube.obj");
+    std::fs::copy(common::fixture("cube.obj"), &input).unwrap();
+    let before = std::fs::read(&input).unwrap();
+    let out = dir.path().join("out.glb");
+    for report in [input.clone(), dir.path().join("./out.glb")] {
+        let o = common::run([
+            "crack".as_ref(),
+            input.as_os_str(),
+            out.as_os_str(),
+            "--preset".as_ref(),
+            "glaze".as_ref(),
+            "--report".as_ref(),
+            report.as_os_str(),
+        ]);
+        assert_ne!(o.status.code(), Some(0));
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(err.contains("the report would overwrite"), "{err}");
+    }
+    assert_eq!(std::fs::read(&input).unwrap(), before);
+    assert!(!out.exists(), "refused before any work");
+}

@@ -2,7 +2,7 @@
 //! copied in parallel ([`execute`]), each asset's failure its own.
 
 use super::inputs::{scan_references, slash_path, source_rel};
-use super::state::{action_fingerprint, asset_key, copy_atomic, State};
+use super::state::{action_fingerprint, asset_key, State};
 use super::{Action, Asset, Options, Outcome, Plan, Produced, Status, STATE_FILE};
 use crate::pipeline::{crack_file, Config};
 use crate::{Error, Result};
@@ -251,6 +251,11 @@ fn run_asset(
 ) -> std::result::Result<Done, String> {
     match &asset.action {
         Action::Crack(k) => {
+            // Every folder from the output folder down to the output's
+            // is a real folder: a link there would put the output (and its
+            // side files) anywhere.
+            let dir = asset.output.parent().unwrap_or(Path::new("."));
+            crate::io::write::make_dirs_below(&options.out, dir)?;
             let spec = &plan.pipes[*k];
             let config = Config {
                 pipeline: spec.pipeline.clone(),
@@ -283,7 +288,7 @@ fn run_asset(
         }
         Action::Copy => {
             on_stage("copy");
-            copy_asset(asset).map_err(|e| chain(&e))
+            copy_asset(asset, &options.out).map_err(|e| chain(&e))
         }
         Action::Skip => Ok(Done {
             status: Status::Skipped,
@@ -296,24 +301,46 @@ fn run_asset(
 
 /// Copy an asset and every file it references, to the same places
 /// relative to it (found without decoding the asset, so assets crackle
-/// cannot read, compressed ones say, are copied too).
-fn copy_asset(asset: &Asset) -> Result<Done> {
-    let sources: Vec<String> = scan_references(&asset.input)
-        .iter()
-        .filter(|s| s.is_file())
-        .filter_map(|s| source_rel(&asset.input, s))
-        .collect();
-    let out_dir = asset.output.parent().unwrap_or(Path::new("."));
+/// cannot read, compressed ones say, are copied too). Every file is read
+/// as the reader reads it: a regular file whose real path lies inside the
+/// asset's folder (a link out of it, to another file or to `/proc`, is
+/// refused and the asset fails), within the reader's size cap; it is
+/// written below the output folder through no symbolic link.
+fn copy_asset(asset: &Asset, out_root: &Path) -> Result<Done> {
+    use crate::io::paths::{real_file_inside, MAX_MODEL_BYTES};
     let in_dir = asset.input.parent().unwrap_or(Path::new("."));
-    let mut files: Vec<(PathBuf, PathBuf)> = vec![(asset.input.clone(), asset.output.clone())];
+    let out_dir = asset.output.parent().unwrap_or(Path::new("."));
+    let mut sources: Vec<String> = Vec::new();
+    for s in scan_references(&asset.input) {
+        let Some(rel) = source_rel(&asset.input, &s) else {
+            continue;
+        };
+        match std::fs::symlink_metadata(&s) {
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => continue,
+            _ => sources.push(rel),
+        }
+    }
+    let mut files: Vec<(PathBuf, PathBuf, String)> =
+        vec![(asset.input.clone(), asset.output.clone(), asset.rel.clone())];
     for s in &sources {
-        files.push((in_dir.join(s), out_dir.join(s)));
+        files.push((in_dir.join(s), out_dir.join(s), s.clone()));
     }
     let mut outputs = Vec::new();
     let mut bytes = 0u64;
-    for (from, to) in &files {
-        copy_atomic(from, to)?;
-        bytes += std::fs::metadata(to).map(|m| m.len()).unwrap_or(0);
+    for (from, to, name) in &files {
+        let real = real_file_inside(in_dir, from, name)
+            .map_err(|e| Error::Batch(format!("{}: {e}", asset.input.display())))?;
+        let dir = to.parent().unwrap_or(Path::new("."));
+        crate::io::write::make_dirs_below(out_root, dir).map_err(Error::Batch)?;
+        let mut src = open_no_follow(&real)
+            .map_err(|e| Error::Batch(format!("{}: cannot read: {e}", from.display())))?;
+        bytes += crate::io::write::copy_atomic(&mut src, to, MAX_MODEL_BYTES).map_err(|e| {
+            Error::Batch(format!(
+                "{}: cannot copy to {}: {e}",
+                from.display(),
+                to.display()
+            ))
+        })?;
         outputs.push(to.display().to_string());
     }
     Ok(Done {
@@ -325,4 +352,22 @@ fn copy_asset(asset: &Asset) -> Result<Done> {
         sources,
         outputs,
     })
+}
+
+/// Open the regular file at `path` for reading without following a link
+/// at its last component (one swapped in after the path was checked), and
+/// refuse anything that is not a regular file.
+fn open_no_follow(path: &Path) -> std::io::Result<std::fs::File> {
+    let mut options = std::fs::OpenOptions::new();
+    options.read(true);
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::OpenOptionsExt as _;
+        options.custom_flags(libc::O_NOFOLLOW | libc::O_NONBLOCK);
+    }
+    let f = options.open(path)?;
+    if !f.metadata()?.is_file() {
+        return Err(std::io::Error::other("not a regular file"));
+    }
+    Ok(f)
 }

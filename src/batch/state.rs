@@ -84,28 +84,6 @@ pub(crate) fn asset_key(input: &Path, sources: &[String], fingerprint: &[u8]) ->
     Some(format!("{:x}", h.finalize()))
 }
 
-/// Copy through a temporary file and a rename.
-pub(crate) fn copy_atomic(from: &Path, to: &Path) -> Result<()> {
-    if let Some(d) = to.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(d)
-            .map_err(|e| Error::Batch(format!("{}: cannot create the folder: {e}", d.display())))?;
-    }
-    let tmp = crate::io::gltf_write::temp_path(to);
-    std::fs::copy(from, &tmp).map_err(|e| {
-        let _ = std::fs::remove_file(&tmp);
-        Error::Batch(format!(
-            "{}: cannot copy to {}: {e}",
-            from.display(),
-            to.display()
-        ))
-    })?;
-    std::fs::rename(&tmp, to).map_err(|e| {
-        let _ = std::fs::remove_file(&tmp);
-        Error::Batch(format!("{}: cannot write: {e}", to.display()))
-    })?;
-    Ok(())
-}
-
 /// What the state file records of an asset (paths relative to the output
 /// folder; sources relative to the asset's folder).
 #[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
@@ -197,12 +175,7 @@ impl State {
                 path.display()
             ))
         })?;
-        let tmp = crate::io::gltf_write::temp_path(path);
-        let result = std::fs::write(&tmp, bytes).and_then(|_| std::fs::rename(&tmp, path));
-        if result.is_err() {
-            let _ = std::fs::remove_file(&tmp);
-        }
-        result.map_err(err)?;
+        crate::io::write::write_atomic(path, &bytes).map_err(err)?;
         self.saved = Some(Instant::now());
         Ok(())
     }

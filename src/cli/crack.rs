@@ -329,6 +329,16 @@ impl crackle::pipeline::Observer for Progress {
 /// `crackle crack`: read, crack and write one asset, write the report,
 /// print the summary line.
 pub fn run(a: CrackArgs) -> Result<()> {
+    if let Some(p) = a.report {
+        for (what, other) in [("input", a.input), ("output", a.output)] {
+            if crackle::io::write::same_file(p, other) {
+                anyhow::bail!(
+                    "{}: the report would overwrite the {what}; name another file",
+                    p.display()
+                );
+            }
+        }
+    }
     let config = Config {
         pipeline: a.pipeline,
         weld: a.weld,
@@ -344,7 +354,7 @@ pub fn run(a: CrackArgs) -> Result<()> {
     let report =
         crackle::pipeline::crack_file(config, a.pipeline_dir.as_deref(), false, &mut progress)?;
     if let Some(p) = a.report {
-        std::fs::write(p, serde_json::to_vec_pretty(&report)?)
+        crackle::io::write::write_atomic(p, &serde_json::to_vec_pretty(&report)?)
             .map_err(|e| anyhow::anyhow!("{}: cannot write the report: {e}", p.display()))?;
     }
     if !a.quiet {

@@ -7,6 +7,7 @@ pub mod gltf_write;
 pub mod image;
 pub mod obj;
 pub mod paths;
+pub mod write;
 
 use crate::scene::Scene;
 pub use error::{IoError, IoResult};

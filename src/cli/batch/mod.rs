@@ -224,6 +224,6 @@ fn write_report(
 ) -> anyhow::Result<()> {
     let Some(path) = path else { return Ok(()) };
     let report = batch::BatchReport::new(plan, &options.out, options.shard, outcomes, seconds);
-    std::fs::write(path, serde_json::to_vec_pretty(&report)?)
+    crackle::io::write::write_atomic(path, &serde_json::to_vec_pretty(&report)?)
         .map_err(|e| anyhow::anyhow!("{}: cannot write the report: {e}", path.display()))
 }

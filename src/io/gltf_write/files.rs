@@ -5,18 +5,7 @@ use crate::io::{IoError as Error, IoResult as Result};
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 
-/// A unique temporary name beside `path`: `.NAME.crackle-tmp-PID-N`, N
-/// counting every temporary file of this process (so parallel writes of one
-/// file never share a temporary).
-pub fn temp_path(path: &Path) -> PathBuf {
-    use std::sync::atomic::{AtomicU64, Ordering};
-    static NEXT: AtomicU64 = AtomicU64::new(0);
-    let name = path.file_name().and_then(|n| n.to_str()).unwrap_or("out");
-    let n = NEXT.fetch_add(1, Ordering::Relaxed);
-    path.with_file_name(format!(".{name}.crackle-tmp-{}-{n}", std::process::id()))
-}
-
-/// Remove the temporary files (`.NAME.crackle-tmp-PID-N`, regular files
+/// Remove the temporary files (`.NAME.crackle-tmp-PID-RANDOM`, regular files
 /// only) that a killed run left in `dir`, and in its subfolders when
 /// `recursive` (folder links are not followed), when their process is gone.
 /// Errors are ignored: this is tidying, not the run's work.
@@ -41,7 +30,7 @@ pub fn remove_stale_temps(dir: &Path, recursive: bool) {
         let Some(name) = p.file_name().and_then(|n| n.to_str()) else {
             continue;
         };
-        let Some((_, pid)) = name.rsplit_once(".crackle-tmp-") else {
+        let Some((_, pid)) = name.rsplit_once(crate::io::write::TEMP_MARK) else {
             continue;
         };
         let pid = pid.split('-').next().unwrap_or(pid);
@@ -169,13 +158,13 @@ pub(super) fn commit_files(files: &[(PathBuf, Vec<u8>)]) -> Result<()> {
         .map(|(p, _)| std::fs::symlink_metadata(p).is_ok())
         .collect();
     for (p, bytes) in files {
-        let tmp = temp_path(p);
-        if let Err(e) = std::fs::write(&tmp, bytes) {
-            cleanup(&temps);
-            let _ = std::fs::remove_file(&tmp);
-            return Err(Error::io(p, e));
+        match crate::io::write::write_temp(p, bytes) {
+            Ok(tmp) => temps.push(tmp),
+            Err(e) => {
+                cleanup(&temps);
+                return Err(Error::io(p, e));
+            }
         }
-        temps.push(tmp);
     }
     let mut placed: Vec<&PathBuf> = Vec::new();
     for (k, ((p, _), tmp)) in files.iter().zip(&temps).enumerate().rev() {

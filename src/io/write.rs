@@ -1,0 +1,247 @@
+//! Creating files without following links: every file the tool writes goes
+//! through a temporary created exclusively (never through an existing
+//! file or symbolic link of that name) under an unpredictable name beside
+//! its target, then renamed into place (a rename replaces a link at the
+//! target, it does not write through it); folders under an output root are
+//! made one by one, refusing any that is a symbolic link.
+
+use std::fs::File;
+use std::io::Write as _;
+use std::path::{Component, Path, PathBuf};
+
+/// Marker in temporary names: `.NAME.crackle-tmp-PID-RANDOM`.
+pub const TEMP_MARK: &str = ".crackle-tmp-";
+
+/// Tries at a fresh temporary name before giving up (each fails only when
+/// the name already exists).
+const TEMP_TRIES: usize = 16;
+
+/// 64 unpredictable bits: std's per-process random hash keys (seeded from
+/// the operating system) over a counter.
+fn random_u64() -> u64 {
+    use std::hash::{BuildHasher, Hasher};
+    use std::sync::atomic::{AtomicU64, Ordering};
+    static NEXT: AtomicU64 = AtomicU64::new(0);
+    let mut h = std::collections::hash_map::RandomState::new().build_hasher();
+    h.write_u64(NEXT.fetch_add(1, Ordering::Relaxed));
+    h.write_u128(
+        std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map_or(0, |d| d.as_nanos()),
+    );
+    h.finish()
+}
+
+/// A new temporary file beside `path`, created exclusively: `create_new`
+/// fails on any existing name, a symbolic link (dangling or not)
+/// included, so a link planted under a temporary's name is never written
+/// through. Its name carries this process's id (for the stale-temporary
+/// sweep) and 64 random bits.
+pub fn create_temp(path: &Path) -> std::io::Result<(PathBuf, File)> {
+    let name = path.file_name().and_then(|n| n.to_str()).unwrap_or("out");
+    let mut last = None;
+    for _ in 0..TEMP_TRIES {
+        let tmp = path.with_file_name(format!(
+            ".{name}{TEMP_MARK}{}-{:016x}",
+            std::process::id(),
+            random_u64()
+        ));
+        match std::fs::OpenOptions::new()
+            .write(true)
+            .create_new(true)
+            .open(&tmp)
+        {
+            Ok(f) => return Ok((tmp, f)),
+            Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => last = Some(e),
+            Err(e) => return Err(e),
+        }
+    }
+    Err(last.unwrap_or_else(|| std::io::Error::other("no temporary name")))
+}
+
+/// Write `bytes` to a new temporary beside `path` ([`create_temp`]) and
+/// return its name; nothing is left behind on failure.
+pub fn write_temp(path: &Path, bytes: &[u8]) -> std::io::Result<PathBuf> {
+    let (tmp, mut f) = create_temp(path)?;
+    if let Err(e) = f.write_all(bytes).and_then(|_| f.flush()) {
+        drop(f);
+        let _ = std::fs::remove_file(&tmp);
+        return Err(e);
+    }
+    Ok(tmp)
+}
+
+/// Write `bytes` to `path` as a unit: a new temporary, then a rename.
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+    let tmp = write_temp(path, bytes)?;
+    std::fs::rename(&tmp, path).inspect_err(|_| {
+        let _ = std::fs::remove_file(&tmp);
+    })
+}
+
+/// Copy everything `from` reads (at most `cap` bytes; more is an error) to
+/// `path` as a unit: a new temporary, then a rename. Returns the bytes
+/// copied.
+pub fn copy_atomic(from: &mut dyn std::io::Read, path: &Path, cap: u64) -> std::io::Result<u64> {
+    let (tmp, mut f) = create_temp(path)?;
+    let result = std::io::copy(&mut std::io::Read::take(from, cap + 1), &mut f)
+        .and_then(|n| {
+            if n > cap {
+                Err(std::io::Error::other(format!(
+                    "larger than the {cap}-byte limit"
+                )))
+            } else {
+                f.flush().map(|_| n)
+            }
+        })
+        .and_then(|n| std::fs::rename(&tmp, path).map(|_| n));
+    if result.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    result
+}
+
+/// Make the folder `dir` (`root` or a folder below it by its text), one
+/// folder at a time from `root` down: `root` itself may be anything the
+/// user named, but every folder below it must be a real folder, not a
+/// symbolic link (which would put what is written there anywhere). Errors
+/// name the folder.
+pub fn make_dirs_below(root: &Path, dir: &Path) -> Result<(), String> {
+    std::fs::create_dir_all(root)
+        .map_err(|e| format!("{}: cannot create the folder: {e}", root.display()))?;
+    let rest = dir.strip_prefix(root).map_err(|_| {
+        format!(
+            "{}: not inside the output folder {}",
+            dir.display(),
+            root.display()
+        )
+    })?;
+    let mut at = root.to_path_buf();
+    for c in rest.components() {
+        let Component::Normal(part) = c else {
+            return Err(format!(
+                "{}: not a plain folder below {}",
+                dir.display(),
+                root.display()
+            ));
+        };
+        at.push(part);
+        match std::fs::symlink_metadata(&at) {
+            Ok(m) if m.file_type().is_symlink() => {
+                return Err(format!(
+                    "{}: a symbolic link inside the output folder {} (not written through)",
+                    at.display(),
+                    root.display()
+                ))
+            }
+            Ok(m) if m.is_dir() => {}
+            Ok(_) => return Err(format!("{}: not a folder", at.display())),
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+                match std::fs::create_dir(&at) {
+                    Ok(()) => {}
+                    // Made meanwhile by another job: checked on the next
+                    // pass of the loop's test below.
+                    Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {}
+                    Err(e) => {
+                        return Err(format!("{}: cannot create the folder: {e}", at.display()))
+                    }
+                }
+                let m = std::fs::symlink_metadata(&at)
+                    .map_err(|e| format!("{}: cannot read: {e}", at.display()))?;
+                if !m.is_dir() || m.file_type().is_symlink() {
+                    return Err(format!("{}: not a folder", at.display()));
+                }
+            }
+            Err(e) => return Err(format!("{}: cannot read: {e}", at.display())),
+        }
+    }
+    Ok(())
+}
+
+/// Whether `a` and `b` name the same file: the same file on disk when both
+/// exist (links followed), else the same name in the same real folder.
+pub fn same_file(a: &Path, b: &Path) -> bool {
+    #[cfg(unix)]
+    if let (Ok(x), Ok(y)) = (std::fs::metadata(a), std::fs::metadata(b)) {
+        use std::os::unix::fs::MetadataExt as _;
+        return x.dev() == y.dev() && x.ino() == y.ino();
+    }
+    let real = |p: &Path| -> Option<PathBuf> {
+        let dir = p.parent().filter(|d| !d.as_os_str().is_empty());
+        let dir = dir.unwrap_or(Path::new(".")).canonicalize().ok()?;
+        Some(dir.join(p.file_name()?))
+    };
+    match (real(a), real(b)) {
+        (Some(x), Some(y)) => x == y,
+        _ => false,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn temporaries_never_follow_a_planted_link() {
+        let dir = tempfile::tempdir().unwrap();
+        let victim = dir.path().join("victim.txt");
+        std::fs::write(&victim, b"precious").unwrap();
+        let out = dir.path().join("a.glb");
+        // Links planted under many names a temporary could take: none is
+        // written through (the names are random; each try is exclusive).
+        for i in 0..64 {
+            let name = format!(".a.glb{TEMP_MARK}{}-{i:016x}", std::process::id());
+            std::os::unix::fs::symlink(&victim, dir.path().join(name)).unwrap();
+        }
+        write_atomic(&out, b"new").unwrap();
+        assert_eq!(std::fs::read(&victim).unwrap(), b"precious");
+        assert_eq!(std::fs::read(&out).unwrap(), b"new");
+        assert!(!std::fs::symlink_metadata(&out)
+            .unwrap()
+            .file_type()
+            .is_symlink());
+        // A link at the target itself is replaced, not written through.
+        let out2 = dir.path().join("b.glb");
+        std::os::unix::fs::symlink(&victim, &out2).unwrap();
+        write_atomic(&out2, b"new").unwrap();
+        assert_eq!(std::fs::read(&victim).unwrap(), b"precious");
+        assert!(!std::fs::symlink_metadata(&out2)
+            .unwrap()
+            .file_type()
+            .is_symlink());
+        // Two temporaries of one target never share a name.
+        let (a, _) = create_temp(&out).unwrap();
+        let (b, _) = create_temp(&out).unwrap();
+        assert_ne!(a, b);
+    }
+
+    #[test]
+    fn the_same_file_by_any_name() {
+        let dir = tempfile::tempdir().unwrap();
+        let a = dir.path().join("a.obj");
+        std::fs::write(&a, b"v 0 0 0").unwrap();
+        std::fs::create_dir(dir.path().join("sub")).unwrap();
+        assert!(same_file(&a, &dir.path().join("sub/../a.obj")));
+        std::os::unix::fs::symlink(&a, dir.path().join("link.obj")).unwrap();
+        assert!(same_file(&a, &dir.path().join("link.obj")));
+        let new = dir.path().join("new.glb");
+        assert!(same_file(&new, &dir.path().join("sub/../new.glb")));
+        assert!(!same_file(&new, &a));
+    }
+
+    #[test]
+    fn folders_below_the_root_are_never_links() {
+        let dir = tempfile::tempdir().unwrap();
+        let root = dir.path().join("out");
+        let elsewhere = dir.path().join("elsewhere");
+        std::fs::create_dir_all(&elsewhere).unwrap();
+        make_dirs_below(&root, &root.join("a/b")).unwrap();
+        assert!(root.join("a/b").is_dir());
+        std::os::unix::fs::symlink(&elsewhere, root.join("a/link")).unwrap();
+        let err = make_dirs_below(&root, &root.join("a/link/c")).unwrap_err();
+        assert!(err.contains("symbolic link"), "{err}");
+        assert!(!elsewhere.join("c").exists());
+        assert!(make_dirs_below(&root, &dir.path().join("x")).is_err());
+        assert!(make_dirs_below(&root, &root.join("a/../../x")).is_err());
+    }
+}
