@@ -709,3 +709,41 @@ fn a_report_never_overwrites_the_input_or_the_output() {
     assert_eq!(std::fs::read(&input).unwrap(), before);
     assert!(!out.exists(), "refused before any work");
 }
+
+/// An output that would hold a non-finite number is refused, naming the
+/// mesh, and nothing is written (`post.curl=1e300` wrote invalid glTF,
+/// exit 0); `--cell-size` with `--cell-size-relative` is a usage error
+/// (the relative one silently won).
+#[test]
+fn no_invalid_number_reaches_an_output() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out.glb");
+    let plate = common::fixture("plate_jittered.obj");
+    let o = common::run([
+        "crack".as_ref(),
+        plate.as_os_str(),
+        out.as_os_str(),
+        "--preset".as_ref(),
+        "mud".as_ref(),
+        "--set".as_ref(),
+        "post.curl=1e300".as_ref(),
+    ]);
+    assert_eq!(o.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("mesh 0 'plate'") && err.contains("not a finite number"),
+        "{err}"
+    );
+    assert!(!out.exists());
+    let o = common::run([
+        "crack".as_ref(),
+        plate.as_os_str(),
+        out.as_os_str(),
+        "--cell-size".as_ref(),
+        "0.1".as_ref(),
+        "--cell-size-relative".as_ref(),
+        "0.05".as_ref(),
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(!out.exists());
+}

@@ -25,7 +25,7 @@ pub struct SimArgs {
     #[arg(long = "set", value_name = "KEY=VALUE")]
     sets: Vec<String>,
     /// Cell size of the pattern in scene units (replaces the pipeline's cell size)
-    #[arg(long, value_name = "SIZE")]
+    #[arg(long, value_name = "SIZE", conflicts_with = "cell_size_relative")]
     cell_size: Option<f64>,
     /// Cell size as a fraction of each mesh's bounding-box diagonal (replaces the pipeline's cell size)
     #[arg(long, value_name = "FRACTION")]

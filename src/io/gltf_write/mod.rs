@@ -17,6 +17,7 @@ use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 
 mod files;
+mod finite;
 pub use files::*;
 
 const ARRAY_BUFFER: u32 = 34962;
@@ -52,6 +53,12 @@ pub fn write_scene_with(scene: &Scene, path: &Path, prefix_images: bool) -> Resu
         return Err(Error::Output {
             path: path.into(),
             message: "OBJ output is not supported; use .gltf or .glb".into(),
+        });
+    }
+    if let Some(message) = finite::first_non_finite(scene) {
+        return Err(Error::Output {
+            path: path.into(),
+            message,
         });
     }
     let glb = format == Format::Glb;

@@ -106,6 +106,9 @@ struct Prepared {
 }
 
 fn read_impl(text: &str, base_dir: &Path, name: &str, path: &Path) -> Result<Scene, Error> {
+    // A UTF-8 byte-order mark (Windows editors write one) is not part of
+    // the first line: left there, it hid that line (often the `mtllib`).
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     let stem = Path::new(name)
         .file_stem()
         .map_or_else(|| name.to_string(), |s| s.to_string_lossy().into_owned());
@@ -1351,6 +1354,23 @@ mod tests {
         )
         .unwrap();
         assert_eq!(prims(&s)[0].1.positions.len(), 5);
+    }
+
+    /// A UTF-8 byte-order mark before the first line (of the OBJ or of
+    /// its MTL) does not hide that line: the `mtllib` and the first
+    /// `newmtl` are read (every material was lost).
+    #[test]
+    fn a_byte_order_mark_hides_no_line() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        std::fs::write(d.join("m.mtl"), "\u{feff}newmtl red\nKd 1 0 0\n").unwrap();
+        let obj = "\u{feff}mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl red\nf 1 2 3\n";
+        let s = read_obj_from_str(obj, d, "m.obj").unwrap();
+        assert_eq!(s.materials.len(), 1, "{:?}", s.warnings);
+        assert_eq!(s.materials[0].name(), Some("red"));
+        std::fs::write(d.join("b.obj"), obj.as_bytes()).unwrap();
+        let s = read_obj(&d.join("b.obj")).unwrap();
+        assert_eq!(s.materials[0].name(), Some("red"), "{:?}", s.warnings);
     }
 
     #[test]

@@ -70,7 +70,8 @@ impl MtlState {
             }
         };
         let text = String::from_utf8_lossy(&bytes);
-        let (clean, warnings) = clean_mtl(&text, reference);
+        let text = text.strip_prefix('\u{feff}').unwrap_or(&text);
+        let (clean, warnings) = clean_mtl(text, reference);
         self.warnings.extend(warnings);
         match tobj::load_mtl_buf(&mut Cursor::new(clean.as_bytes())) {
             Ok((materials, _)) => self.materials.extend(materials),
