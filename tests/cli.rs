@@ -747,3 +747,70 @@ fn no_invalid_number_reaches_an_output() {
     assert_eq!(o.status.code(), Some(2));
     assert!(!out.exists());
 }
+
+/// A pipeline or rules file that is a FIFO is refused at once (the run
+/// blocked forever reading it): `--pipeline`, `--rules`, and a rules
+/// entry's pipeline.
+#[cfg(unix)]
+#[test]
+fn a_fifo_for_a_pipeline_or_rules_is_refused_not_waited_on() {
+    let dir = tempfile::tempdir().unwrap();
+    let fifo = dir.path().join("fifo.toml");
+    let made = std::process::Command::new("mkfifo")
+        .arg(&fifo)
+        .status()
+        .unwrap();
+    assert!(made.success());
+    let rules = dir.path().join("rules.toml");
+    write(&rules, "[[rule]]\nglob = \"*\"\npipeline = \"fifo.toml\"\n");
+    let cube = common::fixture("cube.obj");
+    let out = dir.path().join("out");
+    let a_glb = out.join("a.glb");
+    let crack: Vec<&std::ffi::OsStr> = vec![
+        "crack".as_ref(),
+        cube.as_os_str(),
+        a_glb.as_os_str(),
+        "--pipeline".as_ref(),
+        fifo.as_os_str(),
+    ];
+    let batch = |r: &std::path::Path| -> Vec<std::ffi::OsString> {
+        [
+            "batch".as_ref(),
+            cube.as_os_str(),
+            "--out".as_ref(),
+            out.as_os_str(),
+            "--rules".as_ref(),
+            r.as_os_str(),
+        ]
+        .iter()
+        .map(|x| x.to_os_string())
+        .collect()
+    };
+    let runs: Vec<Vec<std::ffi::OsString>> = vec![
+        crack.iter().map(|x| x.to_os_string()).collect(),
+        batch(&fifo),
+        batch(&rules),
+    ];
+    for args in runs {
+        let mut child = std::process::Command::new(common::crackle_bin())
+            .args(&args)
+            .stdin(std::process::Stdio::null())
+            .stdout(std::process::Stdio::null())
+            .stderr(std::process::Stdio::null())
+            .spawn()
+            .unwrap();
+        let start = std::time::Instant::now();
+        let status = loop {
+            if let Some(s) = child.try_wait().unwrap() {
+                break Some(s);
+            }
+            if start.elapsed().as_secs() > 30 {
+                let _ = child.kill();
+                break None;
+            }
+            std::thread::sleep(std::time::Duration::from_millis(20));
+        };
+        let status = status.unwrap_or_else(|| panic!("{args:?} waited on the FIFO"));
+        assert_eq!(status.code(), Some(2), "{args:?}");
+    }
+}

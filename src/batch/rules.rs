@@ -62,7 +62,7 @@ impl RuleGlob {
 /// # Errors
 /// [`Error::Usage`] naming the file and the rule.
 pub fn load_rules(path: &Path, make: &MakePipeline) -> Result<Rules> {
-    let text = std::fs::read_to_string(path)
+    let text = crate::io::paths::read_config_text(path, "rules file")
         .map_err(|e| Error::Usage(format!("{}: cannot read the rules: {e}", path.display())))?;
     let file: RulesFile =
         toml::from_str(&text).map_err(|e| Error::Usage(format!("{}: {e}", path.display())))?;

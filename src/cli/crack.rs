@@ -158,7 +158,7 @@ impl SimArgs {
         let usage = |e: crackle::pipeline::PipelineError| super::UsageError(e.to_string());
         let mut p = match (file, preset) {
             (Some(path), _) => {
-                let text = std::fs::read_to_string(path).map_err(|e| {
+                let text = crackle::io::paths::read_config_text(path, "pipeline").map_err(|e| {
                     super::UsageError(format!("{}: cannot read the pipeline: {e}", path.display()))
                 })?;
                 Pipeline::parse(&text, &path.display().to_string(), &sets).map_err(usage)?

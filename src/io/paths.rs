@@ -12,6 +12,22 @@ pub struct PathError(pub String);
 
 /// Largest model file (OBJ, glTF, GLB) or external glTF buffer read: 4 GiB.
 pub const MAX_MODEL_BYTES: u64 = 4 << 30;
+/// Largest pipeline or rules file read: 16 MiB (TOML text).
+pub const MAX_CONFIG_BYTES: u64 = 16 << 20;
+
+/// Read a text file the user named (a pipeline, a rules file): a regular
+/// file (a FIFO blocked the run forever) of at most [`MAX_CONFIG_BYTES`],
+/// UTF-8. `what` names its role in the errors.
+pub fn read_config_text(path: &Path, what: &str) -> std::io::Result<String> {
+    let bytes = read_capped(path, MAX_CONFIG_BYTES, what)?;
+    String::from_utf8(bytes).map_err(|_| {
+        std::io::Error::new(
+            std::io::ErrorKind::InvalidData,
+            format!("the {what} is not UTF-8 text"),
+        )
+    })
+}
+
 /// Largest MTL material library read: 64 MiB (a library of text lines).
 pub const MAX_MTL_BYTES: u64 = 64 << 20;
 /// Largest image file read: 1 GiB.
