@@ -362,7 +362,19 @@ impl SceneReader<'_> {
                     .file_name()
                     .and_then(|f| f.to_str())
                     .map(str::to_string);
-                (ImageSource::File(file), fname)
+                // Read once, here, where the path was checked: a file
+                // swapped for a link meanwhile is never read later.
+                let bytes = crate::io::paths::read_capped(
+                    &file,
+                    crate::io::paths::MAX_IMAGE_BYTES,
+                    "image",
+                )
+                .map_err(|e| format!("image {i} ('{uri}'): {e}"))?;
+                if mime_type.is_none() {
+                    mime_type = mime_from_extension(&file).map(str::to_string);
+                }
+                self.scene.sources.push(file);
+                (ImageSource::Bytes(bytes), fname)
             }
         } else if let Some(view) = idx(img, "bufferView") {
             let bytes = self

@@ -948,10 +948,17 @@ mod tests {
             .as_u64()
             .unwrap() as usize;
         let img = s.textures[tex]["source"].as_u64().unwrap() as usize;
-        let ImageSource::File(f) = &s.images[img].source else {
+        let ImageSource::Bytes(b) = &s.images[img].source else {
             panic!()
         };
-        assert!(f.is_file());
+        // Read once, when the asset is read; the file is a source.
+        assert!(
+            s.sources
+                .iter()
+                .any(|p| std::fs::read(p).is_ok_and(|f| f == *b)),
+            "{:?}",
+            s.sources
+        );
         assert_eq!(s.images[img].file_name, "TextureDouble_A.png");
         assert_eq!(s.images[img].mime_type.as_deref(), Some("image/png"));
         // Kd 0.6, d 1, Ns 0.
@@ -987,10 +994,17 @@ mod tests {
             );
         }
         for img in &s.images {
-            let ImageSource::File(f) = &img.source else {
+            let ImageSource::Bytes(b) = &img.source else {
                 panic!()
             };
-            assert!(f.is_file(), "{}", f.display());
+            // Read once, when the asset is read; the file is a source.
+            assert!(
+                s.sources
+                    .iter()
+                    .any(|p| std::fs::read(p).is_ok_and(|f| f == *b)),
+                "{:?}",
+                s.sources
+            );
             assert_eq!(img.mime_type.as_deref(), Some("image/jpeg"));
             assert!(!img.file_name.contains(['\\', '/']));
         }
@@ -1013,10 +1027,17 @@ mod tests {
         assert_eq!(s.triangle_count(), 1000);
         assert_eq!(s.images.len(), 1);
         assert_eq!(s.images[0].file_name, "fuze uv.jpg");
-        let ImageSource::File(f) = &s.images[0].source else {
+        let ImageSource::Bytes(b) = &s.images[0].source else {
             panic!()
         };
-        assert!(f.is_file());
+        // Read once, when the asset is read; the file is a source.
+        assert!(
+            s.sources
+                .iter()
+                .any(|p| std::fs::read(p).is_ok_and(|f| f == *b)),
+            "{:?}",
+            s.sources
+        );
         let m = &s.materials[0].json;
         assert_eq!(m["pbrMetallicRoughness"]["baseColorTexture"]["index"], 0);
         // `Tr 1` without `d`: taken as opaque, with a warning.
@@ -1354,6 +1375,32 @@ mod tests {
         )
         .unwrap();
         assert_eq!(prims(&s)[0].1.positions.len(), 5);
+    }
+
+    /// A texture is read once, when the asset is read: swapped for a link
+    /// to a file outside the folder before the output is written (during
+    /// the simulation, say), the output holds the texture as it was read
+    /// (the writer read the path again and embedded the outside file).
+    #[cfg(unix)]
+    #[test]
+    fn a_texture_swapped_after_reading_never_reaches_the_output() {
+        let dir = tempfile::tempdir().unwrap();
+        let (d, outside) = (dir.path().join("asset"), dir.path().join("secret.png"));
+        std::fs::create_dir(&d).unwrap();
+        std::fs::write(&outside, b"\x89PNG secret").unwrap();
+        std::fs::write(d.join("t.png"), b"\x89PNG texture").unwrap();
+        std::fs::write(d.join("m.mtl"), "newmtl a\nmap_Kd t.png\n").unwrap();
+        let obj = "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nusemtl a\nf 1/1 2/1 3/1\n";
+        std::fs::write(d.join("a.obj"), obj).unwrap();
+        let s = read_obj(&d.join("a.obj")).unwrap();
+        std::fs::remove_file(d.join("t.png")).unwrap();
+        std::os::unix::fs::symlink(&outside, d.join("t.png")).unwrap();
+        let out = dir.path().join("out.glb");
+        crate::io::gltf_write::write_scene(&s, &out).unwrap();
+        let bytes = std::fs::read(&out).unwrap();
+        let has = |needle: &[u8]| bytes.windows(needle.len()).any(|w| w == needle);
+        assert!(has(b"PNG texture"));
+        assert!(!has(b"secret"));
     }
 
     /// A UTF-8 byte-order mark before the first line (of the OBJ or of

@@ -347,29 +347,43 @@ impl MaterialBuilder<'_> {
                 scene.warnings.push(format!("material '{material}': texture file '{file}' not found; the texture is dropped"));
                 None
             }
-            Some(mime) => {
-                let own = path.file_name().map_or_else(
-                    || "texture".to_string(),
-                    |n| n.to_string_lossy().into_owned(),
-                );
-                let mut file_name = own.clone();
-                let mut k = 1;
-                while !self.file_names.insert(file_name.clone()) {
-                    file_name = format!("{k}_{own}");
-                    k += 1;
+            Some(mime) => match crate::io::paths::read_capped(
+                &path,
+                crate::io::paths::MAX_IMAGE_BYTES,
+                "image",
+            ) {
+                Err(e) => {
+                    scene.warnings.push(format!(
+                        "material '{material}': texture '{file}' not read: {e}; the texture is dropped"
+                    ));
+                    None
                 }
-                scene.images.push(Image {
-                    name: Some(own),
-                    mime_type: Some(mime.to_string()),
-                    source: ImageSource::File(path.clone()),
-                    file_name,
-                    rest: Map::new(),
-                });
-                scene
-                    .textures
-                    .push(json!({ "source": scene.images.len() - 1 }));
-                Some(scene.textures.len() - 1)
-            }
+                // Read once, here, where the path was checked: a file
+                // swapped for a link meanwhile is never read later.
+                Ok(bytes) => {
+                    let own = path.file_name().map_or_else(
+                        || "texture".to_string(),
+                        |n| n.to_string_lossy().into_owned(),
+                    );
+                    let mut file_name = own.clone();
+                    let mut k = 1;
+                    while !self.file_names.insert(file_name.clone()) {
+                        file_name = format!("{k}_{own}");
+                        k += 1;
+                    }
+                    scene.images.push(Image {
+                        name: Some(own),
+                        mime_type: Some(mime.to_string()),
+                        source: ImageSource::Bytes(bytes),
+                        file_name,
+                        rest: Map::new(),
+                    });
+                    scene
+                        .textures
+                        .push(json!({ "source": scene.images.len() - 1 }));
+                    Some(scene.textures.len() - 1)
+                }
+            },
         };
         self.textures.insert(path, result);
         result
