@@ -23,7 +23,8 @@
 //!   sides moved apart. Its triangles (welded by exact position, the
 //!   `crack_wall` faces left out) fall apart into the cells but where a
 //!   gap's sides still meet (at its tips); the cuts are the edges the walls
-//!   hang from and those still on the network at rest. The crack graph is
+//!   hang from and those still on the network at rest or on a line as
+//!   drawn (a crack shut off its rest position). The crack graph is
 //!   the network at rest (`_CRACK_REST`, on the uncut surface). The border
 //!   is that of the surface and its walls together (not the gaps' own
 //!   outlines), and a crack end whose gap does not close (the end is no
@@ -336,7 +337,12 @@ impl MeshParts {
                     border.push([nodes[n]; 2]);
                 }
             }
-            opened_cuts(surface, &on_edge, &segs, tol)
+            opened_cuts(
+                surface,
+                &on_edge,
+                &[segs.as_slice(), &self.lines].concat(),
+                tol,
+            )
         } else if let Some(cracks) = in_place {
             return PatternInput {
                 positions: self.welder.positions,
@@ -375,8 +381,10 @@ impl MeshParts {
 }
 
 /// The cuts of an opened surface (`on_edge`: its edges' faces, surface and
-/// walls): the edges walls hang from, and those lying on the network at
-/// rest `segs` within `tol` (where a gap did not open).
+/// walls): the edges walls hang from, and those lying on `segs` within
+/// `tol`: the network at rest (where a gap did not open) and the lines as
+/// drawn (where a crack was shut off its rest position: its sides'
+/// vertices moved together, and the line runs over them).
 fn opened_cuts(
     surface: &[[f64; 3]],
     on_edge: &HashMap<(u32, u32), (u32, u32)>,
