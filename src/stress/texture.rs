@@ -1603,7 +1603,13 @@ mod tests {
         assert!(e.to_string().contains("'checker'"), "{e}");
         assert!(e.to_string().contains("normalTexture"), "{e}");
 
-        // A folder the file is not in is refused.
+        // The reader keeps the image's bytes (read once, where its path
+        // was checked); a scene naming an image by its file (a library
+        // user's) is read through `Files`, and a folder the file is not in
+        // is refused.
+        assert!(matches!(scene.images[0].source, ImageSource::Bytes(_)));
+        let mut scene = scene;
+        scene.images[0].source = ImageSource::File(dir.join("checker.png"));
         let other = tempfile::tempdir().unwrap();
         let e = mask_from_material(
             &scene,
