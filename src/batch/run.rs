@@ -332,7 +332,7 @@ fn copy_asset(asset: &Asset, out_root: &Path) -> Result<Done> {
             .map_err(|e| Error::Batch(format!("{}: {e}", asset.input.display())))?;
         let dir = to.parent().unwrap_or(Path::new("."));
         crate::io::write::make_dirs_below(out_root, dir).map_err(Error::Batch)?;
-        let mut src = open_no_follow(&real)
+        let mut src = crate::io::paths::open_no_follow(&real)
             .map_err(|e| Error::Batch(format!("{}: cannot read: {e}", from.display())))?;
         bytes += crate::io::write::copy_atomic(&mut src, to, MAX_MODEL_BYTES).map_err(|e| {
             Error::Batch(format!(
@@ -352,22 +352,4 @@ fn copy_asset(asset: &Asset, out_root: &Path) -> Result<Done> {
         sources,
         outputs,
     })
-}
-
-/// Open the regular file at `path` for reading without following a link
-/// at its last component (one swapped in after the path was checked), and
-/// refuse anything that is not a regular file.
-fn open_no_follow(path: &Path) -> std::io::Result<std::fs::File> {
-    let mut options = std::fs::OpenOptions::new();
-    options.read(true);
-    #[cfg(unix)]
-    {
-        use std::os::unix::fs::OpenOptionsExt as _;
-        options.custom_flags(libc::O_NOFOLLOW | libc::O_NONBLOCK);
-    }
-    let f = options.open(path)?;
-    if !f.metadata()?.is_file() {
-        return Err(std::io::Error::other("not a regular file"));
-    }
-    Ok(f)
 }

@@ -143,6 +143,25 @@ fn regular_file(path: &Path) -> std::io::Result<Result<std::fs::Metadata, &'stat
     }))
 }
 
+/// Open the regular file at `path` for reading without following a link
+/// at its last component (one swapped in after the path was checked), and
+/// refuse anything that is not a regular file (a FIFO does not block:
+/// it is opened non-blocking and refused).
+pub fn open_no_follow(path: &Path) -> std::io::Result<std::fs::File> {
+    let mut options = std::fs::OpenOptions::new();
+    options.read(true);
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::OpenOptionsExt as _;
+        options.custom_flags(libc::O_NOFOLLOW | libc::O_NONBLOCK);
+    }
+    let f = options.open(path)?;
+    if !f.metadata()?.is_file() {
+        return Err(std::io::Error::other("not a regular file"));
+    }
+    Ok(f)
+}
+
 /// Read a whole regular file of at most `cap` bytes; the kind and the size
 /// are checked before reading (and the read stops at the cap should the
 /// file grow meanwhile). `what` names the file's role in the errors

@@ -948,17 +948,7 @@ mod tests {
             .as_u64()
             .unwrap() as usize;
         let img = s.textures[tex]["source"].as_u64().unwrap() as usize;
-        let ImageSource::Bytes(b) = &s.images[img].source else {
-            panic!()
-        };
-        // Read once, when the asset is read; the file is a source.
-        assert!(
-            s.sources
-                .iter()
-                .any(|p| std::fs::read(p).is_ok_and(|f| f == *b)),
-            "{:?}",
-            s.sources
-        );
+        assert_read_once(&s, &s.images[img]);
         assert_eq!(s.images[img].file_name, "TextureDouble_A.png");
         assert_eq!(s.images[img].mime_type.as_deref(), Some("image/png"));
         // Kd 0.6, d 1, Ns 0.
@@ -994,17 +984,7 @@ mod tests {
             );
         }
         for img in &s.images {
-            let ImageSource::Bytes(b) = &img.source else {
-                panic!()
-            };
-            // Read once, when the asset is read; the file is a source.
-            assert!(
-                s.sources
-                    .iter()
-                    .any(|p| std::fs::read(p).is_ok_and(|f| f == *b)),
-                "{:?}",
-                s.sources
-            );
+            assert_read_once(&s, img);
             assert_eq!(img.mime_type.as_deref(), Some("image/jpeg"));
             assert!(!img.file_name.contains(['\\', '/']));
         }
@@ -1027,17 +1007,7 @@ mod tests {
         assert_eq!(s.triangle_count(), 1000);
         assert_eq!(s.images.len(), 1);
         assert_eq!(s.images[0].file_name, "fuze uv.jpg");
-        let ImageSource::Bytes(b) = &s.images[0].source else {
-            panic!()
-        };
-        // Read once, when the asset is read; the file is a source.
-        assert!(
-            s.sources
-                .iter()
-                .any(|p| std::fs::read(p).is_ok_and(|f| f == *b)),
-            "{:?}",
-            s.sources
-        );
+        assert_read_once(&s, &s.images[0]);
         let m = &s.materials[0].json;
         assert_eq!(m["pbrMetallicRoughness"]["baseColorTexture"]["index"], 0);
         // `Tr 1` without `d`: taken as opaque, with a warning.
@@ -1375,6 +1345,21 @@ mod tests {
         )
         .unwrap();
         assert_eq!(prims(&s)[0].1.positions.len(), 5);
+    }
+
+    /// `img` holds its bytes, read when the asset was read, and its file is
+    /// one of the scene's sources.
+    fn assert_read_once(s: &Scene, img: &crate::scene::Image) {
+        let ImageSource::Bytes(b) = &img.source else {
+            panic!("{:?} kept as a file", img.file_name)
+        };
+        assert!(
+            s.sources
+                .iter()
+                .any(|p| std::fs::read(p).is_ok_and(|f| f == *b)),
+            "{:?}",
+            s.sources
+        );
     }
 
     /// A texture is read once, when the asset is read: swapped for a link
