@@ -19,6 +19,7 @@ pub mod defects;
 pub mod edit;
 pub mod error;
 pub mod halfedge;
+mod hash;
 pub mod ids;
 pub mod imprint;
 pub mod remesh;

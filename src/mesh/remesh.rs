@@ -25,12 +25,14 @@ use super::attributes::Channel;
 use super::build::{MeshInput, WeldOptions};
 use super::error::MeshError;
 use super::halfedge::SimMesh;
+use super::hash::FxHashSet;
 use super::ids::{FaceId, VertexId};
 pub use super::sizing::{long_edge_area_share, FINE_ENOUGH_LONG_SHARE};
 use super::spatial::{
     add, bbox, closest_on_segment, closest_on_triangle, cross, dist2, dot, norm, sub, Grid,
 };
-use std::collections::{HashMap, HashSet};
+use rayon::prelude::*;
+use std::collections::HashMap;
 
 /// Options of [`remesh`].
 #[derive(Clone, Debug, PartialEq)]
@@ -212,14 +214,24 @@ struct Input {
     /// Chart of every face.
     chart: Vec<u32>,
     /// Feature edges as vertex pairs (sorted).
-    features: HashSet<(u32, u32)>,
+    features: FxHashSet<(u32, u32)>,
     n_features: usize,
     /// Cosine of the crease angle.
     cos_crease: f64,
+    /// Each face's corners and bounding box, side by side for the
+    /// projection's search.
+    tris: Vec<BoxedTriangle>,
     face_grid: Grid,
     edge_grid: Grid,
     feature_list: Vec<(u32, u32)>,
 }
+
+/// A triangle's corners with its bounding box (low, high).
+type BoxedTriangle = ([[f64; 3]; 3], [f64; 3], [f64; 3]);
+
+/// A point's projection onto the input: face, barycentric coordinates,
+/// point.
+type Projection = (u32, [f64; 3], [f64; 3]);
 
 fn key(a: u32, b: u32) -> (u32, u32) {
     if a < b {
@@ -243,7 +255,7 @@ impl Input {
             let wb = corner_wedge(mesh, fb, v);
             wa == wb || wedges.channels().iter().all(|c| c.get(wa) == c.get(wb))
         };
-        let mut features = HashSet::new();
+        let mut features = FxHashSet::default();
         // Union-find over faces across non-feature edges.
         let mut parent: Vec<u32> = (0..faces.len() as u32).collect();
         fn find(p: &mut [u32], mut x: u32) -> u32 {
@@ -285,10 +297,15 @@ impl Input {
         let mut feature_list: Vec<(u32, u32)> = features.iter().copied().collect();
         feature_list.sort_unstable();
         let mean = mesh.mean_edge_length().max(1e-300);
-        let face_grid = Grid::new(
-            faces.iter().map(|t| bbox(&t.map(|v| pos[v as usize]))),
-            mean,
-        );
+        let tris: Vec<BoxedTriangle> = faces
+            .iter()
+            .map(|t| {
+                let c = t.map(|v| pos[v as usize]);
+                let (lo, hi) = bbox(&c);
+                (c, lo, hi)
+            })
+            .collect();
+        let face_grid = Grid::new(tris.iter().map(|&(_, lo, hi)| (lo, hi)), mean);
         let edge_grid = Grid::new(
             feature_list
                 .iter()
@@ -302,6 +319,7 @@ impl Input {
             faces,
             chart,
             features,
+            tris,
             face_grid,
             edge_grid,
             feature_list,
@@ -322,15 +340,28 @@ impl Input {
 
     /// The closest point of the input faces of `chart` (any chart when
     /// `None`) to `p`: (face, barycentric coordinates, point).
-    fn closest_face(&self, p: [f64; 3], chart: Option<u32>) -> Option<(u32, [f64; 3], [f64; 3])> {
+    fn closest_face(&self, p: [f64; 3], chart: Option<u32>) -> Option<Projection> {
         let mut best: Option<(f64, u32, [f64; 3], [f64; 3])> = None;
         self.face_grid.search(p, |f| {
             let f = f as u32;
             if chart.is_some_and(|c| self.chart[f as usize] != c) {
                 return None;
             }
-            let t = self.faces[f as usize].map(|v| self.pos[v as usize]);
-            let (q, bary) = closest_on_triangle(p, t);
+            let (t, lo, hi) = &self.tris[f as usize];
+            if let Some(b) = best {
+                // No point of the face is nearer than its box (with a
+                // margin for rounding, so the result is the full test's).
+                let gap = (0..3)
+                    .map(|k| {
+                        let d = (lo[k] - p[k]).max(p[k] - hi[k]).max(0.0);
+                        d * d
+                    })
+                    .sum::<f64>();
+                if gap > b.0 * (1.0 + 1e-9) {
+                    return Some(b.0);
+                }
+            }
+            let (q, bary) = closest_on_triangle(p, *t);
             let d = dist2(p, q);
             if best.is_none_or(|b| d < b.0) {
                 best = Some((d, f, bary, q));
@@ -373,7 +404,7 @@ struct Work {
     alive: Vec<bool>,
     chart: Vec<u32>,
     vf: Vec<Vec<u32>>,
-    features: HashSet<(u32, u32)>,
+    features: FxHashSet<(u32, u32)>,
     /// Feature edges at each vertex.
     nfeat: Vec<u8>,
     /// Vertices that never move (feature corners and ends).
@@ -448,7 +479,15 @@ impl Work {
             }
             for k in 0..3 {
                 let (a, b) = (t[k], t[(k + 1) % 3]);
-                if a < b || self.edge_faces(a, b).len() == 1 {
+                // An edge once from its lower end, or from either end of
+                // a border edge (one face).
+                if a < b
+                    || self.vf[a as usize]
+                        .iter()
+                        .filter(|&&f| self.faces[f as usize].contains(&b))
+                        .count()
+                        == 1
+                {
                     e.push(key(a, b));
                 }
             }
@@ -820,16 +859,25 @@ impl Work {
         let mut triangles = Vec::new();
         let mut groups = Vec::new();
         let mut slot: HashMap<(u32, Vec<u64>), u32> = HashMap::new();
-        for f in self.spatial_order() {
+        let order = self.spatial_order();
+        // Each corner's input face and coordinates, found in parallel
+        // (each on its own; the results are used in order below).
+        let found: Vec<[Option<Projection>; 3]> = order
+            .par_iter()
+            .map(|&f| {
+                let chart = self.chart[f];
+                self.faces[f].map(|v| input.closest_face(self.pos[v as usize], Some(chart)))
+            })
+            .collect();
+        for (&f, found) in order.iter().zip(&found) {
             let t = &self.faces[f];
-            let chart = self.chart[f];
             let mut tri = [0u32; 3];
             let mut group = 0;
             for k in 0..3 {
                 let v = t[k];
                 let p = self.pos[v as usize];
                 let mut vals = vec![0.0; width];
-                if let Some((inf, bary, _)) = input.closest_face(p, Some(chart)) {
+                if let Some((inf, bary, _)) = found[k] {
                     group = mesh.face_group(FaceId(inf));
                     if width > 0 {
                         let ws = mesh.face_wedges(FaceId(inf));

@@ -3,55 +3,63 @@
 
 use super::{Input, Work};
 use crate::mesh::spatial::{add, cross, dot, norm, scale, sub};
+use rayon::prelude::*;
 
 impl Work {
     /// Tangential smoothing toward the neighbours' centroid, then
     /// projection onto the input (feature vertices along their lines).
     pub(super) fn smooth(&mut self, input: &Input) {
-        let mut next = self.pos.clone();
-        for (v, slot) in next.iter_mut().enumerate() {
-            if self.dead_vertex[v] || self.corner[v] || self.vf[v].is_empty() {
-                continue;
-            }
-            let vv = v as u32;
-            let nb: Vec<u32> = if self.nfeat[v] > 0 {
-                self.neighbours(vv)
-                    .into_iter()
-                    .filter(|&u| self.is_feature(vv, u))
-                    .collect()
-            } else {
-                self.neighbours(vv)
-            };
-            if nb.is_empty() {
-                continue;
-            }
-            let mut c = [0.0; 3];
-            for &u in &nb {
-                c = add(c, self.pos[u as usize]);
-            }
-            c = scale(c, 1.0 / nb.len() as f64);
-            let p = self.pos[v];
-            let mut d = sub(c, p);
-            if self.nfeat[v] == 0 {
-                let mut nrm = [0.0; 3];
-                for &f in &self.vf[v] {
-                    nrm = add(nrm, self.face_normal(self.faces[f as usize]));
-                }
-                let l = norm(nrm);
-                if l > 0.0 {
-                    let nn = scale(nrm, 1.0 / l);
-                    d = sub(d, scale(nn, dot(d, nn)));
-                }
-            }
-            let q = add(p, d);
-            *slot = if self.nfeat[v] > 0 {
-                input.closest_feature(q).unwrap_or(q)
-            } else {
-                let chart = self.chart[self.vf[v][0] as usize];
-                input.closest_face(q, Some(chart)).map_or(q, |x| x.2)
-            };
-        }
+        // Every target is computed from the same positions, so the
+        // vertices are independent: in parallel, in a fixed order.
+        let next: Vec<[f64; 3]> = (0..self.pos.len())
+            .into_par_iter()
+            .map(|v| self.smoothed(input, v).unwrap_or(self.pos[v]))
+            .collect();
         self.move_unless_turned(&next);
+    }
+
+    /// Where [`Work::smooth`] sends vertex `v` (`None`: it stays).
+    fn smoothed(&self, input: &Input, v: usize) -> Option<[f64; 3]> {
+        if self.dead_vertex[v] || self.corner[v] || self.vf[v].is_empty() {
+            return None;
+        }
+        let vv = v as u32;
+        let nb: Vec<u32> = if self.nfeat[v] > 0 {
+            self.neighbours(vv)
+                .into_iter()
+                .filter(|&u| self.is_feature(vv, u))
+                .collect()
+        } else {
+            self.neighbours(vv)
+        };
+        if nb.is_empty() {
+            return None;
+        }
+        let mut c = [0.0; 3];
+        for &u in &nb {
+            c = add(c, self.pos[u as usize]);
+        }
+        c = scale(c, 1.0 / nb.len() as f64);
+        let p = self.pos[v];
+        let mut d = sub(c, p);
+        if self.nfeat[v] == 0 {
+            let mut nrm = [0.0; 3];
+            for &f in &self.vf[v] {
+                nrm = add(nrm, self.face_normal(self.faces[f as usize]));
+            }
+            let l = norm(nrm);
+            if l > 0.0 {
+                let nn = scale(nrm, 1.0 / l);
+                d = sub(d, scale(nn, dot(d, nn)));
+            }
+        }
+        let q = add(p, d);
+        Some(if self.nfeat[v] > 0 {
+            input.closest_feature(q).unwrap_or(q)
+        } else {
+            let chart = self.chart[self.vf[v][0] as usize];
+            input.closest_face(q, Some(chart)).map_or(q, |x| x.2)
+        })
     }
 
     /// Move every vertex to `next` where none of its faces turns over
@@ -85,62 +93,76 @@ impl Work {
     /// uniformly random direction of its tangent plane (a vertex on a
     /// feature line along the line), then back onto the input.
     pub(super) fn jitter(&mut self, input: &Input, amount: f64, seed: u64, pass: u64) {
-        let mut next = self.pos.clone();
-        for (v, slot) in next.iter_mut().enumerate() {
-            if self.dead_vertex[v] || self.corner[v] || self.vf[v].is_empty() {
-                continue;
-            }
-            let vv = v as u32;
-            let p = self.pos[v];
-            let nb = self.neighbours(vv);
-            if nb.is_empty() {
-                continue;
-            }
-            let edge = nb.iter().map(|&u| self.len(vv, u)).sum::<f64>() / nb.len() as f64;
-            let key = ((v as u64) << 8 | pass) * 2;
-            let (u1, u2) = (
-                0.5 + 0.5 * crate::math::hash_unit(seed, key),
-                crate::math::hash_unit(seed, key + 1),
-            );
-            let reach = amount * self.size[v].min(edge);
-            if self.nfeat[v] > 0 {
-                // Along the feature line: between its two neighbours on it.
-                let on: Vec<u32> = nb.into_iter().filter(|&u| self.is_feature(vv, u)).collect();
-                if on.len() != 2 {
-                    continue;
-                }
-                let d = sub(self.pos[on[1] as usize], self.pos[on[0] as usize]);
-                let l = norm(d);
-                if l <= 0.0 {
-                    continue;
-                }
-                let q = add(p, scale(d, u2 * reach / l));
-                *slot = input.closest_feature(q).unwrap_or(q);
-                continue;
-            }
-            let mut nrm = [0.0; 3];
-            for &f in &self.vf[v] {
-                nrm = add(nrm, self.face_normal(self.faces[f as usize]));
-            }
-            let l = norm(nrm);
-            if l <= 0.0 {
-                continue;
-            }
-            let n = scale(nrm, 1.0 / l);
-            // A tangent axis from the coordinate axis least along the normal.
-            let k = (0..3)
-                .min_by(|&a, &b| n[a].abs().total_cmp(&n[b].abs()))
-                .unwrap_or(0);
-            let mut axis = [0.0; 3];
-            axis[k] = 1.0;
-            let t1 = cross(n, axis);
-            let t1 = scale(t1, 1.0 / norm(t1));
-            let t2 = cross(n, t1);
-            let (r, a) = (reach * u1.sqrt(), std::f64::consts::PI * u2);
-            let q = add(p, add(scale(t1, r * a.cos()), scale(t2, r * a.sin())));
-            let chart = self.chart[self.vf[v][0] as usize];
-            *slot = input.closest_face(q, Some(chart)).map_or(q, |x| x.2);
-        }
+        let next: Vec<[f64; 3]> = (0..self.pos.len())
+            .into_par_iter()
+            .map(|v| {
+                self.jittered(input, amount, seed, pass, v)
+                    .unwrap_or(self.pos[v])
+            })
+            .collect();
         self.move_unless_turned(&next);
+    }
+
+    /// Where [`Work::jitter`] sends vertex `v` (`None`: it stays).
+    fn jittered(
+        &self,
+        input: &Input,
+        amount: f64,
+        seed: u64,
+        pass: u64,
+        v: usize,
+    ) -> Option<[f64; 3]> {
+        if self.dead_vertex[v] || self.corner[v] || self.vf[v].is_empty() {
+            return None;
+        }
+        let vv = v as u32;
+        let p = self.pos[v];
+        let nb = self.neighbours(vv);
+        if nb.is_empty() {
+            return None;
+        }
+        let edge = nb.iter().map(|&u| self.len(vv, u)).sum::<f64>() / nb.len() as f64;
+        let key = ((v as u64) << 8 | pass) * 2;
+        let (u1, u2) = (
+            0.5 + 0.5 * crate::math::hash_unit(seed, key),
+            crate::math::hash_unit(seed, key + 1),
+        );
+        let reach = amount * self.size[v].min(edge);
+        if self.nfeat[v] > 0 {
+            // Along the feature line: between its two neighbours on it.
+            let on: Vec<u32> = nb.into_iter().filter(|&u| self.is_feature(vv, u)).collect();
+            if on.len() != 2 {
+                return None;
+            }
+            let d = sub(self.pos[on[1] as usize], self.pos[on[0] as usize]);
+            let l = norm(d);
+            if l <= 0.0 {
+                return None;
+            }
+            let q = add(p, scale(d, u2 * reach / l));
+            return Some(input.closest_feature(q).unwrap_or(q));
+        }
+        let mut nrm = [0.0; 3];
+        for &f in &self.vf[v] {
+            nrm = add(nrm, self.face_normal(self.faces[f as usize]));
+        }
+        let l = norm(nrm);
+        if l <= 0.0 {
+            return None;
+        }
+        let n = scale(nrm, 1.0 / l);
+        // A tangent axis from the coordinate axis least along the normal.
+        let k = (0..3)
+            .min_by(|&a, &b| n[a].abs().total_cmp(&n[b].abs()))
+            .unwrap_or(0);
+        let mut axis = [0.0; 3];
+        axis[k] = 1.0;
+        let t1 = cross(n, axis);
+        let t1 = scale(t1, 1.0 / norm(t1));
+        let t2 = cross(n, t1);
+        let (r, a) = (reach * u1.sqrt(), std::f64::consts::PI * u2);
+        let q = add(p, add(scale(t1, r * a.cos()), scale(t2, r * a.sin())));
+        let chart = self.chart[self.vf[v][0] as usize];
+        Some(input.closest_face(q, Some(chart)).map_or(q, |x| x.2))
     }
 }

@@ -4,8 +4,9 @@
 //! strays at most a given distance from the surface.
 
 use super::halfedge::SimMesh;
+use super::hash::FxHashSet;
 use super::spatial::{cross, dist2, dot, norm, scale, sub};
-use std::collections::{BTreeMap, HashSet};
+use std::collections::BTreeMap;
 
 /// A surface with at most this share of its area in triangles that have an
 /// edge above the split length is fine enough to simulate as it is.
@@ -45,7 +46,7 @@ pub fn long_edge_area_share(mesh: &SimMesh, limit: f64) -> f64 {
 pub(crate) fn edge_sizes(
     pos: &[[f64; 3]],
     faces: &[[u32; 3]],
-    features: &HashSet<(u32, u32)>,
+    features: &FxHashSet<(u32, u32)>,
     target: f64,
     chord_error: f64,
     shortest: f64,
@@ -159,7 +160,7 @@ mod tests {
     fn a_tight_cylinder_asks_for_the_chord_length_a_flat_plate_for_the_target() {
         let (r, e, target) = (0.5, 0.01, 1.0);
         let (pos, faces) = cylinder(r, 48, 4, 0.05);
-        let sizes = edge_sizes(&pos, &faces, &HashSet::new(), target, e, 0.01);
+        let sizes = edge_sizes(&pos, &faces, &FxHashSet::default(), target, e, 0.01);
         let want = 2.0 * (2.0 * e * r - e * e).sqrt();
         // The curvature across the ring edges is 1/r; along the axis, none.
         for (v, s) in sizes.iter().enumerate() {
@@ -170,15 +171,22 @@ mod tests {
         }
         // Scaling the scene scales the sizes.
         let big: Vec<[f64; 3]> = pos.iter().map(|p| p.map(|x| 1000.0 * x)).collect();
-        let sizes_big = edge_sizes(&big, &faces, &HashSet::new(), 1e3 * target, 1e3 * e, 10.0);
+        let sizes_big = edge_sizes(
+            &big,
+            &faces,
+            &FxHashSet::default(),
+            1e3 * target,
+            1e3 * e,
+            10.0,
+        );
         for (s, b) in sizes.iter().zip(&sizes_big) {
             assert!((b / (1e3 * s) - 1.0).abs() < 1e-9);
         }
         // No chord error: the target.
-        let off = edge_sizes(&pos, &faces, &HashSet::new(), target, 0.0, 0.01);
+        let off = edge_sizes(&pos, &faces, &FxHashSet::default(), target, 0.0, 0.01);
         assert!(off.iter().all(|&s| s == target));
         // Never below the floor.
-        let tight = edge_sizes(&pos, &faces, &HashSet::new(), target, 1e-9, 0.3);
+        let tight = edge_sizes(&pos, &faces, &FxHashSet::default(), target, 1e-9, 0.3);
         assert!(tight.iter().all(|&s| (s - 0.3).abs() < 1e-12));
     }
 
@@ -196,11 +204,11 @@ mod tests {
         let faces = vec![[0, 2, 3], [0, 3, 1], [0, 1, 5], [0, 5, 4]];
         // A target four times the squares' side: the fold asks for less,
         // but not less than the input's own edges there.
-        let free = edge_sizes(&pos, &faces, &HashSet::new(), 4.0, 0.08, 0.25);
+        let free = edge_sizes(&pos, &faces, &FxHashSet::default(), 4.0, 0.08, 0.25);
         assert!(free[0] < 4.0 && free[1] < 4.0, "{free:?}");
         assert!(free[0] >= 1.0 && free[1] >= 1.0, "{free:?}");
         assert_eq!(free[2], 4.0, "the flat square's far corner");
-        let kept: HashSet<(u32, u32)> = [(0, 1)].into_iter().collect();
+        let kept: FxHashSet<(u32, u32)> = [(0, 1)].into_iter().collect();
         let sizes = edge_sizes(&pos, &faces, &kept, 4.0, 0.08, 0.25);
         assert!(sizes.iter().all(|&s| s == 4.0), "{sizes:?}");
     }

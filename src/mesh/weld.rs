@@ -7,9 +7,10 @@
 //! hold representatives within the tolerance. The result depends only on the
 //! input order (no hash-iteration order, no threads).
 
+use super::hash::FxHasher;
 use super::ids::INVALID;
 use std::collections::HashMap;
-use std::hash::{BuildHasherDefault, Hasher};
+use std::hash::BuildHasherDefault;
 
 /// Result of welding.
 pub(super) struct Welded {
@@ -18,38 +19,6 @@ pub(super) struct Welded {
     pub map: Vec<u32>,
     /// Welded id -> representative input vertex (increasing).
     pub reps: Vec<u32>,
-}
-
-/// A small, fast, deterministic hasher for grid keys (FxHash mixing).
-#[derive(Default)]
-struct FxHasher(u64);
-
-impl Hasher for FxHasher {
-    #[inline]
-    fn write(&mut self, bytes: &[u8]) {
-        for chunk in bytes.chunks(8) {
-            let mut b = [0u8; 8];
-            b[..chunk.len()].copy_from_slice(chunk);
-            self.write_u64(u64::from_le_bytes(b));
-        }
-    }
-    #[inline]
-    fn write_u64(&mut self, i: u64) {
-        self.0 = (self.0.rotate_left(5) ^ i).wrapping_mul(0x51_7c_c1_b7_27_22_0a_95);
-    }
-    #[inline]
-    fn write_i64(&mut self, i: i64) {
-        self.write_u64(i as u64);
-    }
-    #[inline]
-    fn finish(&self) -> u64 {
-        // Final avalanche so that neighbouring cells spread over buckets.
-        let mut x = self.0;
-        x ^= x >> 33;
-        x = x.wrapping_mul(0xff51_afd7_ed55_8ccd);
-        x ^= x >> 33;
-        x
-    }
 }
 
 type Grid = HashMap<u64, u32, BuildHasherDefault<FxHasher>>;
