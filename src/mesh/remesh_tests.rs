@@ -309,6 +309,69 @@ fn a_regular_grid_coarsens_into_a_mesh_without_rows() {
     assert!(near_rows > 0.3, "near the rows {near_rows:.3}");
 }
 
+/// Length-weighted directions of the interior edges, as in
+/// [`edge_directions`], in 12 bins of 15 degrees.
+fn edge_directions_15(m: &SimMesh, size: f64, margin: f64) -> [f64; 12] {
+    let mut bins = [0.0; 12];
+    for h in m.halfedges() {
+        if m.twin(h).is_none_or(|t| t.0 < h.0) {
+            continue;
+        }
+        let (a, b) = (m.position(m.origin(h)), m.position(m.dest(h)));
+        let mid = [0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1])];
+        if mid.iter().any(|&x| x < margin || x > size - margin) {
+            continue;
+        }
+        let angle = (b[1] - a[1])
+            .atan2(b[0] - a[0])
+            .to_degrees()
+            .rem_euclid(180.0);
+        bins[((angle / 15.0) as usize).min(11)] += m.edge_length(h);
+    }
+    let total: f64 = bins.iter().sum();
+    bins.map(|b| b / total)
+}
+
+/// The same grid refined to under 0.6 of its edge: midpoint splits of a
+/// regular grid are a regular grid, and flips and smoothing settle it into
+/// an equilateral lattice (without jitter most of the edge length lies
+/// within three 15-degree bins). Jittered once after the splits, no
+/// 15-degree bin holds more than 30% over or under uniform (1/12).
+#[test]
+fn a_regular_grid_refines_into_a_mesh_without_rows() {
+    let (m, _) = build(&grid_input(40, 40));
+    for target in [0.3, 0.45, 0.58] {
+        let (r, rep) = remesh_valid(&m, target);
+        assert!(rep.remeshed);
+        assert!(r.n_faces() > 2 * m.n_faces(), "{} faces", r.n_faces());
+        let bins = edge_directions_15(&r, 40.0, 3.0);
+        eprintln!("{target}: jittered: bins {bins:.3?}");
+        for (k, b) in bins.iter().enumerate() {
+            assert!(
+                (b * 12.0 - 1.0).abs() < 0.3,
+                "target {target}, bin {k}: {b:.3} of the edge length (uniform 0.083): {bins:.3?}"
+            );
+        }
+    }
+    // Without the jitter: a lattice (so the test above can fail).
+    let (r, _) = remesh(
+        &m,
+        &RemeshOptions {
+            target_edge: 0.58,
+            jitter: 0.0,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    let mut plain = edge_directions_15(&r, 40.0, 3.0);
+    eprintln!("not jittered: bins {plain:.3?}");
+    plain.sort_by(f64::total_cmp);
+    assert!(
+        plain[9] + plain[10] + plain[11] > 0.9,
+        "a lattice: three bins hold nearly every edge: {plain:?}"
+    );
+}
+
 /// A graded surface, fine at one end and coarse at the other, is remeshed
 /// although its mean edge is below the target: the area in triangles
 /// longer than the split length decides, not the mean. After it, the large
