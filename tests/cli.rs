@@ -814,3 +814,45 @@ fn a_fifo_for_a_pipeline_or_rules_is_refused_not_waited_on() {
         assert_eq!(status.code(), Some(2), "{args:?}");
     }
 }
+
+/// An external buffer is held to `--max-memory` (and to the 4 GiB limit of
+/// a buffer file) on its declared length before anything is allocated: a
+/// 500-byte glTF naming a sparse 3 GiB file took 3.1 GB of memory under
+/// `--max-memory 100M`, and 5 GiB aborted on the allocation (exit 134).
+#[cfg(unix)]
+#[test]
+fn a_sparse_buffer_is_refused_before_it_is_allocated() {
+    let dir = tempfile::tempdir().unwrap();
+    for (gib, budget, expect) in [(3u64, "100M", "--max-memory"), (5, "8G", "4 GiB limit")] {
+        let len = gib << 30;
+        let bin = dir.path().join(format!("big{gib}.bin"));
+        std::fs::File::create(&bin).unwrap().set_len(len).unwrap();
+        let gltf = dir.path().join(format!("sparse{gib}.gltf"));
+        write(
+            &gltf,
+            &format!(
+                r#"{{"asset":{{"version":"2.0"}},"scenes":[{{"nodes":[0]}}],"scene":0,
+"nodes":[{{"mesh":0}}],"meshes":[{{"primitives":[{{"attributes":{{"POSITION":0}}}}]}}],
+"accessors":[{{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3",
+"min":[0,0,0],"max":[1,1,0]}}],
+"bufferViews":[{{"buffer":0,"byteLength":36}}],
+"buffers":[{{"uri":"big{gib}.bin","byteLength":{len}}}]}}"#
+            ),
+        );
+        let out = dir.path().join(format!("out{gib}.glb"));
+        let o = common::run([
+            "convert".as_ref(),
+            gltf.as_os_str(),
+            out.as_os_str(),
+            "--max-memory".as_ref(),
+            budget.as_ref(),
+        ]);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(1), "{gib} GiB: {err}");
+        assert!(
+            err.contains("buffer 0") && err.contains(expect) && err.contains("sparse"),
+            "{gib} GiB: {err}"
+        );
+        assert!(!out.exists());
+    }
+}

@@ -1,7 +1,7 @@
 //! A glTF document's buffers: data URIs decoded, external files read inside the asset's folder with a size cap, the binary chunk, and the checks made before any accessor is read (positions present, schema).
 
 use super::*;
-use crate::io::paths::resolve_file_inside;
+use crate::io::paths::{resolve_file_inside, MAX_MODEL_BYTES};
 use base64::Engine;
 use serde_json::Value;
 use std::io::Read;
@@ -73,11 +73,15 @@ pub(super) fn decode_data_uri(uri: &str) -> Option<std::result::Result<DataUri, 
     })())
 }
 
-/// Load every buffer that some buffer view uses.
+/// Load every buffer that some buffer view uses. External files are held
+/// to [`MAX_MODEL_BYTES`] each and, with every buffer before them, to
+/// `max_memory` in all, checked on their declared lengths before anything
+/// is allocated (a sparse file declaring gigabytes is refused, not read).
 pub(super) fn load_buffers(
     root: &Value,
     mut bin: Option<Vec<u8>>,
     base_dir: &Path,
+    max_memory: u64,
 ) -> std::result::Result<Vec<Option<Vec<u8>>>, String> {
     let bufs = arr(root, "buffers");
     let mut used = vec![false; bufs.len()];
@@ -91,6 +95,8 @@ pub(super) fn load_buffers(
         }
     }
     let mut out = Vec::with_capacity(bufs.len());
+    // Bytes held by the buffers loaded so far.
+    let mut held: u64 = 0;
     for (i, b) in bufs.iter().enumerate() {
         if !used[i] {
             out.push(None);
@@ -100,6 +106,23 @@ pub(super) fn load_buffers(
             .get("byteLength")
             .and_then(Value::as_u64)
             .ok_or(format!("buffer {i}: missing byteLength"))?;
+        let external = b
+            .get("uri")
+            .and_then(Value::as_str)
+            .is_some_and(|u| !u.starts_with("data:"));
+        if external && declared > MAX_MODEL_BYTES {
+            return Err(format!(
+                "buffer {i}: byteLength {declared} is over the {} GiB limit of a buffer file",
+                MAX_MODEL_BYTES >> 30
+            ));
+        }
+        if external && held.saturating_add(declared) > max_memory {
+            return Err(format!(
+                "buffer {i}: byteLength {declared} (with the buffers before it {} bytes) is over \
+                 the memory budget of {max_memory} bytes (--max-memory)",
+                held.saturating_add(declared)
+            ));
+        }
         let data = match b.get("uri").and_then(Value::as_str) {
             None => {
                 if i != 0 {
@@ -157,6 +180,7 @@ pub(super) fn load_buffers(
         };
         let mut data = data;
         data.truncate(declared as usize);
+        held = held.saturating_add(data.len() as u64);
         out.push(Some(data));
     }
     Ok(out)

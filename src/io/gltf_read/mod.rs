@@ -114,7 +114,7 @@ pub fn read_gltf_bytes_with(
     }
     precheck_positions(&root).map_err(err)?;
     validate_schema(&json_bytes).map_err(err)?;
-    let buffers = load_buffers(&root, bin, base_dir).map_err(err)?;
+    let buffers = load_buffers(&root, bin, base_dir, options.max_memory).map_err(err)?;
     let real_bytes = json_bytes.len() as u64
         + buffers
             .iter()
