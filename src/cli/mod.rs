@@ -24,9 +24,11 @@ pub struct Cli {
     /// Only errors on stderr.
     #[arg(short, long, global = true)]
     pub quiet: bool,
-    /// Most memory one input's decoded glTF data may take (bytes, or with
-    /// K, M, G); a file asking for more is refused before allocating.
-    /// Each file's own budget is 64 times its real size, at least 1G.
+    /// Most memory one input's decoded glTF data, its external buffers, or
+    /// one decoded image (a texture baked over, a mask) may take (bytes,
+    /// or with K, M, G); a file asking for more is refused before
+    /// allocating. Each file's decoded accessors also stay within 64 times
+    /// its real size, at least 1G.
     #[arg(long, global = true, value_name = "SIZE", default_value = "8G", value_parser = parse_size)]
     pub max_memory: u64,
     #[command(subcommand)]

@@ -10,6 +10,9 @@ use std::path::{Path, PathBuf};
 pub struct Files {
     /// The folder every image must lie in; `None`: any path as given.
     pub base: Option<PathBuf>,
+    /// The most bytes one decoded image may take; `None`: no limit beyond
+    /// the decoder's pixel cap.
+    pub budget: Option<u64>,
 }
 
 impl Files {
@@ -17,6 +20,16 @@ impl Files {
     pub fn inside(base: &Path) -> Files {
         Files {
             base: Some(base.to_path_buf()),
+            budget: None,
+        }
+    }
+
+    /// The same files, each decoded image held to `budget` bytes.
+    #[must_use]
+    pub fn within(self, budget: u64) -> Files {
+        Files {
+            budget: Some(budget),
+            ..self
         }
     }
 }
@@ -26,6 +39,10 @@ impl ImageFiles for Files {
         let path = checked_path(path, self.base.as_deref(), name)?;
         read_limited(&path, name)
     }
+
+    fn budget(&self) -> u64 {
+        self.budget.unwrap_or(u64::MAX)
+    }
 }
 
 /// Read and decode an image file; the file's path names it in errors.
@@ -34,9 +51,18 @@ impl ImageFiles for Files {
 /// [`TextureError::Io`] when the file cannot be read or is larger than
 /// [`MAX_FILE_BYTES`], and the errors of [`GreyImage::decode`].
 pub fn open_grey(path: &Path) -> Result<GreyImage, TextureError> {
+    open_grey_within(path, u64::MAX)
+}
+
+/// [`open_grey`] refusing, before decoding, an image whose decoded values
+/// would take more than `budget` bytes.
+///
+/// # Errors
+/// Those of [`open_grey`] and [`TextureError::OverBudget`].
+pub fn open_grey_within(path: &Path, budget: u64) -> Result<GreyImage, TextureError> {
     let name = format!("'{}'", path.display());
     let bytes = read_limited(path, &name)?;
-    GreyImage::decode(&bytes, &name)
+    GreyImage::decode_within(&bytes, &name, budget)
 }
 
 /// The path to read: as given without `base_dir`; with it, the real path,

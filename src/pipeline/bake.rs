@@ -8,7 +8,9 @@ use crate::math::v3;
 use crate::post::bake::{self, atlas, Cracks, Layer, Look, Profile, Surface};
 use crate::post::Post;
 use crate::scene::{Geometry, Image, ImageSource, Material, Scene, TriGeometry};
-use crate::stress::texture::{decode_channels, texture_of_material, Channels, TextureError};
+use crate::stress::texture::{
+    decode_channels_within, texture_of_material, Channels, ImageFiles, TextureError,
+};
 use serde_json::{json, Map, Value};
 use std::collections::BTreeMap;
 
@@ -94,7 +96,8 @@ fn bake_group(
     // its own attributes.
     let (drawn, reframe) = as_drawn(scene, mesh_index, prims, &mat_json, set);
     log::debug!("bake: tangents done at {:.3} s", t0.elapsed().as_secs_f64());
-    let own = material_layers(scene, material, &mat_json).map_err(|e| e.to_string())?;
+    let own = material_layers(scene, material, &mat_json, post.memory_budget)
+        .map_err(|e| e.to_string())?;
     let sets: Vec<u32> = [
         Some(set),
         own.base.as_ref().map(|l| l.tex_coord),
@@ -459,6 +462,7 @@ fn material_layers(
     scene: &Scene,
     material: Option<usize>,
     json: &Map<String, Value>,
+    budget: u64,
 ) -> Result<bake::Material, TextureError> {
     let factor = json
         .get("pbrMetallicRoughness")
@@ -481,14 +485,15 @@ fn material_layers(
             .is_some(),
         _ => json.get(slot).is_some(),
     };
-    let files = Files::default();
+    let files = Files::default().within(budget);
     let layer = |slot: &str| -> Result<Option<Layer>, TextureError> {
         if !has(slot) {
             return Ok(None);
         }
         let t = texture_of_material(scene, m, slot)?;
         let bytes = t.bytes(scene, &files)?;
-        let (width, height, rgba) = decode_channels(&bytes, &t.name, Channels::Rgba)?;
+        let (width, height, rgba) =
+            decode_channels_within(&bytes, &t.name, Channels::Rgba, files.budget())?;
         Ok(Some(Layer {
             width,
             height,

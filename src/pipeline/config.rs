@@ -412,6 +412,19 @@ impl Pipeline {
     /// An image that cannot be read or decoded, or an unknown built-in name;
     /// the message names the pipeline and the key.
     pub fn load_images(&mut self, base_dir: Option<&Path>) -> Result<(), PipelineError> {
+        self.load_images_within(base_dir, u64::MAX)
+    }
+
+    /// [`Pipeline::load_images`] with each decoded image held to `budget`
+    /// bytes (the run's `--max-memory`), checked before decoding.
+    ///
+    /// # Errors
+    /// Those of [`Pipeline::load_images`], and an image over the budget.
+    pub fn load_images_within(
+        &mut self,
+        base_dir: Option<&Path>,
+        budget: u64,
+    ) -> Result<(), PipelineError> {
         let mut masks = Vec::with_capacity(self.stress.len());
         for (i, e) in self.stress.iter().enumerate() {
             let Some(spec) = &e.mask else {
@@ -454,7 +467,7 @@ impl Pipeline {
                         )))
                     }
                 };
-                crate::io::image::open_grey(&path).map_err(|e| err(e.to_string()))?
+                crate::io::image::open_grey_within(&path, budget).map_err(|e| err(e.to_string()))?
             };
             let mut mask = Mask::from_image(grey);
             mask.invert = spec.invert;
@@ -474,14 +487,28 @@ impl Pipeline {
     /// An image mask not loaded yet, a material name the scene does not have
     /// (the message lists the names), or a texture that cannot be used.
     pub fn masks_for(&self, scene: &Scene, asset_dir: &Path) -> Result<Masks, PipelineError> {
-        self.masks_in(scene, asset_dir)
+        self.masks_for_within(scene, asset_dir, u64::MAX)
+    }
+
+    /// [`Pipeline::masks_for`] with each decoded texture held to `budget`
+    /// bytes (the run's `--max-memory`), checked before decoding.
+    ///
+    /// # Errors
+    /// Those of [`Pipeline::masks_for`], and a texture over the budget.
+    pub fn masks_for_within(
+        &self,
+        scene: &Scene,
+        asset_dir: &Path,
+        budget: u64,
+    ) -> Result<Masks, PipelineError> {
+        self.masks_in(scene, asset_dir, budget)
             .map_err(|message| PipelineError {
                 source_name: self.source_name.clone(),
                 message,
             })
     }
 
-    fn masks_in(&self, scene: &Scene, asset_dir: &Path) -> Result<Masks, String> {
+    fn masks_in(&self, scene: &Scene, asset_dir: &Path, budget: u64) -> Result<Masks, String> {
         let mut out = Vec::with_capacity(self.stress.len());
         for (i, e) in self.stress.iter().enumerate() {
             let label = format!("stress[{i}] ({}): mask", e.kind);
@@ -514,7 +541,7 @@ impl Pipeline {
                 mi,
                 slot,
                 spec.invert,
-                &crate::io::image::Files::inside(asset_dir),
+                &crate::io::image::Files::inside(asset_dir).within(budget),
             )
             .map_err(|e| format!("{label}.material: {e}"))?;
             m.confine = spec.confine;

@@ -225,7 +225,7 @@ fn tear_run(
             input.display()
         )));
     }
-    let post = &config.pipeline.post;
+    let post = &config.pipeline.post.within(config.read.max_memory);
     let surface_only: Vec<&str> = [
         ("finish", post.finish),
         ("width", post.width > 0.0),
@@ -375,7 +375,7 @@ pub fn crack_file(
     if config.pipeline.has_masks() {
         config
             .pipeline
-            .load_images(pipeline_dir)
+            .load_images_within(pipeline_dir, config.read.max_memory)
             .map_err(|e| Error::Usage(e.to_string()))?;
         image_seconds = t.elapsed().as_secs_f64();
     }
@@ -455,7 +455,7 @@ pub fn prepare(scene: &Scene, config: &Config, observer: &mut dyn Observer) -> R
             .filter(|d| !d.as_os_str().is_empty())
             .unwrap_or(Path::new("."));
         let masks = pipe
-            .masks_for(scene, asset_dir)
+            .masks_for_within(scene, asset_dir, config.read.max_memory)
             .map_err(|e| Error::Usage(format!("{}: {}", input.display(), e.message)))?;
         stages.push(Stage::new("texture", t.elapsed().as_secs_f64()));
         masks
@@ -551,7 +551,8 @@ pub fn run(scene: &mut Scene, config: &Config, observer: &mut dyn Observer) -> R
     }
     let template = config.frames.as_ref().map(|_| scene.clone());
     observer.stage("post");
-    let post = super::post::apply(scene, &mut entries, &per_mesh, &pipe.post)?;
+    let post_options = pipe.post.within(config.read.max_memory);
+    let post = super::post::apply(scene, &mut entries, &per_mesh, &post_options)?;
     for (name, seconds) in &post.stages {
         stages.push(Stage::new(name, *seconds));
     }
@@ -570,7 +571,8 @@ pub fn run(scene: &mut Scene, config: &Config, observer: &mut dyn Observer) -> R
                 end_time: r.time,
             })
             .collect();
-        let files = frames::write_frames(frames, &config.output, &template, replays, &pipe.post)?;
+        let files =
+            frames::write_frames(frames, &config.output, &template, replays, &post_options)?;
         stages.push(Stage::new("frames", t.elapsed().as_secs_f64()));
         frames_report = Some(FramesReport {
             count: files.len(),

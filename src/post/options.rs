@@ -130,6 +130,26 @@ pub struct Post {
     /// tessellation as it was. `simulation`: the simulation surface,
     /// cracked, in place of the input's triangles.
     pub output: String,
+    /// The most bytes one decoded material texture may take when baking:
+    /// the run's memory budget (`--max-memory`, set by the run; not a
+    /// pipeline key). Default: no limit beyond the decoder's pixel cap.
+    #[serde(skip, default = "no_budget")]
+    pub memory_budget: u64,
+}
+
+fn no_budget() -> u64 {
+    u64::MAX
+}
+
+impl Post {
+    /// These options with decoded textures held to `budget` bytes.
+    #[must_use]
+    pub fn within(&self, budget: u64) -> Post {
+        Post {
+            memory_budget: budget,
+            ..self.clone()
+        }
+    }
 }
 
 impl Default for Post {
@@ -167,6 +187,7 @@ impl Default for Post {
             groove_material: "crack_wall".into(),
             groove_profile: "v".into(),
             output: "input".into(),
+            memory_budget: no_budget(),
         }
     }
 }

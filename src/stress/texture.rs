@@ -108,6 +108,21 @@ pub enum TextureError {
         /// The limit, [`MAX_PIXELS`].
         max: u64,
     },
+    /// Decoding the image would take more memory than the run's budget
+    /// (`--max-memory`); checked on the header's size before decoding.
+    #[error("image {image} is {width} x {height} pixels: decoded it needs {bytes} bytes, over the memory budget of {budget} bytes (--max-memory)")]
+    OverBudget {
+        /// The image.
+        image: String,
+        /// Declared width.
+        width: u64,
+        /// Declared height.
+        height: u64,
+        /// Bytes the decoded image would take.
+        bytes: u64,
+        /// The budget.
+        budget: u64,
+    },
     /// The image file cannot be read.
     #[error("image {image}: cannot read '{}': {source}", path.display())]
     Io {
@@ -298,7 +313,17 @@ impl GreyImage {
     /// [`TextureError::Decode`] when the bytes are not a PNG or JPEG or do not
     /// decode.
     pub fn decode(bytes: &[u8], name: &str) -> Result<GreyImage, TextureError> {
-        let (width, height, data) = decode_channels(bytes, name, Channels::Luma)?;
+        Self::decode_within(bytes, name, u64::MAX)
+    }
+
+    /// [`GreyImage::decode`] refusing, before decoding, an image whose
+    /// decoded values would take more than `budget` bytes
+    /// ([`TextureError::OverBudget`]).
+    ///
+    /// # Errors
+    /// Those of [`GreyImage::decode`] and [`TextureError::OverBudget`].
+    pub fn decode_within(bytes: &[u8], name: &str, budget: u64) -> Result<GreyImage, TextureError> {
+        let (width, height, data) = decode_channels_within(bytes, name, Channels::Luma, budget)?;
         Ok(GreyImage {
             width,
             height,
@@ -374,10 +399,29 @@ pub fn decode_channels(
     name: &str,
     channels: Channels,
 ) -> Result<(u32, u32, Vec<f32>), TextureError> {
+    decode_channels_within(bytes, name, channels, u64::MAX)
+}
+
+/// [`decode_channels`] refusing, before decoding, an image whose decoded
+/// values (and the decoder's rows) would take more than `budget` bytes.
+///
+/// # Errors
+/// Those of [`decode_channels`] and [`TextureError::OverBudget`].
+pub fn decode_channels_within(
+    bytes: &[u8],
+    name: &str,
+    channels: Channels,
+    budget: u64,
+) -> Result<(u32, u32, Vec<f32>), TextureError> {
+    let size = Size {
+        name,
+        channels,
+        budget,
+    };
     if bytes.starts_with(b"\x89PNG\r\n\x1a\n") {
-        decode_png(bytes, name, channels)
+        decode_png(bytes, &size, channels)
     } else if bytes.starts_with(&[0xFF, 0xD8, 0xFF]) {
-        decode_jpeg(bytes, name, channels)
+        decode_jpeg(bytes, &size, channels)
     } else {
         let what = if bytes.len() >= 12 && &bytes[..4] == b"RIFF" && &bytes[8..12] == b"WEBP" {
             "a WebP image"
@@ -398,6 +442,34 @@ pub fn decode_channels(
 /// Rec. 709 luma weights on the stored (not linearised) values.
 fn luma(r: f64, g: f64, b: f64) -> f64 {
     0.2126 * r + 0.7152 * g + 0.0722 * b
+}
+
+/// What an image may be: its name, the values a pixel decodes to and the
+/// memory budget.
+struct Size<'a> {
+    name: &'a str,
+    channels: Channels,
+    budget: u64,
+}
+
+impl Size<'_> {
+    /// The declared size checked against [`MAX_PIXELS`] and the budget
+    /// (the decoded values, 4 bytes each, and the decoder's own buffer of
+    /// up to 8 bytes a pixel); the number of pixels.
+    fn check(&self, width: u64, height: u64) -> Result<usize, TextureError> {
+        let pixels = check_size(self.name, width, height)?;
+        let bytes = pixels as u64 * (4 * self.channels.count() as u64 + 8);
+        if bytes > self.budget {
+            return Err(TextureError::OverBudget {
+                image: self.name.to_string(),
+                width,
+                height,
+                bytes,
+                budget: self.budget,
+            });
+        }
+        Ok(pixels)
+    }
 }
 
 fn check_size(name: &str, width: u64, height: u64) -> Result<usize, TextureError> {
@@ -427,9 +499,10 @@ fn size_mismatch(name: &str, detail: String) -> TextureError {
 
 fn decode_png(
     bytes: &[u8],
-    name: &str,
+    size: &Size,
     out: Channels,
 ) -> Result<(u32, u32, Vec<f32>), TextureError> {
+    let name = size.name;
     let fail = |e: png::DecodingError| TextureError::Decode {
         image: name.to_string(),
         reason: match e {
@@ -449,7 +522,7 @@ fn decode_png(
     decoder.set_transformations(png::Transformations::EXPAND);
     let header = decoder.read_header_info().map_err(fail)?;
     let (width, height) = (header.width, header.height);
-    let pixels = check_size(name, u64::from(width), u64::from(height))?;
+    let pixels = size.check(u64::from(width), u64::from(height))?;
     let mut reader = decoder.read_info().map_err(fail)?;
     let (color, depth) = reader.output_color_type();
     let bytes_per_sample = match depth {
@@ -576,9 +649,10 @@ fn push_row(
 
 fn decode_jpeg(
     bytes: &[u8],
-    name: &str,
+    size: &Size,
     out: Channels,
 ) -> Result<(u32, u32, Vec<f32>), TextureError> {
+    let name = size.name;
     use zune_jpeg::zune_core::bytestream::ZCursor;
     use zune_jpeg::zune_core::colorspace::ColorSpace;
     use zune_jpeg::zune_core::options::DecoderOptions;
@@ -598,7 +672,7 @@ fn decode_jpeg(
         image: name.to_string(),
         reason: "JPEG header has no frame size".to_string(),
     })?;
-    let pixels = check_size(name, w as u64, h as u64)?;
+    let pixels = size.check(w as u64, h as u64)?;
     let expected = pixels * 3;
     if decoder.output_buffer_size() != Some(expected) {
         return Err(size_mismatch(
@@ -637,6 +711,12 @@ pub trait ImageFiles {
     /// # Errors
     /// [`TextureError::Io`] or [`TextureError::OutsideBase`].
     fn read(&self, path: &Path, name: &str) -> Result<Vec<u8>, TextureError>;
+
+    /// The most bytes one decoded image may take (the run's memory
+    /// budget). Default: no limit beyond [`MAX_PIXELS`].
+    fn budget(&self) -> u64 {
+        u64::MAX
+    }
 }
 
 /// A texture-stress mask: an image with its sampler and UV transform.
@@ -738,7 +818,7 @@ pub fn mask_from_material(
     let t = texture_of_material(scene, material, slot)?;
     let bytes = t.bytes(scene, files)?;
     Ok(Mask {
-        image: GreyImage::decode(&bytes, &t.name)?,
+        image: GreyImage::decode_within(&bytes, &t.name, files.budget())?,
         wrap_s: t.wrap_s,
         wrap_t: t.wrap_t,
         transform: t.transform,
