@@ -1174,3 +1174,68 @@ fn folder_links_inside_the_output_are_not_written_through() {
         "{stderr}"
     );
 }
+
+/// An asset saved while the batch cracks it is reported and left out of
+/// date: its output is from the bytes read before the save. The batch
+/// hashed the asset after cracking it, recorded the new bytes' hash beside
+/// the old bytes' output, and every later run said "up to date".
+#[test]
+fn an_asset_saved_during_its_run_stays_out_of_date() {
+    let t = tempfile::tempdir().unwrap();
+    let (lib, out) = (t.path().join("lib"), t.path().join("out"));
+    let plate = lib.join("plate.obj");
+    copy(&common::fixture("plate_jittered.obj"), &plate);
+    // Slow enough (several seconds) for the save to land mid-run.
+    let pipeline = t.path().join("slow.toml");
+    std::fs::write(
+        &pipeline,
+        "[simulation]\ncell_size_relative = 0.03\n\n[[stress]]\nkind = \"uniform\"\n",
+    )
+    .unwrap();
+    let rep = t.path().join("r.json");
+    let args = [
+        p(&lib),
+        "--out",
+        p(&out),
+        "--pipeline",
+        p(&pipeline),
+        "--report",
+        p(&rep),
+    ];
+    let child = Command::new(common::crackle_bin())
+        .arg("batch")
+        .args(args)
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    std::thread::sleep(std::time::Duration::from_millis(1500));
+    let mut text = std::fs::read_to_string(&plate).unwrap();
+    text.push_str("# saved again\n");
+    std::fs::write(&plate, text).unwrap();
+    let o = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(0), "{stderr}");
+    let r = report(&rep);
+    let row = &r["assets"][0];
+    assert_eq!(row["status"], "cracked", "{r}");
+    assert!(
+        row["warning"]
+            .as_str()
+            .is_some_and(|w| w.contains("changed while it was processed")),
+        "the save landed after the run, or was not noticed: {r}"
+    );
+    assert!(
+        stderr.contains("changed while it was processed"),
+        "{stderr}"
+    );
+    // The next run cracks it again (from the saved bytes), then it is up
+    // to date.
+    for expect in ["cracked", "up-to-date"] {
+        let o = batch(&args);
+        assert_eq!(o.status.code(), Some(0));
+        assert_eq!(
+            statuses(&report(&rep)),
+            [("plate.obj".to_string(), expect.to_string())]
+        );
+    }
+}

@@ -225,6 +225,9 @@ pub struct Outcome {
     pub status: Status,
     /// Why it failed.
     pub error: Option<String>,
+    /// What the user should know although it did not fail (an asset that
+    /// changed while it was processed).
+    pub warning: Option<String>,
     /// Wall-clock seconds.
     pub seconds: f64,
     /// What it produced.

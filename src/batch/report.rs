@@ -38,6 +38,8 @@ pub struct AssetRow {
     pub status: &'static str,
     /// Why it failed.
     pub error: Option<String>,
+    /// What the user should know although it did not fail.
+    pub warning: Option<String>,
     /// Wall-clock seconds.
     pub seconds: f64,
     /// The crack's stages.
@@ -135,6 +137,7 @@ fn row(plan: &Plan, x: &super::Asset, o: &Outcome) -> AssetRow {
         rule: x.rule.map(|k| k + 1),
         status: o.status.as_str(),
         error: o.error.clone(),
+        warning: o.warning.clone(),
         seconds: o.seconds,
         stages: None,
         cracks: None,

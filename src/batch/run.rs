@@ -133,6 +133,12 @@ pub fn execute(
             observer.start(worker, asset);
             let t0 = Instant::now();
             let on_stage = |s: &str| observer.stage(worker, asset, s);
+            // The asset and the files it refers to, hashed before it is
+            // cracked: if any changes while it runs, its output is from
+            // bytes that are no longer there, and it stays out of date.
+            let fp = fingerprint(plan, options, asset);
+            let scanned = scanned_sources(&asset.input);
+            let before = asset_key(&asset.input, &scanned, &fp);
             // A panic is a bug; it fails this asset, not the batch.
             let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
                 run_asset(asset, plan, options, &on_stage)
@@ -148,8 +154,10 @@ pub fn execute(
             let seconds = t0.elapsed().as_secs_f64();
             let outcome = match result {
                 Ok(done) => {
-                    let fp = fingerprint(plan, options, asset);
-                    if let Some(key) = asset_key(&asset.input, &done.sources, &fp) {
+                    let unchanged =
+                        before.is_some() && asset_key(&asset.input, &scanned, &fp) == before;
+                    let key = asset_key(&asset.input, &done.sources, &fp).filter(|_| unchanged);
+                    if let Some(key) = key {
                         let mut st = state.lock().unwrap_or_else(|p| p.into_inner());
                         let outputs = done
                             .outputs
@@ -164,6 +172,11 @@ pub fn execute(
                     Outcome {
                         status: done.status,
                         error: None,
+                        warning: (!unchanged).then(|| {
+                            "the asset or a file it refers to changed while it was processed; \
+                             its output is left out of date (the next run processes it again)"
+                                .to_string()
+                        }),
                         seconds,
                         produced: done.produced,
                     }
@@ -175,6 +188,7 @@ pub fn execute(
                     Outcome {
                         status: Status::Failed,
                         error: Some(e),
+                        warning: None,
                         seconds,
                         produced: Produced::Nothing,
                     }
@@ -206,6 +220,18 @@ fn out_rel(out: &Path, file: &Path) -> String {
         Ok(r) => slash_path(r),
         Err(_) => file.display().to_string(),
     }
+}
+
+/// The files `input` refers to (as the batch's reference scan finds them),
+/// relative to its folder, sorted.
+fn scanned_sources(input: &Path) -> Vec<String> {
+    let mut out: Vec<String> = scan_references(input)
+        .iter()
+        .filter_map(|p| source_rel(input, p))
+        .collect();
+    out.sort();
+    out.dedup();
+    out
 }
 
 /// What one asset's run did.

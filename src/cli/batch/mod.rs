@@ -174,6 +174,9 @@ pub fn run(a: BatchArgs) -> anyhow::Result<u8> {
             if let Some(e) = &o.error {
                 eprintln!("error: {}: {e}", asset.input.display());
             }
+            if let Some(w) = &o.warning {
+                eprintln!("warning: {}: {w}", asset.input.display());
+            }
         }
     }
     Ok(if failed > 0 { 1 } else { 0 })
