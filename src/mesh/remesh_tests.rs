@@ -1,7 +1,7 @@
 //! Tests of the isotropic remesher.
 
 use super::*;
-use crate::mesh::attributes::ChannelKind;
+use crate::mesh::attributes::{Channel, ChannelKind};
 use crate::mesh::shapes::{build, grid_input, icosphere_input};
 
 fn edge_lengths(m: &SimMesh) -> Vec<f64> {
