@@ -154,9 +154,16 @@ pub fn execute(
             let seconds = t0.elapsed().as_secs_f64();
             let outcome = match result {
                 Ok(done) => {
-                    let unchanged =
-                        before.is_some() && asset_key(&asset.input, &scanned, &fp) == before;
-                    let key = asset_key(&asset.input, &done.sources, &fp).filter(|_| unchanged);
+                    let after = asset_key(&asset.input, &scanned, &fp);
+                    let unchanged = before.is_some() && after == before;
+                    // The key is over the files the run read: the scan's
+                    // (just hashed) unless the reader's differ.
+                    let key = if done.sources == scanned {
+                        after
+                    } else {
+                        asset_key(&asset.input, &done.sources, &fp)
+                    }
+                    .filter(|_| unchanged);
                     if let Some(key) = key {
                         let mut st = state.lock().unwrap_or_else(|p| p.into_inner());
                         let outputs = done

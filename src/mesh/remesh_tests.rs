@@ -240,13 +240,10 @@ fn fine_surfaces_are_coarsened_unless_asked_not_to() {
     .is_err());
 }
 
-/// Length-weighted directions of the interior edges of a plate in the xy
-/// plane at least `margin` from its border `[0, size]^2`: 6 bins of 30
-/// degrees, and the share within 5 degrees of the x axis, the y axis and
-/// the grid's diagonal.
-fn edge_directions(m: &SimMesh, size: f64, margin: f64) -> ([f64; 6], f64) {
-    let mut bins = [0.0; 6];
-    let mut near_rows = 0.0;
+/// The interior edges of a plate in the xy plane at least `margin` from
+/// its border `[0, size]^2`: (direction in degrees in [0, 180), length).
+fn interior_edges(m: &SimMesh, size: f64, margin: f64) -> Vec<(f64, f64)> {
+    let mut out = Vec::new();
     for h in m.halfedges() {
         if m.twin(h).is_none_or(|t| t.0 < h.0) {
             continue;
@@ -256,21 +253,43 @@ fn edge_directions(m: &SimMesh, size: f64, margin: f64) -> ([f64; 6], f64) {
         if mid.iter().any(|&x| x < margin || x > size - margin) {
             continue;
         }
-        let l = m.edge_length(h);
         let angle = (b[1] - a[1])
             .atan2(b[0] - a[0])
             .to_degrees()
             .rem_euclid(180.0);
-        bins[((angle / 30.0) as usize).min(5)] += l;
-        if [0.0, 45.0, 90.0, 180.0]
-            .iter()
-            .any(|&r| (angle - r).abs() < 5.0)
-        {
-            near_rows += l;
-        }
+        out.push((angle, m.edge_length(h)));
+    }
+    out
+}
+
+/// Length-weighted shares of the [`interior_edges`] in `N` bins over 180
+/// degrees.
+fn direction_bins<const N: usize>(edges: &[(f64, f64)]) -> [f64; N] {
+    let mut bins = [0.0; N];
+    let width = 180.0 / N as f64;
+    for &(angle, l) in edges {
+        bins[((angle / width) as usize).min(N - 1)] += l;
     }
     let total: f64 = bins.iter().sum();
-    (bins.map(|b| b / total), near_rows / total)
+    bins.map(|b| b / total)
+}
+
+/// Length-weighted directions of the interior edges in 6 bins of 30
+/// degrees, and the share within 5 degrees of the x axis, the y axis and
+/// the grid's diagonal.
+fn edge_directions(m: &SimMesh, size: f64, margin: f64) -> ([f64; 6], f64) {
+    let edges = interior_edges(m, size, margin);
+    let total: f64 = edges.iter().map(|e| e.1).sum();
+    let near_rows: f64 = edges
+        .iter()
+        .filter(|(angle, _)| {
+            [0.0, 45.0, 90.0, 180.0]
+                .iter()
+                .any(|&r| (angle - r).abs() < 5.0)
+        })
+        .map(|e| e.1)
+        .sum();
+    (direction_bins(&edges), near_rows / total)
 }
 
 /// A regular grid (rows, columns and one diagonal, as a subdivided plane
@@ -309,29 +328,6 @@ fn a_regular_grid_coarsens_into_a_mesh_without_rows() {
     assert!(near_rows > 0.3, "near the rows {near_rows:.3}");
 }
 
-/// Length-weighted directions of the interior edges, as in
-/// [`edge_directions`], in 12 bins of 15 degrees.
-fn edge_directions_15(m: &SimMesh, size: f64, margin: f64) -> [f64; 12] {
-    let mut bins = [0.0; 12];
-    for h in m.halfedges() {
-        if m.twin(h).is_none_or(|t| t.0 < h.0) {
-            continue;
-        }
-        let (a, b) = (m.position(m.origin(h)), m.position(m.dest(h)));
-        let mid = [0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1])];
-        if mid.iter().any(|&x| x < margin || x > size - margin) {
-            continue;
-        }
-        let angle = (b[1] - a[1])
-            .atan2(b[0] - a[0])
-            .to_degrees()
-            .rem_euclid(180.0);
-        bins[((angle / 15.0) as usize).min(11)] += m.edge_length(h);
-    }
-    let total: f64 = bins.iter().sum();
-    bins.map(|b| b / total)
-}
-
 /// The same grid refined to under 0.6 of its edge: midpoint splits of a
 /// regular grid are a regular grid, and flips and smoothing settle it into
 /// an equilateral lattice (without jitter most of the edge length lies
@@ -344,7 +340,7 @@ fn a_regular_grid_refines_into_a_mesh_without_rows() {
         let (r, rep) = remesh_valid(&m, target);
         assert!(rep.remeshed);
         assert!(r.n_faces() > 2 * m.n_faces(), "{} faces", r.n_faces());
-        let bins = edge_directions_15(&r, 40.0, 3.0);
+        let bins = direction_bins::<12>(&interior_edges(&r, 40.0, 3.0));
         eprintln!("{target}: jittered: bins {bins:.3?}");
         for (k, b) in bins.iter().enumerate() {
             assert!(
@@ -363,7 +359,7 @@ fn a_regular_grid_refines_into_a_mesh_without_rows() {
         },
     )
     .unwrap();
-    let mut plain = edge_directions_15(&r, 40.0, 3.0);
+    let mut plain = direction_bins::<12>(&interior_edges(&r, 40.0, 3.0));
     eprintln!("not jittered: bins {plain:.3?}");
     plain.sort_by(f64::total_cmp);
     assert!(

@@ -8,9 +8,7 @@ use crate::math::v3;
 use crate::post::bake::{self, atlas, Cracks, Layer, Look, Profile, Surface};
 use crate::post::Post;
 use crate::scene::{Geometry, Image, ImageSource, Material, Scene, TriGeometry};
-use crate::stress::texture::{
-    decode_channels_within, texture_of_material, Channels, ImageFiles, TextureError,
-};
+use crate::stress::texture::{decode_channels_within, texture_of_material, Channels, TextureError};
 use serde_json::{json, Map, Value};
 use std::collections::BTreeMap;
 
@@ -485,7 +483,7 @@ fn material_layers(
             .is_some(),
         _ => json.get(slot).is_some(),
     };
-    let files = Files::default().within(budget);
+    let files = Files::default();
     let layer = |slot: &str| -> Result<Option<Layer>, TextureError> {
         if !has(slot) {
             return Ok(None);
@@ -493,7 +491,7 @@ fn material_layers(
         let t = texture_of_material(scene, m, slot)?;
         let bytes = t.bytes(scene, &files)?;
         let (width, height, rgba) =
-            decode_channels_within(&bytes, &t.name, Channels::Rgba, files.budget())?;
+            decode_channels_within(&bytes, &t.name, Channels::Rgba, budget)?;
         Ok(Some(Layer {
             width,
             height,

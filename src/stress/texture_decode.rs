@@ -54,9 +54,9 @@ pub fn decode_channels_within(
         budget,
     };
     if bytes.starts_with(b"\x89PNG\r\n\x1a\n") {
-        decode_png(bytes, &size, channels)
+        decode_png(bytes, &size)
     } else if bytes.starts_with(&[0xFF, 0xD8, 0xFF]) {
-        decode_jpeg(bytes, &size, channels)
+        decode_jpeg(bytes, &size)
     } else {
         let what = if bytes.len() >= 12 && &bytes[..4] == b"RIFF" && &bytes[8..12] == b"WEBP" {
             "a WebP image"
@@ -132,12 +132,8 @@ fn size_mismatch(name: &str, detail: String) -> TextureError {
     }
 }
 
-fn decode_png(
-    bytes: &[u8],
-    size: &Size,
-    out: Channels,
-) -> Result<(u32, u32, Vec<f32>), TextureError> {
-    let name = size.name;
+fn decode_png(bytes: &[u8], size: &Size) -> Result<(u32, u32, Vec<f32>), TextureError> {
+    let (name, out) = (size.name, size.channels);
     let fail = |e: png::DecodingError| TextureError::Decode {
         image: name.to_string(),
         reason: match e {
@@ -282,12 +278,8 @@ fn push_row(
     }));
 }
 
-fn decode_jpeg(
-    bytes: &[u8],
-    size: &Size,
-    out: Channels,
-) -> Result<(u32, u32, Vec<f32>), TextureError> {
-    let name = size.name;
+fn decode_jpeg(bytes: &[u8], size: &Size) -> Result<(u32, u32, Vec<f32>), TextureError> {
+    let (name, out) = (size.name, size.channels);
     use zune_jpeg::zune_core::bytestream::ZCursor;
     use zune_jpeg::zune_core::colorspace::ColorSpace;
     use zune_jpeg::zune_core::options::DecoderOptions;
