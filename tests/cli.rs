@@ -746,6 +746,30 @@ fn no_invalid_number_reaches_an_output() {
     ]);
     assert_eq!(o.status.code(), Some(2));
     assert!(!out.exists());
+    // A material no solid has is refused before any work (`young=1e300`
+    // wrote no mesh with exit 0, then ran for minutes on steps of 1e-267 s).
+    let block = common::fixture("notched_block.obj");
+    for (key, named) in [
+        ("simulation.ductile.young=1e300", "ductile.young"),
+        ("simulation.ductile.density=1e-30", "ductile.density"),
+        ("simulation.ductile.tear_speed=1e300", "ductile.tear_speed"),
+    ] {
+        let started = std::time::Instant::now();
+        let o = common::run([
+            "crack".as_ref(),
+            block.as_os_str(),
+            out.as_os_str(),
+            "--preset".as_ref(),
+            "tear".as_ref(),
+            "--set".as_ref(),
+            key.as_ref(),
+        ]);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{key}: {err}");
+        assert!(err.contains(named) && err.contains("must be in"), "{err}");
+        assert!(started.elapsed().as_secs() < 30, "{key}: refused late");
+        assert!(!out.exists());
+    }
 }
 
 /// A pipeline or rules file that is a FIFO is refused at once (the run

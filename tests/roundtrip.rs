@@ -380,3 +380,43 @@ fn hostile_sizes_convert() {
         assert!(dropped * 10 < triangles, "{name}: {stderr}");
     }
 }
+
+/// Two writers of one `.gltf` at once (two jobs with one target): after
+/// every round, the main file in place names side files that exist (each
+/// writer's sweep removed the buffer the other's main file named, in 4 of
+/// 40 rounds, before writers of `.gltf` outputs in one folder took turns).
+#[test]
+fn two_writers_of_one_gltf_leave_a_whole_output() {
+    let dir = tempfile::tempdir().unwrap();
+    let target = dir.path().join("shared.gltf");
+    let a = crackle::io::read(&common::fixture("cube.obj")).unwrap();
+    let b = crackle::io::read(&common::fixture("icosphere.obj")).unwrap();
+    for round in 0..40 {
+        std::thread::scope(|s| {
+            for scene in [&a, &b] {
+                let target = &target;
+                s.spawn(move || {
+                    crackle::io::gltf_write::write_scene(scene, target).unwrap();
+                });
+            }
+        });
+        let json: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(&target).unwrap()).unwrap();
+        for b in json["buffers"].as_array().unwrap() {
+            let uri = b["uri"].as_str().unwrap();
+            assert!(
+                dir.path().join(uri).is_file(),
+                "round {round}: the output names {uri}, which is gone"
+            );
+        }
+        let back = crackle::io::read(&target);
+        assert!(back.is_ok(), "round {round}: {:?}", back.err());
+        // Only the side file the output in place names is left.
+        let bins = std::fs::read_dir(dir.path())
+            .unwrap()
+            .flatten()
+            .filter(|e| e.file_name().to_string_lossy().ends_with(".bin"))
+            .count();
+        assert_eq!(bins, 1, "round {round}");
+    }
+}

@@ -43,6 +43,39 @@ pub fn remove_stale_temps(dir: &Path, recursive: bool) {
     }
 }
 
+/// An exclusive advisory lock on the folder `dir` (`flock` on the folder
+/// itself: no lock file is left behind), held until the value is dropped;
+/// `None` where the folder cannot be opened or the file system does not
+/// lock (the write goes on without it).
+pub(super) fn folder_lock(dir: &Path) -> Option<std::fs::File> {
+    let dir = if dir.as_os_str().is_empty() {
+        Path::new(".")
+    } else {
+        dir
+    };
+    let folder = std::fs::File::open(dir).ok()?;
+    #[cfg(unix)]
+    {
+        use std::os::fd::AsRawFd as _;
+        // Waits for the lock, again when a signal interrupts the wait.
+        loop {
+            // SAFETY: `flock` on a descriptor this function owns; the lock
+            // goes with the descriptor when the file is dropped.
+            if unsafe { libc::flock(folder.as_raw_fd(), libc::LOCK_EX) } == 0 {
+                return Some(folder);
+            }
+            if std::io::Error::last_os_error().kind() != std::io::ErrorKind::Interrupted {
+                return None;
+            }
+        }
+    }
+    #[cfg(not(unix))]
+    {
+        drop(folder);
+        None
+    }
+}
+
 /// Side files named after their content (`<stem>.<16 hex digits>.bin`,
 /// `<image>.<16 hex digits>.png`): a new output never shares a side file's
 /// name with an old one unless their bytes are the same, so an old main

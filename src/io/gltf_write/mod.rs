@@ -84,6 +84,10 @@ pub fn write_scene_with(scene: &Scene, path: &Path, prefix_images: bool) -> Resu
     if !glb {
         name_side_files_by_content(&mut doc, &stem);
     }
+    // Writers of `.gltf` outputs in one folder take turns from reading the
+    // old output to sweeping its side files: another writer's sweep would
+    // otherwise remove the buffer this writer's main file names.
+    let _turn = (!glb).then(|| folder_lock(&out_dir));
     // The side files the output now in place uses, to remove once it is
     // replaced (read before it is).
     let mut old_side_files = if glb {

@@ -308,18 +308,32 @@ impl DuctileParams {
                 self.grid
             ));
         }
+        // Upper bounds keep every product of the material's numbers (energy
+        // densities, wave speeds, the front's rate) finite and the time step
+        // a step the run can take: no solid is stiffer than 1e13 Pa (diamond
+        // 1.2e12), denser than 1e5 kg/m^3 (osmium 2.3e4) or lighter than
+        // 0.1 kg/m^3 (aerogel about 1).
+        let within = |name: &str, x: f64, lo: f64, hi: f64, unit: &str| {
+            if x.is_finite() && x >= lo && x <= hi {
+                Ok(())
+            } else {
+                Err(format!(
+                    "ductile.{name} must be in [{lo:e}, {hi:e}] {unit}, got {x}"
+                ))
+            }
+        };
         non_neg("cell_size", self.cell_size)?;
-        pos("size", self.size)?;
-        pos("young", self.young)?;
+        within("size", self.size, 1e-6, 1e6, "m")?;
+        within("young", self.young, 1e-3, 1e13, "Pa")?;
         if !(self.poisson.is_finite() && (0.0..0.5).contains(&self.poisson)) {
             return Err(format!(
                 "ductile.poisson must be in [0, 0.5), got {}",
                 self.poisson
             ));
         }
-        pos("density", self.density)?;
-        pos("kappa", self.kappa)?;
-        pos("tear_speed", self.tear_speed)?;
+        within("density", self.density, 0.1, 1e5, "kg/m^3")?;
+        within("kappa", self.kappa, 1e-9, 1e20, "J/m^3")?;
+        within("tear_speed", self.tear_speed, 1e-9, 1e3, "lengths/s")?;
         pos("eps", self.eps)?;
         non_neg("damping", self.damping)?;
         non_neg("stiffness_damping", self.stiffness_damping)?;
