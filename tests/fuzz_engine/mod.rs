@@ -3,8 +3,14 @@
 //! mutates the fixtures and the eval-data meshes (bytes, JSON numbers, OBJ
 //! indices, huge counts, truncation, repetition, GLB chunk lengths) and runs
 //! the reader on each mutant in this process, recording any panic, hang or
-//! memory overrun with its reproducer.
+//! memory overrun with its reproducer. `hostile` and `hostile_run` build
+//! hostile asset folders and run the real binary on them (kind `hostile`).
 #![allow(dead_code)]
+
+#[cfg(unix)]
+pub mod hostile;
+#[cfg(unix)]
+pub mod hostile_run;
 
 use std::path::{Path, PathBuf};
 use std::sync::mpsc;
