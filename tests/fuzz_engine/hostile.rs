@@ -323,6 +323,24 @@ impl Builder<'_> {
         symlink(to, at).unwrap();
     }
 
+    /// Make `dir` (below `out/`) unless a folder link lies on its way
+    /// (the planted files go into the output folder, never through a link
+    /// into the victim); whether it is there.
+    fn out_dir(&self, dir: &Path) -> bool {
+        let out = self.dir.join("out");
+        let Ok(rel) = dir.strip_prefix(&out) else {
+            return false;
+        };
+        let mut at = out;
+        for c in rel.components() {
+            at.push(c);
+            if std::fs::symlink_metadata(&at).is_ok_and(|m| m.file_type().is_symlink()) {
+                return false;
+            }
+        }
+        std::fs::create_dir_all(dir).is_ok()
+    }
+
     /// The base asset: the textured quad, the cube or the hierarchy GLB.
     fn base(&mut self) {
         let d = self.asset_dir();
@@ -591,8 +609,8 @@ impl Builder<'_> {
             } else {
                 self.victim().join(format!("missing-{name}"))
             };
-            if std::fs::symlink_metadata(o).is_err() {
-                self.link(&to, o);
+            if self.out_dir(o.parent().unwrap()) && std::fs::symlink_metadata(o).is_err() {
+                symlink(&to, o).unwrap();
             }
         }
     }
@@ -603,6 +621,9 @@ impl Builder<'_> {
         let victim = self.victim();
         for o in outputs {
             let dir = o.parent().unwrap().to_path_buf();
+            if !self.out_dir(&dir) {
+                continue;
+            }
             let name = o.file_name().unwrap().to_string_lossy().into_owned();
             let mut names = vec![name.clone()];
             if dir.ends_with("out") || dir.ends_with("sub") {
@@ -612,16 +633,14 @@ impl Builder<'_> {
                 for pid in (me + 1..me + 400).chain([1, u32::MAX]) {
                     for k in 0..2 {
                         let at = dir.join(format!(".{n}.crackle-tmp-{pid}-{k}"));
-                        if std::fs::symlink_metadata(&at).is_err() && dir.is_dir() {
+                        if std::fs::symlink_metadata(&at).is_err() {
                             let to = if k == 0 { &secret } else { &victim };
                             let _ = symlink(to, &at);
                         }
                     }
                 }
                 // A stale regular temporary of a dead process (tidied).
-                if dir.is_dir() {
-                    let _ = std::fs::write(dir.join(format!(".{n}.crackle-tmp-1-7")), b"stale");
-                }
+                let _ = std::fs::write(dir.join(format!(".{n}.crackle-tmp-1-7")), b"stale");
             }
         }
     }
@@ -634,7 +653,7 @@ impl Builder<'_> {
         }
         for o in outputs {
             let dir = o.parent().unwrap().to_path_buf();
-            if std::fs::create_dir_all(&dir).is_err() {
+            if !self.out_dir(&dir) {
                 continue;
             }
             let stem = o.file_stem().unwrap().to_string_lossy().into_owned();
@@ -757,7 +776,7 @@ pub fn build(s: &Settings, seed: u64, dir: &Path) -> Case {
     if cmd == Cmd::Batch && !has(Class::OutDirLink) && b.rng.below(2) == 0 {
         // The output folder tree exists already (from an earlier run).
         for o in &outputs {
-            std::fs::create_dir_all(o.parent().unwrap()).unwrap();
+            b.out_dir(o.parent().unwrap());
         }
     }
     if has(Class::PlantedSide) {
