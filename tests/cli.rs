@@ -956,3 +956,113 @@ fn an_image_over_the_memory_budget_is_refused_before_decoding() {
     );
     assert!(!out.exists());
 }
+
+/// Many objects or primitives are held to `--max-memory` before they are
+/// built (100,000 one-triangle OBJ objects, 5.3 MB, took 1.58 GB; 100,000
+/// glTF primitives over one buffer 1.17 GB; 1,000 one-triangle objects
+/// under `glaze`, each remeshed to its own cell size, asked for 15 million
+/// simulated triangles): refused with the numbers at once; a few thousand
+/// still convert within the budget.
+#[test]
+fn many_objects_or_primitives_are_held_to_the_memory_budget() {
+    let dir = tempfile::tempdir().unwrap();
+    let objs = |n: usize| {
+        let mut t = String::new();
+        for i in 0..n {
+            let (x, y) = ((i % 300) as f64, (i / 300) as f64);
+            t += &format!(
+                "o t{i}\nv {x} {y} 0\nv {} {y} 0\nv {x} {} 0\nf -3 -2 -1\n",
+                x + 0.9,
+                y + 0.9
+            );
+        }
+        t
+    };
+    let prims = |n: usize| {
+        // One triangle (positions, then u16 indices) as a data URI, shared
+        // by every primitive.
+        let mut bin = Vec::new();
+        for v in [0f32, 0., 0., 1., 0., 0., 0., 1., 0.] {
+            bin.extend_from_slice(&v.to_le_bytes());
+        }
+        for i in [0u16, 1, 2, 0] {
+            bin.extend_from_slice(&i.to_le_bytes());
+        }
+        let b64 = |b: &[u8]| {
+            const A: &[u8] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+            let mut s = String::new();
+            for c in b.chunks(3) {
+                let n = (u32::from(c[0]) << 16)
+                    | (u32::from(*c.get(1).unwrap_or(&0)) << 8)
+                    | u32::from(*c.get(2).unwrap_or(&0));
+                for k in 0..4 {
+                    if k <= c.len() {
+                        s.push(A[(n >> (18 - 6 * k) & 63) as usize] as char);
+                    } else {
+                        s.push('=');
+                    }
+                }
+            }
+            s
+        };
+        let p = "{\"attributes\":{\"POSITION\":0},\"indices\":1}";
+        format!(
+            "{{\"asset\":{{\"version\":\"2.0\"}},\"buffers\":[{{\"byteLength\":44,\"uri\":\"data:application/octet-stream;base64,{}\"}}],\
+             \"bufferViews\":[{{\"buffer\":0,\"byteLength\":36}},{{\"buffer\":0,\"byteOffset\":36,\"byteLength\":6}}],\
+             \"accessors\":[{{\"bufferView\":0,\"componentType\":5126,\"count\":3,\"type\":\"VEC3\",\"min\":[0,0,0],\"max\":[1,1,0]}},\
+             {{\"bufferView\":1,\"componentType\":5123,\"count\":3,\"type\":\"SCALAR\"}}],\
+             \"meshes\":[{{\"primitives\":[{}]}}],\"nodes\":[{{\"mesh\":0}}],\"scenes\":[{{\"nodes\":[0]}}],\"scene\":0}}",
+            b64(&bin),
+            vec![p; n].join(",")
+        )
+    };
+    let out = dir.path().join("out.glb");
+    let run = |input: &Path, extra: &[&str]| {
+        let mut args: Vec<std::ffi::OsString> = vec!["--max-memory".into(), "256M".into()];
+        args.extend(extra.iter().map(|a| a.into()));
+        args.push(input.into());
+        args.push(out.clone().into());
+        if extra == ["crack"] {
+            args.extend(["--preset".into(), "glaze".into()]);
+        }
+        let started = std::time::Instant::now();
+        let o = common::run(&args);
+        (o, started.elapsed())
+    };
+    for (name, text) in [("objs.obj", objs(100_000)), ("prims.gltf", prims(100_000))] {
+        let input = dir.path().join(name);
+        write(&input, &text);
+        let (o, took) = run(&input, &["convert"]);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(1), "{name}: {err}");
+        assert!(
+            err.contains(name) && err.contains("100000") && err.contains("--max-memory"),
+            "{err}"
+        );
+        assert!(took.as_secs() < 20, "{name}: refused after {took:?}");
+        assert!(!out.exists());
+    }
+    // Every tiny object remeshed to its own cell size: refused up front.
+    let input = dir.path().join("objs300.obj");
+    write(&input, &objs(300));
+    let (o, took) = run(&input, &["crack"]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains("simulation surfaces need about"), "{err}");
+    assert!(took.as_secs() < 20, "refused after {took:?}");
+    assert!(!out.exists());
+    // A few thousand convert within the budget.
+    for (name, text) in [("objs3k.obj", objs(3000)), ("prims3k.gltf", prims(3000))] {
+        let input = dir.path().join(name);
+        write(&input, &text);
+        let (o, _) = run(&input, &["convert"]);
+        assert_eq!(
+            o.status.code(),
+            Some(0),
+            "{name}: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+        assert_eq!(crackle::io::read(&out).unwrap().triangle_count(), 3000);
+        std::fs::remove_file(&out).unwrap();
+    }
+}

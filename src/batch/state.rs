@@ -1,7 +1,7 @@
 //! What a batch remembers between runs: each asset's key (its content, its sources' and the action's fingerprint), the state file and its lock, and atomic copies.
 
 use super::{Action, Asset, OutFormat, PipeSpec};
-use crate::io::paths::{read_capped, real_file_inside, MAX_MODEL_BYTES};
+use crate::io::paths::{real_file_inside, stream_capped, MAX_MODEL_BYTES};
 use crate::{Error, Result};
 use sha2::{Digest, Sha256};
 use std::collections::{BTreeMap, BTreeSet};
@@ -61,23 +61,23 @@ pub(crate) fn asset_key(input: &Path, sources: &[String], fingerprint: &[u8]) ->
     let mut h = Sha256::new();
     h.update((fingerprint.len() as u64).to_le_bytes());
     h.update(fingerprint);
-    let bytes = read_capped(input, MAX_MODEL_BYTES, "model file").ok()?;
-    h.update((bytes.len() as u64).to_le_bytes());
-    h.update(&bytes);
+    // Streamed: a large (or sparse) buffer is hashed in constant memory,
+    // whatever `--max-memory` allows the reader to hold.
+    stream_capped(input, MAX_MODEL_BYTES, "model file", &mut |b| h.update(b)).ok()?;
     let dir = input.parent().unwrap_or(Path::new("."));
     for s in sources {
         h.update((s.len() as u64).to_le_bytes());
         h.update(s.as_bytes());
         // Only what the reader itself would read: inside the folder, a
         // regular file, within the largest size read.
+        // Hashed aside first: a file that cannot be read in full counts as
+        // missing, not as the bytes read before the error.
+        let mut file = Sha256::new();
         let read = real_file_inside(dir, &dir.join(s), s)
             .ok()
-            .and_then(|p| read_capped(&p, MAX_MODEL_BYTES, "file").ok());
+            .and_then(|p| stream_capped(&p, MAX_MODEL_BYTES, "file", &mut |b| file.update(b)).ok());
         match read {
-            Some(b) => {
-                h.update((b.len() as u64).to_le_bytes());
-                h.update(&b);
-            }
+            Some(_) => h.update(file.finalize()),
             None => h.update(u64::MAX.to_le_bytes()),
         }
     }

@@ -195,6 +195,61 @@ pub fn read_capped(path: &Path, cap: u64, what: &str) -> std::io::Result<Vec<u8>
     Ok(data)
 }
 
+/// [`read_capped`] without holding the file: its length, then its bytes in
+/// pieces of at most 64 KiB, go to `sink` (a hash of a file of any size
+/// within `cap` in constant memory). The length given first is the bytes
+/// passed; a file whose length changes while it is read is an error.
+pub fn stream_capped(
+    path: &Path,
+    cap: u64,
+    what: &str,
+    sink: &mut dyn FnMut(&[u8]),
+) -> std::io::Result<u64> {
+    let meta = match regular_file(path)? {
+        Ok(m) => m,
+        Err(kind) => {
+            return Err(std::io::Error::new(
+                std::io::ErrorKind::InvalidInput,
+                format!("the {what} is {kind}, not a regular file"),
+            ))
+        }
+    };
+    if meta.len() > cap {
+        return Err(std::io::Error::new(
+            std::io::ErrorKind::InvalidData,
+            format!(
+                "the {what} has {} bytes, more than the {cap} accepted",
+                meta.len()
+            ),
+        ));
+    }
+    let len = meta.len();
+    sink(&len.to_le_bytes());
+    let mut file = std::fs::File::open(path)?.take(len + 1);
+    let mut buf = vec![0u8; 64 << 10];
+    let mut read = 0u64;
+    loop {
+        let n = match file.read(&mut buf) {
+            Ok(0) => break,
+            Ok(n) => n,
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
+            Err(e) => return Err(e),
+        };
+        read += n as u64;
+        if read > len {
+            break;
+        }
+        sink(&buf[..n]);
+    }
+    if read != len {
+        return Err(std::io::Error::new(
+            std::io::ErrorKind::InvalidData,
+            format!("the {what} changed while it was read ({len} bytes, then {read})"),
+        ));
+    }
+    Ok(len)
+}
+
 /// Resolve `reference` (a relative URI or path as written in an asset) against
 /// `base_dir`, the folder of the asset.
 ///

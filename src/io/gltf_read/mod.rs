@@ -51,9 +51,12 @@ pub fn read_gltf(path: &Path) -> Result<Scene> {
 /// # Errors
 /// Those of [`read_gltf`].
 pub fn read_gltf_with(path: &Path, options: &crate::io::ReadOptions) -> Result<Scene> {
-    let bytes =
-        crate::io::paths::read_capped(path, crate::io::paths::MAX_MODEL_BYTES, "model file")
-            .map_err(|e| Error::io(path, e))?;
+    let bytes = crate::io::paths::read_capped(
+        path,
+        crate::io::model_cap(options.max_memory),
+        crate::io::model_what(options.max_memory),
+    )
+    .map_err(|e| Error::io(path, e))?;
     let base_dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
     read_gltf_bytes_with(&bytes, &base_dir, path, options)
 }
@@ -112,6 +115,12 @@ pub fn read_gltf_bytes_with(
             )));
         }
     }
+    let primitives: usize = arr(&root, "meshes")
+        .iter()
+        .map(|m| arr(m, "primitives").len())
+        .sum();
+    crate::io::check_primitive_count(primitives, "mesh primitives", options.max_memory)
+        .map_err(err)?;
     precheck_positions(&root).map_err(err)?;
     validate_schema(&json_bytes).map_err(err)?;
     let buffers = load_buffers(&root, bin, base_dir, options.max_memory).map_err(err)?;

@@ -35,9 +35,22 @@ use mtl::*;
 /// face. Missing material libraries and textures are only warnings
 /// ([`Scene::warnings`]).
 pub fn read_obj(path: &Path) -> Result<Scene, Error> {
-    let bytes =
-        crate::io::paths::read_capped(path, crate::io::paths::MAX_MODEL_BYTES, "model file")
-            .map_err(|e| Error::io(path, e))?;
+    read_obj_with(path, &crate::io::ReadOptions::default())
+}
+
+/// [`read_obj`] within `options.max_memory`: the file (held whole) and its
+/// objects ([`crate::io::PRIMITIVE_BYTES`] each) are checked against it
+/// before they are built.
+///
+/// # Errors
+/// Those of [`read_obj`]; a file or an object count over the budget.
+pub fn read_obj_with(path: &Path, options: &crate::io::ReadOptions) -> Result<Scene, Error> {
+    let bytes = crate::io::paths::read_capped(
+        path,
+        crate::io::model_cap(options.max_memory),
+        crate::io::model_what(options.max_memory),
+    )
+    .map_err(|e| Error::io(path, e))?;
     let text = String::from_utf8_lossy(&bytes);
     let base_dir = match path.parent() {
         Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
@@ -47,7 +60,7 @@ pub fn read_obj(path: &Path) -> Result<Scene, Error> {
         || "model.obj".to_string(),
         |n| n.to_string_lossy().into_owned(),
     );
-    read_impl(&text, &base_dir, &name, path)
+    read_impl(&text, &base_dir, &name, path, options.max_memory)
 }
 
 /// Read OBJ text as if it were the file `name` in the folder `base_dir`
@@ -56,7 +69,13 @@ pub fn read_obj(path: &Path) -> Result<Scene, Error> {
 /// # Errors
 /// As [`read_obj`]; errors name `base_dir/name`.
 pub fn read_obj_from_str(text: &str, base_dir: &Path, name: &str) -> Result<Scene, Error> {
-    read_impl(text, base_dir, name, &base_dir.join(name))
+    read_impl(
+        text,
+        base_dir,
+        name,
+        &base_dir.join(name),
+        crate::io::DEFAULT_MAX_MEMORY,
+    )
 }
 
 /// Marks an absent texture-coordinate or normal index.
@@ -105,7 +124,13 @@ struct Prepared {
     odd_vertex_lines: usize,
 }
 
-fn read_impl(text: &str, base_dir: &Path, name: &str, path: &Path) -> Result<Scene, Error> {
+fn read_impl(
+    text: &str,
+    base_dir: &Path,
+    name: &str,
+    path: &Path,
+    max_memory: u64,
+) -> Result<Scene, Error> {
     // A UTF-8 byte-order mark (Windows editors write one) is not part of
     // the first line: left there, it hid that line (often the `mtllib`).
     let text = text.strip_prefix('\u{feff}').unwrap_or(text);
@@ -123,6 +148,25 @@ fn read_impl(text: &str, base_dir: &Path, name: &str, path: &Path) -> Result<Sce
             "no faces: the OBJ file has no polygon (f) element to crack",
         ));
     }
+    // Each (object, group, material) becomes a primitive.
+    let mut used = vec![false; prep.sections.len()];
+    for f in &prep.faces {
+        used[f.section] = true;
+    }
+    let primitives = prep
+        .sections
+        .iter()
+        .zip(&used)
+        .filter(|(_, &u)| u)
+        .map(|(s, _)| (s.object, s.group.as_deref(), s.material.as_deref()))
+        .collect::<HashSet<_>>()
+        .len();
+    crate::io::check_primitive_count(
+        primitives,
+        "objects (one per object, group and material)",
+        max_memory,
+    )
+    .map_err(|m| Error::input(path, m))?;
     let mut warnings = Vec::new();
     if prep.strip_colors {
         warnings.push(format!(
