@@ -1048,7 +1048,10 @@ fn many_objects_or_primitives_are_held_to_the_memory_budget() {
     let (o, took) = run(&input, &["crack"]);
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(2), "{err}");
-    assert!(err.contains("simulation surfaces need about"), "{err}");
+    assert!(
+        err.contains("simulation surfaces of 300 meshes need about"),
+        "{err}"
+    );
     assert!(took.as_secs() < 20, "refused after {took:?}");
     assert!(!out.exists());
     // A few thousand convert within the budget.

@@ -300,7 +300,7 @@ pub fn scan_references(input: &Path) -> Vec<PathBuf> {
         }
     } else {
         let json: Option<Value> = if bytes.starts_with(b"glTF") {
-            gltf::binary::Glb::from_slice(&bytes)
+            crate::io::gltf_read::split_glb(&bytes)
                 .ok()
                 .and_then(|g| serde_json::from_slice(&g.json).ok())
         } else {

@@ -61,6 +61,24 @@ pub fn read_gltf_with(path: &Path, options: &crate::io::ReadOptions) -> Result<S
     read_gltf_bytes_with(&bytes, &base_dir, path, options)
 }
 
+/// A GLB's chunks, its header's length checked first (under 12, the
+/// container's own split subtracts past zero).
+///
+/// # Errors
+/// A message when the header or a chunk is malformed.
+pub fn split_glb(bytes: &[u8]) -> std::result::Result<gltf::binary::Glb<'_>, String> {
+    let length = bytes
+        .get(8..12)
+        .map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+        .ok_or("shorter than its 12-byte header")?;
+    if length < 12 {
+        return Err(format!(
+            "the header gives a length of {length} bytes, less than the header itself"
+        ));
+    }
+    gltf::binary::Glb::from_slice(bytes).map_err(|e| e.to_string())
+}
+
 /// Read a glTF or GLB document held in memory; external files are resolved
 /// inside `base_dir`, and `path` names the asset in messages.
 pub fn read_gltf_bytes(bytes: &[u8], base_dir: &Path, path: &Path) -> Result<Scene> {
@@ -79,8 +97,7 @@ pub fn read_gltf_bytes_with(
 ) -> Result<Scene> {
     let err = |m: String| Error::input(path, m);
     let (json_bytes, bin): (Vec<u8>, Option<Vec<u8>>) = if bytes.starts_with(b"glTF") {
-        let glb = gltf::binary::Glb::from_slice(bytes)
-            .map_err(|e| err(format!("invalid GLB container: {e}")))?;
+        let glb = split_glb(bytes).map_err(|e| err(format!("invalid GLB container: {e}")))?;
         (glb.json.into_owned(), glb.bin.map(|b| b.into_owned()))
     } else {
         (bytes.to_vec(), None)
@@ -826,6 +843,22 @@ pub fn mime_from_extension(p: &Path) -> Option<&'static str> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A GLB header whose length is under its own 12 bytes is an error
+    /// (the container's split subtracted past zero: a panic with overflow
+    /// checks, found by the fuzzer), and so is a file shorter than a header.
+    #[test]
+    fn a_glb_length_under_its_header_is_an_error() {
+        for length in [0u32, 11] {
+            let mut glb = b"glTF".to_vec();
+            glb.extend_from_slice(&2u32.to_le_bytes());
+            glb.extend_from_slice(&length.to_le_bytes());
+            glb.extend_from_slice(&[0; 20]);
+            let e = split_glb(&glb).err().unwrap();
+            assert!(e.contains("less than the header"), "{e}");
+        }
+        assert!(split_glb(b"glTF\x02\0\0").is_err());
+    }
 
     /// The hierarchy check visits each node once: a 100,000-deep chain (a
     /// walk up from every node took 9 s on it) and a cycle under a chain.
