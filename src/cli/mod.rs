@@ -24,11 +24,12 @@ pub struct Cli {
     /// Only errors on stderr.
     #[arg(short, long, global = true)]
     pub quiet: bool,
-    /// Most memory one input's decoded glTF data, its external buffers, or
-    /// one decoded image (a texture baked over, a mask) may take (bytes,
-    /// or with K, M, G); a file asking for more is refused before
-    /// allocating. Each file's decoded accessors also stay within 64 times
-    /// its real size, at least 1G.
+    /// Most memory one input's model file, decoded glTF data, external
+    /// buffers, objects or primitives (16K each), simulation surfaces (1K a
+    /// triangle), or one decoded image (a texture baked over, a mask) may
+    /// take (bytes, or with K, M, G); an input asking for more is refused
+    /// before allocating. Each file's decoded accessors also stay within 64
+    /// times its real size, at least 1G.
     #[arg(long, global = true, value_name = "SIZE", default_value = "8G", value_parser = parse_size)]
     pub max_memory: u64,
     #[command(subcommand)]
