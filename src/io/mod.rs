@@ -82,7 +82,7 @@ pub fn model_cap(max_memory: u64) -> u64 {
 /// [`model_cap`].
 pub fn model_what(max_memory: u64) -> &'static str {
     if max_memory < paths::MAX_MODEL_BYTES {
-        "model file (read whole, within --max-memory)"
+        "model file (read whole, within the memory budget, --max-memory)"
     } else {
         "model file"
     }
