@@ -167,6 +167,20 @@ pub fn open_no_follow(path: &Path) -> std::io::Result<std::fs::File> {
 /// file grow meanwhile). `what` names the file's role in the errors
 /// ("material library", "image"...).
 pub fn read_capped(path: &Path, cap: u64, what: &str) -> std::io::Result<Vec<u8>> {
+    let len = capped_len(path, cap, what)?;
+    let mut data = Vec::with_capacity(len as usize);
+    std::fs::File::open(path)?
+        .take(cap + 1)
+        .read_to_end(&mut data)?;
+    if data.len() as u64 > cap {
+        return Err(too_big(what, data.len() as u64, cap));
+    }
+    Ok(data)
+}
+
+/// The length of `path`, checked to be a regular file of at most `cap`
+/// bytes before anything is read ([`read_capped`], [`stream_capped`]).
+fn capped_len(path: &Path, cap: u64, what: &str) -> std::io::Result<u64> {
     let meta = match regular_file(path)? {
         Ok(m) => m,
         Err(kind) => {
@@ -176,23 +190,17 @@ pub fn read_capped(path: &Path, cap: u64, what: &str) -> std::io::Result<Vec<u8>
             ))
         }
     };
-    let too_big = |len: u64| {
-        std::io::Error::new(
-            std::io::ErrorKind::InvalidData,
-            format!("the {what} has {len} bytes, more than the {cap} accepted"),
-        )
-    };
     if meta.len() > cap {
-        return Err(too_big(meta.len()));
+        return Err(too_big(what, meta.len(), cap));
     }
-    let mut data = Vec::with_capacity(meta.len() as usize);
-    std::fs::File::open(path)?
-        .take(cap + 1)
-        .read_to_end(&mut data)?;
-    if data.len() as u64 > cap {
-        return Err(too_big(data.len() as u64));
-    }
-    Ok(data)
+    Ok(meta.len())
+}
+
+fn too_big(what: &str, len: u64, cap: u64) -> std::io::Error {
+    std::io::Error::new(
+        std::io::ErrorKind::InvalidData,
+        format!("the {what} has {len} bytes, more than the {cap} accepted"),
+    )
 }
 
 /// [`read_capped`] without holding the file: its length, then its bytes in
@@ -205,25 +213,7 @@ pub fn stream_capped(
     what: &str,
     sink: &mut dyn FnMut(&[u8]),
 ) -> std::io::Result<u64> {
-    let meta = match regular_file(path)? {
-        Ok(m) => m,
-        Err(kind) => {
-            return Err(std::io::Error::new(
-                std::io::ErrorKind::InvalidInput,
-                format!("the {what} is {kind}, not a regular file"),
-            ))
-        }
-    };
-    if meta.len() > cap {
-        return Err(std::io::Error::new(
-            std::io::ErrorKind::InvalidData,
-            format!(
-                "the {what} has {} bytes, more than the {cap} accepted",
-                meta.len()
-            ),
-        ));
-    }
-    let len = meta.len();
+    let len = capped_len(path, cap, what)?;
     sink(&len.to_le_bytes());
     let mut file = std::fs::File::open(path)?.take(len + 1);
     let mut buf = vec![0u8; 64 << 10];

@@ -713,6 +713,7 @@ fn remesh_to_cell_size(
     let t = Instant::now();
     observer.stage("remesh");
     let mut plans = Vec::new();
+    let mut total: u64 = 0;
     for (e, p) in entries.iter().zip(params_of) {
         let plan = p
             .cell_size_for(&e.sim)
@@ -731,17 +732,13 @@ fn remesh_to_cell_size(
                     p.max_triangles
                 )));
             }
+            total += estimate as u64;
         }
         plans.push(plan);
     }
     // Every mesh's simulation surface together, within the memory budget
     // (many small objects each remeshed to a cell size relative to its own
     // size made a 5 MB OBJ ask for billions of triangles).
-    let total: u64 = entries
-        .iter()
-        .zip(&plans)
-        .filter_map(|(e, plan)| plan.map(|t| remesh::estimate_triangles(&e.sim, t) as u64))
-        .sum();
     let need = total.saturating_mul(SIM_TRIANGLE_BYTES);
     if need > max_memory {
         return Err(Error::Usage(format!(
