@@ -288,24 +288,32 @@ fn run_asset(
             // is a real folder: a link there would put the output (and its
             // side files) anywhere.
             let dir = asset.output.parent().unwrap_or(Path::new("."));
-            crate::io::write::make_dirs_below(&options.out, dir)?;
+            let held = crate::io::write::make_dirs_below(&options.out, dir)?;
+            let output = match asset.output.file_name() {
+                Some(name) => held.path().join(name),
+                None => asset.output.clone(),
+            };
             let spec = &plan.pipes[*k];
             let config = Config {
                 pipeline: spec.pipeline.clone(),
                 weld: options.weld.clone(),
                 asset: asset.input.clone(),
                 frames: None,
-                output: asset.output.clone(),
+                output,
                 read: options.read,
             };
             let prefix_images = options.format == super::OutFormat::Gltf;
-            let report = crack_file(
+            let mut report = crack_file(
                 config,
                 spec.dir.as_deref(),
                 prefix_images,
                 &mut Stages(on_stage),
             )
-            .map_err(|e| chain(&e))?;
+            .map_err(|e| held.show(&chain(&e)))?;
+            report.output = held.show(&report.output);
+            for f in &mut report.files {
+                *f = held.show(f);
+            }
             let sources = report
                 .sources
                 .iter()
@@ -364,10 +372,14 @@ fn copy_asset(asset: &Asset, out_root: &Path) -> Result<Done> {
         let real = real_file_inside(in_dir, from, name)
             .map_err(|e| Error::Batch(format!("{}: {e}", asset.input.display())))?;
         let dir = to.parent().unwrap_or(Path::new("."));
-        crate::io::write::make_dirs_below(out_root, dir).map_err(Error::Batch)?;
+        let held = crate::io::write::make_dirs_below(out_root, dir).map_err(Error::Batch)?;
         let mut src = crate::io::paths::open_no_follow(&real)
             .map_err(|e| Error::Batch(format!("{}: cannot read: {e}", from.display())))?;
-        bytes += crate::io::write::copy_atomic(&mut src, to, MAX_MODEL_BYTES).map_err(|e| {
+        let at = match to.file_name() {
+            Some(name) => held.path().join(name),
+            None => to.clone(),
+        };
+        bytes += crate::io::write::copy_atomic(&mut src, &at, MAX_MODEL_BYTES).map_err(|e| {
             Error::Batch(format!(
                 "{}: cannot copy to {}: {e}",
                 from.display(),

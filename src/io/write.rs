@@ -101,12 +101,46 @@ pub fn copy_atomic(from: &mut dyn std::io::Read, path: &Path, cap: u64) -> std::
     result
 }
 
+/// A folder [`make_dirs_below`] made or checked, held open by its
+/// descriptor: files created through [`HeldDir::path`] land in the folder
+/// that was checked even if a folder on the way is swapped for a symbolic
+/// link afterwards (on Linux the path is `/proc/self/fd/N`, which names the
+/// open folder itself, not a path walked again; elsewhere it is the
+/// checked path).
+#[derive(Debug)]
+pub struct HeldDir {
+    shown: PathBuf,
+    held: Option<(File, PathBuf)>,
+}
+
+impl HeldDir {
+    /// The path to create files in the folder by.
+    pub fn path(&self) -> &Path {
+        self.held.as_ref().map_or(&self.shown, |(_, p)| p)
+    }
+
+    /// The folder by the name the user knows it by.
+    pub fn shown(&self) -> &Path {
+        &self.shown
+    }
+
+    /// `text` (a path or a message) with the held path replaced by the
+    /// name the user knows the folder by.
+    pub fn show(&self, text: &str) -> String {
+        match &self.held {
+            Some((_, p)) => text.replace(&*p.to_string_lossy(), &self.shown.to_string_lossy()),
+            None => text.to_string(),
+        }
+    }
+}
+
 /// Make the folder `dir` (`root` or a folder below it by its text), one
 /// folder at a time from `root` down: `root` itself may be anything the
 /// user named, but every folder below it must be a real folder, not a
-/// symbolic link (which would put what is written there anywhere). Errors
-/// name the folder.
-pub fn make_dirs_below(root: &Path, dir: &Path) -> Result<(), String> {
+/// symbolic link (which would put what is written there anywhere). Each
+/// folder is opened from the one above it without following a link, and
+/// the last is held open ([`HeldDir`]). Errors name the folder.
+pub fn make_dirs_below(root: &Path, dir: &Path) -> Result<HeldDir, String> {
     std::fs::create_dir_all(root)
         .map_err(|e| format!("{}: cannot create the folder: {e}", root.display()))?;
     let rest = dir.strip_prefix(root).map_err(|_| {
@@ -117,6 +151,7 @@ pub fn make_dirs_below(root: &Path, dir: &Path) -> Result<(), String> {
         )
     })?;
     let mut at = root.to_path_buf();
+    let mut parts = Vec::new();
     for c in rest.components() {
         let Component::Normal(part) = c else {
             return Err(format!(
@@ -126,14 +161,35 @@ pub fn make_dirs_below(root: &Path, dir: &Path) -> Result<(), String> {
             ));
         };
         at.push(part);
+        parts.push(part);
+    }
+    let link = |at: &Path| {
+        format!(
+            "{}: a symbolic link inside the output folder {} (not written through)",
+            at.display(),
+            root.display()
+        )
+    };
+    #[cfg(target_os = "linux")]
+    {
+        let held = held::open_below(root, &parts, link)?;
+        let proc_path = PathBuf::from(format!("/proc/self/fd/{}", {
+            use std::os::fd::AsRawFd as _;
+            held.as_raw_fd()
+        }));
+        if std::fs::metadata(&proc_path).is_ok_and(|m| m.is_dir()) {
+            return Ok(HeldDir {
+                shown: at,
+                held: Some((held, proc_path)),
+            });
+        }
+        // Without /proc the checked path is used (checked again below).
+    }
+    let mut at = root.to_path_buf();
+    for part in parts {
+        at.push(part);
         match std::fs::symlink_metadata(&at) {
-            Ok(m) if m.file_type().is_symlink() => {
-                return Err(format!(
-                    "{}: a symbolic link inside the output folder {} (not written through)",
-                    at.display(),
-                    root.display()
-                ))
-            }
+            Ok(m) if m.file_type().is_symlink() => return Err(link(&at)),
             Ok(m) if m.is_dir() => {}
             Ok(_) => return Err(format!("{}: not a folder", at.display())),
             Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
@@ -155,7 +211,85 @@ pub fn make_dirs_below(root: &Path, dir: &Path) -> Result<(), String> {
             Err(e) => return Err(format!("{}: cannot read: {e}", at.display())),
         }
     }
-    Ok(())
+    Ok(HeldDir {
+        shown: at,
+        held: None,
+    })
+}
+
+/// Descending folder by folder through descriptors (`mkdirat`, then
+/// `openat` with `O_NOFOLLOW | O_DIRECTORY`): no folder's name is looked up
+/// again after it was checked.
+#[cfg(target_os = "linux")]
+mod held {
+    use std::ffi::{CString, OsStr};
+    use std::fs::File;
+    use std::os::fd::{AsRawFd as _, FromRawFd as _};
+    use std::os::unix::ffi::OsStrExt as _;
+    use std::path::{Path, PathBuf};
+
+    fn open_dir_at(dir: &File, name: &CString) -> std::io::Result<File> {
+        // SAFETY: `openat` on a descriptor `dir` owns and a NUL-terminated
+        // name; the returned descriptor is owned by the new `File`.
+        let fd = unsafe {
+            libc::openat(
+                dir.as_raw_fd(),
+                name.as_ptr(),
+                libc::O_RDONLY | libc::O_DIRECTORY | libc::O_NOFOLLOW | libc::O_CLOEXEC,
+            )
+        };
+        if fd < 0 {
+            return Err(std::io::Error::last_os_error());
+        }
+        // SAFETY: `fd` is a fresh descriptor nothing else owns.
+        Ok(unsafe { File::from_raw_fd(fd) })
+    }
+
+    fn is_link_at(dir: &File, name: &CString) -> bool {
+        // SAFETY: `fstatat` writes into a zeroed `stat` this function owns.
+        unsafe {
+            let mut st: libc::stat = std::mem::zeroed();
+            libc::fstatat(
+                dir.as_raw_fd(),
+                name.as_ptr(),
+                &mut st,
+                libc::AT_SYMLINK_NOFOLLOW,
+            ) == 0
+                && (st.st_mode & libc::S_IFMT) == libc::S_IFLNK
+        }
+    }
+
+    pub(super) fn open_below(
+        root: &Path,
+        parts: &[&OsStr],
+        link: impl Fn(&Path) -> String,
+    ) -> Result<File, String> {
+        let mut dir = File::open(root)
+            .map_err(|e| format!("{}: cannot open the folder: {e}", root.display()))?;
+        let mut at: PathBuf = root.to_path_buf();
+        for part in parts {
+            at.push(part);
+            let name = CString::new(part.as_bytes())
+                .map_err(|_| format!("{}: a folder name with a NUL byte", at.display()))?;
+            // SAFETY: `mkdirat` on a descriptor `dir` owns and a
+            // NUL-terminated name.
+            if unsafe { libc::mkdirat(dir.as_raw_fd(), name.as_ptr(), 0o777) } != 0 {
+                let e = std::io::Error::last_os_error();
+                if e.kind() != std::io::ErrorKind::AlreadyExists {
+                    return Err(format!("{}: cannot create the folder: {e}", at.display()));
+                }
+            }
+            dir = match open_dir_at(&dir, &name) {
+                Ok(d) => d,
+                Err(_) if is_link_at(&dir, &name) => return Err(link(&at)),
+                Err(e) if e.raw_os_error() == Some(libc::ENOTDIR) => {
+                    return Err(format!("{}: not a folder", at.display()))
+                }
+                Err(e) => return Err(format!("{}: cannot open the folder: {e}", at.display())),
+            };
+        }
+        Ok(dir)
+    }
 }
 
 /// Whether `a` and `b` name the same file: the same file on disk when both
@@ -243,5 +377,33 @@ mod tests {
         assert!(!elsewhere.join("c").exists());
         assert!(make_dirs_below(&root, &dir.path().join("x")).is_err());
         assert!(make_dirs_below(&root, &root.join("a/../../x")).is_err());
+    }
+
+    #[cfg(target_os = "linux")]
+    #[test]
+    fn a_folder_swapped_for_a_link_after_the_check_is_not_written_through() {
+        let dir = tempfile::tempdir().unwrap();
+        let root = dir.path().join("out");
+        let elsewhere = dir.path().join("elsewhere");
+        std::fs::create_dir_all(&elsewhere).unwrap();
+        let held = make_dirs_below(&root, &root.join("a/b")).unwrap();
+        assert_eq!(held.shown(), root.join("a/b"));
+        // The checked folder `a` is moved away and a link to `elsewhere`
+        // put in its place before anything is written.
+        std::fs::rename(root.join("a"), root.join("moved")).unwrap();
+        std::os::unix::fs::symlink(&elsewhere, root.join("a")).unwrap();
+        std::fs::create_dir(elsewhere.join("b")).unwrap();
+        write_atomic(&held.path().join("x.glb"), b"new").unwrap();
+        assert!(!elsewhere.join("b/x.glb").exists());
+        assert_eq!(std::fs::read(root.join("moved/b/x.glb")).unwrap(), b"new");
+        // Messages speak of the folder by the name the user gave.
+        let held_text = held.path().join("x.glb").display().to_string();
+        assert_eq!(
+            held.show(&format!("{held_text}: cannot write")),
+            format!("{}: cannot write", root.join("a/b/x.glb").display())
+        );
+        // And a link met on the way down is refused as before.
+        let err = make_dirs_below(&root, &root.join("a/b")).unwrap_err();
+        assert!(err.contains("symbolic link"), "{err}");
     }
 }
