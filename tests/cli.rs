@@ -900,7 +900,8 @@ fn huge_png(path: &Path) {
 /// An image is held to `--max-memory` on its declared size before it is
 /// decoded, as a material's base colour in the bake and as a mask: a
 /// 16384 x 16384 PNG as `map_Kd` took 4.4 GB and 86 s in `glaze`'s bake
-/// under `--max-memory 100M`, as a mask 1.06 GB.
+/// under `--max-memory 100M`, as a mask 1.06 GB. Both are refused before
+/// the simulation, as every budget is (a usage error, exit 2).
 #[test]
 fn an_image_over_the_memory_budget_is_refused_before_decoding() {
     let dir = tempfile::tempdir().unwrap();
@@ -926,7 +927,7 @@ fn an_image_over_the_memory_budget_is_refused_before_decoding() {
         "100M".as_ref(),
     ]);
     let err = String::from_utf8_lossy(&o.stderr);
-    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert_eq!(o.status.code(), Some(2), "{err}");
     assert!(
         err.contains("big.png") && err.contains("--max-memory"),
         "{err}"

@@ -8,7 +8,9 @@ use crate::math::v3;
 use crate::post::bake::{self, atlas, Cracks, Layer, Look, Profile, Surface};
 use crate::post::Post;
 use crate::scene::{Geometry, Image, ImageSource, Material, Scene, TriGeometry};
-use crate::stress::texture::{decode_channels_within, texture_of_material, Channels, TextureError};
+use crate::stress::texture::{
+    check_within, decode_channels_within, texture_of_material, Channels, TextureError,
+};
 use serde_json::{json, Map, Value};
 use std::collections::BTreeMap;
 
@@ -61,6 +63,57 @@ pub fn bake_mesh(
         details.push(d);
     }
     Ok(json!({ "materials": details }))
+}
+
+/// Before any work: every texture the bake of `meshes` will decode (their
+/// materials' base colour, normal and occlusion images) checked by its
+/// header against `budget`, as decoding it would (nothing is decoded), so
+/// an image too large for the budget is refused before the simulation,
+/// not after it.
+///
+/// # Errors
+/// The first image that decoding would refuse.
+pub fn check_material_images(
+    scene: &Scene,
+    meshes: &[usize],
+    budget: u64,
+) -> Result<(), TextureError> {
+    let mut seen = std::collections::BTreeSet::new();
+    for &mesh in meshes {
+        for p in &scene.meshes[mesh].primitives {
+            let Some(m) = p.material else { continue };
+            let Geometry::Triangles(_) = &p.geometry else {
+                continue;
+            };
+            if !seen.insert(m) {
+                continue;
+            }
+            let Some(json) = scene.materials.get(m).map(|x| &x.json) else {
+                continue;
+            };
+            for slot in ["baseColorTexture", "normalTexture", "occlusionTexture"] {
+                if !has_slot(json, slot) {
+                    continue;
+                }
+                let t = texture_of_material(scene, m, slot)?;
+                if let ImageSource::Bytes(bytes) = &scene.images[t.image].source {
+                    check_within(bytes, &t.name, Channels::Rgba, budget)?;
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Whether a material's JSON has a texture in `slot`.
+fn has_slot(json: &Map<String, Value>, slot: &str) -> bool {
+    match slot {
+        "baseColorTexture" => json
+            .get("pbrMetallicRoughness")
+            .and_then(|p| p.get(slot))
+            .is_some(),
+        _ => json.get(slot).is_some(),
+    }
 }
 
 /// One material's primitives of a mesh.
@@ -476,13 +529,7 @@ fn material_layers(
     let Some(m) = material else {
         return Ok(out);
     };
-    let has = |slot: &str| match slot {
-        "baseColorTexture" => json
-            .get("pbrMetallicRoughness")
-            .and_then(|p| p.get(slot))
-            .is_some(),
-        _ => json.get(slot).is_some(),
-    };
+    let has = |slot: &str| has_slot(json, slot);
     let files = Files::default();
     let layer = |slot: &str| -> Result<Option<Layer>, TextureError> {
         if !has(slot) {
@@ -676,6 +723,62 @@ mod tests {
                 ..Default::default()
             }),
             rest: Map::new(),
+        }
+    }
+
+    /// A PNG's signature and header (no pixels), declaring `w` x `h` grey.
+    fn png_header(w: u32, h: u32) -> Vec<u8> {
+        let mut out = Vec::new();
+        let mut enc = png::Encoder::new(&mut out, w, h);
+        enc.set_color(png::ColorType::Grayscale);
+        let writer = enc.write_header().unwrap();
+        drop(writer);
+        out
+    }
+
+    #[test]
+    fn material_images_are_held_to_the_budget_by_their_headers() {
+        let image = |w, h| Image {
+            name: Some("big.png".into()),
+            mime_type: Some("image/png".into()),
+            source: ImageSource::Bytes(png_header(w, h)),
+            file_name: "big.png".into(),
+            rest: Map::new(),
+        };
+        let material = |slot: &str| {
+            let json = if slot == "baseColorTexture" {
+                json!({ "pbrMetallicRoughness": { slot: { "index": 0 } } })
+            } else {
+                json!({ slot: { "index": 0 } })
+            };
+            Material {
+                json: json.as_object().unwrap().clone(),
+            }
+        };
+        for slot in ["baseColorTexture", "normalTexture", "occlusionTexture"] {
+            let mut scene = Scene {
+                meshes: vec![Mesh {
+                    primitives: vec![prim(0.0)],
+                    ..Default::default()
+                }],
+                materials: vec![material(slot)],
+                textures: vec![json!({ "source": 0 })],
+                images: vec![image(16384, 16384)],
+                ..Default::default()
+            };
+            // 16384^2 RGBA: 4 GiB of values and the decoder's rows.
+            let err = check_material_images(&scene, &[0], 100 << 20).unwrap_err();
+            assert!(
+                matches!(err, TextureError::OverBudget { width: 16384, .. }),
+                "{slot}: {err}"
+            );
+            assert!(err.to_string().contains("big.png"), "{err}");
+            // Nothing is decoded: the header alone passes a budget that
+            // holds it, and a mesh not cracked is not looked at.
+            assert!(check_material_images(&scene, &[0], 8 << 30).is_ok());
+            assert!(check_material_images(&scene, &[], 1).is_ok());
+            scene.images[0] = image(64, 64);
+            assert!(check_material_images(&scene, &[0], 100 << 20).is_ok());
         }
     }
 

@@ -466,6 +466,12 @@ pub fn prepare(scene: &Scene, config: &Config, observer: &mut dyn Observer) -> R
     observer.stage("weld");
     let mut entries = select_meshes(scene, pipe, &config.weld, input)?;
     stages.push(Stage::new("weld", t.elapsed().as_secs_f64()));
+    if pipe.post.bake {
+        // The maps' textures by their headers, before any simulation.
+        let meshes: Vec<usize> = entries.iter().map(|e| e.mesh_index).collect();
+        super::bake::check_material_images(scene, &meshes, config.read.max_memory)
+            .map_err(|e| Error::Usage(format!("{}: {e}", input.display())))?;
+    }
     let params_of = mesh_params(scene, &entries, pipe, input)?;
     if let Some(stage) = remesh_to_cell_size(
         &mut entries,

@@ -371,7 +371,7 @@ impl GreyImage {
 
 #[path = "texture_decode.rs"]
 mod decode;
-pub use decode::{decode_channels, decode_channels_within, Channels};
+pub use decode::{check_within, decode_channels, decode_channels_within, Channels};
 
 /// Where a material mask's image files come from. This layer does no I/O:
 /// the caller supplies the files (`crate::io::image::Files` reads them

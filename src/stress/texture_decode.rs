@@ -48,15 +48,44 @@ pub fn decode_channels_within(
     channels: Channels,
     budget: u64,
 ) -> Result<(u32, u32, Vec<f32>), TextureError> {
+    decode_or_check(
+        bytes,
+        &Size {
+            name,
+            channels,
+            budget,
+            header_only: false,
+        },
+    )
+}
+
+/// The checks of [`decode_channels_within`] on the image's header alone
+/// (nothing is decoded or allocated): its `(width, height)`, or the error
+/// decoding it would give before allocating (format, size, budget).
+///
+/// # Errors
+/// Those of [`decode_channels_within`] up to the header.
+pub fn check_within(
+    bytes: &[u8],
+    name: &str,
+    channels: Channels,
+    budget: u64,
+) -> Result<(u32, u32), TextureError> {
     let size = Size {
         name,
         channels,
         budget,
+        header_only: true,
     };
+    decode_or_check(bytes, &size).map(|(w, h, _)| (w, h))
+}
+
+fn decode_or_check(bytes: &[u8], size: &Size) -> Result<(u32, u32, Vec<f32>), TextureError> {
+    let name = size.name;
     if bytes.starts_with(b"\x89PNG\r\n\x1a\n") {
-        decode_png(bytes, &size)
+        decode_png(bytes, size)
     } else if bytes.starts_with(&[0xFF, 0xD8, 0xFF]) {
-        decode_jpeg(bytes, &size)
+        decode_jpeg(bytes, size)
     } else {
         let what = if bytes.len() >= 12 && &bytes[..4] == b"RIFF" && &bytes[8..12] == b"WEBP" {
             "a WebP image"
@@ -85,6 +114,8 @@ struct Size<'a> {
     name: &'a str,
     channels: Channels,
     budget: u64,
+    /// Stop after the header's checks (nothing decoded).
+    header_only: bool,
 }
 
 impl Size<'_> {
@@ -154,6 +185,9 @@ fn decode_png(bytes: &[u8], size: &Size) -> Result<(u32, u32, Vec<f32>), Texture
     let header = decoder.read_header_info().map_err(fail)?;
     let (width, height) = (header.width, header.height);
     let pixels = size.check(u64::from(width), u64::from(height))?;
+    if size.header_only {
+        return Ok((width, height, Vec::new()));
+    }
     let mut reader = decoder.read_info().map_err(fail)?;
     let (color, depth) = reader.output_color_type();
     let bytes_per_sample = match depth {
@@ -300,6 +334,9 @@ fn decode_jpeg(bytes: &[u8], size: &Size) -> Result<(u32, u32, Vec<f32>), Textur
         reason: "JPEG header has no frame size".to_string(),
     })?;
     let pixels = size.check(w as u64, h as u64)?;
+    if size.header_only {
+        return Ok((w as u32, h as u32, Vec::new()));
+    }
     let expected = pixels * 3;
     if decoder.output_buffer_size() != Some(expected) {
         return Err(size_mismatch(
