@@ -1,7 +1,9 @@
 //! An independent measure of a crackle output (no code shared with `crackle stats`):
 //!
 //! `cargo run --release --example measure -- OUTPUT.glb --input INPUT.(obj|glb|gltf)
-//!  [--frame plate|disc|latlong] [--axis x|y|z] [--cell D]` prints JSON;
+//!  [--frame plate|disc|latlong] [--axis x|y|z] [--cell D] [--impact X,Y,Z --radius R]`
+//! prints JSON (with `--impact`, radial and concentric crack length by distance from the
+//! point, see `impact_stats`);
 //! `cargo run --release --example measure -- shapes DIR` writes test meshes into DIR.
 //!
 //! Crack lines are the LINES primitives of material `crack_lines`, taken at rest
@@ -56,10 +58,12 @@ struct Args {
     frame: String,
     axis: [f64; 3],
     cell: Option<f64>,
+    impact: Option<([f64; 3], f64)>,
 }
 
 fn parse_args(args: &[String]) -> Args {
     let (mut output, mut input, mut frame, mut axis, mut cell) = (None, None, None, 2, None);
+    let (mut impact, mut radius) = (None, None);
     let mut it = args.iter();
     while let Some(a) = it.next() {
         let mut value = || {
@@ -86,6 +90,23 @@ fn parse_args(args: &[String]) -> Args {
                 }
                 cell = Some(v);
             }
+            "--impact" => {
+                let v: Vec<f64> = value()
+                    .split(',')
+                    .map(|x| x.parse().unwrap_or_else(|_| fail("--impact X,Y,Z")))
+                    .collect();
+                if v.len() != 3 {
+                    fail("--impact X,Y,Z");
+                }
+                impact = Some([v[0], v[1], v[2]]);
+            }
+            "--radius" => {
+                radius = Some(
+                    value()
+                        .parse::<f64>()
+                        .unwrap_or_else(|_| fail("--radius needs a number")),
+                )
+            }
             s if s.starts_with("--") => fail(&format!("unknown option {s}")),
             s if output.is_none() => output = Some(PathBuf::from(s)),
             s => fail(&format!("unexpected argument {s}")),
@@ -103,6 +124,7 @@ fn parse_args(args: &[String]) -> Args {
         frame,
         axis: unit,
         cell,
+        impact: impact.map(|c| (c, radius.unwrap_or_else(|| fail("--impact needs --radius")))),
     }
 }
 
@@ -227,6 +249,17 @@ fn main() {
         map.insert("planar_cells".into(), json!(c.len()));
         map.insert("mean_cell_diameter".into(), json!(mean_d));
         map.insert("cell_min_area_rel".into(), json!(min_area_rel));
+    }
+    if let Some((center, radius)) = a.impact {
+        // Distances in the plate's plane on a plate, else straight-line.
+        let mut normal = [0.0; 3];
+        if plate {
+            normal[flat] = 1.0;
+        }
+        map.insert(
+            "impact".into(),
+            measure::impact_stats(&lines, center, normal, radius),
+        );
     }
     println!("{}", serde_json::to_string_pretty(&report).expect("JSON"));
 }

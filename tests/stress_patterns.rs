@@ -56,6 +56,7 @@ fn impact_cracks_radially_near_the_point() {
             points: vec![[c[0], c[1], 2.0]],
             radius,
             concentric_factor: 1.25,
+            radial_cracks: 0,
         },
         init: 6.0,
         evolve: 0.0,

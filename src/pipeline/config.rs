@@ -141,8 +141,16 @@ pub struct StressEntry {
     pub radius: Option<f64>,
     /// impact: radius as a fraction of the bounding-box diagonal.
     pub radius_relative: Option<f64>,
-    /// impact: concentric over radial factor. Default 1.25.
+    /// impact: concentric over radial factor of the paper's disc (no
+    /// `speed` or `radial_cracks`). Default 1.25.
     pub concentric_factor: Option<f64>,
+    /// impact: the hit's speed in metres per second, giving a star of
+    /// `4 sqrt(speed)` radial cracks (3 to 64: N doubles when the speed
+    /// quadruples, as on thin glass plates). Instead of `radial_cracks`.
+    pub speed: Option<f64>,
+    /// impact: the star's number of radial cracks, 3 to 64. Instead of
+    /// `speed`. Without either, the paper's disc of crazing.
+    pub radial_cracks: Option<u32>,
     /// curvature: also scale each node's separation by this curvature
     /// measure: gaussian (|k1 k2|), mean (|k1 + k2|/2), frobenius
     /// (sqrt(k1^2 + k2^2)) or sum_squares (k1^2 + k2^2).
@@ -680,6 +688,8 @@ impl StressEntry {
             ("radius", self.radius.is_some()),
             ("radius_relative", self.radius_relative.is_some()),
             ("concentric_factor", self.concentric_factor.is_some()),
+            ("speed", self.speed.is_some()),
+            ("radial_cracks", self.radial_cracks.is_some()),
             ("separation", self.separation.is_some()),
             ("strength", self.strength.is_some()),
             ("max_factor", self.max_factor.is_some()),
@@ -727,6 +737,8 @@ impl StressEntry {
                 "radius",
                 "radius_relative",
                 "concentric_factor",
+                "speed",
+                "radial_cracks",
             ],
             other => {
                 return Err(format!(
@@ -839,10 +851,34 @@ impl StressEntry {
                         return Err(format!("{key} must be > 0, got {r}"));
                     }
                 }
+                let radial_cracks = match (self.speed, self.radial_cracks) {
+                    (Some(_), Some(_)) => {
+                        return Err("give 'speed' or 'radial_cracks', not both".into())
+                    }
+                    (Some(v), None) if !(v.is_finite() && v > 0.0 && v <= 1e4) => {
+                        return Err(format!("speed must be in (0, 10000] m/s, got {v}"))
+                    }
+                    (Some(v), None) => crate::stress::impact::rays_for_speed(v),
+                    (None, Some(n))
+                        if !(crate::stress::impact::MIN_RAYS..=crate::stress::impact::MAX_RAYS)
+                            .contains(&n) =>
+                    {
+                        return Err(format!("radial_cracks must be 3 to 64, got {n}"))
+                    }
+                    (None, Some(n)) => n,
+                    (None, None) => 0,
+                };
+                if radial_cracks > 0 && self.concentric_factor.is_some() {
+                    return Err(
+                        "'concentric_factor' is the paper's disc's: not with 'speed' or 'radial_cracks'"
+                            .into(),
+                    );
+                }
                 TermKind::Impact {
                     points,
                     radius,
                     concentric_factor: self.concentric_factor.unwrap_or(1.25),
+                    radial_cracks,
                 }
             }
         };
@@ -931,6 +967,44 @@ mod tests {
                 assert!((radius - 1.5).abs() < 1e-12);
             }
             k => panic!("{k:?}"),
+        }
+    }
+
+    #[test]
+    fn an_impacts_speed_or_count_of_radial_cracks_makes_a_star() {
+        let base = "[[stress]]\nkind = \"impact\"\ninit = 1\npoints_relative = [[0.5,0.5,1]]\nradius_relative = 0.25\n";
+        let b = Bounds {
+            min: [0.0; 3],
+            max: [4.0, 4.0, 2.0],
+        };
+        let rays = |extra: &str| -> Result<u32, String> {
+            let p = Pipeline::parse(&format!("{base}{extra}"), "x.toml", &[])
+                .map_err(|e| e.to_string())?;
+            match p.terms(&Placement::local(b), &[]) {
+                Ok(t) => match &t[0].kind {
+                    TermKind::Impact { radial_cracks, .. } => Ok(*radial_cracks),
+                    k => panic!("{k:?}"),
+                },
+                Err(e) => Err(e.to_string()),
+            }
+        };
+        assert_eq!(rays(""), Ok(0));
+        assert_eq!(rays("speed = 4.0\n"), Ok(8));
+        assert_eq!(rays("speed = 16.0\n"), Ok(16));
+        assert_eq!(rays("radial_cracks = 5\n"), Ok(5));
+        for (extra, says) in [
+            ("speed = 4.0\nradial_cracks = 5\n", "not both"),
+            ("speed = -1.0\n", "speed must be"),
+            ("speed = 1e300\n", "speed must be"),
+            ("radial_cracks = 2\n", "radial_cracks must be"),
+            ("radial_cracks = 65\n", "radial_cracks must be"),
+            (
+                "speed = 4.0\nconcentric_factor = 1.25\n",
+                "concentric_factor",
+            ),
+        ] {
+            let e = rays(extra).unwrap_err();
+            assert!(e.contains(says), "{extra}: {e}");
         }
     }
 

@@ -486,6 +486,7 @@ fn impact_params() -> (SimParams, Vec<crate::stress::Term>) {
             points: vec![[12.0, 12.0, 0.0]],
             radius: 7.0,
             concentric_factor: 1.25,
+            radial_cracks: 0,
         },
         init: 3.0,
         evolve: 0.0,

@@ -33,16 +33,22 @@ pub enum TermKind {
         /// The axis direction (normalised here).
         axis: [f64; 3],
     },
-    /// Impacts (eqs. 11-13): within `radius` of each point (projected onto
-    /// the surface), weight `w = 2 cos(d / r)`, radial `v = w P (c - p)/|c - p|`
+    /// Impacts. With `radial_cracks` > 0, a star from each point
+    /// ([`super::impact::Star`]: radial cracks, rings between them, no
+    /// cut-off; distances along the surface). With 0, the paper's disc
+    /// (eqs. 11-13): within `radius` of each point (projected onto the
+    /// surface), weight `w = 2 cos(d / r)`, radial `v = w P (c - p)/|c - p|`
     /// and concentric `concentric_factor * n x v`, both added as `v v^T`.
     Impact {
         /// Impact points (projected onto the surface before use).
         points: Vec<[f64; 3]>,
-        /// Radius of influence (mesh units), > 0.
+        /// Radius of influence (mesh units), > 0: the disc's radius; the
+        /// star's reference radius (its hoop tension halves by 0.35 R).
         radius: f64,
-        /// Concentric over radial factor (the paper's 1.25).
+        /// Concentric over radial factor of the disc (the paper's 1.25).
         concentric_factor: f64,
+        /// Radial cracks of each star (0: the paper's disc).
+        radial_cracks: u32,
     },
     /// Seeded noise for material inhomogeneity: a random magnitude in [0, 1]
     /// along a random in-plane direction per input triangle.
@@ -186,6 +192,7 @@ impl Term {
                 points,
                 radius,
                 concentric_factor,
+                radial_cracks,
             } => {
                 if !(radius.is_finite() && *radius > 0.0) {
                     return bad(format!("radius must be > 0, got {radius}"));
@@ -193,6 +200,12 @@ impl Term {
                 if !(concentric_factor.is_finite() && *concentric_factor >= 0.0) {
                     return bad(format!(
                         "concentric_factor must be >= 0, got {concentric_factor}"
+                    ));
+                }
+                if *radial_cracks > super::impact::MAX_RAYS {
+                    return bad(format!(
+                        "radial_cracks must be at most {}, got {radial_cracks}",
+                        super::impact::MAX_RAYS
                     ));
                 }
                 if points.is_empty() {
@@ -254,6 +267,10 @@ impl Term {
                     None => Sym3::ZERO, // on the axis: no ring direction
                 }
             }
+            TermKind::Impact { radial_cracks, .. } if *radial_cracks > 0 => ctx
+                .stars
+                .iter()
+                .fold(Sym3::ZERO, |s, star| s + star.tensor(f.idx(), n)),
             TermKind::Impact {
                 radius,
                 concentric_factor,
@@ -310,6 +327,8 @@ struct Context<'a> {
     seed: u64,
     /// Impact points projected onto the surface (impact terms).
     impacts: Vec<[f64; 3]>,
+    /// Each impact's star (impact terms with radial cracks).
+    stars: Vec<super::impact::Star>,
     /// The UV channel a mask samples (masked terms).
     uv_channel: Option<&'a crate::mesh::Channel>,
     curvature: Option<&'a CurvatureField>,
@@ -431,6 +450,20 @@ impl StressField {
                 TermKind::Impact { points, .. } => project_onto_surface(mesh, points),
                 _ => Vec::new(),
             };
+            let stars = match &t.kind {
+                TermKind::Impact {
+                    radius,
+                    radial_cracks,
+                    ..
+                } if *radial_cracks > 0 => impacts
+                    .iter()
+                    .enumerate()
+                    .map(|(k, &p)| {
+                        super::impact::Star::new(mesh, p, *radius, *radial_cracks, seed, k as u64)
+                    })
+                    .collect(),
+                _ => Vec::new(),
+            };
             let uv_channel = match &t.mask {
                 Some(m) => {
                     let name = format!("TEXCOORD_{}", m.tex_coord);
@@ -448,6 +481,7 @@ impl StressField {
             contexts.push(Context {
                 seed,
                 impacts,
+                stars,
                 uv_channel,
                 curvature,
                 curvature_rms,
@@ -544,6 +578,7 @@ mod tests {
                 points: vec![center],
                 radius: 4.0,
                 concentric_factor: 1.25,
+                radial_cracks: 0,
             },
             init: 1.0,
             evolve: 0.0,
@@ -607,6 +642,7 @@ mod tests {
                 points: vec![[0.0; 3]],
                 radius: 0.0,
                 concentric_factor: 1.25,
+                radial_cracks: 0,
             },
             init: 1.0,
             evolve: 0.0,

@@ -2,6 +2,8 @@
 //! texture masks, noise) that set each triangle's rest stress.
 
 pub mod field;
+pub mod geodesic;
+pub mod impact;
 pub mod texture;
 
 pub use field::{CurvatureMeasure, CurvatureScale, StressField, Term, TermKind};

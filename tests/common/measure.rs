@@ -884,3 +884,92 @@ pub fn cell_diameters(areas: &[f64]) -> f64 {
     let d = |a: &f64| (4.0 * a / std::f64::consts::PI).sqrt();
     ratio(areas.iter().map(d).sum(), areas.len() as f64)
 }
+
+/// Impact statistics of crack lines around `center` (straight-line distance, which is
+/// the surface's on a plate) with reference radius `radius`: per band of 0.1 R out to
+/// 1.5 R the crack length, the length per area of the band's annulus, and the shares
+/// of radial (within 30 degrees of the direction away from the center, measured in the
+/// plane normal to `normal`), concentric (within 30 degrees of perpendicular to it)
+/// and oblique length (a random network has a third of each); the largest share of the
+/// total length in any band 0.05 R wide (a ring where the pattern is cut off shows as a
+/// peak); and how many segments cross the circles at 0.25 R, 0.5 R and 0.75 R (a star of
+/// N straight radial cracks crosses each N times). Segments are split into 64 pieces so
+/// that long ones are binned where they lie.
+pub fn impact_stats(lines: &[Seg], center: P3, normal: P3, radius: f64) -> Value {
+    let n = unit(normal);
+    let flat = |p: P3| {
+        let d = sub(p, center);
+        let h = dot(d, n);
+        [d[0] - h * n[0], d[1] - h * n[1], d[2] - h * n[2]]
+    };
+    let bands = 15;
+    let mut len = vec![0.0; bands];
+    let mut radial = vec![0.0; bands];
+    let mut conc = vec![0.0; bands];
+    let fine = 30;
+    let mut fine_len = vec![0.0; fine];
+    let mut total = 0.0;
+    let cos30 = (30f64).to_radians().cos();
+    let sin30 = 0.5;
+    for s in lines {
+        let (a, b) = (flat(s[0]), flat(s[1]));
+        let pieces = 64;
+        for k in 0..pieces {
+            let p = lerp(a, b, k as f64 / pieces as f64);
+            let q = lerp(a, b, (k + 1) as f64 / pieces as f64);
+            let l = dist(p, q);
+            if l == 0.0 {
+                continue;
+            }
+            let m = lerp(p, q, 0.5);
+            let r = norm(m);
+            total += l;
+            let fi = (r / (0.05 * radius)) as usize;
+            if fi < fine {
+                fine_len[fi] += l;
+            }
+            let bi = (r / (0.1 * radius)) as usize;
+            if bi >= bands || r == 0.0 {
+                continue;
+            }
+            len[bi] += l;
+            let c = (dot(sub(q, p), m) / (l * r)).abs();
+            if c >= cos30 {
+                radial[bi] += l;
+            } else if c <= sin30 {
+                conc[bi] += l;
+            }
+        }
+    }
+    let crossings = |rc: f64| {
+        lines
+            .iter()
+            .filter(|s| (norm(flat(s[0])) - rc) * (norm(flat(s[1])) - rc) < 0.0)
+            .count()
+    };
+    let band: Vec<Value> = (0..bands)
+        .map(|i| {
+            let (r0, r1) = (0.1 * i as f64 * radius, 0.1 * (i + 1) as f64 * radius);
+            let area = std::f64::consts::PI * (r1 * r1 - r0 * r0);
+            serde_json::json!({
+                "from": 0.1 * i as f64, "length": len[i], "per_area": len[i] / area,
+                "radial": ratio(radial[i], len[i]), "concentric": ratio(conc[i], len[i]),
+            })
+        })
+        .collect();
+    let sum = |v: &[f64], a: usize, b: usize| v[a..b].iter().sum::<f64>();
+    let area = |a: f64, b: f64| std::f64::consts::PI * (b * b - a * a) * radius * radius;
+    serde_json::json!({
+        "center": center, "radius": radius, "total_length": total,
+        "bands": band,
+        "radial_share_0.2_0.8": ratio(sum(&radial, 2, 8), sum(&len, 2, 8)),
+        "concentric_share_0.2_0.8": ratio(sum(&conc, 2, 8), sum(&len, 2, 8)),
+        "per_area_0_0.3": sum(&len, 0, 3) / area(0.0, 0.3),
+        "per_area_0.6_0.9": sum(&len, 6, 9) / area(0.6, 0.9),
+        "max_band_share_0.05": fine_len.iter().fold(0.0f64, |m, &x| m.max(ratio(x, total))),
+        "share_beyond_1.1": ratio(total - sum(&len, 0, 11).min(total), total),
+        "crossings_0.25": crossings(0.25 * radius),
+        "crossings_0.5": crossings(0.5 * radius),
+        "crossings_0.75": crossings(0.75 * radius),
+    })
+}

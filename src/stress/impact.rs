@@ -1,0 +1,280 @@
+//! The load of an impact on a brittle shell as a star: `N` radial cracks
+//! from the hit, rings between them at spacings that grow outward, intact
+//! material beyond.
+//!
+//! A hit on a thin brittle plate first opens `N` radial cracks from the
+//! hoop (circumferential) tension under the load, `N` growing as the
+//! square root of the impact speed at fixed thickness and material
+//! (Vandenberghe, Vermorel and Villermaux, PRL 110, 174302, 2013); the
+//! plate's bending then breaks some of the wedges between them along
+//! arcs. Here the load is a rest stress on each face from the distance
+//! *along the surface* ([`super::geodesic`]), so it wraps over a curved
+//! asset and stops at a gap:
+//! - hoop tension (cracks open across it: radial cracks) decaying as
+//!   `1 / (1 + (d / 0.7 R)^4)`, with no cut-off: cracks end where it
+//!   falls below the toughness. It is nearly all along `N` rays from the hit
+//!   (seeded angles, each ray its own strength, so rays end at different
+//!   distances), which is where the star's cracks start and run;
+//! - radial tension (cracks open across it: arcs) along rings at
+//!   `0.2 R * 1.6^j`, in a seeded half of the sectors between rays.
+//!
+//! Widths are in cells (the simulation surface's mean edge), so the
+//! pattern is the same at any scale and tessellation.
+
+use crate::math::{hash_unit, v3, Sym3};
+use crate::mesh::SimMesh;
+
+/// Impact speed (m/s) that gives [`RAYS_AT_ONE`] radial cracks.
+const REFERENCE_SPEED: f64 = 1.0;
+/// Radial cracks at [`REFERENCE_SPEED`].
+const RAYS_AT_ONE: f64 = 4.0;
+/// Fewest radial cracks of a star.
+pub const MIN_RAYS: u32 = 3;
+/// Most radial cracks of a star.
+pub const MAX_RAYS: u32 = 64;
+
+/// Radial cracks for an impact at `speed` m/s: `4 sqrt(speed / 1 m/s)`,
+/// rounded, within [`MIN_RAYS`, `MAX_RAYS`] (N doubles when the speed
+/// quadruples, as measured on thin glass plates).
+pub fn rays_for_speed(speed: f64) -> u32 {
+    let n = (RAYS_AT_ONE * (speed / REFERENCE_SPEED).max(0.0).sqrt()).round();
+    (n as u32).clamp(MIN_RAYS, MAX_RAYS)
+}
+
+/// Hoop tension's decay length, in radii: it falls as
+/// `1 / (1 + (d / (0.7 R))^4)`, to a fifth at `R`.
+const HOOP_DECAY: f64 = 0.7;
+/// Ring tension against the hoop tension on a ray.
+const RING_STRENGTH: f64 = 0.4;
+/// How far a ray may move from even spacing, as a share of the gap.
+const RAY_JITTER: f64 = 0.4;
+/// Hoop tension between rays, as a share of that on a ray.
+const BETWEEN_RAYS: f64 = 0.03;
+/// Width of a ray or ring, in cells.
+const WIDTH_CELLS: f64 = 1.2;
+/// The first ring, in radii, and the ratio of one ring to the next.
+const FIRST_RING: f64 = 0.2;
+const RING_RATIO: f64 = 1.6;
+/// Share of the sectors between rays a ring crosses.
+const RING_SECTORS: f64 = 0.5;
+
+/// One impact's load over a mesh's faces.
+pub struct Star {
+    /// Per face: distance along the surface (infinite where the surface
+    /// does not reach), in-plane unit direction away from the hit, and
+    /// angle around it.
+    faces: Vec<(f64, [f64; 3], f64)>,
+    /// The rays' angles and strengths.
+    rays: Vec<(f64, f64)>,
+    /// Ring distances.
+    rings: Vec<f64>,
+    width: f64,
+    radius: f64,
+    seed: u64,
+}
+
+/// The smallest angle between `a` and `b` (radians, in [0, pi]).
+fn angle_between(a: f64, b: f64) -> f64 {
+    let d = (a - b).rem_euclid(std::f64::consts::TAU);
+    d.min(std::f64::consts::TAU - d)
+}
+
+impl Star {
+    /// The load of a hit at `point` (on the surface) with `rays` radial
+    /// cracks and reference radius `radius`; `seed` and `index` (which
+    /// impact) choose the rays' angles and strengths and the rings'
+    /// sectors.
+    pub fn new(
+        mesh: &SimMesh,
+        point: [f64; 3],
+        radius: f64,
+        rays: u32,
+        seed: u64,
+        index: u64,
+    ) -> Star {
+        let centroid = |f: crate::mesh::FaceId| {
+            let [a, b, c] = mesh.face_vertices(f).map(|v| mesh.position(v));
+            v3::scale(v3::add(v3::add(a, b), c), 1.0 / 3.0)
+        };
+        // The face the hit lands on: the nearest centroid.
+        let hit = mesh
+            .faces()
+            .map(|f| (v3::norm(v3::sub(centroid(f), point)), f.idx()))
+            .min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)))
+            .map_or(0, |x| x.1);
+        let dist = super::geodesic::distances(mesh, point, hit);
+        // A frame in the tangent plane at the hit, for angles.
+        let normal_of = |f: crate::mesh::FaceId| {
+            let [a, b, c] = mesh.face_vertices(f).map(|v| mesh.position(v));
+            v3::cross(v3::sub(b, a), v3::sub(c, a))
+        };
+        let n0 = mesh
+            .faces()
+            .nth(hit)
+            .map(normal_of)
+            .and_then(unit)
+            .unwrap_or([0.0, 0.0, 1.0]);
+        let pick = if n0[0].abs() < 0.9 {
+            [1.0, 0.0, 0.0]
+        } else {
+            [0.0, 1.0, 0.0]
+        };
+        let e1 = unit(v3::sub(pick, v3::scale(n0, v3::dot(pick, n0)))).unwrap_or([1.0, 0.0, 0.0]);
+        let e2 = v3::cross(n0, e1);
+        let faces = mesh
+            .faces()
+            .map(|f| {
+                let vs = mesh.face_vertices(f);
+                let [a, b, c] = vs.map(|v| mesh.position(v));
+                let [da, db, dc] = vs.map(|v| dist[v.idx()]);
+                let d = (da + db + dc) / 3.0;
+                if !d.is_finite() {
+                    return (f64::INFINITY, [0.0; 3], 0.0);
+                }
+                let n = unit(normal_of(f)).unwrap_or(n0);
+                // The gradient of the distance over the face.
+                let (ab, ac) = (v3::sub(b, a), v3::sub(c, a));
+                let g = gradient(ab, ac, n, db - da, dc - da);
+                let away = unit(g)
+                    .or_else(|| unit(in_plane(v3::sub(centroid(f), point), n)))
+                    .unwrap_or([0.0; 3]);
+                let r = v3::sub(centroid(f), point);
+                let theta = v3::dot(r, e2).atan2(v3::dot(r, e1));
+                (d, away, theta)
+            })
+            .collect();
+        let key = |k: u64| seed ^ index.wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ k;
+        let unit01 = |k: u64, i: u64| 0.5 * (hash_unit(key(k), i) + 1.0);
+        let phase = std::f64::consts::TAU * unit01(0x7261_7973, 0);
+        let step = std::f64::consts::TAU / f64::from(rays.max(1));
+        let rays = (0..u64::from(rays))
+            .map(|i| {
+                // Evenly around, each moved by up to a fifth of the gap.
+                let jitter = (unit01(0x6A69_7474, i) - 0.5) * RAY_JITTER * step;
+                let strength = 0.8 + 0.5 * unit01(0x7374_7267, i);
+                (phase + step * i as f64 + jitter, strength)
+            })
+            .collect();
+        let mut rings = Vec::new();
+        let mut r = FIRST_RING;
+        while r < 1.2 {
+            rings.push(r * radius);
+            r *= RING_RATIO;
+        }
+        Star {
+            faces,
+            rays,
+            rings,
+            width: WIDTH_CELLS * mesh.mean_edge_length(),
+            radius,
+            seed: key(0x7269_6e67),
+        }
+    }
+
+    /// The load on face `f` (normal `n`): zero where the surface from the
+    /// hit does not reach.
+    pub fn tensor(&self, f: usize, n: [f64; 3]) -> Sym3 {
+        let (d, away, theta) = self.faces[f];
+        if !d.is_finite() || away == [0.0; 3] {
+            return Sym3::ZERO;
+        }
+        let rho = d / self.radius;
+        let hoop_decay = 1.0 / (1.0 + (rho / HOOP_DECAY).powi(4));
+        // The rays: the nearest one's profile across it (arc distance).
+        let mut on_ray: f64 = 0.0;
+        let mut nearest = (f64::INFINITY, 0usize);
+        for (k, &(angle, strength)) in self.rays.iter().enumerate() {
+            let gap = angle_between(theta, angle);
+            if gap < nearest.0 {
+                nearest = (gap, k);
+            }
+            let arc = d * gap.min(std::f64::consts::FRAC_PI_2);
+            on_ray = on_ray.max(strength * (-(arc / self.width).powi(2)).exp());
+        }
+        let hoop = hoop_decay * (BETWEEN_RAYS + (1.0 - BETWEEN_RAYS) * on_ray);
+        // The rings, each across a seeded share of the sectors: the
+        // sector is the one between the nearest ray and its neighbour on
+        // this side.
+        let sector = {
+            let (_, k) = nearest;
+            let side = (theta - self.rays[k].0).sin() >= 0.0;
+            let n = self.rays.len();
+            if side {
+                k
+            } else {
+                (k + n - 1) % n
+            }
+        };
+        let mut ring: f64 = 0.0;
+        for (j, &rj) in self.rings.iter().enumerate() {
+            let h = hash_unit(self.seed, (j * 1024 + sector) as u64);
+            if 0.5 * (h + 1.0) > RING_SECTORS {
+                continue;
+            }
+            ring = ring.max((-((d - rj) / self.width).powi(2)).exp());
+        }
+        let radial = RING_STRENGTH * hoop_decay * ring;
+        let hoop_dir = v3::cross(n, away);
+        Sym3::outer(hoop_dir) * hoop + Sym3::outer(away) * radial
+    }
+}
+
+fn unit(a: [f64; 3]) -> Option<[f64; 3]> {
+    let n = v3::norm(a);
+    (n > 0.0 && n.is_finite()).then(|| v3::scale(a, 1.0 / n))
+}
+
+fn in_plane(v: [f64; 3], n: [f64; 3]) -> [f64; 3] {
+    v3::sub(v, v3::scale(n, v3::dot(v, n)))
+}
+
+/// The gradient in the face's plane of a linear function rising by `gb`
+/// along `ab` and `gc` along `ac` (normal `n`).
+fn gradient(ab: [f64; 3], ac: [f64; 3], n: [f64; 3], gb: f64, gc: f64) -> [f64; 3] {
+    // g = (gb (ac x n) + gc (n x ab)) / (2 area), with (ab x ac) . n = 2 area.
+    let twice_area = v3::dot(v3::cross(ab, ac), n);
+    if twice_area.abs() < 1e-300 {
+        return [0.0; 3];
+    }
+    let g = v3::add(
+        v3::scale(v3::cross(ac, n), gb),
+        v3::scale(v3::cross(n, ab), gc),
+    );
+    v3::scale(g, 1.0 / twice_area)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rays_grow_as_the_square_root_of_the_speed() {
+        assert_eq!(rays_for_speed(1.0), 4);
+        assert_eq!(rays_for_speed(4.0), 8);
+        assert_eq!(rays_for_speed(16.0), 16);
+        assert_eq!(rays_for_speed(0.0), MIN_RAYS);
+        assert_eq!(rays_for_speed(1e9), MAX_RAYS);
+    }
+
+    #[test]
+    fn the_gradient_of_a_linear_function() {
+        let n = [0.0, 0.0, 1.0];
+        // f = 2x + 3y on a right triangle.
+        let g = gradient([1.0, 0.0, 0.0], [0.0, 1.0, 0.0], n, 2.0, 3.0);
+        assert!(
+            (g[0] - 2.0).abs() < 1e-12 && (g[1] - 3.0).abs() < 1e-12,
+            "{g:?}"
+        );
+        let g = gradient(
+            [2.0, 1.0, 0.0],
+            [-1.0, 3.0, 0.0],
+            n,
+            2.0 * 2.0 + 3.0,
+            -2.0 + 9.0,
+        );
+        assert!(
+            (g[0] - 2.0).abs() < 1e-12 && (g[1] - 3.0).abs() < 1e-12,
+            "{g:?}"
+        );
+    }
+}
