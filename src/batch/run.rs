@@ -373,13 +373,13 @@ fn copy_asset(asset: &Asset, out_root: &Path) -> Result<Done> {
             .map_err(|e| Error::Batch(format!("{}: {e}", asset.input.display())))?;
         let dir = to.parent().unwrap_or(Path::new("."));
         let held = crate::io::write::make_dirs_below(out_root, dir).map_err(Error::Batch)?;
-        let mut src = crate::io::paths::open_no_follow(&real)
+        let src = crate::io::paths::open_no_follow(&real)
             .map_err(|e| Error::Batch(format!("{}: cannot read: {e}", from.display())))?;
         let at = match to.file_name() {
             Some(name) => held.path().join(name),
             None => to.clone(),
         };
-        bytes += crate::io::write::copy_atomic(&mut src, &at, MAX_MODEL_BYTES).map_err(|e| {
+        bytes += crate::io::write::copy_atomic(&src, &at, MAX_MODEL_BYTES).map_err(|e| {
             Error::Batch(format!(
                 "{}: cannot copy to {}: {e}",
                 from.display(),

@@ -79,10 +79,18 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
     })
 }
 
-/// Copy everything `from` reads (at most `cap` bytes; more is an error) to
-/// `path` as a unit: a new temporary, then a rename. Returns the bytes
-/// copied.
-pub fn copy_atomic(from: &mut dyn std::io::Read, path: &Path, cap: u64) -> std::io::Result<u64> {
+/// Copy the file `from` (at most `cap` bytes; a larger one is refused
+/// from its length before anything is read, and the copy stops past the
+/// cap should it grow meanwhile) to `path` as a unit: a new temporary,
+/// then a rename. File to file, so the kernel copies it
+/// (`copy_file_range` where the system has it). Returns the bytes copied.
+pub fn copy_atomic(from: &File, path: &Path, cap: u64) -> std::io::Result<u64> {
+    let len = from.metadata()?.len();
+    if len > cap {
+        return Err(std::io::Error::other(format!(
+            "{len} bytes, larger than the {cap}-byte limit"
+        )));
+    }
     let (tmp, mut f) = create_temp(path)?;
     let result = std::io::copy(&mut std::io::Read::take(from, cap + 1), &mut f)
         .and_then(|n| {
@@ -347,6 +355,38 @@ mod tests {
         let (a, _) = create_temp(&out).unwrap();
         let (b, _) = create_temp(&out).unwrap();
         assert_ne!(a, b);
+    }
+
+    #[test]
+    fn a_copy_over_the_cap_is_refused_by_its_length_before_reading() {
+        let dir = tempfile::tempdir().unwrap();
+        let big = dir.path().join("big.bin");
+        // A sparse file: its length alone is over the cap.
+        std::fs::File::create(&big)
+            .unwrap()
+            .set_len(5 << 30)
+            .unwrap();
+        let out = dir.path().join("out");
+        std::fs::create_dir(&out).unwrap();
+        let err = copy_atomic(&File::open(&big).unwrap(), &out.join("big.bin"), 1 << 20)
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("5368709120 bytes"), "{err}");
+        assert_eq!(std::fs::read_dir(&out).unwrap().count(), 0);
+        // Within the cap the copy is whole.
+        let small = dir.path().join("small.bin");
+        std::fs::write(&small, vec![7u8; 100_000]).unwrap();
+        let n = copy_atomic(
+            &File::open(&small).unwrap(),
+            &out.join("small.bin"),
+            1 << 20,
+        )
+        .unwrap();
+        assert_eq!(n, 100_000);
+        assert_eq!(
+            std::fs::read(out.join("small.bin")).unwrap(),
+            vec![7u8; 100_000]
+        );
     }
 
     #[test]
