@@ -366,27 +366,51 @@ fn copy_asset(asset: &Asset, out_root: &Path) -> Result<Done> {
     for s in &sources {
         files.push((in_dir.join(s), out_dir.join(s), s.clone()));
     }
+    // Every file copied to a temporary first, then all put in place: a
+    // file that cannot be read (changed meanwhile, say) leaves no part of
+    // the asset in the output.
+    let mut staged: Vec<(PathBuf, PathBuf, PathBuf)> = Vec::new();
+    let mut held_dirs = Vec::new();
     let mut outputs = Vec::new();
     let mut bytes = 0u64;
-    for (from, to, name) in &files {
-        let real = real_file_inside(in_dir, from, name)
-            .map_err(|e| Error::Batch(format!("{}: {e}", asset.input.display())))?;
-        let dir = to.parent().unwrap_or(Path::new("."));
-        let held = crate::io::write::make_dirs_below(out_root, dir).map_err(Error::Batch)?;
-        let src = crate::io::paths::open_no_follow(&real)
-            .map_err(|e| Error::Batch(format!("{}: cannot read: {e}", from.display())))?;
-        let at = match to.file_name() {
-            Some(name) => held.path().join(name),
-            None => to.clone(),
-        };
-        bytes += crate::io::write::copy_atomic(&src, &at, MAX_MODEL_BYTES).map_err(|e| {
-            Error::Batch(format!(
-                "{}: cannot copy to {}: {e}",
-                from.display(),
-                to.display()
-            ))
-        })?;
-        outputs.push(to.display().to_string());
+    let copied = (|| -> Result<()> {
+        for (from, to, name) in &files {
+            let real = real_file_inside(in_dir, from, name)
+                .map_err(|e| Error::Batch(format!("{}: {e}", asset.input.display())))?;
+            let dir = to.parent().unwrap_or(Path::new("."));
+            let held = crate::io::write::make_dirs_below(out_root, dir).map_err(Error::Batch)?;
+            let src = crate::io::paths::open_no_follow(&real)
+                .map_err(|e| Error::Batch(format!("{}: cannot read: {e}", from.display())))?;
+            let at = match to.file_name() {
+                Some(name) => held.path().join(name),
+                None => to.clone(),
+            };
+            let (tmp, n) =
+                crate::io::write::copy_temp(&src, &at, MAX_MODEL_BYTES).map_err(|e| {
+                    Error::Batch(format!(
+                        "{}: cannot copy to {}: {e}",
+                        from.display(),
+                        to.display()
+                    ))
+                })?;
+            // The held folders stay open (and their paths valid) until
+            // every file is in place.
+            staged.push((tmp, at, to.clone()));
+            held_dirs.push(held);
+            bytes += n;
+            outputs.push(to.display().to_string());
+        }
+        for (tmp, at, to) in &staged {
+            std::fs::rename(tmp, at)
+                .map_err(|e| Error::Batch(format!("{}: cannot write: {e}", to.display())))?;
+        }
+        Ok(())
+    })();
+    if let Err(e) = copied {
+        for (tmp, _, _) in &staged {
+            let _ = std::fs::remove_file(tmp);
+        }
+        return Err(e);
     }
     Ok(Done {
         status: Status::Copied,

@@ -85,6 +85,19 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
 /// then a rename. File to file, so the kernel copies it
 /// (`copy_file_range` where the system has it). Returns the bytes copied.
 pub fn copy_atomic(from: &File, path: &Path, cap: u64) -> std::io::Result<u64> {
+    let (tmp, n) = copy_temp(from, path, cap)?;
+    std::fs::rename(&tmp, path)
+        .inspect_err(|_| {
+            let _ = std::fs::remove_file(&tmp);
+        })
+        .map(|_| n)
+}
+
+/// The first half of [`copy_atomic`]: the copy in a new temporary beside
+/// `path` (nothing is left on failure); its name and the bytes copied.
+/// Renaming it into place is the caller's (several files can then be
+/// copied before any is put in place).
+pub fn copy_temp(from: &File, path: &Path, cap: u64) -> std::io::Result<(PathBuf, u64)> {
     let len = from.metadata()?.len();
     if len > cap {
         return Err(std::io::Error::other(format!(
@@ -92,21 +105,22 @@ pub fn copy_atomic(from: &File, path: &Path, cap: u64) -> std::io::Result<u64> {
         )));
     }
     let (tmp, mut f) = create_temp(path)?;
-    let result = std::io::copy(&mut std::io::Read::take(from, cap + 1), &mut f)
-        .and_then(|n| {
-            if n > cap {
-                Err(std::io::Error::other(format!(
-                    "larger than the {cap}-byte limit"
-                )))
-            } else {
-                f.flush().map(|_| n)
-            }
-        })
-        .and_then(|n| std::fs::rename(&tmp, path).map(|_| n));
-    if result.is_err() {
-        let _ = std::fs::remove_file(&tmp);
+    let result = std::io::copy(&mut std::io::Read::take(from, cap + 1), &mut f).and_then(|n| {
+        if n > cap {
+            Err(std::io::Error::other(format!(
+                "larger than the {cap}-byte limit"
+            )))
+        } else {
+            f.flush().map(|_| n)
+        }
+    });
+    match result {
+        Ok(n) => Ok((tmp, n)),
+        Err(e) => {
+            let _ = std::fs::remove_file(&tmp);
+            Err(e)
+        }
     }
-    result
 }
 
 /// A folder [`make_dirs_below`] made or checked, held open by its
