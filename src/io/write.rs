@@ -81,21 +81,10 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
 
 /// Copy the file `from` (at most `cap` bytes; a larger one is refused
 /// from its length before anything is read, and the copy stops past the
-/// cap should it grow meanwhile) to `path` as a unit: a new temporary,
-/// then a rename. File to file, so the kernel copies it
-/// (`copy_file_range` where the system has it). Returns the bytes copied.
-pub fn copy_atomic(from: &File, path: &Path, cap: u64) -> std::io::Result<u64> {
-    let (tmp, n) = copy_temp(from, path, cap)?;
-    std::fs::rename(&tmp, path)
-        .inspect_err(|_| {
-            let _ = std::fs::remove_file(&tmp);
-        })
-        .map(|_| n)
-}
-
-/// The first half of [`copy_atomic`]: the copy in a new temporary beside
-/// `path` (nothing is left on failure); its name and the bytes copied.
-/// Renaming it into place is the caller's (several files can then be
+/// cap should it grow meanwhile) to a new temporary beside `path`, file to
+/// file, so the kernel copies it (`copy_file_range` where the system has
+/// it); nothing is left on failure. Returns its name and the bytes copied;
+/// renaming it into place is the caller's (several files can then be
 /// copied before any is put in place).
 pub fn copy_temp(from: &File, path: &Path, cap: u64) -> std::io::Result<(PathBuf, u64)> {
     let len = from.metadata()?.len();
@@ -382,7 +371,7 @@ mod tests {
             .unwrap();
         let out = dir.path().join("out");
         std::fs::create_dir(&out).unwrap();
-        let err = copy_atomic(&File::open(&big).unwrap(), &out.join("big.bin"), 1 << 20)
+        let err = copy_temp(&File::open(&big).unwrap(), &out.join("big.bin"), 1 << 20)
             .unwrap_err()
             .to_string();
         assert!(err.contains("5368709120 bytes"), "{err}");
@@ -390,12 +379,13 @@ mod tests {
         // Within the cap the copy is whole.
         let small = dir.path().join("small.bin");
         std::fs::write(&small, vec![7u8; 100_000]).unwrap();
-        let n = copy_atomic(
+        let (tmp, n) = copy_temp(
             &File::open(&small).unwrap(),
             &out.join("small.bin"),
             1 << 20,
         )
         .unwrap();
+        std::fs::rename(tmp, out.join("small.bin")).unwrap();
         assert_eq!(n, 100_000);
         assert_eq!(
             std::fs::read(out.join("small.bin")).unwrap(),

@@ -91,7 +91,7 @@ pub fn check_material_images(
             let Some(json) = scene.materials.get(m).map(|x| &x.json) else {
                 continue;
             };
-            for slot in ["baseColorTexture", "normalTexture", "occlusionTexture"] {
+            for slot in BAKED_SLOTS {
                 if !has_slot(json, slot) {
                     continue;
                 }
@@ -104,6 +104,9 @@ pub fn check_material_images(
     }
     Ok(())
 }
+
+/// The material textures the bake decodes ([`material_layers`]).
+const BAKED_SLOTS: [&str; 3] = ["baseColorTexture", "normalTexture", "occlusionTexture"];
 
 /// Whether a material's JSON has a texture in `slot`.
 fn has_slot(json: &Map<String, Value>, slot: &str) -> bool {

@@ -68,34 +68,12 @@ fn unfolded(a: [f64; 3], da: f64, b: [f64; 3], db: f64, c: [f64; 3]) -> Option<f
 /// distance from it.
 pub fn distances(mesh: &SimMesh, point: [f64; 3], face: usize) -> Vec<f64> {
     let n = mesh.n_vertices();
-    let faces: Vec<[u32; 3]> = mesh
-        .faces()
-        .map(|f| mesh.face_vertices(f).map(|v| v.0))
-        .collect();
-    // Faces around each vertex, in face order.
-    let mut start = vec![0u32; n + 1];
-    for t in &faces {
-        for &v in t {
-            start[v as usize + 1] += 1;
-        }
-    }
-    for i in 0..n {
-        start[i + 1] += start[i];
-    }
-    let mut fill = start.clone();
-    let mut around = vec![0u32; start[n] as usize];
-    for (i, t) in faces.iter().enumerate() {
-        for &v in t {
-            around[fill[v as usize] as usize] = i as u32;
-            fill[v as usize] += 1;
-        }
-    }
     let p = |v: u32| mesh.positions()[v as usize];
     let mut dist = vec![f64::INFINITY; n];
     let mut done = vec![false; n];
     let mut queue = BinaryHeap::new();
-    if let Some(t) = faces.get(face) {
-        for &v in t {
+    if let Some(f) = mesh.faces().nth(face) {
+        for v in mesh.face_vertices(f).map(|v| v.0) {
             let d = v3::norm(v3::sub(p(v), point));
             if d < dist[v as usize] {
                 dist[v as usize] = d;
@@ -108,8 +86,8 @@ pub fn distances(mesh: &SimMesh, point: [f64; 3], face: usize) -> Vec<f64> {
             continue;
         }
         done[v as usize] = true;
-        for &f in &around[start[v as usize] as usize..start[v as usize + 1] as usize] {
-            let t = faces[f as usize];
+        for f in mesh.vertex_faces(crate::mesh::VertexId(v)) {
+            let t = mesh.face_vertices(f).map(|v| v.0);
             for k in 0..3 {
                 let c = t[k];
                 if done[c as usize] {

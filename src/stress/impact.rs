@@ -21,6 +21,7 @@
 //! Widths are in cells (the simulation surface's mean edge), so the
 //! pattern is the same at any scale and tessellation.
 
+use super::field::{face_frame, in_plane, unit};
 use crate::math::{hash_unit, v3, Sym3};
 use crate::mesh::SimMesh;
 
@@ -92,53 +93,44 @@ impl Star {
         seed: u64,
         index: u64,
     ) -> Star {
-        let centroid = |f: crate::mesh::FaceId| {
-            let [a, b, c] = mesh.face_vertices(f).map(|v| mesh.position(v));
-            v3::scale(v3::add(v3::add(a, b), c), 1.0 / 3.0)
-        };
         // The face the hit lands on: the nearest centroid.
-        let hit = mesh
-            .faces()
-            .map(|f| (v3::norm(v3::sub(centroid(f), point)), f.idx()))
+        let frames: Vec<_> = mesh.faces().map(|f| face_frame(mesh, f)).collect();
+        let hit = frames
+            .iter()
+            .enumerate()
+            .filter_map(|(i, fr)| fr.map(|(c, _)| (v3::norm(v3::sub(c, point)), i)))
             .min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)))
             .map_or(0, |x| x.1);
         let dist = super::geodesic::distances(mesh, point, hit);
         // A frame in the tangent plane at the hit, for angles.
-        let normal_of = |f: crate::mesh::FaceId| {
-            let [a, b, c] = mesh.face_vertices(f).map(|v| mesh.position(v));
-            v3::cross(v3::sub(b, a), v3::sub(c, a))
-        };
-        let n0 = mesh
-            .faces()
-            .nth(hit)
-            .map(normal_of)
-            .and_then(unit)
-            .unwrap_or([0.0, 0.0, 1.0]);
+        let n0 = frames
+            .get(hit)
+            .copied()
+            .flatten()
+            .map_or([0.0, 0.0, 1.0], |(_, n)| n);
         let pick = if n0[0].abs() < 0.9 {
             [1.0, 0.0, 0.0]
         } else {
             [0.0, 1.0, 0.0]
         };
-        let e1 = unit(v3::sub(pick, v3::scale(n0, v3::dot(pick, n0)))).unwrap_or([1.0, 0.0, 0.0]);
+        let e1 = unit(in_plane(pick, n0)).unwrap_or([1.0, 0.0, 0.0]);
         let e2 = v3::cross(n0, e1);
         let faces = mesh
             .faces()
-            .map(|f| {
+            .zip(&frames)
+            .map(|(f, frame)| {
                 let vs = mesh.face_vertices(f);
-                let [a, b, c] = vs.map(|v| mesh.position(v));
                 let [da, db, dc] = vs.map(|v| dist[v.idx()]);
                 let d = (da + db + dc) / 3.0;
-                if !d.is_finite() {
+                // Degenerate faces carry no stress (the field skips them).
+                let Some((centroid, n)) = frame.filter(|_| d.is_finite()) else {
                     return (f64::INFINITY, [0.0; 3], 0.0);
-                }
-                let n = unit(normal_of(f)).unwrap_or(n0);
+                };
                 // The gradient of the distance over the face.
-                let (ab, ac) = (v3::sub(b, a), v3::sub(c, a));
-                let g = gradient(ab, ac, n, db - da, dc - da);
-                let away = unit(g)
-                    .or_else(|| unit(in_plane(v3::sub(centroid(f), point), n)))
-                    .unwrap_or([0.0; 3]);
-                let r = v3::sub(centroid(f), point);
+                let [a, b, c] = vs.map(|v| mesh.position(v));
+                let g = gradient(v3::sub(b, a), v3::sub(c, a), n, db - da, dc - da);
+                let r = v3::sub(centroid, point);
+                let away = unit(g).or_else(|| unit(in_plane(r, n))).unwrap_or([0.0; 3]);
                 let theta = v3::dot(r, e2).atan2(v3::dot(r, e1));
                 (d, away, theta)
             })
@@ -217,15 +209,6 @@ impl Star {
         let hoop_dir = v3::cross(n, away);
         Sym3::outer(hoop_dir) * hoop + Sym3::outer(away) * radial
     }
-}
-
-fn unit(a: [f64; 3]) -> Option<[f64; 3]> {
-    let n = v3::norm(a);
-    (n > 0.0 && n.is_finite()).then(|| v3::scale(a, 1.0 / n))
-}
-
-fn in_plane(v: [f64; 3], n: [f64; 3]) -> [f64; 3] {
-    v3::sub(v, v3::scale(n, v3::dot(v, n)))
 }
 
 /// The gradient in the face's plane of a linear function rising by `gb`
