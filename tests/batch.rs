@@ -1239,3 +1239,33 @@ fn an_asset_saved_during_its_run_stays_out_of_date() {
         );
     }
 }
+
+#[test]
+fn a_copy_of_a_gltf_whose_buffer_is_missing_fails_and_writes_nothing_of_it() {
+    // The copy would name a buffer the output does not have (a file
+    // removed, or swapped for a link, while the batch runs reads as missing
+    // at one moment): that asset fails, the others are copied.
+    let t = tempfile::tempdir().unwrap();
+    let lib = t.path().join("lib");
+    let out = t.path().join("out");
+    for f in ["textured_quad.gltf", "checker.png"] {
+        copy(&common::fixture(f), &lib.join("quad").join(f));
+    }
+    for f in ["cube.obj", "cube.mtl", "cube texture.png"] {
+        copy(&common::fixture(f), &lib.join("cube").join(f));
+    }
+    let rules = t.path().join("rules.toml");
+    std::fs::write(&rules, "unmatched = \"copy\"\n").unwrap();
+    let o = batch(&[p(&lib), "-r", "--out", p(&out), "--rules", p(&rules)]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("textured_quad.gltf") && err.contains("textured_quad.bin"),
+        "{err}"
+    );
+    assert!(!out.join("quad").join("textured_quad.gltf").exists());
+    assert!(!out.join("quad").join("checker.png").exists());
+    for f in ["cube.obj", "cube.mtl", "cube texture.png"] {
+        assert!(out.join("cube").join(f).is_file(), "{f}");
+    }
+}

@@ -356,10 +356,14 @@ fn copy_asset(asset: &Asset, out_root: &Path) -> Result<Done> {
         let Some(rel) = source_rel(&asset.input, &s) else {
             continue;
         };
-        match std::fs::symlink_metadata(&s) {
-            Err(e) if e.kind() == std::io::ErrorKind::NotFound => continue,
-            _ => sources.push(rel),
+        // A file the asset names but the folder does not hold: the copy
+        // would name a file the output does not have.
+        if let Err(e) = std::fs::symlink_metadata(&s) {
+            return Err(Error::Batch(format!(
+                "names '{rel}', which cannot be read ({e}): not copied"
+            )));
         }
+        sources.push(rel);
     }
     let mut files: Vec<(PathBuf, PathBuf, String)> =
         vec![(asset.input.clone(), asset.output.clone(), asset.rel.clone())];

@@ -167,15 +167,33 @@ pub fn open_no_follow(path: &Path) -> std::io::Result<std::fs::File> {
 /// file grow meanwhile). `what` names the file's role in the errors
 /// ("material library", "image"...).
 pub fn read_capped(path: &Path, cap: u64, what: &str) -> std::io::Result<Vec<u8>> {
-    let len = capped_len(path, cap, what)?;
+    let (file, len) = open_capped(path, cap, what)?;
     let mut data = Vec::with_capacity(len as usize);
-    std::fs::File::open(path)?
-        .take(cap + 1)
-        .read_to_end(&mut data)?;
+    file.take(cap + 1).read_to_end(&mut data)?;
     if data.len() as u64 > cap {
         return Err(too_big(what, data.len() as u64, cap));
     }
     Ok(data)
+}
+
+/// `path` opened for reading ([`open_no_follow`]: a link swapped in after
+/// the check is refused, not followed) and its length, checked on the path
+/// and again on the open file to be a regular file of at most `cap` bytes.
+fn open_capped(path: &Path, cap: u64, what: &str) -> std::io::Result<(std::fs::File, u64)> {
+    capped_len(path, cap, what)?;
+    let file = open_no_follow(path).map_err(|e| {
+        std::io::Error::new(
+            e.kind(),
+            format!(
+                "the {what}: {e} (swapped for a link or another kind of file while it was read?)"
+            ),
+        )
+    })?;
+    let len = file.metadata()?.len();
+    if len > cap {
+        return Err(too_big(what, len, cap));
+    }
+    Ok((file, len))
 }
 
 /// The length of `path`, checked to be a regular file of at most `cap`
@@ -213,9 +231,9 @@ pub fn stream_capped(
     what: &str,
     sink: &mut dyn FnMut(&[u8]),
 ) -> std::io::Result<u64> {
-    let len = capped_len(path, cap, what)?;
+    let (file, len) = open_capped(path, cap, what)?;
     sink(&len.to_le_bytes());
-    let mut file = std::fs::File::open(path)?.take(len + 1);
+    let mut file = file.take(len + 1);
     let mut buf = vec![0u8; 64 << 10];
     let mut read = 0u64;
     loop {

@@ -158,7 +158,12 @@ pub(super) fn load_buffers(
                 } else {
                     let file = resolve_file_inside(base_dir, uri)
                         .map_err(|e| format!("buffer {i}: {e}"))?;
-                    let meta = std::fs::metadata(&file).map_err(|e| {
+                    // Opened without following a link: one swapped in after
+                    // the path was checked is refused, not read.
+                    let opened = crate::io::paths::open_no_follow(&file).map_err(|e| {
+                        format!("buffer {i}: cannot open '{}': {e}", file.display())
+                    })?;
+                    let meta = opened.metadata().map_err(|e| {
                         format!("buffer {i}: cannot open '{}': {e}", file.display())
                     })?;
                     if meta.len() < declared {
@@ -169,11 +174,9 @@ pub(super) fn load_buffers(
                         ));
                     }
                     let mut data = Vec::with_capacity(declared as usize);
-                    std::fs::File::open(&file)
-                        .and_then(|f| f.take(declared).read_to_end(&mut data))
-                        .map_err(|e| {
-                            format!("buffer {i}: cannot read '{}': {e}", file.display())
-                        })?;
+                    opened.take(declared).read_to_end(&mut data).map_err(|e| {
+                        format!("buffer {i}: cannot read '{}': {e}", file.display())
+                    })?;
                     data
                 }
             }
