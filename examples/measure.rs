@@ -245,6 +245,21 @@ fn main() {
         map.insert("orientation_bins".into(), json!(bins));
         map.insert("axis_share".into(), json!(axis));
     }
+    // Junction angles with arms of a tenth of a cell (the crack's own wiggle is finer).
+    let mut normal = [0.0; 3];
+    if plate {
+        normal[flat] = 1.0;
+    }
+    map.insert(
+        "junctions".into(),
+        measure::junction_stats(&graph, 0.1 * d, normal),
+    );
+    if plate {
+        let sides = measure::planar_cell_sides(&graph, &border, min_area_rel, 0.1 * d, 150.0);
+        let mean = sides.iter().sum::<usize>() as f64 / sides.len().max(1) as f64;
+        map.insert("inner_cells".into(), json!(sides.len()));
+        map.insert("mean_inner_cell_sides".into(), json!(mean));
+    }
     if let Some(c) = &cells {
         map.insert("planar_cells".into(), json!(c.len()));
         map.insert("mean_cell_diameter".into(), json!(mean_d));

@@ -6,10 +6,11 @@ mod common;
 
 use common::{crack, report, stages};
 
-const PRESETS: [(&str, &str); 8] = [
+const PRESETS: [(&str, &str); 9] = [
     ("glaze", "icosphere.obj"),
     ("mud", "plate_jittered.obj"),
     ("mud-jagged", "plate_jittered.obj"),
+    ("mud-aged", "plate_jittered.obj"),
     ("glass-impact", "plate_jittered.obj"),
     ("wood-grain", "plate_jittered.obj"),
     ("tree-rings", "plate_jittered.obj"),
@@ -55,7 +56,7 @@ fn every_preset_cracks_its_fixture_and_an_eval_mesh() {
                 input.display()
             );
             // Only the stages a pipeline uses run.
-            let has_terms = !matches!(name, "glaze" | "mud" | "mud-jagged");
+            let has_terms = !matches!(name, "glaze" | "mud" | "mud-jagged" | "mud-aged");
             for (stage, expected) in [
                 ("stress", has_terms),
                 ("curvature", name == "curvature"),

@@ -197,6 +197,7 @@ pub const PRESETS: &[(&str, &str)] = &[
     ("glaze", include_str!("../../pipeline/glaze.toml")),
     ("mud", include_str!("../../pipeline/mud.toml")),
     ("mud-jagged", include_str!("../../pipeline/mud-jagged.toml")),
+    ("mud-aged", include_str!("../../pipeline/mud-aged.toml")),
     (
         "glass-impact",
         include_str!("../../pipeline/glass-impact.toml"),

@@ -137,6 +137,26 @@ pub struct Replay<'a> {
     pub end_time: f64,
 }
 
+/// `--frames` show one drying: refused up front when a mesh dries more
+/// than once (`simulation.cycles`), whose later cycles have no frames.
+///
+/// # Errors
+/// [`crate::Error::Usage`] naming the input.
+pub fn refuse_cycles(
+    frames: Option<&Frames>,
+    params: &[crate::sim::SimParams],
+    input: &Path,
+) -> crate::Result<()> {
+    match params.iter().find(|p| p.cycles > 1) {
+        Some(p) if frames.is_some() => Err(crate::Error::Usage(format!(
+            "{}: --frames shows one drying; simulation.cycles = {} ages its cracks after it, which has no frames (leave out --frames or use cycles = 1)",
+            input.display(),
+            p.cycles
+        ))),
+        _ => Ok(()),
+    }
+}
+
 /// Replay every mesh, post-process each frame on a copy of `scene` (the
 /// scene before post-processing) and write it. Returns the files written.
 pub fn write_frames(

@@ -534,6 +534,7 @@ pub fn run(scene: &mut Scene, config: &Config, observer: &mut dyn Observer) -> R
         fields,
         mut stages,
     } = prepare(scene, config, observer)?;
+    frames::refuse_cycles(config.frames.as_ref(), &params_of, input)?;
     if params_of
         .iter()
         .any(|p| p.model == crate::sim::Model::Ductile)

@@ -7,6 +7,7 @@
 //! is dimensionless (the material's stiffness is 1); the toughness is compared
 //! with the separation tensor's eigenvalue in those units.
 
+use crate::math::v3;
 use crate::math::Sym3;
 use crate::mesh::{FaceId, SimMesh, VertexId};
 use crate::sim::crack::{crack_node_avoiding, CrackRules};
@@ -74,6 +75,103 @@ pub fn run_with(
         }
         return crate::sim::springs::run(mesh, params, observer);
     }
+    if params.cycles > 1 {
+        return run_cycles(mesh, params, field, observer);
+    }
+    run_once(mesh, params, field, observer)
+}
+
+/// Several drying cycles ([`crate::sim::ageing`]): the first dried as
+/// [`run_with`] does, its crack network aged by the further cycles and cut
+/// into `mesh` as given (the gaps carried over from the first drying). The
+/// observer sees the first drying.
+fn run_cycles(
+    mesh: &mut SimMesh,
+    params: &SimParams,
+    field: Option<&StressField>,
+    observer: &mut dyn Observer,
+) -> Result<SimReport, SimError> {
+    use crate::sim::ageing::{Ageing, CrackNetwork};
+    params.validate().map_err(|e| SimError::Param(e.0))?;
+    let Some(cell) = params.cell_size_for(mesh) else {
+        return Err(SimError::Param("cycles above 1 need a cell size".into()));
+    };
+    let fresh = mesh.clone();
+    let mut report = run_once(mesh, params, field, observer)?;
+    let ageing = Ageing::for_cell(cell);
+    let mut net = CrackNetwork::of_cracks(mesh);
+    for _ in 1..params.cycles {
+        net = net.aged(&ageing);
+    }
+    let segments = net.segments();
+    let times = nearest_times(&report, &segments);
+    let cut = crate::mesh::imprint::imprint(
+        &fresh,
+        mesh,
+        &segments,
+        &times,
+        &report.displacement,
+        &report.crack_time,
+        &[],
+    )
+    .map_err(SimError::Mesh)?;
+    *mesh = cut.mesh;
+    report.crack_length = cut
+        .segments
+        .iter()
+        .map(|s| v3::norm(v3::sub(s[1], s[0])))
+        .sum();
+    report.segments = cut.segments;
+    report.segment_times = cut.segment_times;
+    report.displacement = cut.displacement;
+    report.crack_time = cut.crack_time;
+    report.triangles[1] = mesh.n_faces();
+    report.nodes[1] = mesh.n_vertices();
+    Ok(report)
+}
+
+/// For each of `segments`, the time the first drying's crack segment
+/// nearest its middle formed.
+fn nearest_times(report: &SimReport, segments: &[[[f64; 3]; 2]]) -> Vec<f64> {
+    let old = &report.segments;
+    let grid = crate::mesh::spatial::Grid::new(
+        old.iter().map(|[p, q]| {
+            (
+                [0, 1, 2].map(|k| p[k].min(q[k])),
+                [0, 1, 2].map(|k| p[k].max(q[k])),
+            )
+        }),
+        report
+            .segments
+            .first()
+            .map_or(1.0, |[p, q]| v3::norm(v3::sub(*q, *p))),
+    );
+    segments
+        .iter()
+        .map(|[p, q]| {
+            let mid = v3::scale(v3::add(*p, *q), 0.5);
+            let mut best: Option<(f64, usize)> = None;
+            grid.search(mid, |i| {
+                let [a, b] = old[i];
+                let d2 = v3::dist2(mid, crate::mesh::spatial::closest_on_segment(mid, a, b));
+                if best.is_none_or(|(bd, bi)| d2 < bd || (d2 == bd && i < bi)) {
+                    best = Some((d2, i));
+                }
+                best.map(|b| b.0)
+            });
+            best.and_then(|(_, i)| report.segment_times.get(i).copied())
+                .unwrap_or(report.time)
+        })
+        .collect()
+}
+
+/// One drying of `mesh` (see [`run_with`]).
+fn run_once(
+    mesh: &mut SimMesh,
+    params: &SimParams,
+    field: Option<&StressField>,
+    observer: &mut dyn Observer,
+) -> Result<SimReport, SimError> {
     let (mut st, mut report) = start(mesh, params, field)?;
     let resolved;
     let params = if st.film.is_none() && params.integrator == Integrator::Auto {

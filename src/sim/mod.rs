@@ -2,6 +2,7 @@
 //! simulation mesh, node forces, separation tensors and stress relaxation.
 //! No I/O and no printing here.
 
+pub mod ageing;
 pub mod cg;
 pub mod crack;
 mod diffusion;

@@ -128,6 +128,12 @@ pub struct SimParams {
     /// Most triangles the remeshed surface may have: a request above it is
     /// refused with the numbers before any work. Default 2,000,000.
     pub max_triangles: usize,
+    /// Drying cycles (a film only): each cycle after the first re-opens
+    /// the last one's cracks, aged by one wetting and drying
+    /// ([`crate::stress::scars`]): junctions move toward equal angles, so
+    /// T-junctions turn into Y-junctions and cells toward hexagons over a
+    /// few cycles. Each cycle costs about one run. In 1..=50; default 1.
+    pub cycles: usize,
 }
 
 /// Which failing node cracks next.
@@ -276,6 +282,7 @@ impl Default for SimParams {
             isotropic_remesh: true,
             coarsen: true,
             max_triangles: 2_000_000,
+            cycles: 1,
         }
     }
 }
@@ -323,6 +330,14 @@ impl SimParams {
             if self.finish {
                 return Err("post.finish runs the quasistatic engine's tips on; it does not apply to model = \"springs\"".into());
             }
+        }
+        if !(1..=50).contains(&self.cycles) {
+            return Err(format!("cycles must be in 1..=50, got {}", self.cycles));
+        }
+        if self.cycles > 1 && !self.is_film() {
+            return Err(
+                "cycles above 1 re-open the cracks of a film: they need model = \"quasistatic\" with a cell size (simulation.cell_size or cell_size_relative) and relaxation = \"tensor\"".into(),
+            );
         }
         if !(0.0..=1.0).contains(&self.diffusion_fraction) {
             return Err(format!(

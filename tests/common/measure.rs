@@ -822,8 +822,17 @@ pub fn paired_share_in(graph: &CrackGraph, distance: f64, max_angle_deg: f64) ->
 
 // ---- Cells of a flat plate ----
 
-/// Areas (world units squared) of the bounded faces of cracks plus border in a plate's plane.
-pub fn planar_cells(graph: &CrackGraph, border: &[Seg], min_area_rel: f64) -> Vec<f64> {
+/// The faces of cracks plus border in a plate's plane: the plane graph (nodes projected,
+/// welded, edges split at nodes), each face as its cycle of half-edges (`2 e` runs
+/// `a -> b` along edge `e`, `2 e + 1` back) with its signed area, and which edges of the
+/// plane graph are the border's.
+struct PlaneFaces {
+    plane: CrackGraph,
+    faces: Vec<(f64, Vec<usize>)>,
+    border_edge: Vec<bool>,
+}
+
+fn plane_faces(graph: &CrackGraph, border: &[Seg]) -> PlaneFaces {
     let all = graph.nodes.iter().chain(border.iter().flatten());
     let (lo, hi) = bounds(all);
     let (i, j) = plane_axes(flat_axis(lo, hi));
@@ -835,8 +844,17 @@ pub fn planar_cells(graph: &CrackGraph, border: &[Seg], min_area_rel: f64) -> Ve
     let base = graph.nodes.len();
     raw.extend((0..border.len()).map(|k| [map[base + 2 * k], map[base + 2 * k + 1]]));
     let split = split_at_nodes(&nodes, &raw, graph.weld, 0.0);
+    let crack_edges: BTreeSet<[usize; 2]> = {
+        let cracks = split_at_nodes(&nodes, &raw[..graph.edges.len()], graph.weld, 0.0);
+        cracks.iter().map(|&[a, b]| [a.min(b), a.max(b)]).collect()
+    };
     let plane = CrackGraph::from_parts(nodes, &split, graph.weld);
-    // Half-edge h = 2e (a -> b) or 2e + 1 (b -> a); outgoing half-edges sorted by angle.
+    let border_edge = plane
+        .edges
+        .iter()
+        .map(|e| !crack_edges.contains(e))
+        .collect();
+    // Outgoing half-edges sorted by angle.
     let from = |h: usize| plane.edges[h / 2][h % 2];
     let to = |h: usize| plane.edges[h / 2][1 - h % 2];
     let angle = |h: usize| {
@@ -862,21 +880,204 @@ pub fn planar_cells(graph: &CrackGraph, border: &[Seg], min_area_rel: f64) -> Ve
     let mut seen = vec![false; 2 * plane.edges.len()];
     let mut faces = Vec::new();
     for h0 in 0..seen.len() {
-        // A half-edge already walked gives an empty face of area 0, dropped below.
-        let (mut h, mut area) = (h0, 0.0);
+        // A half-edge already walked gives an empty face of area 0, dropped by callers.
+        let (mut h, mut area, mut cycle) = (h0, 0.0, Vec::new());
         while !seen[h] {
             seen[h] = true;
+            cycle.push(h);
             let (p, q) = (plane.nodes[from(h)], plane.nodes[to(h)]);
             area += 0.5 * (p[0] * q[1] - q[0] * p[1]);
             h = next(h);
         }
-        faces.push(area);
+        faces.push((area, cycle));
     }
-    let enclosed = faces.iter().fold(0.0f64, |m, &a| m.max(-a));
-    let positive: f64 = faces.iter().filter(|&&a| a > 0.0).sum();
-    let total = if enclosed > 0.0 { enclosed } else { positive };
-    faces.retain(|&a| a > 0.0 && a >= min_area_rel * total);
-    faces
+    PlaneFaces {
+        plane,
+        faces,
+        border_edge,
+    }
+}
+
+impl PlaneFaces {
+    /// The faces kept as cells: positive area at least `min_area_rel` of the enclosed area.
+    fn cells(&self, min_area_rel: f64) -> Vec<usize> {
+        let enclosed = self.faces.iter().fold(0.0f64, |m, f| m.max(-f.0));
+        let positive: f64 = self.faces.iter().map(|f| f.0).filter(|&a| a > 0.0).sum();
+        let total = if enclosed > 0.0 { enclosed } else { positive };
+        (0..self.faces.len())
+            .filter(|&k| self.faces[k].0 > 0.0 && self.faces[k].0 >= min_area_rel * total)
+            .collect()
+    }
+}
+
+/// Areas (world units squared) of the bounded faces of cracks plus border in a plate's plane.
+pub fn planar_cells(graph: &CrackGraph, border: &[Seg], min_area_rel: f64) -> Vec<f64> {
+    let pf = plane_faces(graph, border);
+    pf.cells(min_area_rel)
+        .into_iter()
+        .map(|k| pf.faces[k].0)
+        .collect()
+}
+
+/// Sides of the cells (as `planar_cells` finds them) that touch no border edge: the
+/// junctions on a cell's outline (nodes where three or more edges meet) at which the
+/// cell's inside angle is below `corner_deg`, the angle taken between the points `arm`
+/// (world units) back and ahead along the outline (a T-junction's straight side is no
+/// corner of the cell on that side).
+pub fn planar_cell_sides(
+    graph: &CrackGraph,
+    border: &[Seg],
+    min_area_rel: f64,
+    arm: f64,
+    corner_deg: f64,
+) -> Vec<usize> {
+    let pf = plane_faces(graph, border);
+    let plane = &pf.plane;
+    let from = |h: usize| plane.edges[h / 2][h % 2];
+    let to = |h: usize| plane.edges[h / 2][1 - h % 2];
+    let mut sides = Vec::new();
+    for k in pf.cells(min_area_rel) {
+        let cycle = &pf.faces[k].1;
+        if cycle.iter().any(|&h| pf.border_edge[h / 2]) {
+            continue;
+        }
+        let n = cycle.len();
+        // The point `arm` away from node from(cycle[i]) walking forward (+1) or back (-1).
+        let reach = |i: usize, forward: bool| -> P3 {
+            let v = plane.nodes[from(cycle[i])];
+            for step in 0..n {
+                let h = if forward {
+                    cycle[(i + step) % n]
+                } else {
+                    cycle[(i + n - 1 - step) % n]
+                };
+                let far = plane.nodes[if forward { to(h) } else { from(h) }];
+                if dist(far, v) >= arm {
+                    return far;
+                }
+            }
+            plane.nodes[if forward {
+                to(cycle[(i + n - 1) % n])
+            } else {
+                from(cycle[0])
+            }]
+        };
+        let mut corners = 0;
+        for (i, &h) in cycle.iter().enumerate() {
+            if plane.degree[from(h)] < 3 {
+                continue;
+            }
+            let v = plane.nodes[from(h)];
+            let (f, b) = (sub(reach(i, true), v), sub(reach(i, false), v));
+            // Faces are walked with the inside on the left: the inside angle turns from
+            // the way ahead to the way back counter-clockwise.
+            let inside = (f[0] * b[1] - f[1] * b[0])
+                .atan2(dot(f, b))
+                .rem_euclid(std::f64::consts::TAU)
+                .to_degrees();
+            if inside < corner_deg {
+                corners += 1;
+            }
+        }
+        sides.push(corners);
+    }
+    sides
+}
+
+/// Three-way junctions of the crack graph: each junction's angles between its arms,
+/// an arm's direction taken to the point `arm` (world units, straight-line) along it
+/// (or to the next junction or end, when nearer), in the plane of `normal` when it is
+/// nonzero (else the plane of the two arms farthest from parallel). A junction is Y
+/// when all three angles lie within 90..150 degrees, T when one exceeds 150. Returns
+/// the counts, the Y share, the mean largest angle, the mean absolute deviation of the
+/// angles from 120 degrees and a histogram of the angles in 12 bins of 15 degrees.
+pub fn junction_stats(graph: &CrackGraph, arm: f64, normal: P3) -> Value {
+    let (mut y, mut t, mut largest, mut deviation) = (0usize, 0usize, 0.0, 0.0);
+    let mut hist = [0usize; 12];
+    let mut count = 0usize;
+    for v in 0..graph.nodes.len() {
+        if graph.degree[v] != 3 {
+            continue;
+        }
+        let p = graph.nodes[v];
+        let dirs: Vec<P3> = graph.adjacency[v]
+            .iter()
+            .map(|&(first, _)| {
+                let (mut prev, mut cur) = (v, first);
+                for _ in 0..graph.nodes.len() {
+                    if dist(graph.nodes[cur], p) >= arm || graph.degree[cur] != 2 || cur == v {
+                        break;
+                    }
+                    let next = graph.adjacency[cur]
+                        .iter()
+                        .map(|&(m, _)| m)
+                        .find(|&m| m != prev)
+                        .unwrap_or(prev);
+                    prev = cur;
+                    cur = next;
+                }
+                sub(graph.nodes[cur], p)
+            })
+            .collect();
+        let nrm = if norm(normal) > 0.0 {
+            unit(normal)
+        } else {
+            let planes = [(0, 1), (1, 2), (0, 2)].map(|(i, j)| cross(dirs[i], dirs[j]));
+            let w = planes
+                .into_iter()
+                .fold([0.0; 3], |m, c| if norm(c) > norm(m) { c } else { m });
+            if norm(w) == 0.0 {
+                continue;
+            }
+            unit(w)
+        };
+        let flat: Vec<P3> = dirs
+            .iter()
+            .map(|&d| {
+                sub(
+                    d,
+                    [
+                        nrm[0] * dot(d, nrm),
+                        nrm[1] * dot(d, nrm),
+                        nrm[2] * dot(d, nrm),
+                    ],
+                )
+            })
+            .collect();
+        if flat.iter().any(|d| norm(*d) == 0.0) {
+            continue;
+        }
+        let e1 = unit(flat[0]);
+        let e2 = cross(nrm, e1);
+        let tau = std::f64::consts::TAU;
+        let mut ang: Vec<f64> = flat
+            .iter()
+            .map(|&d| dot(d, e2).atan2(dot(d, e1)).rem_euclid(tau))
+            .collect();
+        ang.sort_by(f64::total_cmp);
+        let gaps = [ang[1] - ang[0], ang[2] - ang[1], tau - ang[2] + ang[0]].map(f64::to_degrees);
+        count += 1;
+        for g in gaps {
+            hist[((g / 15.0) as usize).min(11)] += 1;
+            deviation += (g - 120.0).abs() / 3.0;
+        }
+        largest += gaps.iter().copied().fold(0.0, f64::max);
+        if gaps.iter().any(|&g| g > 150.0) {
+            t += 1;
+        } else if gaps.iter().all(|&g| (90.0..=150.0).contains(&g)) {
+            y += 1;
+        }
+    }
+    serde_json::json!({
+        "three_way": count,
+        "y": y,
+        "t": t,
+        "y_share": ratio(y as f64, count as f64),
+        "mean_largest_angle": ratio(largest, count as f64),
+        "mean_deviation_from_120": ratio(deviation, count as f64),
+        "angle_histogram_15deg": hist,
+        "arm": arm,
+    })
 }
 
 /// Mean equivalent-circle diameter sqrt(4 A / pi) of the areas, world units (0 when empty).
