@@ -34,6 +34,9 @@ pub struct CrackNetwork {
     pub nodes: Vec<[f64; 3]>,
     /// Segments as indices into `nodes`, each once, smaller index first.
     pub edges: Vec<[u32; 2]>,
+    /// Nodes that stay where they are (on the surface's border), per node
+    /// (shorter: the rest are free).
+    pub pinned: Vec<bool>,
 }
 
 /// How one drying cycle ages a network (lengths in scene units).
@@ -92,6 +95,18 @@ impl CrackNetwork {
             }
         }
         net.edges = edges.into_iter().collect();
+        // Crack points on the surface's own border stay on it.
+        net.pinned = vec![false; net.nodes.len()];
+        for h in mesh.halfedges() {
+            if mesh.is_boundary_halfedge(h) && !mesh.is_crack_halfedge(h) {
+                for v in [mesh.origin(h), mesh.dest(h)] {
+                    let key = mesh.position(v).map(|x| (x + 0.0).to_bits());
+                    if let Some(&i) = index.get(&key) {
+                        net.pinned[i as usize] = true;
+                    }
+                }
+            }
+        }
         // A crack edge split by a crack running into it is split on that
         // side only: the other side still spans the split as one edge.
         net.without_spanned_edges()
@@ -147,6 +162,10 @@ impl CrackNetwork {
         false
     }
 
+    fn is_pinned(&self, v: usize) -> bool {
+        self.pinned.get(v).copied().unwrap_or(false)
+    }
+
     /// Each node's neighbours, in increasing order.
     pub fn adjacency(&self) -> Vec<Vec<u32>> {
         let mut adj = vec![Vec::new(); self.nodes.len()];
@@ -195,7 +214,7 @@ impl CrackNetwork {
         // new node, whether the junction lies on the smaller end's side).
         let mut cuts: BTreeMap<[u32; 2], Vec<(f64, u32, bool)>> = BTreeMap::new();
         for j in 0..self.nodes.len() {
-            if adj[j].len() < 3 {
+            if adj[j].len() < 3 || self.is_pinned(j) {
                 continue;
             }
             let arms: Vec<Arm> = adj[j]
@@ -252,7 +271,7 @@ impl CrackNetwork {
         // Kinks even out (from the positions before this pass).
         let before = pos.clone();
         for (v, nb) in adj.iter().enumerate() {
-            if nb.len() == 2 && !moved[v] {
+            if nb.len() == 2 && !moved[v] && !self.is_pinned(v) {
                 let mid = v3::scale(v3::add(before[nb[0] as usize], before[nb[1] as usize]), 0.5);
                 pos[v] = v3::add(before[v], v3::scale(v3::sub(mid, before[v]), a.smoothing));
             }
@@ -276,6 +295,7 @@ impl CrackNetwork {
             if used[v] {
                 new_index[v] = out.nodes.len() as u32;
                 out.nodes.push(*p);
+                out.pinned.push(self.is_pinned(v));
             }
         }
         out.edges = edges
@@ -296,7 +316,7 @@ impl CrackNetwork {
         let mut adj = self.adjacency();
         let mut gone = vec![false; self.nodes.len()];
         for v in 0..self.nodes.len() {
-            if adj[v].len() != 2 {
+            if adj[v].len() != 2 || self.is_pinned(v) {
                 continue;
             }
             let (a, b) = (adj[v][0], adj[v][1]);
@@ -323,14 +343,16 @@ impl CrackNetwork {
             }
         }
         let mut new_index = vec![u32::MAX; self.nodes.len()];
-        let mut nodes = Vec::new();
+        let (mut nodes, mut pinned) = (Vec::new(), Vec::new());
         for (v, p) in self.nodes.iter().enumerate() {
             if !gone[v] && !adj[v].is_empty() {
                 new_index[v] = nodes.len() as u32;
                 nodes.push(*p);
+                pinned.push(self.is_pinned(v));
             }
         }
         self.nodes = nodes;
+        self.pinned = pinned;
         self.edges = edges
             .into_iter()
             .map(|[a, b]| key(new_index[a as usize], new_index[b as usize]))
@@ -566,6 +588,7 @@ mod tests {
                 [0.3, 1.0, 0.0],
             ],
             edges: vec![[0, 1], [0, 2], [1, 3], [2, 3], [2, 4]],
+            ..Default::default()
         };
         let net = net.without_spanned_edges();
         assert_eq!(net.edges, vec![[0, 2], [1, 3], [2, 3], [2, 4]]);
@@ -573,6 +596,7 @@ mod tests {
         let bent = CrackNetwork {
             nodes: vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.5, 0.1, 0.0]],
             edges: vec![[0, 1], [0, 2], [1, 2]],
+            ..Default::default()
         };
         assert_eq!(bent.clone().without_spanned_edges(), bent);
     }
@@ -587,6 +611,7 @@ mod tests {
                 [2.0, 0.0, 0.0],
             ],
             edges: vec![[0, 1], [1, 2], [2, 3]],
+            ..Default::default()
         };
         let out = net.without_short_links(0.05);
         assert_eq!(out.edges.len(), 2, "{out:?}");
@@ -595,8 +620,10 @@ mod tests {
         let tri = CrackNetwork {
             nodes: vec![[0.0, 0.0, 0.0], [0.01, 0.0, 0.0], [0.0, 0.01, 0.0]],
             edges: vec![[0, 1], [0, 2], [1, 2]],
+            ..Default::default()
         };
-        assert_eq!(tri.clone().without_short_links(0.05), tri);
+        let kept = tri.clone().without_short_links(0.05);
+        assert_eq!((kept.nodes, kept.edges), (tri.nodes, tri.edges));
     }
 
     #[test]
@@ -620,5 +647,23 @@ mod tests {
         let net = CrackNetwork::of_cracks(&mesh);
         assert_eq!(net.edges.len(), 4, "{net:?}");
         assert!((net.length() - 4.0).abs() < 1e-12);
+        // Its ends lie on the plate's border: pinned; the rest are free.
+        let pinned: Vec<[f64; 3]> = (0..net.nodes.len())
+            .filter(|&v| net.pinned[v])
+            .map(|v| net.nodes[v])
+            .collect();
+        assert_eq!(pinned, vec![[0.0, 2.0, 0.0], [4.0, 2.0, 0.0]]);
+        // A kink pinned to the border does not even out.
+        let vee = CrackNetwork {
+            nodes: vec![[0.0, 0.0, 0.0], [1.0, -1.0, 0.0], [2.0, 0.0, 0.0]],
+            edges: vec![[0, 1], [1, 2]],
+            pinned: vec![false, true, false],
+        };
+        let ageing = Ageing {
+            reach: 0.3,
+            rate: 0.5,
+            smoothing: 0.5,
+        };
+        assert_eq!(vee.aged(&ageing).nodes, vee.nodes);
     }
 }
