@@ -144,7 +144,7 @@ pub struct Replay<'a> {
 /// [`crate::Error::Usage`] naming the input.
 pub fn refuse_cycles(
     frames: Option<&Frames>,
-    params: &[crate::sim::SimParams],
+    params: &[SimParams],
     input: &Path,
 ) -> crate::Result<()> {
     match params.iter().find(|p| p.cycles > 1) {

@@ -116,9 +116,12 @@ impl CrackNetwork {
     /// through points on them (to rounding) also joins.
     pub fn without_spanned_edges(mut self) -> CrackNetwork {
         let adj = self.adjacency();
-        let spanned: Vec<bool> = self.edges.iter().map(|&e| self.spans(&adj, e)).collect();
-        let mut keep = spanned.iter().map(|s| !s);
-        self.edges.retain(|_| keep.next().unwrap_or(true));
+        self.edges = self
+            .edges
+            .iter()
+            .copied()
+            .filter(|&e| !self.spans(&adj, e))
+            .collect();
         self
     }
 
@@ -276,14 +279,17 @@ impl CrackNetwork {
                 pos[v] = v3::add(before[v], v3::scale(v3::sub(mid, before[v]), a.smoothing));
             }
         }
-        let mut edges: BTreeSet<[u32; 2]> = self
-            .edges
-            .iter()
-            .copied()
-            .filter(|e| !removed.contains(e))
-            .collect();
-        edges.extend(added.into_iter().filter(|e| e[0] != e[1]));
-        // Compact: keep the nodes some segment uses, in index order.
+        let kept = self.edges.iter().copied().filter(|e| !removed.contains(e));
+        let edges = kept.chain(added.into_iter().filter(|e| e[0] != e[1]));
+        self.compacted(&pos, edges)
+            .without_short_links(SHORTEST * a.reach)
+    }
+
+    /// The network of `edges` over the points `pos` (this network's nodes
+    /// first, new points after them): the points no segment uses left out,
+    /// the rest kept in order, pinned as they were here.
+    fn compacted(&self, pos: &[[f64; 3]], edges: impl Iterator<Item = [u32; 2]>) -> CrackNetwork {
+        let edges: BTreeSet<[u32; 2]> = edges.map(|[a, b]| key(a, b)).collect();
         let mut used = vec![false; pos.len()];
         for e in &edges {
             used[e[0] as usize] = true;
@@ -302,9 +308,7 @@ impl CrackNetwork {
             .into_iter()
             .map(|[a, b]| key(new_index[a as usize], new_index[b as usize]))
             .collect();
-        out.edges.sort_unstable();
-        out.edges.dedup();
-        out.without_short_links(SHORTEST * a.reach)
+        out
     }
 
     /// The network with every node where two cracks meet and one of its
@@ -312,9 +316,8 @@ impl CrackNetwork {
     /// joined), unless that would join two nodes already joined: re-routing
     /// leaves cut points close to old nodes, which the cut into the
     /// surface would merge.
-    fn without_short_links(mut self, min_len: f64) -> CrackNetwork {
+    fn without_short_links(self, min_len: f64) -> CrackNetwork {
         let mut adj = self.adjacency();
-        let mut gone = vec![false; self.nodes.len()];
         for v in 0..self.nodes.len() {
             if adj[v].len() != 2 || self.is_pinned(v) {
                 continue;
@@ -325,7 +328,6 @@ impl CrackNetwork {
             if !short || adj[a as usize].contains(&b) {
                 continue;
             }
-            gone[v] = true;
             adj[v].clear();
             for (x, y) in [(a, b), (b, a)] {
                 let list = &mut adj[x as usize];
@@ -334,31 +336,12 @@ impl CrackNetwork {
                 list.sort_unstable();
             }
         }
-        let mut edges: Vec<[u32; 2]> = Vec::new();
-        for (v, list) in adj.iter().enumerate() {
-            for &u in list {
-                if (v as u32) < u {
-                    edges.push([v as u32, u]);
-                }
-            }
-        }
-        let mut new_index = vec![u32::MAX; self.nodes.len()];
-        let (mut nodes, mut pinned) = (Vec::new(), Vec::new());
-        for (v, p) in self.nodes.iter().enumerate() {
-            if !gone[v] && !adj[v].is_empty() {
-                new_index[v] = nodes.len() as u32;
-                nodes.push(*p);
-                pinned.push(self.is_pinned(v));
-            }
-        }
-        self.nodes = nodes;
-        self.pinned = pinned;
-        self.edges = edges
-            .into_iter()
-            .map(|[a, b]| key(new_index[a as usize], new_index[b as usize]))
-            .collect();
-        self.edges.sort_unstable();
-        self
+        let edges = adj
+            .iter()
+            .enumerate()
+            .flat_map(|(v, list)| list.iter().map(move |&u| [v as u32, u]))
+            .filter(|e| e[0] < e[1]);
+        self.compacted(&self.nodes, edges)
     }
 }
 

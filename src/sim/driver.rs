@@ -92,12 +92,12 @@ fn run_cycles(
     observer: &mut dyn Observer,
 ) -> Result<SimReport, SimError> {
     use crate::sim::ageing::{Ageing, CrackNetwork};
-    params.validate().map_err(|e| SimError::Param(e.0))?;
-    let Some(cell) = params.cell_size_for(mesh) else {
+    let fresh = mesh.clone();
+    // The run checks the parameters: cycles above 1 only with a cell size.
+    let mut report = run_once(mesh, params, field, observer)?;
+    let Some(cell) = params.cell_size_for(&fresh) else {
         return Err(SimError::Param("cycles above 1 need a cell size".into()));
     };
-    let fresh = mesh.clone();
-    let mut report = run_once(mesh, params, field, observer)?;
     let ageing = Ageing::for_cell(cell);
     let mut net = CrackNetwork::of_cracks(mesh);
     for _ in 1..params.cycles {
@@ -135,16 +135,8 @@ fn run_cycles(
 fn nearest_times(report: &SimReport, segments: &[[[f64; 3]; 2]]) -> Vec<f64> {
     let old = &report.segments;
     let grid = crate::mesh::spatial::Grid::new(
-        old.iter().map(|[p, q]| {
-            (
-                [0, 1, 2].map(|k| p[k].min(q[k])),
-                [0, 1, 2].map(|k| p[k].max(q[k])),
-            )
-        }),
-        report
-            .segments
-            .first()
-            .map_or(1.0, |[p, q]| v3::norm(v3::sub(*q, *p))),
+        old.iter().map(|s| crate::mesh::spatial::bbox(s)),
+        old.first().map_or(1.0, |[p, q]| v3::norm(v3::sub(*q, *p))),
     );
     segments
         .iter()

@@ -130,9 +130,10 @@ pub struct SimParams {
     pub max_triangles: usize,
     /// Drying cycles (a film only): each cycle after the first re-opens
     /// the last one's cracks, aged by one wetting and drying
-    /// ([`crate::stress::scars`]): junctions move toward equal angles, so
+    /// ([`crate::sim::ageing`]): junctions move toward equal angles, so
     /// T-junctions turn into Y-junctions and cells toward hexagons over a
-    /// few cycles. Each cycle costs about one run. In 1..=50; default 1.
+    /// few cycles. Only the first drying is simulated; the further cycles
+    /// age its crack network, which costs little. In 1..=50; default 1.
     pub cycles: usize,
 }
 

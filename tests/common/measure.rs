@@ -1034,14 +1034,8 @@ pub fn junction_stats(graph: &CrackGraph, arm: f64, normal: P3) -> Value {
         let flat: Vec<P3> = dirs
             .iter()
             .map(|&d| {
-                sub(
-                    d,
-                    [
-                        nrm[0] * dot(d, nrm),
-                        nrm[1] * dot(d, nrm),
-                        nrm[2] * dot(d, nrm),
-                    ],
-                )
+                let along = dot(d, nrm);
+                sub(d, nrm.map(|x| x * along))
             })
             .collect();
         if flat.iter().any(|d| norm(*d) == 0.0) {
