@@ -195,17 +195,21 @@ fn the_armadillo_study_times_both_schemes_to_the_target_error() {
     let s = target["speedup"].as_f64().unwrap();
     let ratio = fe["seconds"].as_f64().unwrap() / be["seconds"].as_f64().unwrap();
     assert!((s - ratio).abs() <= 1e-9 * s, "{target}");
-    // Its cheapest setting needs few conjugate-gradient iterations: at most
-    // a few per round.
+    // The loosest tolerance that still reaches the target error at one step
+    // per round needs few conjugate-gradient iterations: at most a few per
+    // round. (Picked by error and iterations, which are deterministic, not
+    // by the timings, which decide the summary's row and vary between runs.)
+    let target_error = target["error"].as_f64().unwrap();
     let row = doc["rows"]
         .as_array()
         .unwrap()
         .iter()
-        .find(|r| {
+        .filter(|r| {
             r["integrator"] == "backward-euler"
                 && r["dt"] == be["dt"]
-                && r["tolerance"] == be["tolerance"]
+                && r["error"].as_f64().unwrap() <= target_error
         })
+        .min_by_key(|r| r["cg_iterations"].as_u64().unwrap())
         .unwrap();
     let rounds = doc["rounds"].as_u64().unwrap();
     assert!(
