@@ -264,6 +264,13 @@ fn main() {
         map.insert("planar_cells".into(), json!(c.len()));
         map.insert("mean_cell_diameter".into(), json!(mean_d));
         map.insert("cell_min_area_rel".into(), json!(min_area_rel));
+        // Evenness of the cells' areas (tempered glass dices into near-equal cells).
+        let n = c.len().max(1) as f64;
+        let mean = c.iter().sum::<f64>() / n;
+        let var = c.iter().map(|a| (a - mean).powi(2)).sum::<f64>() / n;
+        let largest = c.iter().fold(0.0f64, |m, &a| m.max(a));
+        map.insert("cell_area_cv".into(), json!(var.sqrt() / mean));
+        map.insert("largest_cell_over_mean".into(), json!(largest / mean));
     }
     if let Some((center, radius)) = a.impact {
         // Distances in the plate's plane on a plate, else straight-line.

@@ -11,7 +11,7 @@ bin="${2:-./target/release/crackle}"
 data=../shared/eval-data
 mkdir -p "$out"
 run() { "$bin" "$@"; }
-for p in glaze mud mud-jagged glass-impact wood-grain tree-rings curvature texture-mask \
+for p in glaze mud mud-jagged mud-aged glass-impact glass-tempered wood-grain tree-rings curvature texture-mask \
          springs-mud springs-glaze impact-snapped; do
   fixture=$(run presets | awk -v p="$p" '$1==p' | sed -E 's/.*try it on (fixtures\/[a-z_]+\.obj).*/\1/')
   run crack "$fixture" "$out/$p.glb" --preset "$p" -q --report "$out/$p.report.json"

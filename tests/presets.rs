@@ -6,12 +6,13 @@ mod common;
 
 use common::{crack, report, stages};
 
-const PRESETS: [(&str, &str); 9] = [
+const PRESETS: [(&str, &str); 10] = [
     ("glaze", "icosphere.obj"),
     ("mud", "plate_jittered.obj"),
     ("mud-jagged", "plate_jittered.obj"),
     ("mud-aged", "plate_jittered.obj"),
     ("glass-impact", "plate_jittered.obj"),
+    ("glass-tempered", "plate_jittered.obj"),
     ("wood-grain", "plate_jittered.obj"),
     ("tree-rings", "plate_jittered.obj"),
     ("curvature", "bumps.obj"),

@@ -202,6 +202,10 @@ pub const PRESETS: &[(&str, &str)] = &[
         "glass-impact",
         include_str!("../../pipeline/glass-impact.toml"),
     ),
+    (
+        "glass-tempered",
+        include_str!("../../pipeline/glass-tempered.toml"),
+    ),
     ("wood-grain", include_str!("../../pipeline/wood-grain.toml")),
     ("tree-rings", include_str!("../../pipeline/tree-rings.toml")),
     ("curvature", include_str!("../../pipeline/curvature.toml")),
