@@ -1,9 +1,11 @@
 //! The bottom layer: small vector and tensor maths in `f64` and the seeded
 //! hash every random choice draws from. It imports nothing from the crate.
 
+mod noise;
 mod tensor;
 pub mod v3;
 
+pub use noise::value_noise;
 pub use tensor::{Sym2, Sym3};
 
 /// A uniform value in [-1, 1] from `seed` and `key` (SplitMix64), the same

@@ -160,6 +160,9 @@ pub struct StressEntry {
     pub strength: Option<f64>,
     /// curvature with `separation`: the largest factor, > 0. Default 4.
     pub max_factor: Option<f64>,
+    /// directional: drying checks about this many cell sizes long (0.5
+    /// to 50), staggered along the grain, instead of cracks from end to end.
+    pub checks: Option<f64>,
     /// Any kind: a texture mask multiplying the entry's stress.
     pub mask: Option<MaskSpec>,
 }
@@ -685,6 +688,7 @@ impl StressEntry {
         [
             ("direction", self.direction.is_some()),
             ("mesh_axis", self.mesh_axis.is_some()),
+            ("checks", self.checks.is_some()),
             ("center", self.center.is_some()),
             ("center_relative", self.center_relative.is_some()),
             ("axis", self.axis.is_some()),
@@ -734,7 +738,7 @@ impl StressEntry {
         let allowed: &[&str] = match self.kind.as_str() {
             "uniform" | "noise" => &[],
             "curvature" => &["separation", "strength", "max_factor"],
-            "directional" => &["direction", "mesh_axis"],
+            "directional" => &["direction", "mesh_axis", "checks"],
             "concentric" => &["center", "center_relative", "axis", "mesh_axis"],
             "impact" => &[
                 "points",
@@ -796,6 +800,7 @@ impl StressEntry {
                         Some(d) => place.vector(d),
                         None => self.mesh_axis(&place.bounds)?,
                     },
+                    checks: self.checks,
                 }
             }
             "concentric" => {
@@ -1043,8 +1048,12 @@ mod tests {
         }
         match (&terms[1].kind, &terms[2].kind, &terms[3].kind) {
             (
-                TermKind::Directional { direction: world },
-                TermKind::Directional { direction: longest },
+                TermKind::Directional {
+                    direction: world, ..
+                },
+                TermKind::Directional {
+                    direction: longest, ..
+                },
                 TermKind::Concentric { center, axis },
             ) => {
                 assert!(close(*world, [0.5, 0.0, 0.0]), "{world:?}");

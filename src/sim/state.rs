@@ -283,7 +283,7 @@ impl State {
                         .iter()
                         .fold([0.0; 3], |a, p| v3::add(a, *p));
                     let spacing = crate::sim::film::NOISE_SPACING * film.cell;
-                    crate::sim::film::value_noise(params.seed, v3::scale(c, 1.0 / (3.0 * spacing)))
+                    crate::math::value_noise(params.seed, v3::scale(c, 1.0 / (3.0 * spacing)))
                 }
                 None => hash_unit(params.seed, u64::from(mesh.face_source(f))),
             };

@@ -23,6 +23,12 @@ pub enum TermKind {
     Directional {
         /// World direction (normalised here).
         direction: [f64; 3],
+        /// Drying checks instead of cracks from end to end: the stress is
+        /// held to staggered lens-shaped patches about this many cell sizes
+        /// long along the grain (across the direction) and a third of a
+        /// cell wide, from seeded noise stretched along the grain, so each
+        /// crack stops where its patch ends. `None`: the same everywhere.
+        checks: Option<f64>,
     },
     /// Stress along circles around an axis (tree rings): the impact
     /// construction's perpendicular to the direction away from the axis.
@@ -173,11 +179,18 @@ impl Term {
             return bad("init and evolve weights must be finite numbers".into());
         }
         match &self.kind {
-            TermKind::Directional { direction } => {
+            TermKind::Directional { direction, checks } => {
                 if unit(*direction).is_none() {
                     return bad(format!(
                         "direction must be a nonzero vector, got {direction:?}"
                     ));
+                }
+                if let Some(len) = checks {
+                    if !(0.5..=50.0).contains(len) {
+                        return bad(format!(
+                            "checks must be 0.5 to 50 cell sizes long, got {len}"
+                        ));
+                    }
                 }
             }
             TermKind::Concentric { center, axis } => {
@@ -254,9 +267,13 @@ impl Term {
         };
         match &self.kind {
             TermKind::Uniform => Sym3::tangent_identity(n, 1.0),
-            TermKind::Directional { direction } => {
+            TermKind::Directional { direction, checks } => {
                 let d = unit(*direction).unwrap_or([0.0; 3]);
-                Sym3::outer(in_plane(d, n))
+                let w = match checks {
+                    Some(len) => check_weight(ctx.seed, c, d, *len * ctx.cell),
+                    None => 1.0,
+                };
+                Sym3::outer(in_plane(d, n)) * w
             }
             TermKind::Concentric { center, axis } => {
                 let a = unit(*axis).unwrap_or([0.0, 0.0, 1.0]);
@@ -334,7 +351,39 @@ struct Context<'a> {
     curvature: Option<&'a CurvatureField>,
     /// Area-weighted RMS of the curvature tensors' Frobenius norms.
     curvature_rms: f64,
+    /// The cell size: [`EDGES_PER_CELL`] mean edges (directional checks).
+    cell: f64,
 }
+
+/// Edges across one cell of the remeshed simulation surface (the film's
+/// surface is remeshed to this many edges a cell; on a surface cracked on
+/// its own triangles, a cell is this many of them).
+pub const EDGES_PER_CELL: f64 = 8.0;
+
+/// How much of a directional term acts at `c` when it makes drying checks
+/// `length` long (world units) across the unit direction `d`: seeded noise
+/// stretched along the grain (a unit of noise is half the length along it,
+/// [`CHECK_STRETCH`] times less across: its bumps are lens-shaped), above a
+/// threshold, so patches about `length` long and staggered, stressed most
+/// in their middle, with nothing between them.
+fn check_weight(seed: u64, c: [f64; 3], d: [f64; 3], length: f64) -> f64 {
+    let across = v3::dot(c, d);
+    let along = v3::sub(c, v3::scale(d, across));
+    let unit_along = 0.5 * length.max(f64::MIN_POSITIVE);
+    let q = v3::add(
+        v3::scale(along, 1.0 / unit_along),
+        v3::scale(d, across * CHECK_STRETCH / unit_along),
+    );
+    let v = crate::math::value_noise(seed ^ 0x6368_6563_6b73, q);
+    ((v - CHECK_THRESHOLD) / (CHECK_FULL - CHECK_THRESHOLD)).clamp(0.0, 1.0)
+}
+
+/// How much finer the checks' noise runs across the grain than along it.
+const CHECK_STRETCH: f64 = 6.0;
+/// The noise level under which a directional term with checks does not act.
+const CHECK_THRESHOLD: f64 = 0.2;
+/// The noise level from which it acts in full.
+const CHECK_FULL: f64 = 0.5;
 
 /// The UV of face `f`'s centroid in channel `ch` (2 components).
 fn face_uv(mesh: &SimMesh, f: FaceId, ch: &crate::mesh::Channel) -> [f64; 2] {
@@ -485,6 +534,12 @@ impl StressField {
                 uv_channel,
                 curvature,
                 curvature_rms,
+                cell: match t.kind {
+                    TermKind::Directional {
+                        checks: Some(_), ..
+                    } => EDGES_PER_CELL * mesh.mean_edge_length(),
+                    _ => 0.0,
+                },
             });
         }
         let mut field = StressField {
@@ -536,6 +591,62 @@ impl StressField {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Directional checks: the term acts only in patches, which are long
+    /// along the grain (across the direction) and short across it, and
+    /// `checks` outside 0.5 to 50 cells is refused.
+    #[test]
+    fn directional_checks_are_patches_long_along_the_grain() {
+        let d = [1.0, 0.0, 0.0];
+        let len = 2.0;
+        let w = |x: f64, z: f64| check_weight(5, [x, 0.0, z], d, len);
+        let (n, step) = (400, 0.02);
+        let mut on = 0;
+        // Mean run of "on" samples along the grain (z) and across it (x).
+        let runs = |along: bool| {
+            let (mut runs, mut total) = (0usize, 0usize);
+            for line in 0..40 {
+                let mut prev = false;
+                for k in 0..n {
+                    let t = k as f64 * step;
+                    let c = line as f64 * 0.37;
+                    let v = if along { w(c, t) } else { w(t, c) } > 0.0;
+                    if v {
+                        total += 1;
+                        if !prev {
+                            runs += 1;
+                        }
+                    }
+                    prev = v;
+                }
+            }
+            (total, total as f64 * step / runs.max(1) as f64)
+        };
+        let (total_along, run_along) = runs(true);
+        let (_, run_across) = runs(false);
+        on += total_along;
+        assert!(
+            on > 0 && on < 40 * n,
+            "the patches cover part of the board: {on}"
+        );
+        assert!(
+            run_along > 3.0 * run_across,
+            "patches {run_along} long along the grain, {run_across} across"
+        );
+        assert!((0.2 * len..2.0 * len).contains(&run_along), "{run_along}");
+        for bad in [0.1, 100.0, f64::NAN] {
+            let t = Term {
+                kind: TermKind::Directional {
+                    direction: d,
+                    checks: Some(bad),
+                },
+                init: 1.0,
+                evolve: 0.0,
+                mask: None,
+            };
+            assert!(t.validate().is_err(), "checks = {bad}");
+        }
+    }
     use crate::mesh::shapes::jittered_plate;
 
     fn eig(s: &Sym3) -> ([f64; 3], [[f64; 3]; 3]) {
@@ -548,6 +659,7 @@ mod tests {
         let t = Term {
             kind: TermKind::Directional {
                 direction: [1.0, 0.0, 1.0],
+                checks: None,
             },
             init: 1.0,
             evolve: 0.0,
