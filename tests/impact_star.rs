@@ -14,9 +14,14 @@ mod shapes;
 /// hit in the middle, reference radius a quarter of the diagonal).
 fn impact_on_plate(extra: &[&str]) -> serde_json::Value {
     let dir = tempfile::tempdir().unwrap();
-    let input = dir.path().join("plate.obj");
+    impact_on_plate_in(dir.path(), extra)
+}
+
+/// [`impact_on_plate`], its output `out.glb` left in `dir`.
+fn impact_on_plate_in(dir: &std::path::Path, extra: &[&str]) -> serde_json::Value {
+    let input = dir.join("plate.obj");
     shapes::write_obj(&input, &shapes::jittered_plate(160, 10.0, 0.3, 1));
-    let out = dir.path().join("out.glb");
+    let out = dir.join("out.glb");
     let mut args = vec![
         "-q",
         "--preset",
@@ -63,4 +68,50 @@ fn a_faster_hit_makes_more_radial_cracks() {
     let fast = impact_on_plate(&["--set", "stress.0.speed=16"]);
     let at = |s: &serde_json::Value| s["crossings_0.5"].as_u64().unwrap();
     assert!(at(&fast) > at(&slow), "slow {slow}\nfast {fast}");
+}
+
+/// `crackle stats --impact X,Y,Z --radius R` reports what the independent
+/// measure finds on the same output: the radial share between 0.2 and 0.8
+/// radii and the cracks crossing the half-radius circle.
+#[test]
+fn crackle_stats_reports_the_impact_as_the_independent_measure_does() {
+    let dir = tempfile::tempdir().unwrap();
+    let m = impact_on_plate_in(dir.path(), &[]);
+    let radius = (0.25 * 200f64.sqrt()).to_string();
+    let o = common::run_ok([
+        "stats".as_ref(),
+        dir.path().join("out.glb").as_os_str(),
+        "--json".as_ref(),
+        "--impact".as_ref(),
+        "0,0,0".as_ref(),
+        "--radius".as_ref(),
+        radius.as_ref(),
+    ]);
+    let s: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let h = &s["impact"];
+    let share = h["radial_share_mid"].as_f64().unwrap();
+    let measured = m["radial_share_0.2_0.8"].as_f64().unwrap();
+    assert!((share - measured).abs() <= 0.05, "stats {h}\nmeasure {m}");
+    let crossings = h["crossings_half"].as_u64().unwrap() as i64;
+    let counted = m["crossings_0.5"].as_u64().unwrap() as i64;
+    assert!((crossings - counted).abs() <= 2, "stats {h}\nmeasure {m}");
+    // Crack length per area falls with distance in its bands too.
+    let per_area: Vec<f64> = h["per_area"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_f64().unwrap())
+        .collect();
+    assert!(per_area[7] < 0.5 * per_area[1], "{per_area:?}");
+    // A hit that is not three numbers is refused, naming the flag.
+    let bad = common::run([
+        "stats".as_ref(),
+        dir.path().join("out.glb").as_os_str(),
+        "--impact".as_ref(),
+        "0,0".as_ref(),
+        "--radius".as_ref(),
+        "1".as_ref(),
+    ]);
+    assert!(!bad.status.success());
+    assert!(String::from_utf8_lossy(&bad.stderr).contains("--impact"));
 }

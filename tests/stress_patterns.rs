@@ -125,6 +125,7 @@ fn wood_grain_cracks_across_the_stress() {
     let terms = [Term {
         kind: TermKind::Directional {
             direction: [1.0, 0.0, 0.0],
+            checks: None,
         },
         init: 0.0,
         evolve: 0.05,

@@ -152,6 +152,17 @@ enum Command {
         /// Print the statistics as JSON on stdout
         #[arg(long)]
         json: bool,
+        /// An impact's hit (X,Y,Z in the output's mesh coordinates): also report radial and concentric crack length by distance from it and the cracks crossing the circle at half of --radius
+        #[arg(
+            long,
+            value_name = "X,Y,Z",
+            requires = "radius",
+            allow_hyphen_values = true
+        )]
+        impact: Option<String>,
+        /// The impact's reference radius (with --impact), in the output's units
+        #[arg(long, value_name = "R", requires = "impact")]
+        radius: Option<f64>,
     },
     /// Compare two glTF (or OBJ) files structurally and geometrically; exit 0 when equivalent, 1 when not
     ///
@@ -350,7 +361,19 @@ fn run_other(command: Command, quiet: bool, read: &crackle::io::ReadOptions) -> 
             json,
             weld_tolerance,
         } => info::run(&input, json, &weld_options(weld_tolerance)?, read),
-        Command::Stats { file, input, json } => stats::run(&file, input.as_deref(), json, read),
+        Command::Stats {
+            file,
+            input,
+            json,
+            impact,
+            radius,
+        } => {
+            let impact = match (impact, radius) {
+                (Some(p), Some(r)) => Some((stats::parse_point(&p)?, r)),
+                _ => None,
+            };
+            stats::run(&file, input.as_deref(), json, impact, read)
+        }
         Command::Crack {
             input,
             output,

@@ -1,15 +1,21 @@
 //! `crackle stats`: the statistics of a crack pattern in an output file.
 
 use anyhow::{Context, Result};
-use crackle::stats::{pattern_stats, PatternInput, ReferenceEdges};
+use crackle::stats::{impact_stats, pattern_stats, ImpactStats, PatternInput, ReferenceEdges};
 use std::path::Path;
 
 pub fn run(
     file: &Path,
     input: Option<&Path>,
     as_json: bool,
+    impact: Option<([f64; 3], f64)>,
     read: &crackle::io::ReadOptions,
 ) -> Result<()> {
+    if let Some((_, r)) = impact {
+        if !(r.is_finite() && r > 0.0) {
+            anyhow::bail!("--radius must be a positive number, got {r}");
+        }
+    }
     let scene =
         crackle::io::read_with(file, read).with_context(|| format!("{}", file.display()))?;
     let pattern = PatternInput::from_scene(&scene);
@@ -29,9 +35,13 @@ pub fn run(
         None => None,
     };
     let s = pattern_stats(&pattern, reference.as_ref());
+    let hit = impact.map(|(c, r)| impact_stats(&pattern, c, r));
     if as_json {
         let mut v = serde_json::to_value(&s)?;
         v["file"] = file.display().to_string().into();
+        if let Some(h) = &hit {
+            v["impact"] = serde_json::to_value(h)?;
+        }
         println!("{}", serde_json::to_string_pretty(&v)?);
         return Ok(());
     }
@@ -81,5 +91,51 @@ pub fn run(
     if let Some(a) = s.along_reference_edges {
         println!("  along input edges     {:.4} of the length", a);
     }
+    if let Some(h) = &hit {
+        print_impact(h);
+    }
     Ok(())
+}
+
+fn print_impact(h: &ImpactStats) {
+    let c = h.center;
+    println!(
+        "  impact at             {} {} {} (radius {})",
+        c[0], c[1], c[2], h.radius
+    );
+    println!(
+        "  radial share          {:.3} of the length from 0.2 to 0.8 radii",
+        h.radial_share_mid
+    );
+    println!(
+        "  crossing half radius  {} crack segments",
+        h.crossings_half
+    );
+    println!("  by distance (radii)   radial  concentric  all  per area");
+    let w = crackle::stats::impact::BAND;
+    for i in 0..h.total.len() {
+        println!(
+            "    {:.1}-{:.1}            {:.4}  {:.4}  {:.4}  {:.4}",
+            i as f64 * w,
+            (i + 1) as f64 * w,
+            h.radial[i],
+            h.concentric[i],
+            h.total[i],
+            h.per_area[i]
+        );
+    }
+    println!("    beyond              {:.4}", h.beyond);
+}
+
+/// `X,Y,Z` as a point.
+pub fn parse_point(text: &str) -> Result<[f64; 3]> {
+    let v: Vec<f64> = text
+        .split(',')
+        .map(|x| x.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
+        .with_context(|| format!("--impact '{text}': give three numbers X,Y,Z"))?;
+    match v[..] {
+        [x, y, z] if v.iter().all(|a| a.is_finite()) => Ok([x, y, z]),
+        _ => anyhow::bail!("--impact '{text}': give three finite numbers X,Y,Z"),
+    }
 }

@@ -40,6 +40,10 @@
 //! search is a lookup in a uniform grid within a distance, so the work is
 //! about linear in the surface and the lines.
 
+pub mod impact;
+
+pub use impact::{impact_stats, ImpactStats};
+
 use crate::math::v3::{add, cross, dot, norm, scale, sub};
 use crate::mesh::spatial::{bbox, closest_on_segment};
 use crate::mesh::{MeshInput, SimMesh, WeldOptions};
@@ -915,5 +919,4 @@ fn diagonal(p: &[[f64; 3]]) -> f64 {
 }
 
 #[cfg(test)]
-#[path = "stats_tests.rs"]
 mod tests;
