@@ -11,8 +11,6 @@ mod measure;
 #[path = "common/shapes.rs"]
 mod shapes;
 
-use std::collections::HashMap;
-
 #[test]
 fn tempered_glass_dices_the_whole_pane_into_near_equal_cells() {
     // A jittered pane and a regular grid (whose rows must not show).
@@ -91,37 +89,8 @@ fn a_laminated_windscreen_cracks_but_stays_in_one_piece() {
         input_tris.len(),
         "the input's triangles come back"
     );
-    assert_eq!(pieces(&tris), 1, "the laminated pane came apart");
-}
-
-/// Connected pieces of a triangle soup, corners welded by position.
-fn pieces(tris: &[measure::Tri]) -> usize {
-    let mut ids: HashMap<[i64; 3], usize> = HashMap::new();
-    let mut parent: Vec<usize> = Vec::new();
-    fn find(parent: &mut [usize], mut i: usize) -> usize {
-        while parent[i] != i {
-            parent[i] = parent[parent[i]];
-            i = parent[i];
-        }
-        i
-    }
-    for t in tris {
-        let corner: Vec<usize> = t
-            .iter()
-            .map(|p| {
-                let key = p.map(|x| (x * 1e6).round() as i64);
-                *ids.entry(key).or_insert_with(|| {
-                    parent.push(parent.len());
-                    parent.len() - 1
-                })
-            })
-            .collect();
-        for &c in &corner[1..] {
-            let (a, b) = (find(&mut parent, corner[0]), find(&mut parent, c));
-            parent[a.max(b)] = a.min(b);
-        }
-    }
-    (0..parent.len())
-        .filter(|&i| find(&mut parent, i) == i)
-        .count()
+    let pieces = measure::crack_graph(&measure::triangle_edges(&tris), measure::DEFAULT_WELD_REL)
+        .pieces()
+        .len();
+    assert_eq!(pieces, 1, "the laminated pane came apart");
 }

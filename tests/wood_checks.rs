@@ -37,53 +37,55 @@ fn checks(out: &std::path::Path, axis: usize) -> Checks {
         })
         .sum();
     let graph = measure::crack_graph(&lines, measure::DEFAULT_WELD_REL);
-    // Connected pieces of the graph: union-find over its edges.
-    let segs = graph.segments();
-    let mut ids: HashMap<[i64; 3], usize> = HashMap::new();
-    let mut parent: Vec<usize> = Vec::new();
-    fn find(p: &mut [usize], mut i: usize) -> usize {
-        while p[i] != i {
-            p[i] = p[p[i]];
-            i = p[i];
-        }
-        i
-    }
-    let mut ends = Vec::with_capacity(segs.len());
-    for s in &segs {
-        let e = s.map(|p| {
-            *ids.entry(p.map(|x| (x * 1e7).round() as i64))
-                .or_insert_with(|| {
-                    parent.push(parent.len());
-                    parent.len() - 1
-                })
-        });
-        let (a, b) = (find(&mut parent, e[0]), find(&mut parent, e[1]));
-        parent[a.max(b)] = a.min(b);
-        ends.push(e);
-    }
-    let mut pieces: HashMap<usize, (f64, f64, f64)> = HashMap::new();
-    for (s, e) in segs.iter().zip(&ends) {
-        let root = find(&mut parent, e[0]);
-        let len = (0..3)
-            .map(|k| (s[1][k] - s[0][k]).powi(2))
-            .sum::<f64>()
-            .sqrt();
-        let p = pieces
-            .entry(root)
-            .or_insert((0.0, f64::INFINITY, f64::NEG_INFINITY));
-        p.0 += len;
-        for q in s {
-            p.1 = p.1.min(q[axis]);
-            p.2 = p.2.max(q[axis]);
-        }
-    }
-    let mut lengths: Vec<f64> = pieces.values().map(|p| p.0).collect();
+    let pieces: Vec<Vec<measure::Seg>> = graph
+        .pieces()
+        .iter()
+        .map(|p| p.iter().map(|&e| graph.segment(e)).collect())
+        .collect();
+    let mut lengths: Vec<f64> = pieces.iter().map(|p| measure::crack_length(p)).collect();
     lengths.sort_by(f64::total_cmp);
+    let longest_extent = pieces
+        .iter()
+        .map(|p| {
+            let (lo, hi) = measure::bounds(p.iter().flatten());
+            hi[axis] - lo[axis]
+        })
+        .fold(0.0, f64::max);
     Checks {
         along_grain: along / total,
         lengths,
-        longest_extent: pieces.values().map(|p| p.2 - p.1).fold(0.0, f64::max),
+        longest_extent,
     }
+}
+
+/// At least ten checks, 80% of the crack length within 15 degrees of the
+/// grain, the median check 1 to 4 cells long, and none spanning half of
+/// `span` (the extent measured along the grain).
+fn assert_checks(what: &str, c: &Checks, cell: f64, span: f64) {
+    let median = c.lengths[c.lengths.len() / 2];
+    eprintln!(
+        "{what}: {} checks, along the grain {:.3}, median length {:.2} cells, longest extent {:.2} of the span",
+        c.lengths.len(),
+        c.along_grain,
+        median / cell,
+        c.longest_extent / span
+    );
+    assert!(c.lengths.len() >= 10, "{what}: {} checks", c.lengths.len());
+    assert!(
+        c.along_grain >= 0.8,
+        "{what}: along the grain {}",
+        c.along_grain
+    );
+    assert!(
+        (1.0..=4.0).contains(&(median / cell)),
+        "{what}: median check {} cells",
+        median / cell
+    );
+    assert!(
+        c.longest_extent < 0.5 * span,
+        "{what}: a check runs {} of the span",
+        c.longest_extent / span
+    );
 }
 
 /// A plank `w` x `h` x `l` (x, y, z: the grain along z), each side a grid
@@ -142,29 +144,9 @@ fn wood_grain_makes_short_staggered_checks_along_the_grain_of_a_plank() {
         &["-q", "--preset", "wood-grain", "--set", "post.lines=true"],
     );
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let c = checks(&out, 2);
     // The preset's cell size: 0.05 of the bounding-box diagonal.
     let cell = 0.05 * (1.0f64 + 0.0625 + 16.0).sqrt();
-    let median = c.lengths[c.lengths.len() / 2];
-    eprintln!(
-        "plank: {} checks, along the grain {:.3}, median length {:.2} cells, longest extent {:.2} of the length",
-        c.lengths.len(),
-        c.along_grain,
-        median / cell,
-        c.longest_extent / 4.0
-    );
-    assert!(c.lengths.len() >= 10, "{} checks", c.lengths.len());
-    assert!(c.along_grain >= 0.8, "along the grain: {}", c.along_grain);
-    assert!(
-        (1.0..=4.0).contains(&(median / cell)),
-        "median check {} cells",
-        median / cell
-    );
-    assert!(
-        c.longest_extent < 0.5 * 4.0,
-        "a check runs {} of the plank's length",
-        c.longest_extent / 4.0
-    );
+    assert_checks("plank", &checks(&out, 2), cell, 4.0);
 }
 
 #[test]
@@ -180,29 +162,8 @@ fn wood_grain_makes_checks_on_the_bunny() {
         &["-q", "--preset", "wood-grain", "--set", "post.lines=true"],
     );
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let c = checks(&out, 1);
     let model = measure::read_model(&input);
     let (lo, hi) = measure::bounds(model.triangles(|_| true).iter().flatten());
     let diag = (0..3).map(|k| (hi[k] - lo[k]).powi(2)).sum::<f64>().sqrt();
-    let cell = 0.05 * diag;
-    let median = c.lengths[c.lengths.len() / 2];
-    eprintln!(
-        "bunny: {} checks, along the grain {:.3}, median length {:.2} cells, longest extent {:.2} of the height",
-        c.lengths.len(),
-        c.along_grain,
-        median / cell,
-        c.longest_extent / (hi[1] - lo[1])
-    );
-    assert!(c.lengths.len() >= 10, "{} checks", c.lengths.len());
-    assert!(c.along_grain >= 0.8, "along the grain: {}", c.along_grain);
-    assert!(
-        (1.0..=4.0).contains(&(median / cell)),
-        "median check {} cells",
-        median / cell
-    );
-    assert!(
-        c.longest_extent < 0.5 * (hi[1] - lo[1]),
-        "a check runs {} of the height",
-        c.longest_extent / (hi[1] - lo[1])
-    );
+    assert_checks("bunny", &checks(&out, 1), 0.05 * diag, hi[1] - lo[1]);
 }

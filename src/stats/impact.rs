@@ -9,8 +9,8 @@
 //! of the surface, else with the straight way away. Each crack segment is
 //! cut into [`PIECES`] pieces, each binned by the distance of its middle.
 
-use super::PatternInput;
-use crate::math::v3::{add, cross, dot, norm, scale, sub};
+use super::{vertex_normals, PatternInput};
+use crate::math::v3::{add, dot, norm, scale, sub, unit};
 use serde::Serialize;
 
 /// Width of a distance band, as a fraction of the reference radius.
@@ -51,14 +51,7 @@ pub struct ImpactStats {
 /// radius `radius` (> 0).
 pub fn impact_stats(input: &PatternInput, center: [f64; 3], radius: f64) -> ImpactStats {
     let pos = &input.positions;
-    let mut normals = vec![[0.0; 3]; pos.len()];
-    for t in &input.triangles {
-        let p = t.map(|v| pos[v as usize]);
-        let n = cross(sub(p[1], p[0]), sub(p[2], p[0]));
-        for &v in t {
-            normals[v as usize] = add(normals[v as usize], n);
-        }
-    }
+    let normals = vertex_normals(input);
     let bands = (REACH / BAND).round() as usize;
     let mut s = ImpactStats {
         center,
@@ -122,11 +115,6 @@ pub fn impact_stats(input: &PatternInput, center: [f64; 3], radius: f64) -> Impa
         0.0
     };
     s
-}
-
-fn unit(v: [f64; 3]) -> Option<[f64; 3]> {
-    let l = norm(v);
-    (l > 0.0 && l.is_finite()).then(|| scale(v, 1.0 / l))
 }
 
 #[cfg(test)]

@@ -742,13 +742,7 @@ pub fn pattern_stats(input: &PatternInput, reference: Option<&ReferenceEdges>) -
             dist(closest_on_segment(p, border[i][0], border[i][1]), p) <= near
         })
     };
-    let mut normals = vec![[0.0; 3]; pos.len()];
-    for t in &input.triangles {
-        let p = t.map(|v| pos[v as usize]);
-        let n = cross(sub(p[1], p[0]), sub(p[2], p[0]));
-        t.iter()
-            .for_each(|&v| normals[v as usize] = add(normals[v as usize], n));
-    }
+    let normals = vertex_normals(input);
     for (v, near) in adj.iter().enumerate().filter(|(_, a)| !a.is_empty()) {
         s.max_degree = s.max_degree.max(near.len());
         s.degree[(near.len() - 1).min(3)] += 1;
@@ -778,6 +772,20 @@ pub fn pattern_stats(input: &PatternInput, reference: Option<&ReferenceEdges>) -
     };
     s.paired = paired_share(pos, &input.cracks, &adj, s.paired_distance, crack_length);
     s
+}
+
+/// Each vertex's normal: the sum of its triangles' area-weighted normals
+/// (zero at a vertex of no triangle).
+fn vertex_normals(input: &PatternInput) -> Vec<[f64; 3]> {
+    let pos = &input.positions;
+    let mut normals = vec![[0.0; 3]; pos.len()];
+    for t in &input.triangles {
+        let p = t.map(|v| pos[v as usize]);
+        let n = cross(sub(p[1], p[0]), sub(p[2], p[0]));
+        t.iter()
+            .for_each(|&v| normals[v as usize] = add(normals[v as usize], n));
+    }
+    normals
 }
 
 /// Count the degree-3 junction at `v` (neighbours `adj`, surface normal

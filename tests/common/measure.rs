@@ -693,6 +693,29 @@ impl CrackGraph {
     pub fn segments(&self) -> Vec<Seg> {
         (0..self.edges.len()).map(|e| self.segment(e)).collect()
     }
+    /// The connected pieces of the graph, each as its edges.
+    pub fn pieces(&self) -> Vec<Vec<usize>> {
+        let mut seen = vec![false; self.nodes.len()];
+        let mut pieces = Vec::new();
+        for start in 0..self.nodes.len() {
+            if seen[start] || self.adjacency[start].is_empty() {
+                continue;
+            }
+            seen[start] = true;
+            let (mut stack, mut edges) = (vec![start], BTreeSet::new());
+            while let Some(n) = stack.pop() {
+                for &(m, e) in &self.adjacency[n] {
+                    edges.insert(e);
+                    if !seen[m] {
+                        seen[m] = true;
+                        stack.push(m);
+                    }
+                }
+            }
+            pieces.push(edges.into_iter().collect());
+        }
+        pieces
+    }
     /// Nodes within path length `limit` (world units) of the sources (node, starting length).
     pub fn reach(&self, sources: &[(usize, f64)], limit: f64) -> BTreeMap<usize, f64> {
         // Lengths are >= 0, so their bits sort as they do: a BTreeSet is the queue.
