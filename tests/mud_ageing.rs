@@ -19,6 +19,8 @@ struct Pattern {
     cells: usize,
     mean_sides: f64,
     open_tips: usize,
+    /// `crackle stats`' mean cell sides and the cells it is over.
+    stats_sides: (f64, u64),
 }
 
 fn mud_on_plate(args: &[&str]) -> Pattern {
@@ -45,11 +47,17 @@ fn mud_on_plate(args: &[&str]) -> Pattern {
     assert!(d > 0.0, "no cells");
     let sides = measure::planar_cell_sides(&graph, &border, 1e-4, 0.1 * d, 150.0);
     assert!(sides.len() >= 20, "{} inner cells", sides.len());
+    let o = common::run_ok(["stats".as_ref(), out.as_os_str(), "--json".as_ref()]);
+    let stats: Value = serde_json::from_slice(&o.stdout).unwrap();
     Pattern {
         junctions: measure::junction_stats(&graph, 0.1 * d, [0.0, 1.0, 0.0]),
         cells: cells.len(),
         mean_sides: sides.iter().sum::<usize>() as f64 / sides.len() as f64,
         open_tips: measure::open_tips(&graph, &border),
+        stats_sides: (
+            stats["mean_cell_sides"].as_f64().unwrap(),
+            stats["sided_cells"].as_u64().unwrap(),
+        ),
     }
 }
 
@@ -87,6 +95,16 @@ fn aged_mud_has_y_junctions_and_near_hexagonal_cells_on_the_first_drying_cracks(
         fresh.junctions
     );
     assert_eq!((fresh.open_tips, aged.open_tips), (0, 0));
+    // `crackle stats` counts the sides as the measure does (on the same
+    // inner cells, within a corner in five cells).
+    for p in [&fresh, &aged] {
+        let (mean, cells) = p.stats_sides;
+        assert!(
+            (mean - p.mean_sides).abs() <= 0.2 && cells >= 20,
+            "stats {mean} over {cells} cells, measure {}",
+            p.mean_sides
+        );
+    }
 }
 
 #[test]

@@ -83,6 +83,8 @@ struct Truth {
     tips: usize,
     edge_share: f64,
     paired: f64,
+    /// Mean sides of the inner cells and how many there are.
+    sides: (f64, usize),
 }
 
 /// The measure on the network at rest of `out` (an output of `input`, a
@@ -98,8 +100,15 @@ fn truth(out: &Path, input: &Path, paired_distance: f64) -> Truth {
     let plane_lines = measure::flatten(&lines, flat, level);
     let plane_graph = measure::crack_graph(&plane_lines, TOL_REL);
     let plane_border = measure::flatten(&border, flat, level);
+    let cells = measure::planar_cells(&plane_graph, &plane_border, MIN_CELL_REL);
+    let arm = 0.1 * measure::cell_diameters(&cells);
+    let sides = measure::planar_cell_sides(&plane_graph, &plane_border, MIN_CELL_REL, arm, 150.0);
     Truth {
-        cells: measure::planar_cells(&plane_graph, &plane_border, MIN_CELL_REL).len(),
+        cells: cells.len(),
+        sides: (
+            sides.iter().sum::<usize>() as f64 / sides.len().max(1) as f64,
+            sides.len(),
+        ),
         tips: measure::open_tips(&graph, &border),
         edge_share: measure::edge_share(&lines, &input_tris, measure::DEFAULT_TOL_REL),
         paired: measure::paired_share_in(&graph, paired_distance, 20.0),
@@ -143,14 +152,19 @@ fn check(preset: &str, extra: &[&str], dir: &Path) -> (String, Vec<String>) {
     let tips = num(&s, "dangling_tips") as usize;
     let share = num(&s, "along_reference_edges");
     let paired = num(&s, "paired");
+    let sides = (num(&s, "mean_cell_sides"), num(&s, "sided_cells") as usize);
     let line = format!(
         "{preset:26} cells {cells:4} / {:4}  tips {tips:3} / {:3}  on edges {share:.3} / {:.3}  \
-         paired {paired:.3} / {:.3} (within {:.4})",
+         paired {paired:.3} / {:.3} (within {:.4})  sides {:.2} ({}) / {:.2} ({})",
         t.cells,
         t.tips,
         t.edge_share,
         t.paired,
-        num(&s, "paired_distance")
+        num(&s, "paired_distance"),
+        sides.0,
+        sides.1,
+        t.sides.0,
+        t.sides.1
     );
     let mut bad = Vec::new();
     let off = |a: usize, b: usize| a.abs_diff(b);
@@ -173,6 +187,12 @@ fn check(preset: &str, extra: &[&str], dir: &Path) -> (String, Vec<String>) {
         bad.push(format!(
             "{preset}: {paired:.3} paired, the measure {:.3}",
             t.paired
+        ));
+    }
+    if t.sides.1 >= 10 && (sides.0 - t.sides.0).abs() > 0.3 {
+        bad.push(format!(
+            "{preset}: cells of {:.2} sides, the measure {:.2}",
+            sides.0, t.sides.0
         ));
     }
     (line, bad)

@@ -69,6 +69,10 @@ pub fn run(
         "  degree-3 junctions    T {}  Y {}",
         s.t_junctions, s.y_junctions
     );
+    println!(
+        "  cell sides            {:.2} on average over {} cells off the border",
+        s.mean_cell_sides, s.sided_cells
+    );
     let hist = |v: &[usize]| {
         v.iter()
             .map(|x| x.to_string())

@@ -41,6 +41,7 @@
 //! about linear in the surface and the lines.
 
 pub mod impact;
+mod sides;
 
 pub use impact::{impact_stats, ImpactStats};
 
@@ -175,6 +176,12 @@ pub struct PatternStats {
     pub junction_angles: [usize; 12],
     /// The most crack segments meeting at one node.
     pub max_degree: usize,
+    /// The mean number of sides of the cells the cracks enclose off the
+    /// border: their corners, the junctions where the inside angle is below
+    /// 150 degrees (about 4 for a first drying's T-junctions, 6 for aged mud).
+    pub mean_cell_sides: f64,
+    /// How many cells `mean_cell_sides` is over.
+    pub sided_cells: usize,
     /// Crack length by orientation in the plane of the two largest
     /// bounding-box extents: 6 bins of 30 degrees over 0..180, as
     /// fractions of the crack length.
@@ -754,6 +761,11 @@ pub fn pattern_stats(input: &PatternInput, reference: Option<&ReferenceEdges>) -
         }
     }
     s.orientation = orientation(pos, &input.cracks, crack_length);
+    let arm = 0.1 * s.mean_cell_diameter;
+    let nn = sides::node_normals(pos, &normals, &adj, arm.max(near));
+    let min_area = 1e-4 * area;
+    (s.mean_cell_sides, s.sided_cells) =
+        sides::mean_cell_sides(pos, &adj, |v| nn[v], on_border, arm, min_area);
     s.along_reference_edges = reference.map(|r| r.share(pos, &input.cracks));
     // Pairs at a quarter of the cells' own size.
     let enclosed = |c: &&Cell| c.1 && !c.2;

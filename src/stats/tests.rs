@@ -270,3 +270,56 @@ fn a_partial_pattern_is_paired_at_its_own_cells_size() {
     );
     assert_eq!(s.paired, 0.0);
 }
+
+/// Bricks: rows of cracks across a 24 x 24 grid and staggered cracks
+/// between them. A brick has four corners (its T-junctions' right angles)
+/// whatever T-junctions meet its long sides from the next rows.
+#[test]
+fn bricks_have_four_sides_and_the_outer_outline_is_no_cell() {
+    let (positions, triangles, id) = grid(24);
+    let mut cracks = Vec::new();
+    for y in [4, 8, 12, 16, 20] {
+        cracks.extend(horizontal(&id, y, 0, 24));
+    }
+    for row in 0..6 {
+        let shift = 2 * (row % 2);
+        for x in (4..24).step_by(4) {
+            cracks.extend(vertical(&id, x - shift, 4 * row, 4 * row + 4));
+        }
+    }
+    let s = pattern_stats(
+        &PatternInput {
+            positions: positions.clone(),
+            triangles: triangles.clone(),
+            cracks,
+            ..Default::default()
+        },
+        None,
+    );
+    // Off the border: rows 1 to 4, four bricks a row not on the sides.
+    assert_eq!(s.sided_cells, 4 * 4, "{s:?}");
+    assert!((s.mean_cell_sides - 4.0).abs() < 1e-12, "{s:?}");
+    // A ring off the border with a cross inside it: four cells of three
+    // corners (the cross's middle and the two T-junctions on the ring; the
+    // ring's own corners are no junctions); the outside of the ring is no
+    // cell.
+    let mut cracks = Vec::new();
+    let (a, b) = (4, 20);
+    cracks.extend(horizontal(&id, a, a, b));
+    cracks.extend(horizontal(&id, b, a, b));
+    cracks.extend(vertical(&id, a, a, b));
+    cracks.extend(vertical(&id, b, a, b));
+    cracks.extend(horizontal(&id, 12, 4, 20));
+    cracks.extend(vertical(&id, 12, 4, 20));
+    let s = pattern_stats(
+        &PatternInput {
+            positions,
+            triangles,
+            cracks,
+            ..Default::default()
+        },
+        None,
+    );
+    assert_eq!(s.sided_cells, 4, "{s:?}");
+    assert!((s.mean_cell_sides - 3.0).abs() < 1e-12, "{s:?}");
+}
