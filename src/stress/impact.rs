@@ -18,6 +18,14 @@
 //! - radial tension (cracks open across it: arcs) along rings at
 //!   `0.2 R * 1.6^j`, in a seeded half of the sectors between rays.
 //!
+//! A faster hit also loads harder: the term's weight is the load of a
+//! star of [`LOAD_RAYS`] rays, and a star of `N` carries `sqrt(N / 8)` of
+//! it. The impact's energy grows as `N^2` (N as the square root of the
+//! speed), so each of the `N` cracks takes energy in proportion to `N`,
+//! and elastic energy goes as the stress squared. Without it a slow hit's
+//! few rays, as loaded as a fast hit's many, split and run in parallel
+//! (4 rays made 6 to 9 radial cracks at half the radius).
+//!
 //! Widths are in cells (the simulation surface's mean edge), so the
 //! pattern is the same at any scale and tessellation.
 
@@ -41,6 +49,9 @@ pub fn rays_for_speed(speed: f64) -> u32 {
     let n = (RAYS_AT_ONE * (speed / REFERENCE_SPEED).max(0.0).sqrt()).round();
     (n as u32).clamp(MIN_RAYS, MAX_RAYS)
 }
+
+/// Rays of the star whose load is the term's weight (4 m/s).
+pub const LOAD_RAYS: f64 = 8.0;
 
 /// Hoop tension's decay length, in radii: it falls as
 /// `1 / (1 + (d / (0.7 R))^4)`, to a fifth at `R`.
@@ -71,6 +82,8 @@ pub struct Star {
     rings: Vec<f64>,
     width: f64,
     radius: f64,
+    /// `sqrt(N / LOAD_RAYS)`: the load of this star against the weight's.
+    load: f64,
     seed: u64,
 }
 
@@ -139,6 +152,7 @@ impl Star {
         let unit01 = |k: u64, i: u64| 0.5 * (hash_unit(key(k), i) + 1.0);
         let phase = std::f64::consts::TAU * unit01(0x7261_7973, 0);
         let step = std::f64::consts::TAU / f64::from(rays.max(1));
+        let load = (f64::from(rays.max(1)) / LOAD_RAYS).sqrt();
         let rays = (0..u64::from(rays))
             .map(|i| {
                 // Evenly around, each moved by up to a fifth of the gap.
@@ -159,6 +173,7 @@ impl Star {
             rings,
             width: WIDTH_CELLS * mesh.mean_edge_length(),
             radius,
+            load,
             seed: key(0x7269_6e67),
         }
     }
@@ -183,7 +198,7 @@ impl Star {
             let arc = d * gap.min(std::f64::consts::FRAC_PI_2);
             on_ray = on_ray.max(strength * (-(arc / self.width).powi(2)).exp());
         }
-        let hoop = hoop_decay * (BETWEEN_RAYS + (1.0 - BETWEEN_RAYS) * on_ray);
+        let hoop = self.load * hoop_decay * (BETWEEN_RAYS + (1.0 - BETWEEN_RAYS) * on_ray);
         // The rings, each across a seeded share of the sectors: the
         // sector is the one between the nearest ray and its neighbour on
         // this side.
@@ -205,7 +220,7 @@ impl Star {
             }
             ring = ring.max((-((d - rj) / self.width).powi(2)).exp());
         }
-        let radial = RING_STRENGTH * hoop_decay * ring;
+        let radial = self.load * RING_STRENGTH * hoop_decay * ring;
         let hoop_dir = v3::cross(n, away);
         Sym3::outer(hoop_dir) * hoop + Sym3::outer(away) * radial
     }
@@ -237,6 +252,25 @@ mod tests {
         assert_eq!(rays_for_speed(16.0), 16);
         assert_eq!(rays_for_speed(0.0), MIN_RAYS);
         assert_eq!(rays_for_speed(1e9), MAX_RAYS);
+    }
+
+    #[test]
+    fn a_star_of_more_rays_carries_more_load() {
+        let (mesh, _) = crate::mesh::shapes::build(&crate::mesh::shapes::grid_input(40, 40));
+        let peak = |rays| {
+            let star = Star::new(&mesh, [20.0, 20.0, 0.0], 12.0, rays, 1, 0);
+            (0..mesh.n_faces())
+                .map(|f| star.tensor(f, [0.0, 0.0, 1.0]).frobenius_sq().sqrt())
+                .fold(0.0, f64::max)
+        };
+        let (eight, thirty_two) = (peak(8), peak(32));
+        // The weight is the load of eight rays' star (up to a ray's
+        // strength, 0.8 to 1.3); four times the rays, twice the load.
+        assert!((0.8..=1.3).contains(&eight), "{eight}");
+        assert!(
+            (thirty_two / eight - 2.0).abs() < 0.35,
+            "{eight} {thirty_two}"
+        );
     }
 
     #[test]

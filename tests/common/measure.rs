@@ -1111,7 +1111,8 @@ pub fn cell_diameters(areas: &[f64]) -> f64 {
 /// and oblique length (a random network has a third of each); the largest share of the
 /// total length in any band 0.05 R wide (a ring where the pattern is cut off shows as a
 /// peak); and how many segments cross the circles at 0.25 R, 0.5 R and 0.75 R (a star of
-/// N straight radial cracks crosses each N times). Segments are split into 64 pieces so
+/// N straight radial cracks crosses each N times), and at 0.5 R those within 30 degrees
+/// of the way out from the hit (the radial cracks there). Segments are split into 64 pieces so
 /// that long ones are binned where they lie.
 pub fn impact_stats(lines: &[Seg], center: P3, normal: P3, radius: f64) -> Value {
     let n = unit(normal);
@@ -1165,6 +1166,20 @@ pub fn impact_stats(lines: &[Seg], center: P3, normal: P3, radius: f64) -> Value
             .filter(|s| (norm(flat(s[0])) - rc) * (norm(flat(s[1])) - rc) < 0.0)
             .count()
     };
+    // Crossing segments radial as the bands count them (within 30 degrees of the way
+    // out from the hit): arcs along the circle are no radial cracks however often
+    // they wiggle across it.
+    let radial_crossings = |rc: f64| {
+        lines
+            .iter()
+            .filter(|s| {
+                let (a, b) = (flat(s[0]), flat(s[1]));
+                let m = lerp(a, b, 0.5);
+                (norm(a) - rc) * (norm(b) - rc) < 0.0
+                    && dot(sub(b, a), m).abs() >= cos30 * dist(a, b) * norm(m)
+            })
+            .count()
+    };
     let band: Vec<Value> = (0..bands)
         .map(|i| {
             let (r0, r1) = (0.1 * i as f64 * radius, 0.1 * (i + 1) as f64 * radius);
@@ -1189,5 +1204,6 @@ pub fn impact_stats(lines: &[Seg], center: P3, normal: P3, radius: f64) -> Value
         "crossings_0.25": crossings(0.25 * radius),
         "crossings_0.5": crossings(0.5 * radius),
         "crossings_0.75": crossings(0.75 * radius),
+        "radial_crossings_0.5": radial_crossings(0.5 * radius),
     })
 }
