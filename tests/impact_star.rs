@@ -131,3 +131,72 @@ fn crackle_stats_reports_the_impact_as_the_independent_measure_does() {
     assert!(!bad.status.success());
     assert!(String::from_utf8_lossy(&bad.stderr).contains("--impact"));
 }
+
+/// Two hits on one pane, at once (two points in one term) and one after the
+/// other (the second its own term, loaded by `evolve` once the first has
+/// broken): each makes its star, and where they meet a crack ends on the
+/// other star's instead of crossing it, so the two stars are one network
+/// with no node where four cracks meet.
+#[test]
+fn two_hits_make_two_stars_that_end_on_each_other() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = dir.path().join("plate.obj");
+    shapes::write_obj(&input, &shapes::jittered_plate(160, 10.0, 0.3, 1));
+    let star = |at: &str, weights: &str| {
+        format!(
+            "[[stress]]\nkind = \"impact\"\n{weights}\npoints_relative = {at}\n\
+             radius_relative = 0.25\nspeed = 4.0\n"
+        )
+    };
+    let pane = "[select]\nfixed_boundary = true\n[simulation]\ncell_size_relative = 0.05\n\
+                shrink_rate = 0.0\nalpha = 0.5\nresidual_constant = 0.0\n\
+                [post]\nlines = true\nbake = false\n";
+    let hits = [[-1.2, 0.0, -0.5], [1.2, 0.0, 0.5]];
+    let at_once = format!(
+        "{pane}{}",
+        star("[[0.38, 1.0, 0.45], [0.62, 1.0, 0.55]]", "init = 30.0")
+    );
+    let in_turn = format!(
+        "{pane}{}{}",
+        star("[[0.38, 1.0, 0.45]]", "init = 30.0"),
+        // The default load time is 120: the second hit's full load at its end.
+        star("[[0.62, 1.0, 0.55]]", "init = 0.0\nevolve = 0.25")
+    );
+    for (name, pipeline) in [("at_once", at_once), ("in_turn", in_turn)] {
+        let file = dir.path().join(format!("{name}.toml"));
+        std::fs::write(&file, pipeline).unwrap();
+        let out = dir.path().join(format!("{name}.glb"));
+        let o = common::crack(&input, &out, &["-q", "--pipeline", file.to_str().unwrap()]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let lines = measure::read_model(&out).rest_lines("crack_lines");
+        let graph = measure::crack_graph(&lines, measure::DEFAULT_WELD_REL);
+        let radius = 0.25 * 200f64.sqrt();
+        for hit in hits {
+            let s = measure::impact_stats(&lines, hit, [0.0, 1.0, 0.0], radius);
+            let rays = s["radial_crossings_0.5"].as_u64().unwrap();
+            assert!(rays >= 5, "{name}: {rays} radial cracks around {hit:?}");
+        }
+        let four = graph.degree.iter().filter(|&&d| d >= 4).count();
+        assert_eq!(four, 0, "{name}: {four} nodes where four cracks meet");
+        // The node nearest each hit: both in one piece of the network.
+        let nearest = |p: [f64; 3]| {
+            (0..graph.nodes.len())
+                .min_by(|&a, &b| {
+                    let d = |n: usize| {
+                        let q = graph.nodes[n];
+                        (q[0] - p[0]).powi(2) + (q[2] - p[2]).powi(2)
+                    };
+                    d(a).total_cmp(&d(b))
+                })
+                .unwrap()
+        };
+        let piece_of = |n: usize| {
+            graph
+                .pieces()
+                .iter()
+                .position(|edges| edges.iter().any(|&e| graph.edges[e].contains(&n)))
+        };
+        let (a, b) = (piece_of(nearest(hits[0])), piece_of(nearest(hits[1])));
+        assert!(a.is_some() && a == b, "{name}: the stars are apart");
+    }
+}
