@@ -113,11 +113,114 @@ pub struct CurvatureField {
 /// Estimates the principal curvatures of `mesh` per vertex and per face (see
 /// the [module docs](self) for the method and the sign convention).
 pub fn estimate(mesh: &SimMesh) -> CurvatureField {
+    estimate_at_scale(mesh, 0.0)
+}
+
+/// As [`estimate`], of the surface seen at the scale `radius` (world units):
+/// the vertex normals are first averaged over about that distance (repeated
+/// averaging with the neighbours, each pass spreading a normal by about
+/// `h / sqrt 2` for a mean edge `h`), so bumps much smaller than `radius`
+/// (scan noise, a noisy ground's grain) cancel out and bends larger than it
+/// keep their curvature. `radius` 0 is [`estimate`].
+pub fn estimate_at_scale(mesh: &SimMesh, radius: f64) -> CurvatureField {
     let faces: Vec<[u32; 3]> = mesh
         .faces()
         .map(|f| mesh.face_vertices(f).map(|v| v.0))
         .collect();
-    estimate_soup(mesh.positions(), &faces)
+    let h = mesh.mean_edge_length();
+    let passes = if radius > 0.0 && h > 0.0 {
+        (2.0 * (radius / h).powi(2)).ceil().min(MAX_PASSES as f64) as usize
+    } else {
+        0
+    };
+    estimate_soup(mesh.positions(), &faces, passes)
+}
+
+/// Most normal-averaging passes of [`estimate_at_scale`] (a radius of 10
+/// mean edges).
+const MAX_PASSES: usize = 200;
+
+/// `normals` averaged `passes` times with their neighbours across `faces`
+/// (each with itself and every vertex it shares an edge with, renormalized;
+/// the sums in a fixed order, so the result is the same at any thread
+/// count). The neighbours are weighted by the cotangent weights of their
+/// edge (negative ones, across obtuse corners, taken as 0), scaled so a
+/// vertex's weights sum to its number of neighbours: with them the average
+/// of a sphere's normals is its own normal (the cotangent Laplacian of the
+/// positions is along the normal), where plain averaging turns each normal
+/// toward the middle of its neighbours and bends the curvature.
+fn smooth_normals(
+    normals: Vec<[f64; 3]>,
+    positions: &[[f64; 3]],
+    faces: &[[u32; 3]],
+    passes: usize,
+) -> Vec<[f64; 3]> {
+    if passes == 0 {
+        return normals;
+    }
+    let nv = normals.len();
+    let mut pairs: Vec<(u32, u32, f64)> = Vec::with_capacity(6 * faces.len());
+    for f in faces {
+        if f.iter().any(|&i| i as usize >= nv) || f[0] == f[1] || f[1] == f[2] || f[0] == f[2] {
+            continue;
+        }
+        let p = f.map(|i| positions[i as usize]);
+        for k in 0..3 {
+            let (a, b) = (f[(k + 1) % 3], f[(k + 2) % 3]);
+            let (u, v) = (v3::sub(p[(k + 1) % 3], p[k]), v3::sub(p[(k + 2) % 3], p[k]));
+            let sin = v3::norm(v3::cross(u, v));
+            let cot = if sin > 0.0 { v3::dot(u, v) / sin } else { 0.0 };
+            pairs.push((a, b, 0.5 * cot));
+            pairs.push((b, a, 0.5 * cot));
+        }
+    }
+    pairs.sort_unstable_by_key(|x| (x.0, x.1));
+    let mut edges: Vec<(u32, u32, f64)> = Vec::with_capacity(pairs.len() / 2);
+    for run in pairs.chunk_by(|x, y| (x.0, x.1) == (y.0, y.1)) {
+        let w: f64 = run.iter().map(|x| x.2).sum();
+        edges.push((
+            run[0].0,
+            run[0].1,
+            if w.is_finite() { w.max(0.0) } else { 0.0 },
+        ));
+    }
+    let mut start = vec![0usize; nv + 1];
+    for &(a, _, _) in &edges {
+        start[a as usize + 1] += 1;
+    }
+    for i in 0..nv {
+        start[i + 1] += start[i];
+    }
+    // Each vertex's weights, summing to its number of neighbours (plain
+    // averaging where they are all 0).
+    for i in 0..nv {
+        let ring = &mut edges[start[i]..start[i + 1]];
+        let sum: f64 = ring.iter().map(|e| e.2).sum();
+        let n = ring.len() as f64;
+        for e in ring.iter_mut() {
+            e.2 = if sum > 0.0 { e.2 * n / sum } else { 1.0 };
+        }
+    }
+    let mut n = normals;
+    for _ in 0..passes {
+        n = (0..nv)
+            .into_par_iter()
+            .map(|i| {
+                let s = edges[start[i]..start[i + 1]]
+                    .iter()
+                    .fold(n[i], |s, &(_, j, w)| {
+                        v3::add(s, v3::scale(n[j as usize], w))
+                    });
+                let l = v3::norm(s);
+                if l > 1e-12 && l.is_finite() {
+                    v3::scale(s, 1.0 / l)
+                } else {
+                    n[i]
+                }
+            })
+            .collect();
+    }
+    n
 }
 
 /// Faces whose double area is at most this times their longest edge squared
@@ -350,7 +453,7 @@ fn degenerate_curvature(p: [[f64; 3]; 3]) -> Curvature {
 
 /// [`estimate`] on positions and triangles (corner indices into
 /// `positions`; out-of-range corners make the face degenerate).
-fn estimate_soup(positions: &[[f64; 3]], faces: &[[u32; 3]]) -> CurvatureField {
+fn estimate_soup(positions: &[[f64; 3]], faces: &[[u32; 3]], passes: usize) -> CurvatureField {
     let nv = positions.len();
     let corners = |f: &[u32; 3]| -> Option<[[f64; 3]; 3]> {
         if f.iter().any(|&i| i as usize >= nv) || f[0] == f[1] || f[1] == f[2] || f[0] == f[2] {
@@ -399,6 +502,7 @@ fn estimate_soup(positions: &[[f64; 3]], faces: &[[u32; 3]]) -> CurvatureField {
             }
         })
         .collect();
+    let normals = smooth_normals(normals, positions, faces, passes);
     // Vertex frames (u, v, n), right-handed.
     let frames: Vec<([f64; 3], [f64; 3])> = normals
         .iter()
@@ -1017,7 +1121,7 @@ mod tests {
             [7, 1, 2],  // NaN corner
             [8, 9, 1],  // overflowing
         ];
-        let field = estimate_soup(&p, &faces);
+        let field = estimate_soup(&p, &faces, 0);
         assert_eq!(field.per_vertex.len(), p.len());
         assert_eq!(field.per_face.len(), faces.len());
         for c in field.per_vertex.iter().chain(&field.per_face) {
@@ -1034,7 +1138,7 @@ mod tests {
             assert_eq!(field.per_face[f].k1, 0.0, "degenerate face {f}");
             assert_eq!(field.per_face_tensor[f], Sym3::ZERO);
         }
-        let empty = estimate_soup(&[], &[]);
+        let empty = estimate_soup(&[], &[], 0);
         assert!(empty.per_vertex.is_empty() && empty.per_face.is_empty());
     }
 
@@ -1071,5 +1175,46 @@ mod tests {
                 "{c:?}"
             );
         }
+    }
+
+    /// Seen at a scale, a plane with fine bumps (a noisy ground) is flat and
+    /// a sphere keeps its curvature: the grain cancels out in the averaged
+    /// normals, a bend larger than the scale does not.
+    #[test]
+    fn at_a_scale_the_grain_cancels_and_the_bend_stays() {
+        let mut seed = 7u64;
+        let mut noise = move || {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+        };
+        let heights: Vec<f64> = (0..81 * 81).map(|_| 0.02 * noise()).collect();
+        let ground = grid(80, 80, false, false, |u, v| {
+            let (i, j) = ((u * 80.0).round() as usize, (v * 80.0).round() as usize);
+            [4.0 * u, heights[j * 81 + i], 4.0 * v]
+        });
+        let rms = |k: &CurvatureField| {
+            let n = k.per_vertex.len() as f64;
+            (k.per_vertex
+                .iter()
+                .map(|c| c.frobenius().powi(2))
+                .sum::<f64>()
+                / n)
+                .sqrt()
+        };
+        // Edges of 0.05: the grain's curvature is about 0.02 / 0.05^2.
+        let (raw, seen) = (
+            rms(&estimate(&ground)),
+            rms(&estimate_at_scale(&ground, 0.4)),
+        );
+        assert!(raw > 1.0, "{raw}");
+        assert!(seen < 0.05 * raw, "raw {raw}, at 0.4: {seen}");
+        let sphere = icosphere(4, 2.0);
+        let k = estimate_at_scale(&sphere, 0.5);
+        for c in &k.per_vertex {
+            assert!((c.k1 * 2.0 - 1.0).abs() < 0.05 && (c.k2 * 2.0 - 1.0).abs() < 0.05);
+        }
+        assert_eq!(k, estimate_at_scale(&sphere, 0.5), "deterministic");
     }
 }

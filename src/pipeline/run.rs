@@ -6,7 +6,7 @@
 use super::frames::{self, Frames, Replay};
 use super::{Bounds, Pipeline, Placement};
 use crate::bridge::{build_sim_meshes, SimEntry};
-use crate::geometry::curvature::{self, CurvatureField};
+use crate::geometry::curvature::CurvatureField;
 use crate::mesh::remesh::{self, RemeshReport};
 use crate::mesh::WeldOptions;
 use crate::scene::{Geometry, Scene};
@@ -489,7 +489,7 @@ pub fn prepare(scene: &Scene, config: &Config, observer: &mut dyn Observer) -> R
         let t = Instant::now();
         observer.stage("curvature");
         for (k, e) in curvatures.iter_mut().zip(&entries) {
-            *k = Some(curvature::estimate(&e.sim));
+            *k = Some(crate::stress::field::cell_curvature(&e.sim));
         }
         stages.push(Stage::new("curvature", t.elapsed().as_secs_f64()));
     }

@@ -99,11 +99,15 @@ impl CurvatureMeasure {
 }
 
 /// Scaling of the separation tensor by curvature: each face gets the factor
-/// `clamp(1 + strength (m / m_mean - 1), 0, max_factor)`, with `m` the
-/// face's measure and `m_mean` its area-weighted mean over the mesh (factor 1
-/// everywhere on a flat mesh); a node's separation is multiplied by the mean
-/// factor of its faces. `strength = 1` makes the separation proportional to
-/// the measure (flat regions never crack); `strength = 0` changes nothing.
+/// `clamp(1 + strength (m / m_ref - 1), 0, max_factor)`, with `m` the
+/// face's measure of the curvature at the cell's scale ([`cell_curvature`],
+/// in world units) and `m_ref` the measure of a sphere of
+/// [`BEND_RADIUS_CELLS`] cells' radius: so how much a surface bends is
+/// judged against the cell size, not against the mesh's own mean (a flat
+/// noisy ground does not count as curved); a node's separation is
+/// multiplied by the mean factor of its faces. `strength = 1` makes the
+/// separation proportional to the measure (flat regions never crack);
+/// `strength = 0` changes nothing.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CurvatureScale {
     /// Which measure.
@@ -360,6 +364,18 @@ struct Context<'a> {
 /// its own triangles, a cell is this many of them).
 pub const EDGES_PER_CELL: f64 = 8.0;
 
+/// A surface bends, for [`CurvatureScale`], where it is as curved as a
+/// sphere of this many cells' radius: the measure there is the reference.
+pub const BEND_RADIUS_CELLS: f64 = 3.0;
+
+/// The curvature of `mesh` at the pattern's scale: the estimate with the
+/// normals averaged over half a cell ([`EDGES_PER_CELL`] mean edges), so a
+/// noisy ground's grain does not count as bending and a cell-sized bend does.
+pub fn cell_curvature(mesh: &SimMesh) -> CurvatureField {
+    let cell = EDGES_PER_CELL * mesh.mean_edge_length();
+    curvature::estimate_at_scale(mesh, 0.5 * cell)
+}
+
 /// How much of a directional term acts at `c` when it makes drying checks
 /// `length` long (world units) across the unit direction `d`: seeded noise
 /// stretched along the grain (a unit of noise is half the length along it,
@@ -475,7 +491,7 @@ impl StressField {
         let curvature = match curvature {
             Some(k) => Some(k),
             None if terms.iter().any(Term::needs_curvature) => {
-                estimated = curvature::estimate(mesh);
+                estimated = cell_curvature(mesh);
                 Some(&estimated)
             }
             None => None,
@@ -573,11 +589,15 @@ impl StressField {
             }
             if let (TermKind::Curvature { scale: Some(sc) }, Some(k)) = (&t.kind, curvature) {
                 let m = |f: FaceId| sc.measure.of(&k.per_face[f.idx()]);
-                let mean = area_mean(mesh, m);
+                let reference = sc.measure.of(&Curvature {
+                    k1: 1.0 / (BEND_RADIUS_CELLS * EDGES_PER_CELL * mesh.mean_edge_length()),
+                    k2: 1.0 / (BEND_RADIUS_CELLS * EDGES_PER_CELL * mesh.mean_edge_length()),
+                    ..Default::default()
+                });
                 scale(&|f| {
                     let x = m(f);
-                    if mean > 0.0 && x.is_finite() {
-                        (1.0 + sc.strength * (x / mean - 1.0)).clamp(0.0, sc.max_factor)
+                    if reference > 0.0 && reference.is_finite() && x.is_finite() {
+                        (1.0 + sc.strength * (x / reference - 1.0)).clamp(0.0, sc.max_factor)
                     } else {
                         1.0
                     }
@@ -861,7 +881,8 @@ mod tests {
             assert!((s.trace() - 2.0).abs() < 0.05, "trace {}", s.trace());
             assert!(s.quad(n, n).abs() < 1e-9);
         }
-        // On a flat plate the curvature is zero: no stress, factor 1, no NaN.
+        // On a flat plate the curvature is zero: no stress, factor 0 at
+        // strength 1 (flat never cracks), no NaN.
         let plate = jittered_plate(6, 0.2, 2);
         let t = Term {
             kind: TermKind::Curvature {
@@ -877,14 +898,15 @@ mod tests {
         };
         let field = StressField::build(&plate, &[t], 1).unwrap();
         assert!(field.init.iter().all(|s| s.frobenius_sq() < 1e-20));
-        assert!(field.separation_scale.iter().all(|&x| x == 1.0));
+        assert!(field.separation_scale.iter().all(|&x| x == 0.0));
     }
 
     #[test]
     fn curvature_scaling_follows_the_measure() {
         // A cylinder-like strip: half flat, half bent. Faces on the bent half
-        // get factor m / mean (strength 1), the flat half 0; strength 0.5
-        // halves the deviation from 1; max_factor clamps.
+        // get factor m / m_ref (strength 1; m_ref that of a sphere of
+        // BEND_RADIUS_CELLS cells), the flat half 0; strength 0.5 halves the
+        // deviation from 1; max_factor clamps.
         let n = 16;
         let mut input = crate::mesh::shapes::grid_input(n, 4);
         for p in &mut input.positions {
@@ -909,8 +931,8 @@ mod tests {
             mask: None,
         };
         let m = |f: FaceId| CurvatureMeasure::SumSquares.of(&k.per_face[f.idx()]);
-        let mean = area_mean(&mesh, m);
-        assert!(mean > 0.0);
+        let bend = BEND_RADIUS_CELLS * EDGES_PER_CELL * mesh.mean_edge_length();
+        let mean = 2.0 / (bend * bend);
         let full = StressField::build_with(&mesh, &[term(1.0, 100.0)], 1, Some(&k)).unwrap();
         let half = StressField::build_with(&mesh, &[term(0.5, 100.0)], 1, Some(&k)).unwrap();
         let capped = StressField::build_with(&mesh, &[term(1.0, 1.2)], 1, Some(&k)).unwrap();
