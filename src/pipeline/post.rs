@@ -579,6 +579,16 @@ fn wall_primitive(
                 components: 2,
                 data: corners().flat_map(|i| w.uvs[i]).map(|x| x as f32).collect(),
             },
+            VertexAttribute {
+                semantic: "COLOR_0".into(),
+                components: 3,
+                data: {
+                    let deepest = corners().map(|i| w.uvs[i][1]).fold(0.0f64, f64::max);
+                    corners()
+                        .flat_map(|i| [wall_shade(w.uvs[i][1], deepest) as f32; 3])
+                        .collect()
+                },
+            },
         ],
         triangles: (0..tris.len() as u32)
             .map(|t| [3 * t, 3 * t + 1, 3 * t + 2])
@@ -600,6 +610,25 @@ fn wall_primitive(
         rest: Default::default(),
     })
 }
+
+/// How much light reaches a wall `depth` below its top edge, as a factor
+/// on the wall's colour (glTF's `COLOR_0` multiplies the base colour):
+/// [`WALL_TOP`] at the top edge (already inside the gap, it sees half the
+/// sky), falling toward [`WALL_FLOOR`] at the deepest wall's bottom,
+/// fastest near the top (to half of that at a twentieth of the depth), as
+/// the sky a crack's side sees narrows; so a gap reads as a shadowed crack,
+/// dark inside, not as grout.
+fn wall_shade(depth: f64, deepest: f64) -> f64 {
+    if deepest.is_nan() || deepest <= 0.0 || !depth.is_finite() {
+        return 1.0;
+    }
+    let t = (depth / deepest).clamp(0.0, 1.0);
+    WALL_FLOOR + (WALL_TOP - WALL_FLOOR) * (-4.0 * t.sqrt()).exp()
+}
+
+/// The light on a wall's top edge and left at the bottom of the deepest.
+const WALL_TOP: f64 = 0.5;
+const WALL_FLOOR: f64 = 0.08;
 
 /// Add the crack segments of mesh `mesh_index` as a LINES primitive with the
 /// `crack_lines` material; `_CRACK_TIME` gives each line vertex the time
