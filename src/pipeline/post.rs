@@ -66,6 +66,18 @@ pub fn apply(
             "width"
         };
         let moves = post.width > 0.0 || post.curl > 0.0 || groove_width > 0.0;
+        // Broken springs: lines across them where no gap opens along their
+        // edges.
+        let crossed;
+        let r = if !moves && r.crossings.len() == r.segments.len() && !r.crossings.is_empty() {
+            crossed = SimReport {
+                segments: r.crossings.clone(),
+                ..r.clone()
+            };
+            &crossed
+        } else {
+            r
+        };
         // Gaps and grooves open on the simulation surface, whose triangles
         // the method made (well shaped, and a crack's nodes spaced alike).
         let t = Instant::now();

@@ -42,6 +42,14 @@ pub struct SimReport {
     /// When each segment of `segments` formed (simulation time).
     #[serde(skip)]
     pub segment_times: Vec<f64>,
+    /// The spring model only: per segment of `segments` (a broken spring's
+    /// edge, along which the surface opens), the crack across it: between
+    /// the rest centroids of the two triangles on that edge. The springs
+    /// broken along a crack draw one line through the triangles they share
+    /// here, where their edges zig-zag; outputs that do not open gaps draw
+    /// these.
+    #[serde(skip)]
+    pub crossings: Vec<[[f64; 3]; 2]>,
     /// Crack finishing, when asked for.
     pub finish: Option<FinishReport>,
     /// Relaxation rounds whose requested `relax_dt` was above the stable

@@ -562,11 +562,18 @@ fn break_spring(
     st.springs[i].broken = true;
     let h = st.springs[i].h;
     let (a, b) = (mesh.origin(h), mesh.dest(h));
-    if mesh.twin(h).is_none() {
+    let Some(twin) = mesh.twin(h) else {
         // A border edge (or a side of an earlier crack): nothing
         // to open.
         return Ok(());
-    }
+    };
+    // The crack crosses the spring: between the rest centroids of the two
+    // triangles on its edge (the dual edge; see `SimReport::crossings`).
+    let centroid = |f: crate::mesh::FaceId| {
+        let [p, q, r] = mesh.face_vertices(f).map(|v| st.x0[v.idx()]);
+        v3::scale(v3::add(v3::add(p, q), r), 1.0 / 3.0)
+    };
+    let across = [centroid(mesh.face(h)), centroid(mesh.face(twin))];
     let opened = mesh.open_edge(h).map_err(SimError::Mesh)?;
     for &(new, src) in &opened.new_vertices {
         debug_assert_eq!(new.idx(), st.x.len());
@@ -593,6 +600,7 @@ fn break_spring(
         v3::scale(st.x0[a.idx()], unit),
         v3::scale(st.x0[b.idx()], unit),
     ]);
+    report.crossings.push(across.map(|p| v3::scale(p, unit)));
     report.segment_times.push(report.time);
     Ok(())
 }
@@ -813,6 +821,18 @@ mod tests {
         );
         assert_eq!(r.displacement.len(), mesh.n_vertices());
         assert_eq!(r.crack_time.len(), mesh.n_vertices());
+        // Each crack crosses its broken spring: the line between the two
+        // triangles' centroids cuts the spring's edge (in the plate's plane).
+        assert_eq!(r.crossings.len(), r.segments.len());
+        let cross2 = |o: [f64; 3], p: [f64; 3], q: [f64; 3]| {
+            (p[0] - o[0]) * (q[1] - o[1]) - (p[1] - o[1]) * (q[0] - o[0])
+        };
+        for (&[a, b], &[c, d]) in r.segments.iter().zip(&r.crossings) {
+            assert!(
+                cross2(a, b, c) * cross2(a, b, d) < 0.0 && cross2(c, d, a) * cross2(c, d, b) < 0.0,
+                "{a:?}-{b:?} not crossed by {c:?}-{d:?}"
+            );
+        }
     }
 
     #[test]
