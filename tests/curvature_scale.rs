@@ -9,6 +9,8 @@
 mod common;
 #[path = "common/measure.rs"]
 mod measure;
+#[path = "common/shapes.rs"]
+mod shapes;
 
 use std::path::Path;
 
@@ -24,25 +26,10 @@ fn ground(n: usize, grain: f64, bump: f64, scale: f64) -> String {
             .wrapping_add(1442695040888963407);
         (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5
     };
-    let mut text = String::new();
-    for j in 0..=n {
-        for i in 0..=n {
-            let (x, z) = (
-                -5.0 + 10.0 * i as f64 / n as f64,
-                -5.0 + 10.0 * j as f64 / n as f64,
-            );
-            let y = grain * next() + bump * (-(x * x + z * z) / (2.0 * 0.8 * 0.8)).exp();
-            text += &format!("v {} {} {}\n", x * scale, y * scale, z * scale);
-        }
-    }
-    let id = |i: usize, j: usize| j * (n + 1) + i + 1;
-    for j in 0..n {
-        for i in 0..n {
-            text += &format!("f {} {} {}\n", id(i, j), id(i + 1, j), id(i + 1, j + 1));
-            text += &format!("f {} {} {}\n", id(i, j), id(i + 1, j + 1), id(i, j + 1));
-        }
-    }
-    text
+    shapes::height_plate(n, 10.0 * scale, |x, z| {
+        let (x, z) = (x / scale, z / scale);
+        scale * (grain * next() + bump * (-(x * x + z * z) / (2.0 * 0.8 * 0.8)).exp())
+    })
 }
 
 /// The crack lines of `input` cracked with the `curvature` preset.

@@ -190,9 +190,9 @@ fn two_hits_make_two_stars_that_end_on_each_other() {
                 })
                 .unwrap()
         };
+        let pieces = graph.pieces();
         let piece_of = |n: usize| {
-            graph
-                .pieces()
+            pieces
                 .iter()
                 .position(|edges| edges.iter().any(|&e| graph.edges[e].contains(&n)))
         };

@@ -1182,14 +1182,10 @@ mod tests {
     /// normals, a bend larger than the scale does not.
     #[test]
     fn at_a_scale_the_grain_cancels_and_the_bend_stays() {
-        let mut seed = 7u64;
-        let mut noise = move || {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5
-        };
-        let heights: Vec<f64> = (0..81 * 81).map(|_| 0.02 * noise()).collect();
+        let mut lcg = crate::mesh::shapes::Lcg(7);
+        let heights: Vec<f64> = (0..81 * 81)
+            .map(|_| 0.02 * (lcg.next_f64() - 0.5))
+            .collect();
         let ground = grid(80, 80, false, false, |u, v| {
             let (i, j) = ((u * 80.0).round() as usize, (v * 80.0).round() as usize);
             [4.0 * u, heights[j * 81 + i], 4.0 * v]

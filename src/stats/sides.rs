@@ -11,7 +11,7 @@
 //! of it lies on the surface's border (cells the border cuts have sides the
 //! cracks do not make).
 
-use crate::math::v3::{cross, dot, norm, scale, sub};
+use crate::math::v3::{add, cross, dot, norm, scale, sub};
 use std::f64::consts::{PI, TAU};
 
 /// A junction is a corner of a cell when the cell's inside angle there is
@@ -129,7 +129,7 @@ fn is_cell(
         } else {
             s.atan2(c * norm(n))
         };
-        area = crate::math::v3::add(area, cross(sub(a, o), sub(v, o)));
+        area = add(area, cross(sub(a, o), sub(v, o)));
     }
     turning > PI && 0.5 * norm(area) >= min_area
 }
@@ -182,12 +182,17 @@ pub fn node_normals(
     adj: &[Vec<u32>],
     reach: f64,
 ) -> Vec<[f64; 3]> {
+    let off = |v: usize| norm(normals[v]) == 0.0 && !adj[v].is_empty();
+    if !(0..pos.len()).any(off) {
+        // Every crack node is a vertex of the surface (cracks cut in place).
+        return normals.to_vec();
+    }
     let surface: Vec<usize> = (0..pos.len()).filter(|&v| norm(normals[v]) > 0.0).collect();
     let points: Vec<super::Seg> = surface.iter().map(|&v| [pos[v]; 2]).collect();
     let grid = super::Buckets::of_segments(&points, reach);
     (0..pos.len())
         .map(|v| {
-            if norm(normals[v]) > 0.0 || adj[v].is_empty() {
+            if !off(v) {
                 return normals[v];
             }
             let mut best = (f64::INFINITY, usize::MAX);

@@ -22,6 +22,23 @@ fn grid(n: u32) -> (Vec<[f64; 3]>, Vec<[u32; 3]>, impl Fn(u32, u32) -> u32) {
     (p, t, id)
 }
 
+/// The statistics of `cracks` on the surface `positions`, `triangles`.
+fn stats_of(
+    positions: Vec<[f64; 3]>,
+    triangles: Vec<[u32; 3]>,
+    cracks: Vec<[u32; 2]>,
+) -> PatternStats {
+    pattern_stats(
+        &PatternInput {
+            positions,
+            triangles,
+            cracks,
+            ..Default::default()
+        },
+        None,
+    )
+}
+
 fn vertical(id: &impl Fn(u32, u32) -> u32, x: u32, j0: u32, j1: u32) -> Vec<[u32; 2]> {
     (j0..j1)
         .map(|j| {
@@ -45,15 +62,7 @@ fn a_cross_makes_four_cells_and_one_junction_of_four() {
     let (positions, triangles, id) = grid(4);
     let mut cracks = vertical(&id, 2, 0, 4);
     cracks.extend(horizontal(&id, 2, 0, 4));
-    let s = pattern_stats(
-        &PatternInput {
-            positions,
-            triangles,
-            cracks,
-            ..Default::default()
-        },
-        None,
-    );
+    let s = stats_of(positions, triangles, cracks);
     assert_eq!(s.cells, 4);
     assert_eq!(s.cell_area_quantiles, [4.0; 5]);
     assert!((s.crack_length - 8.0).abs() < 1e-12);
@@ -75,15 +84,7 @@ fn a_crack_ending_on_another_is_a_t_junction() {
     let (positions, triangles, id) = grid(4);
     let mut cracks = vertical(&id, 2, 0, 4);
     cracks.extend(horizontal(&id, 2, 0, 2));
-    let s = pattern_stats(
-        &PatternInput {
-            positions,
-            triangles,
-            cracks,
-            ..Default::default()
-        },
-        None,
-    );
+    let s = stats_of(positions, triangles, cracks);
     assert_eq!(s.cells, 3);
     assert_eq!((s.t_junctions, s.y_junctions), (1, 0));
     assert_eq!(
@@ -99,15 +100,7 @@ fn a_crack_ending_on_another_is_a_t_junction() {
 fn an_open_crack_has_two_dangling_tips_and_cuts_nothing() {
     let (positions, triangles, id) = grid(4);
     let cracks = horizontal(&id, 2, 1, 3);
-    let s = pattern_stats(
-        &PatternInput {
-            positions,
-            triangles,
-            cracks,
-            ..Default::default()
-        },
-        None,
-    );
+    let s = stats_of(positions, triangles, cracks);
     assert_eq!(s.cells, 1);
     assert_eq!(s.dangling_tips, 2);
 }
@@ -116,15 +109,7 @@ fn an_open_crack_has_two_dangling_tips_and_cuts_nothing() {
 fn close_parallel_cracks_are_paired_far_ones_are_not() {
     let (positions, triangles, id) = grid(8);
     let close: Vec<[u32; 2]> = [vertical(&id, 3, 0, 8), vertical(&id, 4, 0, 8)].concat();
-    let s = pattern_stats(
-        &PatternInput {
-            positions: positions.clone(),
-            triangles: triangles.clone(),
-            cracks: close,
-            ..Default::default()
-        },
-        None,
-    );
+    let s = stats_of(positions.clone(), triangles.clone(), close);
     // Cells of 24, 8 and 32 all touch the border: the median's (24)
     // diameter sqrt(96 / pi) = 5.53, paired below 1.38: the cracks are 1
     // apart.
@@ -136,15 +121,7 @@ fn close_parallel_cracks_are_paired_far_ones_are_not() {
     );
     assert!((s.paired - 1.0).abs() < 1e-12, "{}", s.paired);
     let far: Vec<[u32; 2]> = [vertical(&id, 1, 0, 8), vertical(&id, 6, 0, 8)].concat();
-    let s = pattern_stats(
-        &PatternInput {
-            positions,
-            triangles,
-            cracks: far,
-            ..Default::default()
-        },
-        None,
-    );
+    let s = stats_of(positions, triangles, far);
     assert_eq!(s.paired, 0.0);
     assert_eq!(s.cells, 3);
 }
@@ -183,29 +160,13 @@ fn a_crack_ending_inside_a_whole_segment_of_another_is_joined_to_it() {
         [id(2, 3), id(2, 4)],
     ];
     cracks.extend(horizontal(&id, 2, 0, 2));
-    let unsplit = pattern_stats(
-        &PatternInput {
-            positions: positions.clone(),
-            triangles: triangles.clone(),
-            cracks: cracks.clone(),
-            ..Default::default()
-        },
-        None,
-    );
+    let unsplit = stats_of(positions.clone(), triangles.clone(), cracks.clone());
     assert_eq!(unsplit.dangling_tips, 1, "the check can fail: {unsplit:?}");
     let mut cracks = split_within(&positions, cracks, 1e-6);
     cracks.sort_unstable();
     assert!(cracks.contains(&[id(2, 1), id(2, 2)]) && cracks.contains(&[id(2, 2), id(2, 3)]));
     assert_eq!(cracks.len(), 6);
-    let s = pattern_stats(
-        &PatternInput {
-            positions,
-            triangles,
-            cracks,
-            ..Default::default()
-        },
-        None,
-    );
+    let s = stats_of(positions, triangles, cracks);
     assert_eq!(s.cells, 3);
     assert_eq!((s.t_junctions, s.dangling_tips), (1, 0));
 }
@@ -251,15 +212,7 @@ fn a_partial_pattern_is_paired_at_its_own_cells_size() {
         cracks.extend(vertical(&id, k, 7, 9));
         cracks.extend(horizontal(&id, k, 7, 9));
     }
-    let s = pattern_stats(
-        &PatternInput {
-            positions,
-            triangles,
-            cracks,
-            ..Default::default()
-        },
-        None,
-    );
+    let s = stats_of(positions, triangles, cracks);
     assert_eq!(s.cells, 5, "{s:?}");
     assert!(s.spacing / 4.0 > 6.0, "{}", s.spacing);
     let d = (4.0 / std::f64::consts::PI).sqrt();
@@ -287,15 +240,7 @@ fn bricks_have_four_sides_and_the_outer_outline_is_no_cell() {
             cracks.extend(vertical(&id, x - shift, 4 * row, 4 * row + 4));
         }
     }
-    let s = pattern_stats(
-        &PatternInput {
-            positions: positions.clone(),
-            triangles: triangles.clone(),
-            cracks,
-            ..Default::default()
-        },
-        None,
-    );
+    let s = stats_of(positions.clone(), triangles.clone(), cracks);
     // Off the border: rows 1 to 4, four bricks a row not on the sides.
     assert_eq!(s.sided_cells, 4 * 4, "{s:?}");
     assert!((s.mean_cell_sides - 4.0).abs() < 1e-12, "{s:?}");
@@ -311,15 +256,7 @@ fn bricks_have_four_sides_and_the_outer_outline_is_no_cell() {
     cracks.extend(vertical(&id, b, a, b));
     cracks.extend(horizontal(&id, 12, 4, 20));
     cracks.extend(vertical(&id, 12, 4, 20));
-    let s = pattern_stats(
-        &PatternInput {
-            positions,
-            triangles,
-            cracks,
-            ..Default::default()
-        },
-        None,
-    );
+    let s = stats_of(positions, triangles, cracks);
     assert_eq!(s.sided_cells, 4, "{s:?}");
     assert!((s.mean_cell_sides - 3.0).abs() < 1e-12, "{s:?}");
 }

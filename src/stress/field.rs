@@ -372,8 +372,12 @@ pub const BEND_RADIUS_CELLS: f64 = 3.0;
 /// normals averaged over half a cell ([`EDGES_PER_CELL`] mean edges), so a
 /// noisy ground's grain does not count as bending and a cell-sized bend does.
 pub fn cell_curvature(mesh: &SimMesh) -> CurvatureField {
-    let cell = EDGES_PER_CELL * mesh.mean_edge_length();
-    curvature::estimate_at_scale(mesh, 0.5 * cell)
+    curvature::estimate_at_scale(mesh, 0.5 * cell_size(mesh))
+}
+
+/// The cell size of `mesh`'s pattern: [`EDGES_PER_CELL`] mean edges.
+fn cell_size(mesh: &SimMesh) -> f64 {
+    EDGES_PER_CELL * mesh.mean_edge_length()
 }
 
 /// How much of a directional term acts at `c` when it makes drying checks
@@ -553,7 +557,7 @@ impl StressField {
                 cell: match t.kind {
                     TermKind::Directional {
                         checks: Some(_), ..
-                    } => EDGES_PER_CELL * mesh.mean_edge_length(),
+                    } => cell_size(mesh),
                     _ => 0.0,
                 },
             });
@@ -589,9 +593,10 @@ impl StressField {
             }
             if let (TermKind::Curvature { scale: Some(sc) }, Some(k)) = (&t.kind, curvature) {
                 let m = |f: FaceId| sc.measure.of(&k.per_face[f.idx()]);
+                let bend = 1.0 / (BEND_RADIUS_CELLS * cell_size(mesh));
                 let reference = sc.measure.of(&Curvature {
-                    k1: 1.0 / (BEND_RADIUS_CELLS * EDGES_PER_CELL * mesh.mean_edge_length()),
-                    k2: 1.0 / (BEND_RADIUS_CELLS * EDGES_PER_CELL * mesh.mean_edge_length()),
+                    k1: bend,
+                    k2: bend,
                     ..Default::default()
                 });
                 scale(&|f| {
@@ -931,7 +936,7 @@ mod tests {
             mask: None,
         };
         let m = |f: FaceId| CurvatureMeasure::SumSquares.of(&k.per_face[f.idx()]);
-        let bend = BEND_RADIUS_CELLS * EDGES_PER_CELL * mesh.mean_edge_length();
+        let bend = BEND_RADIUS_CELLS * cell_size(&mesh);
         let mean = 2.0 / (bend * bend);
         let full = StressField::build_with(&mesh, &[term(1.0, 100.0)], 1, Some(&k)).unwrap();
         let half = StressField::build_with(&mesh, &[term(0.5, 100.0)], 1, Some(&k)).unwrap();

@@ -60,6 +60,17 @@ pub fn regular_plate(n: usize, size: f64) -> String {
     obj_text(&header, &plate_vertices(n, size), &plate_faces(n))
 }
 
+/// OBJ of `regular_plate(n, size)` with each vertex lifted to `height(x, z)`
+/// (called in vertex order, rows of x for increasing z): a ground patch.
+pub fn height_plate(n: usize, size: f64, mut height: impl FnMut(f64, f64) -> f64) -> String {
+    let mut v = plate_vertices(n, size);
+    for p in &mut v {
+        p[1] = height(p[0], p[2]);
+    }
+    let header = format!("regular plate {n}x{n}, size {size}, xz-plane, heights");
+    obj_text(&header, &v, &plate_faces(n))
+}
+
 /// OBJ of the triangles of `regular_plate(n, size)` whose centroids lie in the
 /// plate's inscribed disc: the grid's rows inside a border that has no direction.
 pub fn regular_disc(n: usize, size: f64) -> String {
