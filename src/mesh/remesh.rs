@@ -152,7 +152,7 @@ pub fn remesh(
     if long_share <= FINE_ENOUGH_LONG_SHARE && !options.coarsen {
         return Ok((mesh.clone(), report));
     }
-    let input = Input::new(mesh, options.crease_angle_deg);
+    let input = Input::new(mesh, options.crease_angle_deg, options.target_edge);
     report.feature_edges = input.n_features;
     let sizes = input.edge_sizes(options);
     let mut w = Work::from_input(mesh, &input, sizes);
@@ -244,7 +244,7 @@ fn key(a: u32, b: u32) -> (u32, u32) {
 }
 
 impl Input {
-    fn new(mesh: &SimMesh, crease_deg: f64) -> Input {
+    fn new(mesh: &SimMesh, crease_deg: f64, min_crease: f64) -> Input {
         let pos = mesh.positions().to_vec();
         let faces: Vec<[u32; 3]> = mesh
             .faces()
@@ -258,8 +258,6 @@ impl Input {
             wa == wb || wedges.channels().iter().all(|c| c.get(wa) == c.get(wb))
         };
         let mut features = FxHashSet::default();
-        // Union-find over faces across non-feature edges.
-        let mut parent: Vec<u32> = (0..faces.len() as u32).collect();
         fn find(p: &mut [u32], mut x: u32) -> u32 {
             while p[x as usize] != x {
                 p[x as usize] = p[p[x as usize] as usize];
@@ -267,6 +265,14 @@ impl Input {
             }
             x
         }
+        fn join(p: &mut [u32], a: u32, b: u32) {
+            let (ra, rb) = (find(p, a), find(p, b));
+            if ra != rb {
+                p[ra.max(rb) as usize] = ra.min(rb);
+            }
+        }
+        // Inner edges: (a, b, face a, face b, a crease by its angle alone).
+        let mut inner = Vec::new();
         for h in mesh.halfedges() {
             let (a, b) = (mesh.origin(h), mesh.dest(h));
             match mesh.twin(h) {
@@ -278,19 +284,42 @@ impl Input {
                         continue;
                     }
                     let (fa, fb) = (mesh.face(h), mesh.face(t));
-                    let feature = mesh.face_group(fa) != mesh.face_group(fb)
+                    if mesh.face_group(fa) != mesh.face_group(fb)
                         || !same_corner(fa, fb, a)
                         || !same_corner(fa, fb, b)
-                        || dot(mesh.face_normal(fa), mesh.face_normal(fb)) < cos_crease;
-                    if feature {
+                    {
                         features.insert(key(a.0, b.0));
                     } else {
-                        let (ra, rb) = (find(&mut parent, fa.0), find(&mut parent, fb.0));
-                        if ra != rb {
-                            parent[ra.max(rb) as usize] = ra.min(rb);
-                        }
+                        let crease = dot(mesh.face_normal(fa), mesh.face_normal(fb)) < cos_crease;
+                        inner.push((a.0, b.0, fa.0, fb.0, crease));
                     }
                 }
+            }
+        }
+        // A crease is a line of sharp edges at least `min_crease` long;
+        // shorter runs of sharp edges are grain (a scan's noise, a rough
+        // ground), which the remesher smooths over rather than pinning
+        // a vertex at each.
+        let mut run: Vec<u32> = (0..pos.len() as u32).collect();
+        for &(a, b, _, _, crease) in &inner {
+            if crease {
+                join(&mut run, a, b);
+            }
+        }
+        let mut run_length = vec![0.0f64; pos.len()];
+        for &(a, b, _, _, crease) in &inner {
+            if crease {
+                let r = find(&mut run, a) as usize;
+                run_length[r] += dist2(pos[a as usize], pos[b as usize]).sqrt();
+            }
+        }
+        // Union-find over faces across non-feature edges.
+        let mut parent: Vec<u32> = (0..faces.len() as u32).collect();
+        for &(a, b, fa, fb, crease) in &inner {
+            if crease && run_length[find(&mut run, a) as usize] >= min_crease {
+                features.insert(key(a, b));
+            } else {
+                join(&mut parent, fa, fb);
             }
         }
         let chart: Vec<u32> = (0..faces.len() as u32)

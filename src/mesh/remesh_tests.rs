@@ -511,3 +511,60 @@ fn tight_curvature_keeps_edges_short_enough_to_follow_it() {
         "{n_adaptive} against {n_uniform} faces"
     );
 }
+
+/// A fine 120 x 120 grid with a height grain of a fifth of its edges (a
+/// scan's noise, a sculpted ground) remeshed to edges six times its own
+/// comes out as the flat grid does: the grain neither pins feature lines
+/// (its sharp edges are short runs) nor asks for edges shorter than the
+/// target. A fold of the same grid stays a feature line.
+#[test]
+fn grain_finer_than_the_target_is_smoothed_over_and_a_fold_is_kept() {
+    let n = 120;
+    let target = 6.0;
+    let flat = grid_input(n, n);
+    let mut grainy = flat.clone();
+    let mut rng = crate::mesh::shapes::Lcg(7);
+    for p in &mut grainy.positions {
+        p[2] = (rng.next_f64() - 0.5) * 0.4;
+    }
+    let (flat_mesh, _) = build(&flat);
+    let (grainy_mesh, _) = build(&grainy);
+    let (f, frep) = remesh_valid(&flat_mesh, target);
+    let (g, grep) = remesh_valid(&grainy_mesh, target);
+    assert_eq!(
+        grep.feature_edges, frep.feature_edges,
+        "the grain's sharp edges kept as features"
+    );
+    let ratio = g.n_faces() as f64 / f.n_faces() as f64;
+    assert!(
+        ratio < 1.4,
+        "grainy {} faces against flat {}",
+        g.n_faces(),
+        f.n_faces()
+    );
+    // The same grid folded by 90 degrees along x = n / 2.
+    let mut folded = flat.clone();
+    let half = n as f64 / 2.0;
+    for p in &mut folded.positions {
+        if p[0] > half {
+            p[2] = p[0] - half;
+            p[0] = half;
+        }
+    }
+    let (folded_mesh, _) = build(&folded);
+    let (r, rep) = remesh_valid(&folded_mesh, target);
+    assert!(
+        rep.feature_edges >= frep.feature_edges + n,
+        "{} feature edges, the flat grid's {}",
+        rep.feature_edges,
+        frep.feature_edges
+    );
+    // The fold stays sharp: every vertex lies on one of its two planes.
+    for v in r.vertices() {
+        let p = r.position(v);
+        assert!(
+            p[2].abs() < 1e-9 || (p[0] - half).abs() < 1e-9,
+            "off the fold's planes: {p:?}"
+        );
+    }
+}
