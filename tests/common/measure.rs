@@ -530,6 +530,76 @@ pub fn orientation_bins(lines: &[Seg], frame: impl Fn(P3) -> Option<(P3, P3)>) -
     (bins.map(|b| ratio(b, total)), ratio(axis, total))
 }
 
+/// Orientation at the pattern's scale: the crack graph's chains (runs
+/// between nodes that are not of degree 2) cut into chords `chord` long
+/// along their length, and the share of the chords' length within 15
+/// degrees of the frame's axes (a random orientation gives 1/3). Chords
+/// the frame leaves out (`None`, e.g. near a plate's border) do not count.
+/// Each segment's own angle follows the simulation surface's triangles;
+/// a chord a third of a cell long sees where the crack goes (rows along
+/// the axes, or not).
+pub fn chord_axis_share(
+    graph: &CrackGraph,
+    chord: f64,
+    frame: impl Fn(P3) -> Option<(P3, P3)>,
+) -> f64 {
+    let (mut axis, mut total) = (0.0, 0.0);
+    let mut used = vec![false; graph.edges.len()];
+    let mut add = |d: P3, m: P3, len: f64| {
+        if let Some((e1, e2)) = frame(m) {
+            let a = dot(d, e2).atan2(dot(d, e1)).to_degrees().rem_euclid(90.0);
+            total += len;
+            if a.min(90.0 - a) <= 15.0 {
+                axis += len;
+            }
+        }
+    };
+    // Chain starts: junctions and tips first, then any node of a closed loop.
+    let starts = (0..graph.nodes.len())
+        .filter(|&n| graph.degree[n] != 2)
+        .chain((0..graph.nodes.len()).filter(|&n| graph.degree[n] == 2));
+    for start in starts {
+        for &(first, e0) in &graph.adjacency[start] {
+            if used[e0] {
+                continue;
+            }
+            used[e0] = true;
+            let mut chain = vec![graph.nodes[start], graph.nodes[first]];
+            let mut cur = first;
+            while graph.degree[cur] == 2 && cur != start {
+                let Some(&(next, e)) = graph.adjacency[cur].iter().find(|&&(_, e)| !used[e]) else {
+                    break;
+                };
+                used[e] = true;
+                chain.push(graph.nodes[next]);
+                cur = next;
+            }
+            // Points every `chord` along the chain; the remainder is a short chord.
+            let mut last = chain[0];
+            let mut left = chord;
+            for w in chain.windows(2) {
+                let (mut a, b) = (w[0], w[1]);
+                let mut l = dist(a, b);
+                while l >= left {
+                    let p = lerp(a, b, left / l);
+                    add(sub(p, last), lerp(last, p, 0.5), chord);
+                    last = p;
+                    a = p;
+                    l -= left;
+                    left = chord;
+                }
+                left -= l;
+            }
+            let rest = chord - left;
+            if rest > 0.0 {
+                let end = *chain.last().unwrap();
+                add(sub(end, last), lerp(last, end, 0.5), rest);
+            }
+        }
+    }
+    ratio(axis, total)
+}
+
 /// Frame for a disc in a plate's plane: the plane's two axes, `None` farther than
 /// `radius - margin` from `center` (world units).
 pub fn disc_frame(min: P3, max: P3, margin: f64) -> impl Fn(P3) -> Option<(P3, P3)> {
