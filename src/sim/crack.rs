@@ -177,7 +177,9 @@ pub fn crack_node(
 /// triangle below `min_quality` (even close to the edge's end or within
 /// `theta1` of it), or else takes the edge's other end within `theta2`, so
 /// no more than four cracks meet at a vertex. With splits off (`theta1`
-/// of pi) it snaps as before.
+/// of pi) it snaps, leaves out a segment that would end on such a vertex
+/// when the edge's other end will not do, and a node already on a crack
+/// branches one new crack off it (a T), none at a junction of three.
 ///
 /// # Errors
 /// Only on a broken mesh invariant (a bug), never for geometry.
@@ -203,6 +205,15 @@ pub fn crack_node_avoiding(
         let back = existing[0];
         dirs.sort_by(|a, b| v3::dot(a.dir, back).total_cmp(&v3::dot(b.dir, back)));
         dirs.truncate(1);
+    }
+    // With splits off (cracks snap to edges), a node on a crack already
+    // (two or more crack edges) branches one new crack off it, a T: the
+    // two sides of the old crack are apart, so a crack across it would be
+    // two cracks ending on it, which do not meet at one point (a four-way
+    // crossing); a junction of three takes no fourth.
+    let snapping = rules.theta1 >= std::f64::consts::PI;
+    if snapping && existing.len() >= 2 {
+        dirs.truncate(if existing.len() >= 3 { 0 } else { 1 });
     }
     dirs.truncate(2);
     // Targets first (splits keep earlier ids valid), then open the edges.
@@ -241,6 +252,11 @@ pub fn crack_node_avoiding(
         {
             if other_angle < rules.theta2 && !junction(mesh, other) {
                 other
+            } else if snapping {
+                // Neither end of the edge takes another crack and it
+                // cannot be split: no crack that way (one more crack at a
+                // junction of three is a four-way crossing).
+                continue;
             } else {
                 near
             }
