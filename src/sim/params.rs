@@ -452,6 +452,13 @@ pub struct SpringParams {
     pub tangent: bool,
     /// Simulated time. Default 200.
     pub max_time: f64,
+    /// Stiffness of each node's bond to the body under it (force per unit
+    /// of the node's displacement, in mean edges): a glaze on its pot, mud
+    /// on its ground. Stress then builds again within a few edges of a
+    /// crack (about `sqrt(k / bond)` of them), so cracks keep forming
+    /// until the cells are that small, instead of the first cracks
+    /// freeing whole regions. 0: no bond (the text's model). Default 0.
+    pub bond: f64,
 }
 
 impl Default for SpringParams {
@@ -467,6 +474,7 @@ impl Default for SpringParams {
             dt: 0.0,
             tangent: true,
             max_time: 200.0,
+            bond: 0.0,
         }
     }
 }

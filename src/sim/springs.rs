@@ -43,6 +43,7 @@ impl SpringParams {
             ("rate", self.rate),
             ("damping", self.damping),
             ("dt", self.dt),
+            ("bond", self.bond),
         ] {
             if !(x.is_finite() && x >= 0.0) {
                 return Err(format!("springs.{name} must be >= 0, got {x}"));
@@ -64,6 +65,13 @@ impl SpringParams {
 /// Most time steps a spring run takes (a stiffer spring range or a longer
 /// `max_time` is refused instead of running for hours).
 const MAX_STEPS: usize = 10_000_000;
+
+/// How long the load is held after a break, in units of the damping's
+/// time (`1 / damping`): the network's motion has died down by then.
+const SETTLE_DAMPINGS: f64 = 2.0;
+
+/// Most held time over a run, as a multiple of `max_time`.
+const HOLD_BUDGET: f64 = 4.0;
 
 /// One spring: a mesh edge (one of its halfedges) with its properties.
 #[derive(Clone, Debug)]
@@ -197,10 +205,11 @@ impl Springs {
         }
     }
 
-    /// Dry for `dt`, then one damped semi-implicit Euler step: velocities
-    /// from the forces, then positions from the new velocities.
-    fn advance(&mut self, sp: &SpringParams, dt: f64) {
-        for s in self.springs.iter_mut().filter(|s| !s.broken) {
+    /// Dry for `dt` (unless `dry` is false: the load is held), then one
+    /// damped semi-implicit Euler step: velocities from the forces, then
+    /// positions from the new velocities.
+    fn advance(&mut self, sp: &SpringParams, dt: f64, dry: bool) {
+        for s in self.springs.iter_mut().filter(|s| !s.broken && dry) {
             let target = sp.alpha * s.rest0;
             s.rest = match sp.law {
                 // The text's `dL/dt = -(L - alpha L0) s`, solved exactly
@@ -217,7 +226,7 @@ impl Springs {
                 self.v[v] = [0.0; 3];
                 continue;
             }
-            let mut f = [0.0; 3];
+            let mut f = v3::scale(v3::sub(self.x0[v], self.x[v]), sp.bond);
             for &(i, sign) in &self.adjacency[v] {
                 f = v3::add(f, v3::scale(forces[i as usize].0, sign));
             }
@@ -279,14 +288,14 @@ impl Springs {
 /// each node), each rest length taken at its smallest (`alpha L0`, where a
 /// spring is stiffest) and a margin of 2 for the sideways stiffness of
 /// stretched springs.
-fn stable_dt(springs: &Springs, mass: f64, alpha: f64) -> f64 {
+fn stable_dt(springs: &Springs, mass: f64, alpha: f64, bond: f64) -> f64 {
     let mut row = vec![0.0; springs.x.len()];
     for s in springs.springs.iter().filter(|s| !s.broken) {
         let k = 2.0 * s.k / (alpha * s.rest0).min(s.rest).max(1e-12);
         row[s.a as usize] += 2.0 * k;
         row[s.b as usize] += 2.0 * k;
     }
-    let w2 = row.iter().fold(0.0f64, |a, &b| a.max(b)) / mass;
+    let w2 = (row.iter().fold(0.0f64, |a, &b| a.max(b)) + bond) / mass;
     if w2 > 0.0 {
         0.9 * 2.0 / w2.sqrt()
     } else {
@@ -314,7 +323,7 @@ pub fn run(
     let mut st = Springs::new(mesh, params, unit);
     let n = st.x.len();
     st.rebuild_adjacency(mesh);
-    let stable = stable_dt(&st, sp.mass, sp.alpha);
+    let stable = stable_dt(&st, sp.mass, sp.alpha, sp.bond);
     let (dt, substeps) = if sp.dt > 0.0 && sp.dt > stable {
         let k = (sp.dt / stable).ceil();
         (sp.dt / k, k as usize)
@@ -362,14 +371,32 @@ pub fn run(
             sp.max_time
         )));
     }
-    let steps = steps_f as usize;
+    // Quasistatic drying: after a break the load is held (no drying) for
+    // `settle` while the network settles, so the break's neighbours, not
+    // springs anywhere else, fail next and a crack runs on from its tip
+    // as an avalanche (held time at most HOLD_BUDGET times max_time).
+    let settle = SETTLE_DAMPINGS / sp.damping.max(0.1);
+    let drying_steps = steps_f as usize;
+    let steps = (drying_steps as f64 * (1.0 + HOLD_BUDGET)).min(MAX_STEPS as f64) as usize;
+    let mut held_steps = 0usize;
+    let mut hold_until = 0.0;
+    let mut dried_steps = 0usize;
     let per_round = ((1.0 / dt).ceil() as usize).max(1); // a "round" is one unit of time
     let max_rounds = steps.div_ceil(per_round);
     let mut quiet_since = 0.0;
     report.stopped = format!("reached max_time ({})", sp.max_time);
     for step in 0..steps {
+        if dried_steps >= drying_steps {
+            break;
+        }
         let t = step as f64 * dt;
-        st.advance(sp, dt);
+        let dry = t >= hold_until || held_steps >= steps - drying_steps;
+        if dry {
+            dried_steps += 1;
+        } else {
+            held_steps += 1;
+        }
+        st.advance(sp, dt, dry);
         report.relax_steps += 1;
         report.time = t + dt;
         // Breaking: every spring at or over its strain breaks in this step,
@@ -398,8 +425,9 @@ pub fn run(
         if broke {
             st.rebuild_adjacency(mesh);
             quiet_since = report.time;
+            hold_until = report.time + settle;
         }
-        if (step + 1) % per_round == 0 || step + 1 == steps {
+        if (step + 1) % per_round == 0 || step + 1 == steps || dried_steps >= drying_steps {
             report.rounds += 1;
             observer.round(report.rounds, max_rounds, report.cracks, step + 1);
             snapshot(mesh, &st, &report, observer);
@@ -655,9 +683,9 @@ mod tests {
             damping: 1.0,
             ..Default::default()
         };
-        let dt = 0.5 * stable_dt(&st, sp.mass, sp.alpha);
+        let dt = 0.5 * stable_dt(&st, sp.mass, sp.alpha, sp.bond);
         for _ in 0..5000 {
-            st.advance(&sp, dt);
+            st.advance(&sp, dt, true);
         }
         assert!((st.x[1][0] - 1.8).abs() < 1e-9, "{:?}", st.x[1]);
         assert_eq!(st.x[0], [0.0; 3]);
@@ -684,9 +712,9 @@ mod tests {
             damping: 1.0,
             ..Default::default()
         };
-        let dt = 0.5 * stable_dt(&st, sp.mass, sp.alpha);
+        let dt = 0.5 * stable_dt(&st, sp.mass, sp.alpha, sp.bond);
         for _ in 0..40_000 {
-            st.advance(&sp, dt);
+            st.advance(&sp, dt, true);
         }
         let centre = |x: &[[f64; 3]]| v3::scale(v3::add(v3::add(x[0], x[1]), x[2]), 1.0 / 3.0);
         for (k, (a, b)) in [(0, 1), (1, 2), (2, 0)].into_iter().enumerate() {
@@ -739,7 +767,7 @@ mod tests {
             damping: 0.5,
             ..Default::default()
         };
-        let dt = stable_dt(&st, sp.mass, sp.alpha);
+        let dt = stable_dt(&st, sp.mass, sp.alpha, sp.bond);
         let total = |st: &Springs| {
             let (e, k) = st.energy(sp.mass);
             e + k
@@ -750,7 +778,7 @@ mod tests {
         let mut last = e0;
         for _ in 0..60 {
             for _ in 0..5 {
-                st.advance(&sp, dt);
+                st.advance(&sp, dt, true);
             }
             let e = total(&st);
             assert!(e <= last * (1.0 + 1e-9), "energy rose: {last} -> {e}");
