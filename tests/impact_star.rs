@@ -200,3 +200,32 @@ fn two_hits_make_two_stars_that_end_on_each_other() {
         assert!(a.is_some() && a == b, "{name}: the stars are apart");
     }
 }
+
+/// The arcs between the rays end on them: the preset's finishing runs on
+/// the tips with a crack within 0.3 cells ahead (`post.finish_reach`), so
+/// an arc's end meets the ray beside it, while the rays' outer tips stay
+/// where the load left them. Without it the arcs floated as dashes.
+#[test]
+fn arcs_end_on_the_rays_beside_them() {
+    let ends_and_junctions = |extra: &[&str]| {
+        let dir = tempfile::tempdir().unwrap();
+        let s = impact_on_plate_in(dir.path(), extra);
+        let lines = measure::read_model(&dir.path().join("out.glb")).rest_lines("crack_lines");
+        let graph = measure::crack_graph(&lines, measure::DEFAULT_WELD_REL);
+        let ends = graph.degree.iter().filter(|&&d| d == 1).count();
+        let joins = graph.degree.iter().filter(|&&d| d >= 3).count();
+        (ends, joins, s)
+    };
+    let (ends, joins, s) = ends_and_junctions(&[]);
+    let (loose_ends, loose_joins, _) = ends_and_junctions(&["--set", "post.finish=false"]);
+    eprintln!("open ends / junctions: finished {ends} / {joins}, not {loose_ends} / {loose_joins}");
+    assert!(ends <= joins, "{ends} open ends, {joins} junctions");
+    assert!(
+        loose_ends > loose_joins,
+        "{loose_ends} open ends, {loose_joins} junctions without finishing"
+    );
+    // Still a star: no ray ran on to the pane's border.
+    assert!(s["max_band_share_0.05"].as_f64().unwrap() <= 0.10, "{s}");
+    let outside: f64 = s["share_beyond_1.1"].as_f64().unwrap_or(0.0);
+    assert!(outside <= 0.05, "{outside} of the length beyond 1.1 R: {s}");
+}

@@ -572,6 +572,7 @@ impl Pipeline {
             fixed_boundary: self.select.fixed_boundary,
             fixed_groups: fixed_groups.to_vec(),
             finish: self.post.finish,
+            finish_reach: self.post.finish_reach,
             ..self.simulation.clone()
         }
     }

@@ -12,6 +12,13 @@ pub struct Post {
     /// crack or the border (with relaxation), before the other steps.
     /// Default false.
     pub finish: bool,
+    /// With `finish` on a film: run on only the tips that have another
+    /// crack ahead of them within this many cell sizes (straight-line
+    /// distance, within 45 degrees of the tip's direction), each at most
+    /// twice that far: the arcs between an impact's rays join them, while
+    /// the rays' outer tips stay where the load left them. 0: every tip
+    /// runs on until it meets a crack or the border. Default 0.
+    pub finish_reach: f64,
     /// Crack width: move every node by this multiple of its accumulated
     /// relaxation displacement, so the sides of each crack pull apart
     /// (unitless; 0: no width). Default 0. Width and curling are
@@ -156,6 +163,7 @@ impl Default for Post {
     fn default() -> Self {
         Post {
             finish: false,
+            finish_reach: 0.0,
             width: 0.0,
             max_width: 0.0,
             gap_band: 0.0,
@@ -275,6 +283,7 @@ impl Post {
                 Err(format!("post.{k} must be a number >= 0, got {x}"))
             }
         };
+        nonneg("finish_reach", self.finish_reach)?;
         nonneg("width", self.width)?;
         nonneg("max_width", self.max_width)?;
         nonneg("gap_band", self.gap_band)?;

@@ -103,6 +103,12 @@ pub(in crate::sim) fn finish_cracks(
     let (cracks0, length0) = (report.cracks, report.crack_length);
     fin.tips = finish_tips(mesh, st).len();
     let mut loaded = params.load_time;
+    // With a reach: the tips allowed to run on and the length each has left.
+    let mut reach: Option<std::collections::BTreeMap<u32, f64>> = st
+        .film
+        .as_ref()
+        .filter(|_| params.finish_reach > 0.0)
+        .map(|film| tips_with_a_crack_ahead(mesh, st, params.finish_reach * film.cell));
     // Every pass moves each tip at least one fan further; a generous bound
     // on the passes keeps a pathological mesh from looping.
     let max_passes = 4 * mesh.n_vertices().max(16);
@@ -110,6 +116,11 @@ pub(in crate::sim) fn finish_cracks(
         let tips: Vec<(VertexId, [f64; 3])> = finish_tips(mesh, st)
             .into_iter()
             .filter(|(v, _)| !stuck.contains(&v.0))
+            .filter(|(v, _)| {
+                reach
+                    .as_ref()
+                    .is_none_or(|r| r.get(&vertex_root(mesh, *v).0).is_some_and(|&l| l > 0.0))
+            })
             .collect();
         if tips.is_empty() {
             break;
@@ -132,8 +143,16 @@ pub(in crate::sim) fn finish_cracks(
             .map_err(SimError::Mesh)?;
             let residual = st.residual[v.idx()];
             st.residual[v.idx()] = Sym3::ZERO;
+            let left = reach
+                .as_ref()
+                .and_then(|r| r.get(&vertex_root(mesh, v).0).copied());
             if apply_event(mesh, st, params, report, &ev) {
                 moved = true;
+                if let (Some(r), Some(left)) = (reach.as_mut(), left) {
+                    for &(_, tip) in &ev.segments {
+                        r.insert(vertex_root(mesh, tip).0, left - ev.length);
+                    }
+                }
                 seeds.extend(touched_nodes(mesh, &ev));
                 // The new tips carry the direction on.
                 for &(_, tip) in &ev.segments {
@@ -181,6 +200,57 @@ pub(in crate::sim) fn finish_cracks(
         })
         .count();
     Ok(fin)
+}
+
+/// The finishing tips (by root vertex) with a crack ahead: a crack vertex
+/// within `reach` (scene units) whose direction from the tip is within 45
+/// degrees of the tip's way on (away from its crack, or along a wide
+/// corner's bisector; the tip's own crack lies behind it); each may run on
+/// twice `reach`. A uniform grid of `reach` cells finds the candidates.
+fn tips_with_a_crack_ahead(
+    mesh: &SimMesh,
+    st: &State,
+    reach: f64,
+) -> std::collections::BTreeMap<u32, f64> {
+    use std::collections::{BTreeMap, HashMap};
+    let key = |p: [f64; 3]| p.map(|x| (x / reach).floor() as i64);
+    let mut grid: HashMap<[i64; 3], Vec<VertexId>> = HashMap::new();
+    for h in mesh.halfedges() {
+        if mesh.is_crack_halfedge(h) {
+            let v = mesh.origin(h);
+            grid.entry(key(mesh.position(v))).or_default().push(v);
+        }
+    }
+    let mut out = BTreeMap::new();
+    for (v, _) in finish_tips(mesh, st) {
+        let dirs = crate::sim::crack::crack_directions(mesh, v);
+        let ahead = match dirs.len() {
+            1 => Some(v3::scale(dirs[0], -1.0)),
+            _ => wide_corner(mesh, v),
+        };
+        let Some(ahead) = ahead else {
+            continue;
+        };
+        let p = mesh.position(v);
+        let c = key(p);
+        let near = |q: &VertexId| {
+            let d = v3::sub(mesh.position(*q), p);
+            let l = v3::norm(d);
+            l > 0.0 && l <= reach && v3::dot(d, ahead) >= l * std::f64::consts::FRAC_1_SQRT_2
+        };
+        let found = (-1..=1).any(|dz| {
+            (-1..=1).any(|dy| {
+                (-1..=1).any(|dx| {
+                    grid.get(&[c[0] + dx, c[1] + dy, c[2] + dz])
+                        .is_some_and(|list| list.iter().any(near))
+                })
+            })
+        });
+        if found {
+            out.insert(vertex_root(mesh, v).0, 2.0 * reach);
+        }
+    }
+    out
 }
 
 /// Whether a new crack should not end on `w`: three or more cracks meet

@@ -71,6 +71,11 @@ pub struct SimParams {
     /// pipeline's `[post] finish`. Default false.
     #[serde(skip)]
     pub finish: bool,
+    /// With `finish` on a film: only tips with another crack ahead within
+    /// this many cell sizes run on, at most twice that far (0: all, to the
+    /// end). Set by a pipeline's `[post] finish_reach`. Default 0.
+    #[serde(skip)]
+    pub finish_reach: f64,
     /// How relaxation is integrated over each round's `relax_time`; see
     /// [`Integrator`]. Default `local-euler`.
     pub integrator: Integrator,
@@ -269,6 +274,7 @@ impl Default for SimParams {
             tolerance: 1e-4,
             finish_rings: 8,
             finish: false,
+            finish_reach: 0.0,
             model: Model::Quasistatic,
             springs: Default::default(),
             ductile: Default::default(),
