@@ -274,7 +274,23 @@ impl Term {
             TermKind::Directional { direction, checks } => {
                 let d = unit(*direction).unwrap_or([0.0; 3]);
                 let w = match checks {
-                    Some(len) => check_weight(ctx.seed, c, d, *len * ctx.cell),
+                    Some(len) => {
+                        let e = mesh
+                            .face_vertices(f)
+                            .map(|v| {
+                                ctx.edge_distance
+                                    .get(v.idx())
+                                    .copied()
+                                    .unwrap_or(f64::INFINITY)
+                            })
+                            .iter()
+                            .sum::<f64>()
+                            / 3.0;
+                        let near = (-e / (CHECK_EDGE_REACH * ctx.cell)).exp();
+                        // Wood dries faster there: more checks, more stress.
+                        (1.0 + CHECK_EDGE_BOOST * near)
+                            * check_weight(ctx.seed, c, d, *len * ctx.cell, CHECK_EDGE_DROP * near)
+                    }
                     None => 1.0,
                 };
                 Sym3::outer(in_plane(d, n)) * w
@@ -357,6 +373,9 @@ struct Context<'a> {
     curvature_rms: f64,
     /// The cell size: [`EDGES_PER_CELL`] mean edges (directional checks).
     cell: f64,
+    /// Directional checks: each vertex's distance along the surface from
+    /// the nearest edge of the piece (its border or a sharp crease).
+    edge_distance: Vec<f64>,
 }
 
 /// Edges across one cell of the remeshed simulation surface (the film's
@@ -386,7 +405,10 @@ fn cell_size(mesh: &SimMesh) -> f64 {
 /// [`CHECK_STRETCH`] times less across: its bumps are lens-shaped), above a
 /// threshold, so patches about `length` long and staggered, stressed most
 /// in their middle, with nothing between them.
-fn check_weight(seed: u64, c: [f64; 3], d: [f64; 3], length: f64) -> f64 {
+///
+/// `drop` lowers the threshold (and the level of full action) by that much:
+/// checks crowd toward the piece's edges and ends, where wood dries first.
+fn check_weight(seed: u64, c: [f64; 3], d: [f64; 3], length: f64, drop: f64) -> f64 {
     let across = v3::dot(c, d);
     let along = v3::sub(c, v3::scale(d, across));
     let unit_along = 0.5 * length.max(f64::MIN_POSITIVE);
@@ -395,7 +417,40 @@ fn check_weight(seed: u64, c: [f64; 3], d: [f64; 3], length: f64) -> f64 {
         v3::scale(d, across * CHECK_STRETCH / unit_along),
     );
     let v = crate::math::value_noise(seed ^ 0x6368_6563_6b73, q);
-    ((v - CHECK_THRESHOLD) / (CHECK_FULL - CHECK_THRESHOLD)).clamp(0.0, 1.0)
+    ((v - CHECK_THRESHOLD + drop) / (CHECK_FULL - CHECK_THRESHOLD)).clamp(0.0, 1.0)
+}
+
+/// How far the lower threshold at a piece's edges reaches, in cell sizes
+/// (it falls as `exp(-distance / reach)`).
+const CHECK_EDGE_REACH: f64 = 1.5;
+/// How much lower the checks' threshold is right at an edge.
+const CHECK_EDGE_DROP: f64 = 0.2;
+/// How much more the stress is right at an edge (a share of the term's).
+const CHECK_EDGE_BOOST: f64 = 1.0;
+
+/// Each vertex's distance along the surface from the piece's edges: its
+/// open border and its sharp creases (faces meeting at more than 60
+/// degrees), where wood dries first (end grain, arrises).
+fn edge_distances(mesh: &SimMesh) -> Vec<f64> {
+    let cos_sharp = 60f64.to_radians().cos();
+    let mut sources: Vec<(u32, f64)> = Vec::new();
+    for h in mesh.halfedges() {
+        let edge = match mesh.twin(h) {
+            None => true,
+            Some(t) => {
+                t.0 > h.0
+                    && v3::dot(
+                        mesh.face_normal(mesh.face(h)),
+                        mesh.face_normal(mesh.face(t)),
+                    ) < cos_sharp
+            }
+        };
+        if edge {
+            sources.push((mesh.origin(h).0, 0.0));
+            sources.push((mesh.dest(h).0, 0.0));
+        }
+    }
+    super::geodesic::distances_from(mesh, &sources)
 }
 
 /// How much finer the checks' noise runs across the grain than along it.
@@ -560,6 +615,12 @@ impl StressField {
                     } => cell_size(mesh),
                     _ => 0.0,
                 },
+                edge_distance: match t.kind {
+                    TermKind::Directional {
+                        checks: Some(_), ..
+                    } => edge_distances(mesh),
+                    _ => Vec::new(),
+                },
             });
         }
         let mut field = StressField {
@@ -624,7 +685,7 @@ mod tests {
     fn directional_checks_are_patches_long_along_the_grain() {
         let d = [1.0, 0.0, 0.0];
         let len = 2.0;
-        let w = |x: f64, z: f64| check_weight(5, [x, 0.0, z], d, len);
+        let w = |x: f64, z: f64| check_weight(5, [x, 0.0, z], d, len, 0.0);
         let (n, step) = (400, 0.02);
         let mut on = 0;
         // Mean run of "on" samples along the grain (z) and across it (x).

@@ -67,18 +67,31 @@ fn unfolded(a: [f64; 3], da: f64, b: [f64; 3], db: f64, c: [f64; 3]) -> Option<f
 /// (or next to) face `face`: that face's corners start at their straight
 /// distance from it.
 pub fn distances(mesh: &SimMesh, point: [f64; 3], face: usize) -> Vec<f64> {
+    let p = |v: u32| mesh.positions()[v as usize];
+    let sources: Vec<(u32, f64)> = mesh
+        .faces()
+        .nth(face)
+        .map(|f| {
+            mesh.face_vertices(f)
+                .map(|v| (v.0, v3::norm(v3::sub(p(v.0), point))))
+                .to_vec()
+        })
+        .unwrap_or_default();
+    distances_from(mesh, &sources)
+}
+
+/// Each vertex's distance along the surface from the nearest of `sources`
+/// (vertex, its starting distance).
+pub fn distances_from(mesh: &SimMesh, sources: &[(u32, f64)]) -> Vec<f64> {
     let n = mesh.n_vertices();
     let p = |v: u32| mesh.positions()[v as usize];
     let mut dist = vec![f64::INFINITY; n];
     let mut done = vec![false; n];
     let mut queue = BinaryHeap::new();
-    if let Some(f) = mesh.faces().nth(face) {
-        for v in mesh.face_vertices(f).map(|v| v.0) {
-            let d = v3::norm(v3::sub(p(v), point));
-            if d < dist[v as usize] {
-                dist[v as usize] = d;
-                queue.push(Item(d, v));
-            }
+    for &(v, d) in sources {
+        if d < dist[v as usize] {
+            dist[v as usize] = d;
+            queue.push(Item(d, v));
         }
     }
     while let Some(Item(d, v)) = queue.pop() {
