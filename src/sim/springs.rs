@@ -399,31 +399,7 @@ pub fn run(
         st.advance(sp, dt, dry);
         report.relax_steps += 1;
         report.time = t + dt;
-        // Breaking: every spring at or over its strain breaks in this step,
-        // in spring order.
-        let breaking: Vec<usize> = st
-            .spring_forces()
-            .iter()
-            .zip(&st.springs)
-            .enumerate()
-            .filter(|(_, ((_, strain), s))| {
-                // A spring between two fixed nodes cannot relax: it holds.
-                !s.broken
-                    && *strain >= s.threshold
-                    && !(st.fixed[s.a as usize] && st.fixed[s.b as usize])
-            })
-            .map(|(i, _)| i)
-            .collect();
-        let mut broke = false;
-        for i in breaking {
-            if report.cracks >= params.max_cracks {
-                break;
-            }
-            broke = true;
-            break_spring(mesh, &mut st, i, &mut report, unit)?;
-        }
-        if broke {
-            st.rebuild_adjacency(mesh);
+        if break_overstrained(mesh, &mut st, params, &mut report, unit)? {
             quiet_since = report.time;
             hold_until = report.time + settle;
         }
@@ -468,6 +444,42 @@ pub fn run(
             .collect();
     report.crack_time = st.crack_time;
     Ok(report)
+}
+
+/// Breaking: every spring at or over its strain breaks in this step, in
+/// spring order (a spring between two fixed nodes cannot relax: it
+/// holds), up to `max_cracks`; the node lists follow. Whether any broke.
+fn break_overstrained(
+    mesh: &mut SimMesh,
+    st: &mut Springs,
+    params: &SimParams,
+    report: &mut SimReport,
+    unit: f64,
+) -> Result<bool, SimError> {
+    let breaking: Vec<usize> = st
+        .spring_forces()
+        .iter()
+        .zip(&st.springs)
+        .enumerate()
+        .filter(|(_, ((_, strain), s))| {
+            !s.broken
+                && *strain >= s.threshold
+                && !(st.fixed[s.a as usize] && st.fixed[s.b as usize])
+        })
+        .map(|(i, _)| i)
+        .collect();
+    let mut broke = false;
+    for i in breaking {
+        if report.cracks >= params.max_cracks {
+            break;
+        }
+        broke = true;
+        break_spring(mesh, st, i, report, unit)?;
+    }
+    if broke {
+        st.rebuild_adjacency(mesh);
+    }
+    Ok(broke)
 }
 
 /// A crack tip that stopped right beside another crack (closer to one of
