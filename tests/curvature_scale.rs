@@ -34,20 +34,7 @@ fn ground(n: usize, grain: f64, bump: f64, scale: f64) -> String {
 
 /// The crack lines of `input` cracked with the `curvature` preset.
 fn curvature_lines(input: &Path, out: &Path) -> Vec<measure::Seg> {
-    let o = common::crack(
-        input,
-        out,
-        &[
-            "-q",
-            "--preset",
-            "curvature",
-            "--set",
-            "post.lines=true",
-            "--set",
-            "post.bake=false",
-        ],
-    );
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    common::crack_lines(input, out, "curvature", &[]);
     measure::read_model(out).rest_lines("crack_lines")
 }
 

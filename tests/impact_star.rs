@@ -22,18 +22,7 @@ fn impact_on_plate_in(dir: &std::path::Path, extra: &[&str]) -> serde_json::Valu
     let input = dir.join("plate.obj");
     shapes::write_obj(&input, &shapes::jittered_plate(160, 10.0, 0.3, 1));
     let out = dir.join("out.glb");
-    let mut args = vec![
-        "-q",
-        "--preset",
-        "glass-impact",
-        "--set",
-        "post.lines=true",
-        "--set",
-        "post.bake=false",
-    ];
-    args.extend(extra);
-    let o = common::crack(&input, &out, &args);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    common::crack_lines(&input, &out, "glass-impact", extra);
     let lines = measure::read_model(&out).rest_lines("crack_lines");
     assert!(!lines.is_empty(), "no crack lines");
     let radius = 0.25 * 200f64.sqrt();

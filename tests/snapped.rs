@@ -18,20 +18,7 @@ use std::path::Path;
 /// junctions, crack edges joining two four-way junctions) of
 /// `impact-snapped` on `input`.
 fn snapped(input: &Path, out: &Path) -> (f64, usize, usize, usize) {
-    let o = common::crack(
-        input,
-        out,
-        &[
-            "-q",
-            "--preset",
-            "impact-snapped",
-            "--set",
-            "post.lines=true",
-            "--set",
-            "post.bake=false",
-        ],
-    );
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    common::crack_lines(input, out, "impact-snapped", &[]);
     let lines = measure::read_model(out).rest_lines("crack_lines");
     assert!(measure::crack_length(&lines) > 0.0, "no cracks");
     let tris = measure::read_model(input).triangles(|_| true);

@@ -17,20 +17,7 @@ use std::path::Path;
 
 /// (open ends, junctions) of `preset`'s crack lines on `input`.
 fn ends_and_junctions(input: &Path, out: &Path, preset: &str) -> (usize, usize) {
-    let o = common::crack(
-        input,
-        out,
-        &[
-            "-q",
-            "--preset",
-            preset,
-            "--set",
-            "post.lines=true",
-            "--set",
-            "post.bake=false",
-        ],
-    );
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    common::crack_lines(input, out, preset, &[]);
     let lines = measure::read_model(out).rest_lines("crack_lines");
     let graph = measure::crack_graph(&lines, measure::DEFAULT_WELD_REL);
     let ends = graph.degree.iter().filter(|&&d| d == 1).count();

@@ -183,22 +183,7 @@ fn checks_crowd_toward_the_edges() {
     let cell = 0.05 * 200f64.sqrt();
     for seed in ["1", "2"] {
         let out = dir.path().join(format!("out{seed}.glb"));
-        let o = common::crack(
-            &input,
-            &out,
-            &[
-                "-q",
-                "--preset",
-                "wood-grain",
-                "--seed",
-                seed,
-                "--set",
-                "post.lines=true",
-                "--set",
-                "post.bake=false",
-            ],
-        );
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        common::crack_lines(&input, &out, "wood-grain", &["--seed", seed]);
         let lines = measure::read_model(&out).rest_lines("crack_lines");
         // Length per area in the band [a, b) of distance from the border.
         let density = |a: f64, b: f64| {

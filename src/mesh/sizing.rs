@@ -148,8 +148,8 @@ const MAX_SMOOTHING_PASSES: usize = 100;
 /// shrinking them, `2 (target / h)^2` passes for the fine vertices' mean
 /// edge `h` (at most [`MAX_SMOOTHING_PASSES`]). A vertex on a line (open
 /// edges, `features`) moves along its line only; one where lines meet,
-/// end or turn by more than 60 degrees, or with coarse edges, holds still, so creases, borders and
-/// coarse facets keep their bends. A 200x200 ground with a height grain
+/// end or turn by more than 60 degrees, or with coarse edges, holds
+/// still, so creases, borders and coarse facets keep their bends. A 200x200 ground with a height grain
 /// of a third of its edges, remeshed to edges six times its own, then
 /// asks for about the target, not for a quarter of it: the simulation
 /// surface follows the shape, not its roughness.
@@ -164,19 +164,15 @@ fn at_target_scale(
     // Each vertex's neighbours in a fixed order (the map's), so every run
     // sums alike; a vertex on a line (open edges, features) only those on
     // its line, and one where lines meet or end none (it holds still).
+    // A line's corner (it turns by more than 60 degrees) holds still: the
+    // unit vectors to its two neighbours sum to more than 1.
     let mut on_line = vec![0u32; pos.len()];
+    let mut turn = vec![[0.0; 3]; pos.len()];
     let line = |a: u32, b: u32, fs: &Vec<u32>| fs.len() != 2 || features.contains(&(a, b));
     for (&(a, b), fs) in faces_of {
         if line(a, b, fs) {
             on_line[a as usize] += 1;
             on_line[b as usize] += 1;
-        }
-    }
-    // A line's corner (it turns by more than 60 degrees) holds still: the
-    // unit vectors to its two neighbours sum to more than 1.
-    let mut turn = vec![[0.0; 3]; pos.len()];
-    for (&(a, b), fs) in faces_of {
-        if line(a, b, fs) {
             let d = sub(pos[b as usize], pos[a as usize]);
             let d = scale(d, 1.0 / norm(d).max(1e-300));
             turn[a as usize] = add(turn[a as usize], d);
@@ -189,7 +185,7 @@ fn at_target_scale(
     };
     let mut start = vec![0usize; pos.len() + 1];
     for (&(a, b), fs) in faces_of {
-        for (v, _) in [(a, b), (b, a)] {
+        for v in [a, b] {
             if keeps(v, a, b, fs) {
                 start[v as usize + 1] += 1;
             }

@@ -602,6 +602,13 @@ impl StressField {
                 }
                 None => None,
             };
+            let checks = matches!(
+                t.kind,
+                TermKind::Directional {
+                    checks: Some(_),
+                    ..
+                }
+            );
             contexts.push(Context {
                 seed,
                 impacts,
@@ -609,17 +616,11 @@ impl StressField {
                 uv_channel,
                 curvature,
                 curvature_rms,
-                cell: match t.kind {
-                    TermKind::Directional {
-                        checks: Some(_), ..
-                    } => cell_size(mesh),
-                    _ => 0.0,
-                },
-                edge_distance: match t.kind {
-                    TermKind::Directional {
-                        checks: Some(_), ..
-                    } => edge_distances(mesh),
-                    _ => Vec::new(),
+                cell: if checks { cell_size(mesh) } else { 0.0 },
+                edge_distance: if checks {
+                    edge_distances(mesh)
+                } else {
+                    Vec::new()
                 },
             });
         }

@@ -157,6 +157,29 @@ pub fn crack(input: &Path, out: &Path, extra: &[&str]) -> Output {
         .unwrap()
 }
 
+/// [`crack`] with `preset`, its crack network as lines and no baked maps
+/// (what the pattern measures read), then `extra`; panics naming the preset
+/// when the run fails.
+pub fn crack_lines(input: &Path, out: &Path, preset: &str, extra: &[&str]) {
+    let mut args = vec![
+        "-q",
+        "--preset",
+        preset,
+        "--set",
+        "post.lines=true",
+        "--set",
+        "post.bake=false",
+    ];
+    args.extend_from_slice(extra);
+    let o = crack(input, out, &args);
+    assert!(
+        o.status.success(),
+        "{preset} on {}: {}",
+        input.display(),
+        String::from_utf8_lossy(&o.stderr)
+    );
+}
+
 /// The report [`crack`] wrote for `out`.
 pub fn report(out: &Path) -> serde_json::Value {
     serde_json::from_slice(&std::fs::read(out.with_extension("json")).unwrap()).unwrap()
