@@ -4,7 +4,10 @@
 //!  [--frame plate|disc|latlong] [--axis x|y|z] [--cell D] [--impact X,Y,Z --radius R]`
 //! prints JSON (with `--impact`, radial and concentric crack length by distance from the
 //! point, see `impact_stats`);
-//! `cargo run --release --example measure -- shapes DIR` writes test meshes into DIR.
+//! `cargo run --release --example measure -- shapes DIR` writes test meshes into DIR;
+//! `cargo run --release --example measure -- gaps OUTPUT.glb CELL` prints the widths of a
+//! plate's opened gaps (`gap_widths` on the top surface, every material but `crack_wall`, out to
+//! a cell `CELL`, a cell from the border left out): median, quartiles and pinched shares.
 //!
 //! Crack lines are the LINES primitives of material `crack_lines`, taken at rest
 //! (their `_CRACK_REST` attribute, where crackle moved them with opened gaps). The border is the
@@ -26,11 +29,33 @@ use measure::Seg;
 use serde_json::json;
 
 const USAGE: &str = "usage: measure OUTPUT.glb --input INPUT [--frame plate|disc|latlong] \
-                     [--axis x|y|z] [--cell D]\n       measure shapes DIR";
+                     [--axis x|y|z] [--cell D]\n       measure shapes DIR\n       \
+                     measure gaps OUTPUT.glb CELL";
 
 fn fail(msg: &str) -> ! {
     eprintln!("measure: {msg}\n{USAGE}");
     std::process::exit(2)
+}
+
+fn print_gaps(path: &Path, cell: f64) {
+    let top = measure::read_model(path).triangles(|m| m != "crack_wall");
+    let (lo, hi) = measure::bounds(top.iter().flatten());
+    let flat = measure::flat_axis(lo, hi);
+    let w = measure::gap_widths(&top, flat, 1e-7, cell, cell);
+    let mut sorted: Vec<f64> = w.iter().map(|x| x.0).collect();
+    sorted.sort_by(f64::total_cmp);
+    let q = |f: f64| {
+        sorted
+            .get((f * (sorted.len().max(1) - 1) as f64) as usize)
+            .copied()
+    };
+    let out = json!({
+        "edges": w.len(),
+        "quartiles": [q(0.25), q(0.5), q(0.75)],
+        "pinched_0.25": measure::pinched_share(&w, 0.25),
+        "pinched_0.5": measure::pinched_share(&w, 0.5),
+    });
+    println!("{}", serde_json::to_string_pretty(&out).unwrap_or_default());
 }
 
 fn write_shapes(dir: &Path) {
@@ -133,6 +158,14 @@ fn main() {
     if args.first().map(String::as_str) == Some("shapes") {
         let dir = args.get(1).unwrap_or_else(|| fail("shapes needs a folder"));
         write_shapes(Path::new(dir));
+        return;
+    }
+    if args.first().map(String::as_str) == Some("gaps") {
+        let (Some(path), Some(cell)) = (args.get(1), args.get(2).and_then(|c| c.parse().ok()))
+        else {
+            fail(USAGE)
+        };
+        print_gaps(Path::new(path), cell);
         return;
     }
     let a = parse_args(&args);

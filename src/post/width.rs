@@ -18,6 +18,9 @@ use crate::mesh::{FaceId, HalfedgeId, SimMesh, VertexId, WedgeId};
 use crate::post::distance::{crack_vertices, distance_field};
 use crate::post::Post;
 
+mod even;
+use even::{even_openings, side_runs, smooth_runs, t_corner};
+
 /// How many times a node's move is halved before it is dropped.
 pub const MAX_HALVINGS: usize = 12;
 
@@ -304,7 +307,17 @@ fn bad_face(mesh: &SimMesh, f: FaceId, positions: &[[f64; 3]]) -> bool {
 /// Displace the nodes of `mesh` by `opts.width` times `displacement` (scene
 /// units, per vertex), limit the gaps to `opts.max_width`, curl the crack
 /// edges, and shorten moves that would flip a triangle.
+///
+/// The openings are evened out between junctions (`even_openings`):
+/// a cell's side opens as far all along, instead of as a lens that pinches
+/// shut where it meets the next crack.
 pub fn displace(mesh: &SimMesh, displacement: &[[f64; 3]], opts: &Post) -> Displaced {
+    open_up(mesh, displacement, opts, true)
+}
+
+/// [`displace`], with the openings evened out between junctions (`even`)
+/// or each node's own.
+fn open_up(mesh: &SimMesh, displacement: &[[f64; 3]], opts: &Post, even: bool) -> Displaced {
     let rest: Vec<[f64; 3]> = mesh.positions().to_vec();
     let mut mv: Vec<[f64; 3]> = (0..mesh.n_vertices())
         .map(|i| {
@@ -345,6 +358,32 @@ pub fn displace(mesh: &SimMesh, displacement: &[[f64; 3]], opts: &Post) -> Displ
     // With a gap band the copies keep only their opening: the crack line
     // stays where it was.
     let local = opts.gap_band > 0.0;
+    let junctions = t_junctions(mesh);
+    let mut opening = vec![0.0; mesh.n_vertices()];
+    let mut dirs: Vec<Option<[f64; 3]>> = vec![None; mesh.n_vertices()];
+    for g in groups.iter().filter(|g| g.len() >= 2) {
+        let mean = mean_move(g, &mv);
+        for &v in g {
+            dirs[v.idx()] = away_from_crack(mesh, v);
+            if let Some(dir) = dirs[v.idx()] {
+                opening[v.idx()] = v3::dot(v3::sub(mv[v.idx()], mean), dir).max(0.0);
+            }
+        }
+    }
+    let runs = if even {
+        side_runs(mesh, &groups, &junctions)
+    } else {
+        Vec::new()
+    };
+    if even {
+        even_openings(mesh, &groups, &runs, &mut opening);
+    }
+    let mut open: Vec<[f64; 3]> = dirs
+        .iter()
+        .zip(&opening)
+        .map(|(d, o)| d.map_or([0.0; 3], |d| v3::scale(d, *o)))
+        .collect();
+    smooth_runs(mesh, &runs, &mut open);
     for g in &groups {
         if g.len() < 2 {
             if local {
@@ -355,10 +394,7 @@ pub fn displace(mesh: &SimMesh, displacement: &[[f64; 3]], opts: &Post) -> Displ
         let mean = mean_move(g, &mv);
         let base = if local { [0.0; 3] } else { mean };
         for &v in g {
-            let open = away_from_crack(mesh, v)
-                .map(|dir| v3::scale(dir, v3::dot(v3::sub(mv[v.idx()], mean), dir).max(0.0)))
-                .unwrap_or([0.0; 3]);
-            let new = v3::add(base, open);
+            let new = v3::add(base, open[v.idx()]);
             if v3::norm(v3::sub(new, mv[v.idx()])) > 1e-12 * (1.0 + v3::norm(mean)) {
                 out.closed_nodes += 1;
             }
@@ -367,13 +403,19 @@ pub fn displace(mesh: &SimMesh, displacement: &[[f64; 3]], opts: &Post) -> Displ
     }
     // The same at T-junctions: a crack node lying on the other side's edge
     // (that side has no node there) opens away from that edge only.
-    let junctions = t_junctions(mesh);
+    // Evened, the corner stands off the arriving crack's side as far as
+    // that side does.
     for &(q, a, b, t) in &junctions {
         let w = v3::add(v3::scale(mv[a.idx()], 1.0 - t), v3::scale(mv[b.idx()], t));
-        let open = away_from_crack(mesh, q)
-            .map(|dir| v3::scale(dir, v3::dot(v3::sub(mv[q.idx()], w), dir).max(0.0)))
-            .unwrap_or([0.0; 3]);
-        mv[q.idx()] = v3::add(w, open);
+        let cornered = even
+            .then(|| t_corner(mesh, q, (a, b), w, &dirs, &opening))
+            .flatten();
+        mv[q.idx()] = cornered.unwrap_or_else(|| {
+            let open = away_from_crack(mesh, q)
+                .map(|dir| v3::scale(dir, v3::dot(v3::sub(mv[q.idx()], w), dir).max(0.0)))
+                .unwrap_or([0.0; 3]);
+            v3::add(w, open)
+        });
         out.closed_nodes += 1;
     }
 
@@ -512,7 +554,7 @@ pub fn groove(mesh: &SimMesh, half_width: f64) -> Displaced {
         width: 1.0,
         ..Post::default()
     };
-    displace(mesh, &d, &opts)
+    open_up(mesh, &d, &opts, false)
 }
 
 /// Halve the moves `mv` of the nodes of flipped or collapsed triangles at
@@ -841,8 +883,14 @@ mod tests {
     /// A 6 x 6 grid with the interior edges along y = 3 opened from x = 0
     /// to x = 6 (a crack across the plate).
     fn cracked_plate() -> SimMesh {
+        cracked_plate_to(6)
+    }
+
+    /// A 6 x 6 grid with the interior edges along y = 3 opened from x = 0
+    /// to x = `end` (a free tip there when under 6).
+    fn cracked_plate_to(end: usize) -> SimMesh {
         let (mut m, _) = build(&grid_input(6, 6));
-        for x in 0..6 {
+        for x in 0..end {
             let find = |m: &SimMesh, p: [f64; 2]| {
                 m.vertices()
                     .find(|&v| m.position(v)[0] == p[0] && m.position(v)[1] == p[1])
@@ -941,9 +989,61 @@ mod tests {
         }
         // Without a band every node moves by its displacement.
         let out = displace(&m, &d, &opts(1.0));
-        assert!(m
+        for v in m.vertices() {
+            let x = out.positions[v.idx()][0];
+            assert!((x - m.position(v)[0] - 0.5).abs() < 1e-12, "{v:?} at {x}");
+        }
+    }
+
+    /// The gap across the crack at x (the spread of the copies there).
+    fn gap_at(m: &SimMesh, out: &Displaced, x: f64) -> f64 {
+        let copies: Vec<VertexId> = m
             .vertices()
-            .all(|v| out.positions[v.idx()][0] == m.position(v)[0] + 0.5));
+            .filter(|&v| m.position(v) == [x, 3.0, 0.0])
+            .collect();
+        spread(&copies, |v| out.positions[v.idx()])
+    }
+
+    #[test]
+    fn a_side_between_junctions_stands_off_evenly_and_a_tip_closes() {
+        // Each side pulled off the crack as an elastic crack opens: most in
+        // the middle, little near its ends.
+        let lens = |m: &SimMesh| -> Vec<[f64; 3]> {
+            pull_apart(m, 0.1)
+                .into_iter()
+                .zip(m.positions())
+                .map(|(d, p)| v3::scale(d, (std::f64::consts::PI * p[0] / 6.0).sin()))
+                .collect()
+        };
+        let banded = Post {
+            gap_band: 2.0,
+            ..opts(1.0)
+        };
+        // Across the plate (both ends on the border): every node as far.
+        let m = cracked_plate();
+        let out = displace(&m, &lens(&m), &banded);
+        let gaps: Vec<f64> = (1..6).map(|x| gap_at(&m, &out, x as f64)).collect();
+        let mean = gaps.iter().sum::<f64>() / 5.0;
+        for g in &gaps {
+            assert!((g - mean).abs() < 1e-9 * mean, "{gaps:?}");
+        }
+        // The mean of the openings (0.2 sin(pi x / 6) over every copy of
+        // the run, the border ends included).
+        let want = (0..=6)
+            .map(|x| 0.2 * (std::f64::consts::PI * x as f64 / 6.0).sin())
+            .sum::<f64>()
+            / 7.0;
+        assert!((mean - want).abs() < 1e-9, "{mean} for {want}");
+        assert_eq!(out.inverted_triangles, 0);
+        // Ending at a free tip: the crack keeps its own profile, closing
+        // towards the tip.
+        let m = cracked_plate_to(4);
+        let out = displace(&m, &lens(&m), &banded);
+        let gaps: Vec<f64> = (1..4).map(|x| gap_at(&m, &out, x as f64)).collect();
+        for (x, g) in gaps.iter().enumerate() {
+            let want = 0.2 * (std::f64::consts::PI * (x + 1) as f64 / 6.0).sin();
+            assert!((g - want).abs() < 1e-9, "{gaps:?}");
+        }
     }
 
     #[test]

@@ -1277,3 +1277,125 @@ pub fn impact_stats(lines: &[Seg], center: P3, normal: P3, radius: f64) -> Value
         "radial_crossings_0.5": radial_crossings(0.5 * radius),
     })
 }
+
+// ---- Gap widths ----
+
+/// Widths of the gaps of a plate's opened cracks: from the middle of every outline edge of the
+/// top surface `top` (edges used by one triangle, corners welded within `weld_rel` of the
+/// diagonal), projected onto the plate's plane (`flat` the axis across it), straight out of its
+/// triangle to the nearest other outline edge, at most `reach` away. Edges within `margin` of the
+/// plate's outer border are left out. `(width, edge length)` per edge that reaches another
+/// outline; a gap that pinches shut shows as widths near zero.
+pub fn gap_widths(
+    top: &[Tri],
+    flat: usize,
+    weld_rel: f64,
+    margin: f64,
+    reach: f64,
+) -> Vec<(f64, f64)> {
+    let (u, v) = plane_axes(flat);
+    let (lo, hi) = bounds(top.iter().flatten());
+    let points: Vec<P3> = top.iter().flatten().copied().collect();
+    let (nodes, map) = weld_points(&points, weld_rel * diagonal(lo, hi));
+    let flat_p = |p: P3| [p[u], p[v], 0.0];
+    // Directed edges with the corner across, counted undirected.
+    let mut uses: BTreeMap<[usize; 2], (usize, [usize; 3])> = BTreeMap::new();
+    for t in 0..top.len() {
+        for k in 0..3 {
+            let (a, b, c) = (
+                map[3 * t + k],
+                map[3 * t + (k + 1) % 3],
+                map[3 * t + (k + 2) % 3],
+            );
+            if a != b {
+                let e = uses.entry([a.min(b), a.max(b)]).or_insert((0, [a, b, c]));
+                e.0 += 1;
+            }
+        }
+    }
+    let outline: Vec<([P3; 2], P3)> = uses
+        .values()
+        .filter(|(n, _)| *n == 1)
+        .map(|(_, [a, b, c])| ([flat_p(nodes[*a]), flat_p(nodes[*b])], flat_p(nodes[*c])))
+        .collect();
+    let segs: Vec<Seg> = outline.iter().map(|(s, _)| *s).collect();
+    let cell = mean_len(&segs).max(1e-12);
+    let grid = segment_grid(&segs, cell);
+    let (flo, fhi) = (flat_p(lo), flat_p(hi));
+    let mut out = Vec::new();
+    for (i, (s, c)) in outline.iter().enumerate() {
+        let m = mid(s);
+        if m[0] - flo[0] < margin
+            || fhi[0] - m[0] < margin
+            || m[1] - flo[1] < margin
+            || fhi[1] - m[1] < margin
+        {
+            continue;
+        }
+        let e = sub(s[1], s[0]);
+        let mut n = [-e[1], e[0], 0.0];
+        if dot(n, sub(*c, m)) > 0.0 {
+            n = [e[1], -e[0], 0.0];
+        }
+        if norm(n) == 0.0 {
+            continue;
+        }
+        let n = unit(n);
+        // The first other outline edge the ray from m along n meets.
+        let mut best = f64::INFINITY;
+        let steps = (reach / cell).ceil() as usize + 1;
+        for k in 0..=steps {
+            let q = [
+                m[0] + n[0] * k as f64 * cell,
+                m[1] + n[1] * k as f64 * cell,
+                0.0,
+            ];
+            grid.near(q, cell, |j| {
+                if j != i {
+                    let [a, b] = segs[j];
+                    let d = sub(b, a);
+                    let den = n[0] * d[1] - n[1] * d[0];
+                    if den.abs() > 1e-300 {
+                        let w = sub(a, m);
+                        let t = (w[0] * d[1] - w[1] * d[0]) / den;
+                        let s2 = (w[0] * n[1] - w[1] * n[0]) / den;
+                        if t > 1e-12 * cell && (0.0..=1.0).contains(&s2) && t < best {
+                            best = t;
+                        }
+                    }
+                }
+                false
+            });
+            if best <= k as f64 * cell {
+                break;
+            }
+        }
+        if best <= reach {
+            out.push((best, seg_len(s)));
+        }
+    }
+    out
+}
+
+/// The length-weighted share of `widths` (from [`gap_widths`]) below `fraction` of their
+/// length-weighted median: where the gaps pinch.
+pub fn pinched_share(widths: &[(f64, f64)], fraction: f64) -> f64 {
+    let mut w = widths.to_vec();
+    w.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let total: f64 = w.iter().map(|x| x.1).sum();
+    let mut acc = 0.0;
+    let mut median = 0.0;
+    for x in &w {
+        acc += x.1;
+        if acc >= 0.5 * total {
+            median = x.0;
+            break;
+        }
+    }
+    let below: f64 = w
+        .iter()
+        .filter(|x| x.0 < fraction * median)
+        .map(|x| x.1)
+        .sum();
+    ratio(below, total)
+}

@@ -35,7 +35,7 @@ pub struct Uncrossing {
 /// crosses or [`MAX_HALVINGS`](crate::post::width::MAX_HALVINGS) passes
 /// are done; the passes that left the fewest crossings are kept. `top` is
 /// updated in place. The bottom line hangs from `hang` where given
-/// ([`build_walls_hung`]).
+/// ([`build_walls_hung`]) unless the mesh's own crosses less.
 pub fn build_walls_uncrossed(
     mesh: &SimMesh,
     top: &mut [[f64; 3]],
@@ -45,6 +45,19 @@ pub fn build_walls_uncrossed(
     let max = crate::post::width::MAX_HALVINGS;
     let mut walls = build_walls_hung(mesh, top, opts, hang);
     let (mut count, mut nodes) = crossings(mesh, top, &walls);
+    // A bottom line hung from another mesh's can cross itself where that
+    // mesh's cracks met otherwise (a crossing there, two T-junctions a
+    // snapping distance apart here): such walls cross at any opening, and
+    // shortening them shut the gap at the junction. The mesh's own bottom
+    // line, when its walls cross less.
+    let mut hang = hang;
+    if hang.is_some() && count > 0 {
+        let own = build_walls_hung(mesh, top, opts, None);
+        let (own_count, own_nodes) = crossings(mesh, top, &own);
+        if own_count < count {
+            (hang, walls, count, nodes) = (None, own, own_count, own_nodes);
+        }
+    }
     let mut fix = Uncrossing {
         crossing_before: count,
         ..Uncrossing::default()
