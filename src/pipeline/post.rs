@@ -285,11 +285,18 @@ pub fn apply(
             o.sort_by(f64::total_cmp);
             o.get(o.len() * 95 / 100).copied().unwrap_or(0.0)
         };
+        let taper = post
+            .bake_taper
+            .then(|| crate::post::taper::tapers(&r.segments, border_points(&e.sim)));
         let widths = r
             .segment_times
             .iter()
             .zip(&opening)
-            .map(|(t, o)| post.fade(t / end, if deepest > 0.0 { o / deepest } else { 1.0 }))
+            .enumerate()
+            .map(|(i, (t, o))| {
+                let w = post.fade(t / end, if deepest > 0.0 { o / deepest } else { 1.0 });
+                w * taper.as_ref().map_or(1.0, |f| f[i])
+            })
             .collect();
         widths_of.push(widths);
         let rest = moves.then(|| r.segments.clone());
@@ -517,6 +524,19 @@ fn openings(
         .iter()
         .map(|[a, b]| 0.5 * (opening(*a) + opening(*b)))
         .collect()
+}
+
+/// Whether a rest position is one of `mesh`'s vertices on its own border
+/// (a boundary edge that is not a crack's side).
+fn border_points(mesh: &crate::mesh::SimMesh) -> impl Fn([f64; 3]) -> bool {
+    let key = |p: [f64; 3]| p.map(|x| (x + 0.0).to_bits());
+    let on: std::collections::BTreeSet<[u64; 3]> = mesh
+        .halfedges()
+        .filter(|&h| mesh.is_boundary_halfedge(h) && !mesh.is_crack_halfedge(h))
+        .flat_map(|h| [mesh.origin(h), mesh.dest(h)])
+        .map(|v| key(mesh.position(v)))
+        .collect();
+    move |p| on.contains(&key(p))
 }
 
 /// Index of the material named `name`, added with `json` when missing.

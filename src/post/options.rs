@@ -102,6 +102,13 @@ pub struct Post {
     /// models without displacements do not fade).
     /// Default 0.
     pub bake_fade_depth: f64,
+    /// Taper: each crack's baked width closes towards its free tips as an
+    /// elastic crack's opening does (`sqrt(1 - (x / a)^2)` at `x` from the
+    /// middle of a crack of half-length `a`; a crack ending on another or
+    /// on the border as half of one), so a check between two free tips is
+    /// lens-shaped, widest in its middle ([`crate::post::taper`]).
+    /// Default false.
+    pub bake_taper: bool,
     /// Texels the maps' islands are grown by, so filtering never reads
     /// background. Default 8.
     pub bake_dilate: u32,
@@ -188,6 +195,7 @@ impl Default for Post {
             bake_occlusion: 0.8,
             bake_fade_age: 0.0,
             bake_fade_depth: 0.0,
+            bake_taper: false,
             bake_dilate: 8,
             groove: 0.0,
             groove_relative: 0.0,
