@@ -19,7 +19,7 @@ use crate::post::distance::{crack_vertices, distance_field};
 use crate::post::Post;
 
 mod even;
-use even::{even_openings, side_runs, smooth_runs, t_corner};
+use even::{even_openings, group_sizes, side_runs, smooth_runs, t_corner};
 
 /// How many times a node's move is halved before it is dropped.
 pub const MAX_HALVINGS: usize = 12;
@@ -359,24 +359,22 @@ fn open_up(mesh: &SimMesh, displacement: &[[f64; 3]], opts: &Post, even: bool) -
     // stays where it was.
     let local = opts.gap_band > 0.0;
     let junctions = t_junctions(mesh);
+    let means: Vec<[f64; 3]> = groups.iter().map(|g| mean_move(g, &mv)).collect();
     let mut opening = vec![0.0; mesh.n_vertices()];
     let mut dirs: Vec<Option<[f64; 3]>> = vec![None; mesh.n_vertices()];
-    for g in groups.iter().filter(|g| g.len() >= 2) {
-        let mean = mean_move(g, &mv);
+    for (g, mean) in groups.iter().zip(&means).filter(|(g, _)| g.len() >= 2) {
         for &v in g {
             dirs[v.idx()] = away_from_crack(mesh, v);
             if let Some(dir) = dirs[v.idx()] {
-                opening[v.idx()] = v3::dot(v3::sub(mv[v.idx()], mean), dir).max(0.0);
+                opening[v.idx()] = v3::dot(v3::sub(mv[v.idx()], *mean), dir).max(0.0);
             }
         }
     }
-    let runs = if even {
-        side_runs(mesh, &groups, &junctions)
-    } else {
-        Vec::new()
-    };
+    let mut runs = Vec::new();
     if even {
-        even_openings(mesh, &groups, &runs, &mut opening);
+        let sizes = group_sizes(mesh, &groups);
+        runs = side_runs(mesh, &groups, &sizes, &junctions);
+        even_openings(mesh, &groups, &sizes, &runs, &mut opening);
     }
     let mut open: Vec<[f64; 3]> = dirs
         .iter()
@@ -384,14 +382,13 @@ fn open_up(mesh: &SimMesh, displacement: &[[f64; 3]], opts: &Post, even: bool) -
         .map(|(d, o)| d.map_or([0.0; 3], |d| v3::scale(d, *o)))
         .collect();
     smooth_runs(mesh, &runs, &mut open);
-    for g in &groups {
+    for (g, &mean) in groups.iter().zip(&means) {
         if g.len() < 2 {
             if local {
                 mv[g[0].idx()] = [0.0; 3];
             }
             continue;
         }
-        let mean = mean_move(g, &mv);
         let base = if local { [0.0; 3] } else { mean };
         for &v in g {
             let new = v3::add(base, open[v.idx()]);

@@ -762,11 +762,8 @@ pub fn pattern_stats(input: &PatternInput, reference: Option<&ReferenceEdges>) -
     }
     s.orientation = orientation(pos, &input.cracks, crack_length);
     let arm = 0.1 * s.mean_cell_diameter;
-    // A node of the lines at rest finds the surface across its opened gap,
-    // as wide as a good part of a cell: looked for within a cell's
-    // diameter (within the arm alone, nodes of wide gaps found none and
-    // took their arms' plane, whose sign is arbitrary).
-    let nn = sides::node_normals(pos, &normals, &adj, s.mean_cell_diameter.max(arm).max(near));
+    // A node at rest finds the surface across its opened gap within a cell.
+    let nn = sides::node_normals(pos, &normals, &adj, s.mean_cell_diameter.max(near));
     let min_area = 1e-4 * area;
     (s.mean_cell_sides, s.sided_cells) =
         sides::mean_cell_sides(pos, &adj, |v| nn[v], on_border, arm, min_area);

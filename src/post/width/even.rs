@@ -26,10 +26,10 @@ const MAX_CORNER_FACTOR: f64 = 2.0;
 pub(super) fn even_openings(
     mesh: &SimMesh,
     groups: &[Vec<VertexId>],
+    size: &[usize],
     runs: &[SideRun],
     opening: &mut [f64],
 ) {
-    let size = group_sizes(mesh, groups);
     let mut evened = opening.to_vec();
     let mut in_run = vec![false; mesh.n_vertices()];
     for run in runs {
@@ -128,7 +128,7 @@ pub(super) struct SideRun {
 }
 
 /// How many copies each crack node's vertex has (0 off the cracks).
-fn group_sizes(mesh: &SimMesh, groups: &[Vec<VertexId>]) -> Vec<usize> {
+pub(super) fn group_sizes(mesh: &SimMesh, groups: &[Vec<VertexId>]) -> Vec<usize> {
     let mut size = vec![0usize; mesh.n_vertices()];
     for g in groups {
         for v in g {
@@ -157,10 +157,10 @@ fn beside_on_crack(mesh: &SimMesh, v: VertexId) -> [Option<VertexId>; 2] {
 pub(super) fn side_runs(
     mesh: &SimMesh,
     groups: &[Vec<VertexId>],
+    size: &[usize],
     junctions: &[(VertexId, VertexId, VertexId, f64)],
 ) -> Vec<SideRun> {
     let n = mesh.n_vertices();
-    let size = group_sizes(mesh, groups);
     let mut on_t = vec![false; n];
     for &(q, _, _, _) in junctions {
         on_t[q.idx()] = true;
