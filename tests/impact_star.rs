@@ -218,3 +218,101 @@ fn arcs_end_on_the_rays_beside_them() {
     let outside: f64 = s["share_beyond_1.1"].as_f64().unwrap_or(0.0);
     assert!(outside <= 0.05, "{outside} of the length beyond 1.1 R: {s}");
 }
+
+/// Euclidean distance.
+fn d3(a: [f64; 3], b: [f64; 3]) -> f64 {
+    ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
+}
+
+/// The first surface point on the line through `(a, b)` (the other two
+/// coordinates) along axis `k`, coming from its positive side, by
+/// Moller-Trumbore on every triangle.
+fn first_hit_from_positive(tris: &[measure::Tri], k: usize, line: [f64; 3]) -> Option<[f64; 3]> {
+    let mut best: Option<f64> = None;
+    for t in tris {
+        // Solve p0 + u e1 + v e2 = line + s e_k for (u, v, s).
+        let e1: Vec<f64> = (0..3).map(|i| t[1][i] - t[0][i]).collect();
+        let e2: Vec<f64> = (0..3).map(|i| t[2][i] - t[0][i]).collect();
+        let r: Vec<f64> = (0..3).map(|i| line[i] - t[0][i]).collect();
+        let det3 = |a: &[f64], b: &[f64], c: &[f64]| {
+            a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0])
+                + a[2] * (b[0] * c[1] - b[1] * c[0])
+        };
+        let mut ek = vec![0.0; 3];
+        ek[k] = -1.0;
+        let d = det3(&e1, &e2, &ek);
+        if d.abs() < 1e-15 {
+            continue;
+        }
+        let u = det3(&r, &e2, &ek) / d;
+        let v = det3(&e1, &r, &ek) / d;
+        let s = det3(&e1, &e2, &r) / d;
+        if u >= 0.0 && v >= 0.0 && u + v <= 1.0 && best.is_none_or(|b| s > b) {
+            best = Some(s);
+        }
+    }
+    best.map(|s| {
+        let mut p = line;
+        p[k] += s;
+        p
+    })
+}
+
+/// With no point given the hit lands where a curved asset faces the
+/// viewer, not on its highest point: on the teapot's body (from +z, the
+/// thinner horizontal side; it was the lid's knob) and on spot's flank
+/// (from +x). Most of the crack length lies around that point, little on the
+/// teapot's lid (a few cracks run up over its rim).
+#[test]
+fn on_a_curved_asset_the_default_hit_lands_where_it_faces_the_viewer() {
+    let dir = tempfile::tempdir().unwrap();
+    for (name, rel, axis) in [
+        ("teapot", "obj/teapot/teapot.obj", 2),
+        ("spot", "obj/spot/spot_triangulated.obj", 0),
+    ] {
+        let Some(input) = common::eval_data(rel) else {
+            continue;
+        };
+        let tris = measure::read_model(&input).triangles(|_| true);
+        let (lo, hi) = measure::bounds(tris.iter().flatten());
+        let diag = d3(lo, hi);
+        let mut line = [0.0; 3];
+        for i in 0..3 {
+            line[i] = 0.5 * (lo[i] + hi[i]);
+        }
+        line[axis] = hi[axis];
+        let hit = first_hit_from_positive(&tris, axis, line).expect("the line meets the asset");
+        let out = dir.path().join(format!("{name}.glb"));
+        common::crack_lines(&input, &out, "glass-impact", &[]);
+        let lines = measure::read_model(&out).rest_lines("crack_lines");
+        let total = measure::crack_length(&lines);
+        assert!(total > 0.0, "{name}: no cracks");
+        let reach = 0.25 * diag; // the preset's radius_relative
+        let near: f64 = lines
+            .iter()
+            .filter(|s| {
+                d3(
+                    [
+                        0.5 * (s[0][0] + s[1][0]),
+                        0.5 * (s[0][1] + s[1][1]),
+                        0.5 * (s[0][2] + s[1][2]),
+                    ],
+                    hit,
+                ) < 1.5 * reach
+            })
+            .map(|s| d3(s[0], s[1]))
+            .sum();
+        assert!(
+            near >= 0.9 * total,
+            "{name}: {near} of {total} within 1.5 R of the hit {hit:?}"
+        );
+        if name == "teapot" {
+            let lid: f64 = lines
+                .iter()
+                .filter(|s| s[0][1].min(s[1][1]) > 2.45)
+                .map(|s| d3(s[0], s[1]))
+                .sum();
+            assert!(lid <= 0.05 * total, "teapot: {lid} of {total} on the lid");
+        }
+    }
+}

@@ -830,12 +830,20 @@ impl StressEntry {
                 }
             }
             _ => {
-                one_of(
-                    self.points.is_some(),
-                    self.points_relative.is_some(),
-                    "points",
-                    "points_relative",
-                )?;
+                // Neither: the hit lands where the asset faces the viewer
+                // (`stress::field::default_hit`).
+                if self.points.is_some() && self.points_relative.is_some() {
+                    return Err("give 'points' or 'points_relative', not both".into());
+                }
+                if let Some((key, [])) = [
+                    ("points", &self.points),
+                    ("points_relative", &self.points_relative),
+                ]
+                .into_iter()
+                .find_map(|(k, p)| p.as_ref().map(|p| (k, p.as_slice())))
+                {
+                    return Err(format!("'{key}' is empty: give at least one point, or leave it out for the default hit"));
+                }
                 one_of(
                     self.radius.is_some(),
                     self.radius_relative.is_some(),

@@ -46,7 +46,8 @@ pub enum TermKind {
     /// surface), weight `w = 2 cos(d / r)`, radial `v = w P (c - p)/|c - p|`
     /// and concentric `concentric_factor * n x v`, both added as `v v^T`.
     Impact {
-        /// Impact points (projected onto the surface before use).
+        /// Impact points (projected onto the surface before use); empty:
+        /// one hit where the asset faces the viewer ([`default_hit`]).
         points: Vec<[f64; 3]>,
         /// Radius of influence (mesh units), > 0: the disc's radius; the
         /// star's reference radius (its hoop tension halves by 0.35 R).
@@ -224,9 +225,6 @@ impl Term {
                         "radial_cracks must be at most {}, got {radial_cracks}",
                         super::impact::MAX_RAYS
                     ));
-                }
-                if points.is_empty() {
-                    return bad("impact needs at least one point".into());
                 }
                 if points.iter().flatten().any(|x| !x.is_finite()) {
                     return bad("impact points must be finite".into());
@@ -489,11 +487,10 @@ fn area_mean(mesh: &SimMesh, value: impl Fn(FaceId) -> f64) -> f64 {
     }
 }
 
-/// Project points onto the surface of `mesh` (closest point), with parry3d.
-/// Only called when an impact term is present.
-pub fn project_onto_surface(mesh: &SimMesh, points: &[[f64; 3]]) -> Vec<[f64; 3]> {
+/// The surface of `mesh` as a parry3d triangle mesh (`None` when parry
+/// refuses it).
+fn query_mesh(mesh: &SimMesh) -> Option<parry3d::shape::TriMesh> {
     use parry3d::math::Vector;
-    use parry3d::query::PointQuery;
     let verts: Vec<Vector> = mesh
         .vertices()
         .map(|v| {
@@ -505,17 +502,91 @@ pub fn project_onto_surface(mesh: &SimMesh, points: &[[f64; 3]]) -> Vec<[f64; 3]
         .faces()
         .map(|f| mesh.face_vertices(f).map(|v| v.0))
         .collect();
-    let Ok(tm) = parry3d::shape::TriMesh::new(verts, tris) else {
-        return points.to_vec();
+    parry3d::shape::TriMesh::new(verts, tris).ok()
+}
+
+fn closest(tm: &parry3d::shape::TriMesh, p: [f64; 3]) -> [f64; 3] {
+    use parry3d::math::Vector;
+    use parry3d::query::PointQuery;
+    let q = Vector::new(p[0] as f32, p[1] as f32, p[2] as f32);
+    let r = tm.project_local_point(q, false).point;
+    [f64::from(r.x), f64::from(r.y), f64::from(r.z)]
+}
+
+/// Project points onto the surface of `mesh` (closest point), with parry3d.
+/// Only called when an impact term is present.
+pub fn project_onto_surface(mesh: &SimMesh, points: &[[f64; 3]]) -> Vec<[f64; 3]> {
+    match query_mesh(mesh) {
+        Some(tm) => points.iter().map(|&p| closest(&tm, p)).collect(),
+        None => points.to_vec(),
+    }
+}
+
+/// The axis (0 x, 1 y, 2 z) an impact with no point given comes along, from
+/// its positive side, for a box of extents `ext`: from above (+y, glTF's up)
+/// when the asset lies flat (its height under half its smaller horizontal
+/// extent: a ground, a pane on a table), else from the front along the
+/// thinner horizontal axis (a standing teapot's body, a cow's side, an
+/// upright window).
+pub fn hit_axis(ext: [f64; 3]) -> usize {
+    if ext[1] < 0.5 * ext[0].min(ext[2]) {
+        1
+    } else if ext[2] <= ext[0] {
+        2
+    } else {
+        0
+    }
+}
+
+/// Where an impact with no point given lands on `mesh`: the first surface
+/// point on a line through the middle of its bounding box along
+/// [`hit_axis`], coming from outside; where that line misses the surface (a
+/// ring), the surface point closest to the middle of the box's face on that
+/// side.
+pub fn default_hit(mesh: &SimMesh) -> [f64; 3] {
+    use parry3d::math::Vector;
+    use parry3d::query::{Ray, RayCast};
+    let mut lo = [f64::INFINITY; 3];
+    let mut hi = [f64::NEG_INFINITY; 3];
+    for v in mesh.vertices() {
+        let p = mesh.position(v);
+        for k in 0..3 {
+            lo[k] = lo[k].min(p[k]);
+            hi[k] = hi[k].max(p[k]);
+        }
+    }
+    if !lo.iter().chain(&hi).all(|x| x.is_finite()) {
+        return [0.0; 3];
+    }
+    let ext = [hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]];
+    let axis = hit_axis(ext);
+    let mut face = [
+        0.5 * (lo[0] + hi[0]),
+        0.5 * (lo[1] + hi[1]),
+        0.5 * (lo[2] + hi[2]),
+    ];
+    face[axis] = hi[axis];
+    let Some(tm) = query_mesh(mesh) else {
+        return face;
     };
-    points
-        .iter()
-        .map(|p| {
-            let q = Vector::new(p[0] as f32, p[1] as f32, p[2] as f32);
-            let r = tm.project_local_point(q, false).point;
-            [f64::from(r.x), f64::from(r.y), f64::from(r.z)]
-        })
-        .collect()
+    let diag = v3::norm(ext);
+    let mut origin = face;
+    origin[axis] += 0.01 * diag + f64::MIN_POSITIVE;
+    let mut dir = [0.0f32; 3];
+    dir[axis] = -1.0;
+    let ray = Ray::new(
+        Vector::new(origin[0] as f32, origin[1] as f32, origin[2] as f32),
+        Vector::new(dir[0], dir[1], dir[2]),
+    );
+    let reach = (ext[axis] + 0.02 * diag) as f32;
+    match tm.cast_local_ray(&ray, reach, false) {
+        Some(t) => {
+            let mut p = origin;
+            p[axis] -= f64::from(t);
+            closest(&tm, p)
+        }
+        None => closest(&tm, face),
+    }
 }
 
 impl StressField {
@@ -571,6 +642,7 @@ impl StressField {
         let mut contexts = Vec::with_capacity(terms.len());
         for (i, t) in terms.iter().enumerate() {
             let impacts = match &t.kind {
+                TermKind::Impact { points, .. } if points.is_empty() => vec![default_hit(mesh)],
                 TermKind::Impact { points, .. } => project_onto_surface(mesh, points),
                 _ => Vec::new(),
             };
@@ -678,6 +750,52 @@ impl StressField {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// With no point given, an impact lands where the asset faces the
+    /// viewer: a standing teapot's body from the front, a cow's side, a
+    /// ground from above, whatever plane a flat plate lies in.
+    #[test]
+    fn an_impact_with_no_point_lands_on_the_side_the_asset_shows() {
+        assert_eq!(hit_axis([6.4, 3.15, 4.0]), 2, "teapot: its body's front");
+        assert_eq!(hit_axis([0.94, 1.69, 1.72]), 0, "spot: its side");
+        assert_eq!(hit_axis([10.0, 0.2, 10.0]), 1, "ground: from above");
+        assert_eq!(hit_axis([10.0, 10.0, 0.0]), 2, "an upright pane: its face");
+        let (sphere, _) = crate::mesh::shapes::build(&crate::mesh::shapes::icosphere_input(3));
+        let p = default_hit(&sphere);
+        let r = v3::norm(p);
+        assert!(
+            p[2] > 0.95 * r && p[0].abs() < 0.05 && p[1].abs() < 0.05,
+            "{p:?}"
+        );
+        let plate = crate::mesh::shapes::jittered_plate(10, 0.3, 1);
+        let p = default_hit(&plate);
+        assert!(
+            (p[0] - 5.0).abs() < 1e-5 && (p[1] - 5.0).abs() < 1e-5 && p[2].abs() < 1e-6,
+            "{p:?}"
+        );
+        // A ring seen through its hole: the closest point to the face's middle.
+        let mut ring = crate::mesh::shapes::grid_input(12, 12);
+        ring.positions.iter_mut().for_each(|q| q[2] = 0.0);
+        let keep: Vec<[u32; 3]> = ring
+            .triangles
+            .iter()
+            .copied()
+            .filter(|t| {
+                let c = (0..3).fold([0.0; 2], |a, k| {
+                    let q = ring.positions[t[k] as usize];
+                    [a[0] + q[0] / 3.0, a[1] + q[1] / 3.0]
+                });
+                (c[0] - 6.0).abs().max((c[1] - 6.0).abs()) > 2.0
+            })
+            .collect();
+        ring.triangles = keep;
+        let (ring, _) = crate::mesh::shapes::build(&ring);
+        let p = default_hit(&ring);
+        assert!(
+            (p[0] - 6.0).abs().max((p[1] - 6.0).abs()) >= 2.0 - 1e-6,
+            "{p:?}"
+        );
+    }
 
     /// Directional checks: the term acts only in patches, which are long
     /// along the grain (across the direction) and short across it, and
