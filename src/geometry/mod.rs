@@ -2,6 +2,7 @@
 
 pub mod curvature;
 pub mod element;
+pub mod normals;
 pub mod tangents;
 pub mod triangulate;
 

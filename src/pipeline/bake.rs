@@ -48,6 +48,8 @@ pub fn bake_mesh(
         mesh: label.to_string(),
         message,
     };
+    // The maps are drawn with the normals the output is shaded with.
+    let _ = super::attributes::add_smooth_normals(scene, mesh_index, post.smooth_angle);
     let mut groups: BTreeMap<Option<usize>, Vec<usize>> = BTreeMap::new();
     for (i, p) in scene.meshes[mesh_index].primitives.iter().enumerate() {
         if let Geometry::Triangles(t) = &p.geometry {

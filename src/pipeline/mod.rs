@@ -3,6 +3,7 @@
 //! file to a file, the post-processing stages ([`post`]), piece splitting
 //! and time-lapse frames.
 
+mod attributes;
 mod bake;
 mod config;
 pub mod frames;

@@ -385,6 +385,16 @@ pub fn apply(
     if post.split_islands {
         super::islands::remove_empty_meshes(scene);
     }
+    // Smooth shading where the input had no normals (after every stage:
+    // the output's own geometry).
+    let t = Instant::now();
+    let mut smoothed = false;
+    for m in 0..scene.meshes.len() {
+        smoothed |= super::attributes::add_smooth_normals(scene, m, post.smooth_angle);
+    }
+    if smoothed {
+        timing.time("normals", t.elapsed().as_secs_f64());
+    }
     out.stages.extend(timing.stages);
     Ok(out)
 }

@@ -301,39 +301,6 @@ fn tear_run(
     })
 }
 
-/// Gives every normal-mapped triangle primitive without `TANGENT`s the
-/// MikkTSpace tangents of its own triangles, as a viewer would make for the
-/// input: the normal map was made for that frame. Remeshing and cutting
-/// carry them like any attribute, where tangents made anew on the cracked
-/// mesh would turn the map's detail. Not for an output that keeps the
-/// input as it is: that one gets no attribute it did not have.
-fn add_missing_tangents(scene: &mut Scene) {
-    let Scene {
-        meshes, materials, ..
-    } = scene;
-    for p in meshes.iter_mut().flat_map(|m| m.primitives.iter_mut()) {
-        let Some(set) = p
-            .material
-            .and_then(|m| materials.get(m))
-            .and_then(|m| m.json.get("normalTexture"))
-            .map(|n| {
-                n.get("texCoord")
-                    .and_then(serde_json::Value::as_u64)
-                    .unwrap_or(0)
-            })
-        else {
-            continue;
-        };
-        if let Geometry::Triangles(t) = &mut p.geometry {
-            if let Some(with) =
-                crate::geometry::tangents::with_generated_tangents(t, &format!("TEXCOORD_{set}"))
-            {
-                *t = with;
-            }
-        }
-    }
-}
-
 /// Write `scene` to `output`, creating the output folder first (see
 /// [`crate::io::gltf_write::write_scene_with`] for `prefix_images`).
 ///
@@ -526,7 +493,7 @@ pub fn run(scene: &mut Scene, config: &Config, observer: &mut dyn Observer) -> R
     let pipe = &config.pipeline;
     let input = config.asset.as_path();
     if !pipe.post.keeps_input() {
-        add_missing_tangents(scene);
+        super::attributes::add_missing_tangents(scene);
     }
     let Prepared {
         mut entries,

@@ -112,6 +112,12 @@ pub struct Post {
     /// Texels the maps' islands are grown by, so filtering never reads
     /// background. Default 8.
     pub bake_dilate: u32,
+    /// Smooth normals for an input without them: the crease angle in
+    /// degrees (Blender's auto smooth), 0 to 180; triangles meeting at a
+    /// sharper edge stay faceted there ([`crate::geometry::normals`]). 0
+    /// writes no `NORMAL` (viewers shade flat). Inputs with normals keep
+    /// theirs. Default 30.
+    pub smooth_angle: f64,
     /// Real grooves: cut each crack into the surface as a V channel this
     /// wide (scene units; 0: use `groove_relative`), walled down to the
     /// crack line in `groove_material` ([`crate::post::width::groove`]).
@@ -197,6 +203,7 @@ impl Default for Post {
             bake_fade_depth: 0.0,
             bake_taper: false,
             bake_dilate: 8,
+            smooth_angle: crate::geometry::normals::DEFAULT_CREASE_DEGREES,
             groove: 0.0,
             groove_relative: 0.0,
             groove_depth: 0.0,
@@ -344,6 +351,12 @@ impl Post {
             return Err(format!(
                 "post.bake_atlas must be \"auto\", \"always\" or \"never\", got \"{}\"",
                 self.bake_atlas
+            ));
+        }
+        if !(0.0..=180.0).contains(&self.smooth_angle) {
+            return Err(format!(
+                "post.smooth_angle must be 0 to 180 degrees, got {}",
+                self.smooth_angle
             ));
         }
         if self.bake_dilate > 64 {
