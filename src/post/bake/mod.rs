@@ -295,7 +295,7 @@ pub fn encode_png(size: u32, channels: usize, data: &[u8]) -> Result<Vec<u8>, pn
             _ => png::ColorType::Rgba,
         });
         enc.set_depth(png::BitDepth::Eight);
-        enc.set_compression(png::Compression::Fast);
+        enc.set_compression(png::Compression::Balanced);
         let mut w = enc.write_header()?;
         w.write_image_data(data)?;
     }
