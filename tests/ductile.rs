@@ -22,6 +22,17 @@ fn the_tear_preset_tears_the_notched_block_into_pieces() {
     assert!(d["ductile"]["cg_iterations"].as_u64().unwrap() > 0, "{d}");
     assert!(d["ductile"]["separated_pull"].as_f64().is_some(), "{d}");
     assert!(d["pieces"].as_u64().unwrap() >= 2, "{d}");
+    // The summary says what the model made: pieces and torn area, not
+    // "0 cracks".
+    let area = d["torn_area"].as_f64().unwrap();
+    assert!(area > 0.0, "{d}");
+    let said = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        said.contains(&format!("torn into {} pieces", d["pieces"]))
+            && said.contains(&format!("torn faces' area {area:.4}"))
+            && !said.contains("0 cracks"),
+        "{said}"
+    );
     assert!(r["stages"]
         .as_array()
         .unwrap()

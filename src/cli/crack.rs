@@ -359,17 +359,33 @@ pub fn run(a: CrackArgs) -> Result<()> {
     }
     if !a.quiet {
         let run = &report.run;
-        eprintln!(
-            "{} -> {}: {} cracks, crack length {:.3}, {} -> {} triangles (simulated on {}), {} relaxation steps",
-            a.input.display(),
-            a.output.display(),
-            run.cracks,
-            run.crack_length,
-            report.mesh_triangles.before,
-            report.mesh_triangles.after,
-            run.triangles.after,
-            run.relaxation_steps
-        );
+        if let Some(area) = run.torn_area() {
+            eprintln!(
+                "{} -> {}: torn into {} pieces, torn faces' area {:.4}, {} -> {} triangles",
+                a.input.display(),
+                a.output.display(),
+                run.pieces().unwrap_or(1),
+                area,
+                report.mesh_triangles.before,
+                report.mesh_triangles.after,
+            );
+        } else {
+            let pieces = run
+                .pieces()
+                .map(|n| format!(", {n} pieces"))
+                .unwrap_or_default();
+            eprintln!(
+                "{} -> {}: {} cracks, crack length {:.3}{pieces}, {} -> {} triangles (simulated on {}), {} relaxation steps",
+                a.input.display(),
+                a.output.display(),
+                run.cracks,
+                run.crack_length,
+                report.mesh_triangles.before,
+                report.mesh_triangles.after,
+                run.triangles.after,
+                run.relaxation_steps
+            );
+        }
     }
     Ok(())
 }

@@ -159,6 +159,33 @@ pub struct RunReport {
     pub frames: Option<FramesReport>,
 }
 
+impl RunReport {
+    /// Pieces the run's meshes came apart into: the ductile model's torn
+    /// pieces and `split_islands`' pieces, summed over meshes (`None` when
+    /// no mesh was torn or split).
+    pub fn pieces(&self) -> Option<usize> {
+        let of = |m: &MeshRun| {
+            m.post
+                .get("pieces")
+                .or_else(|| m.post.get("islands").and_then(|i| i.get("pieces")))
+                .and_then(serde_json::Value::as_u64)
+        };
+        let counts: Vec<u64> = self.meshes.iter().filter_map(of).collect();
+        (!counts.is_empty()).then(|| counts.iter().sum::<u64>() as usize)
+    }
+
+    /// Area of the ductile model's torn faces, summed over meshes (scene
+    /// units squared; `None` when no mesh was torn).
+    pub fn torn_area(&self) -> Option<f64> {
+        let areas: Vec<f64> = self
+            .meshes
+            .iter()
+            .filter_map(|m| m.post.get("torn_area").and_then(serde_json::Value::as_f64))
+            .collect();
+        (!areas.is_empty()).then(|| areas.iter().sum())
+    }
+}
+
 /// What [`crack_file`] did: the files, then the run.
 #[derive(Clone, Debug, Serialize)]
 pub struct CrackReport {

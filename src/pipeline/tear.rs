@@ -112,6 +112,19 @@ pub fn tear_meshes(
         }
         let surface = d.surface(0.25 * d.grid.h);
         let torn_triangles = surface.torn.iter().filter(|&&t| t).count();
+        let torn_area: f64 = surface
+            .triangles
+            .iter()
+            .zip(&surface.torn)
+            .filter(|(_, &torn)| torn)
+            .map(|(t, _)| {
+                let [a, b, c] = t.map(|v| surface.positions[v as usize]);
+                0.5 * crate::math::v3::norm(crate::math::v3::cross(
+                    crate::math::v3::sub(b, a),
+                    crate::math::v3::sub(c, a),
+                ))
+            })
+            .sum();
         let pieces = replace_mesh(scene, e.mesh_index, &d, &surface, &p.ductile);
         let mut tear_lines = 0;
         let mut bakes = Vec::new();
@@ -135,6 +148,7 @@ pub fn tear_meshes(
             "seconds": seconds,
             "triangles": surface.triangles.len(),
             "torn_triangles": torn_triangles,
+            "torn_area": torn_area,
             "tear_line_segments": tear_lines,
             "pieces": surface.pieces,
         });
