@@ -9,6 +9,9 @@ use crackle::sim::SimParams;
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 
+/// The `--help` group of the simulation's own options, after the look.
+const ADVANCED: &str = "Advanced simulation";
+
 /// Simulation options of the crack command: a pipeline (file or preset)
 /// plus overrides. Each flag below is short for `--set simulation.KEY=VALUE`
 /// (defaults and units: README). Lengths and times are in the mesh's own
@@ -24,59 +27,67 @@ pub struct SimArgs {
     /// Override a pipeline key (repeatable), e.g. `--set simulation.toughness=3`; a stress entry's key by its index, e.g. `--preset glass-impact --set stress.0.radius_relative=0.1` (`crackle presets NAME` shows a preset's entries)
     #[arg(long = "set", value_name = "KEY=VALUE")]
     sets: Vec<String>,
+    /// The artist's controls (`Look` in `--help`).
+    #[command(flatten)]
+    look: super::look::LookArgs,
     /// Cell size of the pattern in scene units (replaces the pipeline's cell size)
-    #[arg(long, value_name = "SIZE", conflicts_with = "cell_size_relative")]
+    #[arg(
+        long,
+        value_name = "SIZE",
+        conflicts_with = "cell_size_relative",
+        help_heading = "Look"
+    )]
     cell_size: Option<f64>,
     /// Cell size as a fraction of each mesh's bounding-box diagonal (replaces the pipeline's cell size)
-    #[arg(long, value_name = "FRACTION")]
+    #[arg(long, value_name = "FRACTION", help_heading = "Look")]
     cell_size_relative: Option<f64>,
-    #[arg(long, value_name = "N", help = with_default("Most triangles of the remeshed simulation surface", SimParams::default().max_triangles))]
+    #[arg(long, value_name = "N", help_heading = ADVANCED, help = with_default("Most triangles of the remeshed simulation surface", SimParams::default().max_triangles))]
     max_triangles: Option<usize>,
-    #[arg(long, help = with_default("Toughness: a node fails when its separation eigenvalue exceeds it", SimParams::default().toughness))]
+    #[arg(long, help_heading = ADVANCED, help = with_default("Toughness: a node fails when its separation eigenvalue exceeds it", SimParams::default().toughness))]
     toughness: Option<f64>,
-    #[arg(long, help = with_default("Fraction of the residual stress handed to crack tips, in [0, 1]", SimParams::default().alpha))]
+    #[arg(long, help_heading = ADVANCED, help = with_default("Fraction of the residual stress handed to crack tips, in [0, 1]", SimParams::default().alpha))]
     alpha: Option<f64>,
-    #[arg(long, help = with_default("Constant added to the residual at crack tips, for long joined cracks", SimParams::default().residual_constant))]
+    #[arg(long, help_heading = ADVANCED, help = with_default("Constant added to the residual at crack tips, for long joined cracks", SimParams::default().residual_constant))]
     residual_constant: Option<f64>,
-    #[arg(long, help = with_default("Uniform shrinkage added per unit of relaxation time", SimParams::default().shrink_rate))]
+    #[arg(long, help_heading = ADVANCED, help = with_default("Uniform shrinkage added per unit of relaxation time", SimParams::default().shrink_rate))]
     shrink_rate: Option<f64>,
-    #[arg(long, help = with_default("How long the load acts; then the run goes on until nothing fails", SimParams::default().load_time))]
+    #[arg(long, help_heading = ADVANCED, help = with_default("How long the load acts; then the run goes on until nothing fails", SimParams::default().load_time))]
     load_time: Option<f64>,
-    #[arg(long, help = with_default("Seeded variation of the load between triangles, in [0, 1]", SimParams::default().noise))]
+    #[arg(long, help_heading = ADVANCED, help = with_default("Seeded variation of the load between triangles, in [0, 1]", SimParams::default().noise))]
     noise: Option<f64>,
-    #[arg(long, help = with_default("Seed of every random choice", SimParams::default().seed))]
+    #[arg(long, help_heading = ADVANCED, help = with_default("Seed of every random choice", SimParams::default().seed))]
     seed: Option<u64>,
-    #[arg(long, help = with_default("Relaxation time between crack checks", SimParams::default().relax_time))]
+    #[arg(long, help_heading = ADVANCED, help = with_default("Relaxation time between crack checks", SimParams::default().relax_time))]
     relax_time: Option<f64>,
-    #[arg(long, help = with_default("Largest relaxation step; 0: the stable step", SimParams::default().relax_dt))]
+    #[arg(long, help_heading = ADVANCED, help = with_default("Largest relaxation step; 0: the stable step", SimParams::default().relax_dt))]
     relax_dt: Option<f64>,
-    #[arg(long, help = with_default("Relaxation steps per round; 0: as many as --relax-time needs", SimParams::default().relax_steps))]
+    #[arg(long, help_heading = ADVANCED, help = with_default("Relaxation steps per round; 0: as many as --relax-time needs", SimParams::default().relax_steps))]
     relax_steps: Option<usize>,
-    #[arg(long, value_name = "NAME", help = with_default("Relaxation integrator: local-euler, euler, paper-euler (needs --relax-dt), backward-euler, equilibrium, rkl, or auto (local-euler unless the mesh is stiff, then backward-euler)", SimParams::default().integrator.name()))]
+    #[arg(long, value_name = "NAME", help_heading = ADVANCED, help = with_default("Relaxation integrator: local-euler, euler, paper-euler (needs --relax-dt), backward-euler, equilibrium, rkl, or auto (local-euler unless the mesh is stiff, then backward-euler)", SimParams::default().integrator.name()))]
     integrator: Option<String>,
-    #[arg(long, help = with_default("Relative residual of each backward-Euler solve", SimParams::default().tolerance))]
+    #[arg(long, help_heading = ADVANCED, help = with_default("Relative residual of each backward-Euler solve", SimParams::default().tolerance))]
     tolerance: Option<f64>,
-    #[arg(long, value_name = "RINGS", help = with_default("Finishing passes relax only this many rings around their new cracks; 0: the whole mesh", SimParams::default().finish_rings))]
+    #[arg(long, value_name = "RINGS", help_heading = ADVANCED, help = with_default("Finishing passes relax only this many rings around their new cracks; 0: the whole mesh", SimParams::default().finish_rings))]
     finish_rings: Option<usize>,
-    #[arg(long, help = with_default("Most relaxation rounds", SimParams::default().max_rounds))]
+    #[arg(long, help_heading = ADVANCED, help = with_default("Most relaxation rounds", SimParams::default().max_rounds))]
     max_rounds: Option<usize>,
-    #[arg(long, help = with_default("Most crack events per mesh", SimParams::default().max_cracks))]
+    #[arg(long, help_heading = ADVANCED, help = with_default("Most crack events per mesh", SimParams::default().max_cracks))]
     max_cracks: Option<usize>,
-    #[arg(long, help = with_default("Most crack events per round before the load is held; 0: 1% of the nodes", SimParams::default().max_cracks_per_round))]
+    #[arg(long, help_heading = ADVANCED, help = with_default("Most crack events per round before the load is held; 0: 1% of the nodes", SimParams::default().max_cracks_per_round))]
     max_cracks_per_round: Option<usize>,
-    #[arg(long, help = with_default("Conditioning cap on element gradients, times the input mean", SimParams::default().clamp_factor))]
+    #[arg(long, help_heading = ADVANCED, help = with_default("Conditioning cap on element gradients, times the input mean", SimParams::default().clamp_factor))]
     clamp_factor: Option<f64>,
     /// Fix the mesh's open boundary instead of leaving it free
-    #[arg(long)]
+    #[arg(long, help_heading = ADVANCED)]
     fixed_boundary: bool,
     /// Fix every node of the primitives with this material or OBJ group name (repeatable)
-    #[arg(long, value_name = "NAME")]
+    #[arg(long, help_heading = ADVANCED, value_name = "NAME")]
     fix: Vec<String>,
     /// Do not bond the surface to the body under it (closed shells then shrink instead of cracking)
-    #[arg(long)]
+    #[arg(long, help_heading = ADVANCED)]
     unbonded: bool,
     /// Write each piece the cracks cut a mesh into as its own node (same as --set post.split_islands=true)
-    #[arg(long)]
+    #[arg(long, help_heading = "Look")]
     split_islands: bool,
 }
 
@@ -132,6 +143,11 @@ impl SimArgs {
         self.preset.as_deref()
     }
 
+    /// The look flags as command-line words.
+    pub fn look_flags(&self) -> Vec<String> {
+        self.look.flags()
+    }
+
     /// The `--fix` names.
     pub fn fix_names(&self) -> &[String] {
         &self.fix
@@ -153,19 +169,26 @@ impl SimArgs {
         // The rules' keys and `--set` go through the pipeline's TOML; the
         // flags then set their typed fields, except where a `--set` names
         // the same key (it comes last on the command line and wins).
-        let mut sets: Vec<String> = extra.to_vec();
-        sets.extend(self.sets.iter().cloned());
         let usage = |e: crackle::pipeline::PipelineError| super::UsageError(e.to_string());
-        let mut p = match (file, preset) {
+        let text = match (file, preset) {
             (Some(path), _) => {
-                let text = crackle::io::paths::read_config_text(path, "pipeline").map_err(|e| {
+                crackle::io::paths::read_config_text(path, "pipeline").map_err(|e| {
                     super::UsageError(format!("{}: cannot read the pipeline: {e}", path.display()))
-                })?;
-                Pipeline::parse(&text, &path.display().to_string(), &sets).map_err(usage)?
+                })?
             }
-            (None, Some(name)) => Pipeline::preset(name, &sets).map_err(usage)?,
-            (None, None) => Pipeline::parse("", "defaults", &sets).map_err(usage)?,
+            _ => String::new(),
         };
+        let parse = |sets: &[String]| match (file, preset) {
+            (Some(path), _) => Pipeline::parse(&text, &path.display().to_string(), sets),
+            (None, Some(name)) => Pipeline::preset(name, sets),
+            (None, None) => Pipeline::parse("", "defaults", sets),
+        };
+        // The look flags set the entries of the pipeline as given.
+        let mut sets: Vec<String> = extra.to_vec();
+        let base = parse(&sets).map_err(usage)?;
+        sets.extend(self.look.sets(&base).map_err(super::UsageError)?);
+        sets.extend(self.sets.iter().cloned());
+        let mut p = parse(&sets).map_err(usage)?;
         self.apply_flags(&mut p).map_err(super::UsageError)?;
         p.check_all().map_err(usage)?;
         p.select.fix.extend(self.fix.iter().cloned());

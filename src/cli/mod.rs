@@ -6,6 +6,7 @@ mod crack;
 mod diff;
 mod info;
 pub mod logger;
+mod look;
 mod stats;
 mod study;
 
@@ -65,21 +66,19 @@ enum Command {
         /// Write a JSON run report to this file
         #[arg(long, value_name = "PATH")]
         report: Option<PathBuf>,
-        #[command(flatten)]
-        sim: crack::SimArgs,
         /// Weld tolerance, relative to each mesh's bounding-box diagonal
         #[arg(long, value_name = "REL", default_value_t = crackle::mesh::WeldOptions::default().relative_tolerance)]
         weld_tolerance: f64,
         /// Also write N frames of the crack state through the run into DIR (a time-lapse; runs the simulation twice)
         #[arg(long, num_args = 2, value_names = ["N", "DIR"])]
         frames: Option<Vec<String>>,
+        #[command(flatten)]
+        sim: crack::SimArgs,
     },
     /// Error against run time of every relaxation integrator on one mesh (the largest of the input) and pipeline
     Study {
         /// Input mesh (.obj, .gltf, .glb)
         input: PathBuf,
-        #[command(flatten)]
-        sim: crack::SimArgs,
         /// Write study.csv, study.json, study.svg and study.png (error against seconds) into this folder
         #[arg(long, value_name = "DIR")]
         out: Option<PathBuf>,
@@ -95,6 +94,8 @@ enum Command {
         /// Weld tolerance, relative to each mesh's bounding-box diagonal
         #[arg(long, value_name = "REL", default_value_t = crackle::mesh::WeldOptions::default().relative_tolerance)]
         weld_tolerance: f64,
+        #[command(flatten)]
+        sim: crack::SimArgs,
     },
     /// Crack a whole asset library: files, folders (-r) or globs into a mirrored output tree, in parallel, redoing only what changed
     ///
@@ -115,8 +116,6 @@ enum Command {
         /// TOML file mapping globs to pipelines (first match wins); see the README
         #[arg(long, value_name = "FILE")]
         rules: Option<PathBuf>,
-        #[command(flatten)]
-        sim: crack::SimArgs,
         /// Assets processed at once [default: all cores]
         #[arg(short, long, default_value_t = 0, hide_default_value = true)]
         jobs: usize,
@@ -141,6 +140,8 @@ enum Command {
         /// Weld tolerance, relative to each mesh's bounding-box diagonal
         #[arg(long, value_name = "REL", default_value_t = crackle::mesh::WeldOptions::default().relative_tolerance)]
         weld_tolerance: f64,
+        #[command(flatten)]
+        sim: crack::SimArgs,
     },
     /// Statistics of a crack pattern in an output file: cells, cell size, crack density, junctions, open tips, orientations
     Stats {

@@ -619,6 +619,15 @@ impl Pipeline {
 }
 
 /// Apply one `a.b.c=value` override to a TOML table.
+/// Keys of one table that exclude each other besides the `_relative`
+/// pairs: a `--set` of one removes the other.
+const ALTERNATIVES: [(&str, &str); 4] = [
+    ("image", "material"),
+    ("speed", "radial_cracks"),
+    ("axis", "mesh_axis"),
+    ("direction", "mesh_axis"),
+];
+
 fn apply_set(root: &mut toml::Table, set: &str) -> Result<(), String> {
     let (key, raw) = set
         .split_once('=')
@@ -644,11 +653,19 @@ fn apply_set(root: &mut toml::Table, set: &str) -> Result<(), String> {
             toml::Value::Table(t) => {
                 if last {
                     // A key replaces its alternative (radius and
-                    // radius_relative, cell_size and cell_size_relative).
+                    // radius_relative, cell_size and cell_size_relative,
+                    // a mask's image and material, ...).
                     match part.strip_suffix("_relative") {
                         Some(base) => t.remove(base),
                         None => t.remove(&format!("{part}_relative")),
                     };
+                    for (a, b) in ALTERNATIVES {
+                        if *part == a {
+                            t.remove(b);
+                        } else if *part == b {
+                            t.remove(a);
+                        }
+                    }
                     t.insert(part.to_string(), value);
                     return Ok(());
                 }
@@ -969,6 +986,22 @@ mod tests {
         assert!(e.to_string().contains("out of range"), "{e}");
         let e = Pipeline::parse(t, "x.toml", &["simulation.bogus=1".into()]).unwrap_err();
         assert!(e.to_string().contains("bogus"), "{e}");
+    }
+
+    /// A `--set` of a key replaces its alternative in the same table.
+    #[test]
+    fn a_set_key_replaces_its_alternative() {
+        let t = "[[stress]]\nkind = \"uniform\"\ninit = 1\nmask = { image = \"a.png\", confine = true }\n";
+        let p = Pipeline::parse(t, "x.toml", &["stress.0.mask.material=\"Body\"".into()]).unwrap();
+        let m = p.stress[0].mask.as_ref().unwrap();
+        assert_eq!(m.material.as_deref(), Some("Body"));
+        assert!(m.image.is_none() && m.confine, "{m:?}");
+        let t = "[[stress]]\nkind = \"impact\"\ninit = 1\nradius = 1\nspeed = 4\n";
+        let p = Pipeline::parse(t, "x.toml", &["stress.0.radial_cracks=12".into()]).unwrap();
+        assert_eq!(
+            (p.stress[0].speed, p.stress[0].radial_cracks),
+            (None, Some(12))
+        );
     }
 
     #[test]

@@ -45,6 +45,9 @@ pub(super) fn crack_args(a: &BatchArgs, spec: &PipeSpec) -> Vec<String> {
         }
         (None, None) => {}
     }
+    // The look flags first: the --set strings after them win, as on the
+    // command line.
+    args.extend(a.sim.look_flags());
     for s in a.sim.overrides(&spec.sets) {
         args.push("--set".into());
         args.push(s);
