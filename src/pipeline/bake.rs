@@ -7,6 +7,7 @@ use crate::io::image::Files;
 use crate::math::v3;
 use crate::post::bake::{self, atlas, Cracks, Layer, Look, Profile, Surface};
 use crate::post::Post;
+use crate::post::{BAKE_SIZE_CAP, BAKE_TEXELS_PER_CRACK};
 use crate::scene::{Geometry, Image, ImageSource, Material, Scene, TriGeometry};
 use crate::stress::texture::{
     check_within, decode_channels_within, texture_of_material, Channels, TextureError,
@@ -131,8 +132,19 @@ fn bake_group(
     widths: &[f64],
     post: &Post,
 ) -> Result<Value, String> {
-    let size = post.bake_size;
     let dilate = post.bake_dilate;
+    // The atlas is laid out (and overlap measured) for a 2048 map when the
+    // size follows the asset; the size is then taken from its UV area.
+    let laid = Post {
+        bake_size: if post.bake_size == 0 {
+            2048
+        } else {
+            post.bake_size
+        },
+        ..post.clone()
+    };
+    let post_in = post;
+    let post = &laid;
     let mat_json = material
         .and_then(|m| scene.materials.get(m))
         .map(|m| m.json.clone())
@@ -175,10 +187,30 @@ fn bake_group(
         "bake: layers+gather done at {:.3} s",
         t0.elapsed().as_secs_f64()
     );
-    let raster = bake::rasterize(surface.uvs, surface.triangles, size, dilate);
-    log::debug!("bake: raster done at {:.3} s", t0.elapsed().as_secs_f64());
     let diagonal = super::Bounds::of(arrays.positions.iter().copied()).diagonal();
     let width = post.bake_width_for(diagonal);
+    let uv_of = |s: u32, v: usize| arrays.uvs.get(&s).map_or([0.0; 2], |u| u[v]);
+    // Texels per world unit of a UV set on a map of `texels` texels.
+    let density = |set: u32, texels: f64| {
+        let (mut uv_area, mut world_area) = (0.0, 0.0);
+        for t in &arrays.triangles {
+            let [p, q, r] = t.map(|i| uv_of(set, i as usize));
+            uv_area += 0.5 * ((q[0] - p[0]) * (r[1] - p[1]) - (q[1] - p[1]) * (r[0] - p[0])).abs();
+            let [a, b, c] = t.map(|i| arrays.positions[i as usize]);
+            world_area += 0.5 * v3::norm(v3::cross(v3::sub(b, a), v3::sub(c, a)));
+        }
+        (uv_area * texels / world_area).sqrt()
+    };
+    let own_density = own
+        .base
+        .as_ref()
+        .map(|l| density(l.tex_coord, f64::from(l.width) * f64::from(l.height)));
+    let size = match post_in.bake_size {
+        0 => auto_size(width, density(set, 1.0), own_density),
+        s => s,
+    };
+    let raster = bake::rasterize(surface.uvs, surface.triangles, size, dilate);
+    log::debug!("bake: raster done at {:.3} s", t0.elapsed().as_secs_f64());
     let profile = Profile {
         half_width: 0.5 * width,
         slope: post.bake_groove_slope,
@@ -191,23 +223,9 @@ fn bake_group(
         crack_color: post.crack_color,
         occlusion: post.bake_occlusion,
     };
-    let uv_of = |s: u32, v: usize| arrays.uvs.get(&s).map_or([0.0; 2], |u| u[v]);
     // An atlas resamples the material's base colour texture: say how much
     // of its resolution the baked map keeps.
-    if let (Value::Object(a), Some(l)) = (&mut atlas_report, &own.base) {
-        // Texels per world unit of a UV set on a map of `texels` texels.
-        let density = |set: u32, texels: f64| {
-            let (mut uv_area, mut world_area) = (0.0, 0.0);
-            for t in &arrays.triangles {
-                let [p, q, r] = t.map(|i| uv_of(set, i as usize));
-                uv_area +=
-                    0.5 * ((q[0] - p[0]) * (r[1] - p[1]) - (q[1] - p[1]) * (r[0] - p[0])).abs();
-                let [a, b, c] = t.map(|i| arrays.positions[i as usize]);
-                world_area += 0.5 * v3::norm(v3::cross(v3::sub(b, a), v3::sub(c, a)));
-            }
-            (uv_area * texels / world_area).sqrt()
-        };
-        let own_density = density(l.tex_coord, f64::from(l.width) * f64::from(l.height));
+    if let (Value::Object(a), Some(own_density)) = (&mut atlas_report, own_density) {
         let kept = density(set, f64::from(size) * f64::from(size)) / own_density;
         if kept.is_finite() {
             a.insert("base_texture_resolution_kept".into(), json!(kept));
@@ -303,6 +321,22 @@ fn bake_group(
         "png_bytes": bytes,
         "tangent_split_vertices": tangent_splits,
     }))
+}
+
+/// The side of maps sized to the asset: a crack of `width` (scene units)
+/// [`BAKE_TEXELS_PER_CRACK`] texels wide at `unit_density` texels per
+/// world unit per texel of map side (the UV set's sqrt(UV area / world
+/// area)), and the material's own base colour texture kept (`own_density`
+/// texels per world unit), rounded up to a multiple of 64, from 256 to
+/// [`BAKE_SIZE_CAP`].
+fn auto_size(width: f64, unit_density: f64, own_density: Option<f64>) -> u32 {
+    let per_unit = (BAKE_TEXELS_PER_CRACK / width).max(own_density.unwrap_or(0.0));
+    let want = per_unit / unit_density;
+    if !(want.is_finite() && want > 0.0) {
+        return 2048;
+    }
+    let cap = f64::from(BAKE_SIZE_CAP);
+    ((want.min(cap) / 64.0).ceil() as u32 * 64).clamp(256, BAKE_SIZE_CAP)
 }
 
 /// `geo` with the tangents the baked normal map was made in (`drawn`'s,

@@ -10,4 +10,4 @@ pub mod taper;
 pub mod walls;
 pub mod width;
 
-pub use options::{OptionsError, Post};
+pub use options::{OptionsError, Post, BAKE_SIZE_CAP, BAKE_TEXELS_PER_CRACK};

@@ -69,7 +69,10 @@ pub struct Post {
     /// mesh's UVs and give its material a variant that uses them, so any
     /// viewer shows the cracks ([`crate::post::bake`]). Default false.
     pub bake: bool,
-    /// Width and height of the baked maps in texels. Default 2048.
+    /// Width and height of the baked maps in texels; 0: sized to the asset
+    /// (a crack [`BAKE_TEXELS_PER_CRACK`] texels wide, at least the
+    /// material's own base colour texture's density, a multiple of 64 from
+    /// 256 to [`BAKE_SIZE_CAP`]). Default 0.
     pub bake_size: u32,
     /// The UV set to bake into (`TEXCOORD_n`). Default 0.
     pub bake_texcoord: u32,
@@ -191,7 +194,7 @@ impl Default for Post {
             attributes: false,
             split_islands: false,
             bake: false,
-            bake_size: 2048,
+            bake_size: 0,
             bake_texcoord: 0,
             bake_atlas: "auto".into(),
             bake_width: 0.0,
@@ -214,6 +217,14 @@ impl Default for Post {
         }
     }
 }
+
+/// Texels across a crack in maps sized to the asset (`bake_size = 0`).
+pub const BAKE_TEXELS_PER_CRACK: f64 = 3.0;
+
+/// Largest map sized to the asset: the size given before maps followed the
+/// asset, so no output's maps grow (at 4096 one group's bake would take
+/// about 0.7 GB).
+pub const BAKE_SIZE_CAP: u32 = 2048;
 
 /// Rows of a U groove's walls (a quarter ellipse each).
 pub const U_ROWS: usize = 4;
@@ -335,9 +346,9 @@ impl Post {
         for (i, c) in self.crack_color.iter().enumerate() {
             unit(&format!("crack_color[{i}]"), *c)?;
         }
-        if !(16..=8192).contains(&self.bake_size) {
+        if self.bake_size != 0 && !(16..=8192).contains(&self.bake_size) {
             return Err(format!(
-                "post.bake_size must be between 16 and 8192 texels, got {}",
+                "post.bake_size must be 0 (sized to the asset) or between 16 and 8192 texels, got {}",
                 self.bake_size
             ));
         }

@@ -391,3 +391,38 @@ pub fn files_under(dir: &Path, exts: &[&str]) -> Vec<PathBuf> {
     }
     out
 }
+
+/// The base colour map of the GLB at `path`, as (width, height, luminance).
+pub fn base_color(path: &std::path::Path) -> (usize, usize, Vec<f64>) {
+    let b = std::fs::read(path).unwrap();
+    let n = u32::from_le_bytes(b[12..16].try_into().unwrap()) as usize;
+    let j: serde_json::Value = serde_json::from_slice(&b[20..20 + n]).unwrap();
+    let bin = &b[20 + n + 8..];
+    let tex = j["materials"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find_map(|m| m["pbrMetallicRoughness"]["baseColorTexture"]["index"].as_u64())
+        .expect("a base colour map") as usize;
+    let image = j["textures"][tex]["source"].as_u64().unwrap() as usize;
+    let view = &j["bufferViews"][j["images"][image]["bufferView"].as_u64().unwrap() as usize];
+    let off = view["byteOffset"].as_u64().unwrap_or(0) as usize;
+    let len = view["byteLength"].as_u64().unwrap() as usize;
+    let mut reader = png::Decoder::new(std::io::Cursor::new(&bin[off..off + len]))
+        .read_info()
+        .unwrap();
+    let mut buf = vec![0; reader.output_buffer_size().unwrap()];
+    let info = reader.next_frame(&mut buf).unwrap();
+    let channels = info.color_type.samples();
+    let lum = buf[..info.buffer_size()]
+        .chunks(channels)
+        .map(|p| {
+            p[..channels.min(3)]
+                .iter()
+                .map(|&x| f64::from(x))
+                .sum::<f64>()
+                / channels.min(3) as f64
+        })
+        .collect();
+    (info.width as usize, info.height as usize, lum)
+}

@@ -1,0 +1,64 @@
+//! Maps sized to the asset (`post.bake_size = 0`, the default): a crack is
+//! a few texels wide whatever the asset's shape, so a flat square does not
+//! get maps twice as fine as it needs (and files and bake time to match),
+//! and never larger than 2048. Read from the output's base colour map
+//! itself: the dark texels over the crack length in texels (the square's
+//! UVs map its 10 x 10 units onto the whole map).
+
+mod common;
+
+use std::path::Path;
+
+/// A 10 x 10 plate of 100 x 100 quads in the xz plane with UVs over [0, 1].
+fn square(path: &Path) {
+    let n = 100;
+    let mut t = String::new();
+    for j in 0..=n {
+        for i in 0..=n {
+            let (u, v) = (i as f64 / n as f64, j as f64 / n as f64);
+            t += &format!("v {} 0 {}\nvt {u} {v}\n", 10.0 * u, 10.0 * v);
+        }
+    }
+    for j in 0..n {
+        for i in 0..n {
+            let a = j * (n + 1) + i + 1;
+            let (b, c, d) = (a + 1, a + n + 2, a + n + 1);
+            t += &format!("f {a}/{a} {d}/{d} {c}/{c}\nf {a}/{a} {c}/{c} {b}/{b}\n");
+        }
+    }
+    std::fs::write(path, t).unwrap();
+}
+
+/// (map side, crack width in texels: texels under half the paper's
+/// luminance over the crack length in texels).
+fn texels_across(dir: &Path, input: &Path, extra: &[&str]) -> (usize, f64) {
+    let out = dir.join("out.glb");
+    let mut args = vec!["-q", "--preset", "glaze"];
+    args.extend_from_slice(extra);
+    let o = common::crack(input, &out, &args);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let length = common::report(&out)["crack_length"].as_f64().unwrap();
+    let (w, h, lum) = common::base_color(&out);
+    assert_eq!(w, h);
+    let mut sorted = lum.clone();
+    sorted.sort_by(f64::total_cmp);
+    let paper = sorted[sorted.len() / 2];
+    let dark = lum.iter().filter(|&&l| l < 0.5 * paper).count();
+    let per_unit = w as f64 / 10.0;
+    (w, dark as f64 / (length * per_unit))
+}
+
+#[test]
+fn maps_follow_the_asset_so_a_crack_is_a_few_texels_wide() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = dir.path().join("square.obj");
+    square(&input);
+    let (size, across) = texels_across(dir.path(), &input, &[]);
+    eprintln!("sized to the asset: {size} texels, cracks {across:.2} texels across");
+    assert!(size < 2048 && size % 64 == 0, "{size}");
+    assert!((2.0..=4.0).contains(&across), "{across} texels across");
+    let (fixed, wide) = texels_across(dir.path(), &input, &["--set", "post.bake_size=2048"]);
+    eprintln!("at 2048: cracks {wide:.2} texels across");
+    assert_eq!(fixed, 2048);
+    assert!(wide > 1.5 * across, "{wide} against {across}");
+}
