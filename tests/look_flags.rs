@@ -168,3 +168,41 @@ fn help_lists_the_look_before_the_advanced_simulation() {
     }
     assert!(at("Advanced simulation:") < at("--toughness"));
 }
+
+/// `crackle presets NAME` ends with where the preset has each look flag.
+#[test]
+fn presets_name_where_each_look_flag_stands() {
+    let show = |name: &str| {
+        let o = common::run(["presets", name]);
+        assert!(o.status.success());
+        String::from_utf8_lossy(&o.stdout).to_string()
+    };
+    let glaze = show("glaze");
+    for (flag, at) in [
+        (
+            "--cell-size[-relative]",
+            "0.05 of the bounding-box diagonal",
+        ),
+        ("--bake / --no-bake", "baked maps"),
+        ("--gaps G", "closed"),
+        ("--color R,G,B", "0.02,0.015,0.01"),
+    ] {
+        let line = glaze
+            .lines()
+            .find(|l| l.contains(flag))
+            .unwrap_or_else(|| panic!("no {flag} in {glaze}"));
+        assert!(line.starts_with('#') && line.contains(at), "{line}");
+    }
+    assert!(show("mud")
+        .lines()
+        .any(|l| l.contains("--gaps G") && l.contains("0.01 (walls on)")));
+    assert!(show("glass-impact")
+        .lines()
+        .any(|l| l.contains("--impact") && l.contains("where the asset faces the viewer")));
+    assert!(show("texture-mask")
+        .lines()
+        .any(|l| l.contains("--mask") && l.contains("builtin:blotches")));
+    // Still a pipeline file: the summary is comments.
+    let text = show("mud");
+    assert!(text.parse::<toml::Table>().is_ok());
+}

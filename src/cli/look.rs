@@ -171,3 +171,88 @@ impl LookArgs {
         out
     }
 }
+
+/// `x` as short as it prints.
+fn num(x: f64) -> String {
+    format!("{x}")
+}
+
+/// What each look flag stands at in `p`, one line each (comments, for
+/// `crackle presets NAME`).
+pub fn summary(p: &Pipeline) -> Vec<String> {
+    let s = &p.simulation;
+    let post = &p.post;
+    let mut out = vec!["# The look: `crack` flags and where this pipeline has them.".to_string()];
+    let mut line = |flag: &str, at: String| out.push(format!("#   {flag:<28} {at}"));
+    line(
+        "--cell-size[-relative]",
+        match (s.cell_size, s.cell_size_relative) {
+            (Some(c), _) => format!("{} scene units", num(c)),
+            (None, Some(r)) => format!("{} of the bounding-box diagonal", num(r)),
+            _ => "none (the paper's model on the input's own triangles)".into(),
+        },
+    );
+    line(
+        "--bake / --no-bake",
+        if post.bake { "baked maps" } else { "no maps" }.into(),
+    );
+    line(
+        "--width W",
+        if post.bake_width > 0.0 {
+            format!("{} scene units", num(post.bake_width))
+        } else {
+            format!("{} of the diagonal", num(post.bake_width_relative))
+        },
+    );
+    line(
+        "--gaps G",
+        if post.width > 0.0 {
+            format!(
+                "{} (walls {})",
+                num(post.width),
+                if post.walls { "on" } else { "off" }
+            )
+        } else {
+            "closed".into()
+        },
+    );
+    line(
+        "--groove W",
+        if post.groove > 0.0 {
+            format!("{} scene units", num(post.groove))
+        } else if post.groove_relative > 0.0 {
+            format!("{} of the cell size", num(post.groove_relative))
+        } else {
+            "none".into()
+        },
+    );
+    let [r, g, b] = post.crack_color;
+    line("--color R,G,B", format!("{},{},{}", num(r), num(g), num(b)));
+    for (i, e) in p.stress.iter().enumerate() {
+        if e.kind == "impact" {
+            let hit = match (&e.points, &e.points_relative) {
+                (Some(p), _) => format!("{p:?}"),
+                (None, Some(p)) => format!("{p:?} of the bounding box"),
+                _ => "where the asset faces the viewer".into(),
+            };
+            let reach = match (e.radius, e.radius_relative) {
+                (Some(r), _) => format!("{} scene units", num(r)),
+                (None, Some(r)) => format!("{} of the diagonal", num(r)),
+                _ => "-".into(),
+            };
+            line(
+                "--impact X,Y,Z --radius R",
+                format!("stress.{i}: {hit}, reach {reach}"),
+            );
+        }
+        if let Some(m) = &e.mask {
+            let what = match (&m.image, &m.material) {
+                (Some(img), _) => img.clone(),
+                (None, Some(name)) => format!("material:{name}"),
+                _ => "-".into(),
+            };
+            line("--mask IMAGE|material:NAME", format!("stress.{i}: {what}"));
+        }
+    }
+    out
+}

@@ -250,6 +250,11 @@ fn presets(show: Option<&str>) -> anyhow::Result<()> {
                 return Ok(());
             };
             print!("{text}");
+            let p = Pipeline::preset(name, &[]).map_err(|e| UsageError(e.to_string()))?;
+            println!();
+            for line in look::summary(&p) {
+                println!("{line}");
+            }
         }
         None => {
             for (name, _) in PRESETS {
