@@ -209,6 +209,13 @@ fn bake_group(
         0 => auto_size(width, density(set, 1.0), own_density),
         s => s,
     };
+    // The atlas's density was measured on the map it was laid out for.
+    if let Value::Object(a) = &mut atlas_report {
+        if let Some(d) = a.get("texels_per_unit").and_then(Value::as_f64) {
+            let d = d * f64::from(size) / f64::from(post.bake_size);
+            a.insert("texels_per_unit".into(), json!(d));
+        }
+    }
     let raster = bake::rasterize(surface.uvs, surface.triangles, size, dilate);
     log::debug!("bake: raster done at {:.3} s", t0.elapsed().as_secs_f64());
     let profile = Profile {
