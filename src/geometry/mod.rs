@@ -1,5 +1,6 @@
 //! Geometric helpers shared by the readers, the writer and the mesh code.
 
+pub mod adjacency;
 pub mod curvature;
 pub mod element;
 pub mod normals;

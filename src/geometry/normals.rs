@@ -6,10 +6,10 @@
 //! are one vertex here (a UV seam is not a crease); a vertex whose corners
 //! fall in different fans is split ([`with_corner_attribute`]).
 
+use crate::geometry::adjacency::{neighbours, weld};
 use crate::geometry::tangents::with_corner_attribute;
 use crate::math::v3;
 use crate::scene::TriGeometry;
-use std::collections::HashMap;
 
 /// Blender's default auto smooth angle, degrees.
 pub const DEFAULT_CREASE_DEGREES: f64 = 30.0;
@@ -81,22 +81,15 @@ pub fn smooth_corner_normals(
     triangles: &[[u32; 3]],
     crease_degrees: f64,
 ) -> Vec<f32> {
-    // Vertices at one position are one (first seen first).
-    let mut ids: HashMap<[u32; 3], u32> = HashMap::new();
-    let pid: Vec<u32> = positions
-        .iter()
-        .map(|p| {
-            let n = ids.len() as u32;
-            *ids.entry(p.map(f32::to_bits)).or_insert(n)
-        })
-        .collect();
-    let n_pos = ids.len();
-    let at = |v: u32| positions[v as usize].map(f64::from);
+    // Vertices at one position are one.
+    let positions: Vec<[f64; 3]> = positions.iter().map(|p| p.map(f64::from)).collect();
+    let pid = weld(&positions);
+    let n_pos = pid.iter().max().map_or(0, |&m| m as usize + 1);
     // Face normals and corner angles.
     let mut normal = Vec::with_capacity(triangles.len());
     let mut angle = Vec::with_capacity(triangles.len());
     for t in triangles {
-        let [a, b, c] = t.map(at);
+        let [a, b, c] = t.map(|v| positions[v as usize]);
         normal.push(v3::unit(v3::cross(v3::sub(b, a), v3::sub(c, a))));
         let corner = |p: [f64; 3], q: [f64; 3], r: [f64; 3]| {
             let (u, w) = (v3::sub(q, p), v3::sub(r, p));
@@ -104,18 +97,8 @@ pub fn smooth_corner_normals(
         };
         angle.push([corner(a, b, c), corner(b, c, a), corner(c, a, b)]);
     }
-    // Edges by position, each with the corners at its two ends.
-    let mut edges: Vec<(u64, u32)> = Vec::with_capacity(triangles.len() * 3);
-    for (f, t) in triangles.iter().enumerate() {
-        for k in 0..3 {
-            let (p, q) = (pid[t[k] as usize], pid[t[(k + 1) % 3] as usize]);
-            if p != q {
-                let key = (u64::from(p.min(q)) << 32) | u64::from(p.max(q));
-                edges.push((key, (f * 3 + k) as u32));
-            }
-        }
-    }
-    edges.sort_unstable();
+    // Smooth only across an edge of exactly two triangles whose normals
+    // differ by at most the crease: their corners at its two ends join.
     let cos_crease = crease_degrees.to_radians().cos();
     let mut parent: Vec<u32> = (0..triangles.len() as u32 * 3).collect();
     let corner_at = |f: usize, p: u32| -> Option<u32> {
@@ -123,19 +106,17 @@ pub fn smooth_corner_normals(
             .find(|&k| pid[triangles[f][k] as usize] == p)
             .map(|k| (f * 3 + k) as u32)
     };
-    let mut i = 0;
-    while i < edges.len() {
-        let mut j = i + 1;
-        while j < edges.len() && edges[j].0 == edges[i].0 {
-            j += 1;
-        }
-        // Smooth only across an edge of exactly two triangles.
-        if j - i == 2 {
-            let (f, g) = ((edges[i].1 / 3) as usize, (edges[i + 1].1 / 3) as usize);
+    for (f, across) in neighbours(&pid, triangles).iter().enumerate() {
+        for (k, &g) in across.iter().enumerate() {
+            let g = g as usize;
+            if g == u32::MAX as usize || g <= f {
+                continue;
+            }
             if let (Some(nf), Some(ng)) = (normal[f], normal[g]) {
-                if f != g && v3::dot(nf, ng) >= cos_crease {
-                    let key = edges[i].0;
-                    for p in [(key >> 32) as u32, key as u32] {
+                if v3::dot(nf, ng) >= cos_crease {
+                    let t = triangles[f];
+                    for v in [t[k], t[(k + 1) % 3]] {
+                        let p = pid[v as usize];
                         if let (Some(a), Some(b)) = (corner_at(f, p), corner_at(g, p)) {
                             union(&mut parent, a, b);
                         }
@@ -143,7 +124,6 @@ pub fn smooth_corner_normals(
                 }
             }
         }
-        i = j;
     }
     // Sum each fan in corner order; the fallback per position likewise.
     let n_corners = triangles.len() * 3;

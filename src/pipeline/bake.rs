@@ -135,15 +135,11 @@ fn bake_group(
     let dilate = post.bake_dilate;
     // The atlas is laid out (and overlap measured) for a 2048 map when the
     // size follows the asset; the size is then taken from its UV area.
+    let sized_to_asset = post.bake_size == 0;
     let laid = Post {
-        bake_size: if post.bake_size == 0 {
-            2048
-        } else {
-            post.bake_size
-        },
+        bake_size: if sized_to_asset { 2048 } else { post.bake_size },
         ..post.clone()
     };
-    let post_in = post;
     let post = &laid;
     let mat_json = material
         .and_then(|m| scene.materials.get(m))
@@ -205,9 +201,12 @@ fn bake_group(
         .base
         .as_ref()
         .map(|l| density(l.tex_coord, f64::from(l.width) * f64::from(l.height)));
-    let size = match post_in.bake_size {
-        0 => auto_size(width, density(set, 1.0), own_density),
-        s => s,
+    // Texels per world unit per texel of map side in the baked set.
+    let unit_density = density(set, 1.0);
+    let size = if sized_to_asset {
+        auto_size(width, unit_density, own_density)
+    } else {
+        post.bake_size
     };
     // The atlas's density was measured on the map it was laid out for.
     if let Value::Object(a) = &mut atlas_report {
@@ -233,7 +232,7 @@ fn bake_group(
     // An atlas resamples the material's base colour texture: say how much
     // of its resolution the baked map keeps.
     if let (Value::Object(a), Some(own_density)) = (&mut atlas_report, own_density) {
-        let kept = density(set, f64::from(size) * f64::from(size)) / own_density;
+        let kept = unit_density * f64::from(size) / own_density;
         if kept.is_finite() {
             a.insert("base_texture_resolution_kept".into(), json!(kept));
             if kept < 0.9 {

@@ -546,16 +546,8 @@ pub fn hit_axis(ext: [f64; 3]) -> usize {
 pub fn default_hit(mesh: &SimMesh) -> [f64; 3] {
     use parry3d::math::Vector;
     use parry3d::query::{Ray, RayCast};
-    let mut lo = [f64::INFINITY; 3];
-    let mut hi = [f64::NEG_INFINITY; 3];
-    for v in mesh.vertices() {
-        let p = mesh.position(v);
-        for k in 0..3 {
-            lo[k] = lo[k].min(p[k]);
-            hi[k] = hi[k].max(p[k]);
-        }
-    }
-    if !lo.iter().chain(&hi).all(|x| x.is_finite()) {
+    let (lo, hi) = mesh.bounding_box();
+    if mesh.n_vertices() == 0 || !lo.iter().chain(&hi).all(|x| x.is_finite()) {
         return [0.0; 3];
     }
     let ext = [hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]];
