@@ -269,15 +269,26 @@ fn bake_group(
         .unwrap_or_else(|| format!("mesh{mesh_index}"));
     let stem = format!("{mesh_name}_{base_name}_cracked");
     let opaque = maps.base.iter().all(|p| p[3] == 255 || p == &[0, 0, 0, 0]);
-    let base_png = if opaque {
-        let rgb: Vec<u8> = maps.base.iter().flat_map(|p| [p[0], p[1], p[2]]).collect();
-        bake::encode_png(size, 3, &rgb)
-    } else {
-        bake::encode_png(size, 4, &maps.base.concat())
-    }
-    .map_err(|e| e.to_string())?;
-    let normal_png = bake::encode_png(size, 3, &maps.normal.concat()).map_err(|e| e.to_string())?;
-    let occl_png = bake::encode_png(size, 1, &maps.occlusion).map_err(|e| e.to_string())?;
+    let base = || {
+        if opaque {
+            let rgb: Vec<u8> = maps.base.iter().flat_map(|p| [p[0], p[1], p[2]]).collect();
+            bake::encode_png(size, 3, &rgb)
+        } else {
+            bake::encode_png(size, 4, &maps.base.concat())
+        }
+    };
+    let (base_png, (normal_png, occl_png)) = rayon::join(base, || {
+        rayon::join(
+            || bake::encode_png(size, 3, &maps.normal.concat()),
+            || bake::encode_png(size, 1, &maps.occlusion),
+        )
+    });
+    let err = |e: png::EncodingError| e.to_string();
+    let (base_png, normal_png, occl_png) = (
+        base_png.map_err(err)?,
+        normal_png.map_err(err)?,
+        occl_png.map_err(err)?,
+    );
     let bytes = base_png.len() + normal_png.len() + occl_png.len();
     log::debug!("bake: png done at {:.3} s", t0.elapsed().as_secs_f64());
     let tex_base = add_texture(scene, &format!("{stem}_basecolor"), base_png);

@@ -12,6 +12,7 @@ use crate::scene::{
 };
 use crate::sim::SimReport;
 use serde_json::{json, Value};
+use std::collections::HashMap;
 use std::time::Instant;
 
 /// Seconds per post stage and what each did, summed over meshes.
@@ -709,10 +710,29 @@ pub(super) fn add_crack_lines(
         });
         scene.accessors.len() - 1
     };
-    let pos: Vec<f32> = segments
-        .iter()
-        .flat_map(|s| s.iter().flat_map(|p| p.map(|x| x as f32)))
-        .collect();
+    // One vertex per distinct end (position, time and rest position as
+    // written), in order of first use; the segments index them.
+    let timed = times.len() == segments.len();
+    let rest = rest.filter(|r| r.len() == segments.len());
+    let mut at: HashMap<[u32; 7], u32> = HashMap::new();
+    let (mut pos, mut t, mut p_rest) = (Vec::new(), Vec::new(), Vec::new());
+    let mut indices: Vec<u32> = Vec::with_capacity(2 * segments.len());
+    for (i, s) in segments.iter().enumerate() {
+        for (e, p) in s.iter().enumerate() {
+            let p = p.map(|x| x as f32);
+            let time = if timed { times[i] as f32 } else { 0.0 };
+            let r = rest.map_or([0.0; 3], |r| r[i][e].map(|x| x as f32));
+            let key = [p[0], p[1], p[2], time, r[0], r[1], r[2]].map(f32::to_bits);
+            let next = at.len() as u32;
+            let k = *at.entry(key).or_insert(next);
+            if k == next {
+                pos.extend(p);
+                t.push(time);
+                p_rest.extend(r);
+            }
+            indices.push(k);
+        }
+    }
     let n = pos.len() / 3;
     let acc = f32_accessor(scene, "VEC3", 3, pos, "crack_lines");
     let mut geo = RawGeometry {
@@ -720,19 +740,33 @@ pub(super) fn add_crack_lines(
         ..Default::default()
     };
     geo.attributes.insert("POSITION".into(), acc);
-    if times.len() == segments.len() {
-        let t: Vec<f32> = times.iter().flat_map(|&t| [t as f32; 2]).collect();
+    if timed {
         let acc = f32_accessor(scene, "SCALAR", 1, t, "crack_time");
         geo.attributes.insert("_CRACK_TIME".into(), acc);
     }
-    if let Some(rest) = rest.filter(|r| r.len() == segments.len()) {
-        let p: Vec<f32> = rest
-            .iter()
-            .flat_map(|s| s.iter().flat_map(|p| p.map(|x| x as f32)))
-            .collect();
-        let acc = f32_accessor(scene, "VEC3", 3, p, "crack_rest");
+    if rest.is_some() {
+        let acc = f32_accessor(scene, "VEC3", 3, p_rest, "crack_rest");
         geo.attributes.insert("_CRACK_REST".into(), acc);
     }
+    let wide = n > usize::from(u16::MAX);
+    scene.accessors.push(RawAccessor {
+        component_type: if wide { 5125 } else { 5123 },
+        kind: "SCALAR".into(),
+        normalized: false,
+        count: indices.len(),
+        min: None,
+        max: None,
+        name: Some("crack_lines_indices".into()),
+        data: if wide {
+            indices.iter().flat_map(|i| i.to_le_bytes()).collect()
+        } else {
+            indices
+                .iter()
+                .flat_map(|&i| (i as u16).to_le_bytes())
+                .collect()
+        },
+    });
+    geo.indices = Some(scene.accessors.len() - 1);
     for _ in 0..n_targets(scene, mesh_index) {
         let acc = f32_accessor(scene, "VEC3", 3, vec![0.0; 3 * n], "crack_lines_target");
         geo.targets

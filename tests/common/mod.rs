@@ -408,9 +408,10 @@ pub fn base_color(path: &std::path::Path) -> (usize, usize, Vec<f64>) {
     let view = &j["bufferViews"][j["images"][image]["bufferView"].as_u64().unwrap() as usize];
     let off = view["byteOffset"].as_u64().unwrap_or(0) as usize;
     let len = view["byteLength"].as_u64().unwrap() as usize;
-    let mut reader = png::Decoder::new(std::io::Cursor::new(&bin[off..off + len]))
-        .read_info()
-        .unwrap();
+    let mut decoder = png::Decoder::new(std::io::Cursor::new(&bin[off..off + len]));
+    // Palette images (a map of few colours) as their colours.
+    decoder.set_transformations(png::Transformations::EXPAND);
+    let mut reader = decoder.read_info().unwrap();
     let mut buf = vec![0; reader.output_buffer_size().unwrap()];
     let info = reader.next_frame(&mut buf).unwrap();
     let channels = info.color_type.samples();

@@ -208,6 +208,10 @@ pub fn compose(
                 let tex = material.base.as_ref().and_then(here).unwrap_or([1.0; 4]);
                 let lin: [f64; 3] = std::array::from_fn(|i| srgb_to_linear(tex[i]) * f[i]);
                 let cov = f64::from(c.coverage);
+                // The crack's edge in COVERAGE_LEVELS steps: over a plain
+                // colour the map is a palette image, over a texture of flat
+                // areas it repeats the same few blends.
+                let cov = (cov * COVERAGE_LEVELS).round() / COVERAGE_LEVELS;
                 let mixed: [f64; 3] =
                     std::array::from_fn(|i| lin[i] + (look.crack_color[i] - lin[i]) * cov);
                 let a = (tex[3] * f[3]).clamp(0.0, 1.0);
@@ -236,6 +240,11 @@ pub fn compose(
                     })
                     .unwrap_or([0.0, 0.0, 1.0]);
                 let g = c.normal.map(f64::from);
+                let g = if material.normal.is_none() {
+                    quantize_direction(g)
+                } else {
+                    g
+                };
                 let nrm = crate::math::v3::unit([own[0] + g[0], own[1] + g[1], own[2] * g[2]])
                     .unwrap_or([0.0, 0.0, 1.0]);
                 normal[x] = nrm.map(|v| to_u8(0.5 * v + 0.5));
@@ -245,7 +254,9 @@ pub fn compose(
                     .as_ref()
                     .and_then(|(l, strength)| here(l).map(|s| 1.0 + strength * (s[0] - 1.0)))
                     .unwrap_or(1.0);
-                occl[x] = to_u8(ao * (1.0 - look.occlusion * f64::from(c.shadow)));
+                let shadow = f64::from(c.shadow);
+                let shadow = (shadow * SHADOW_LEVELS).round() / SHADOW_LEVELS;
+                occl[x] = to_u8(ao * (1.0 - look.occlusion * shadow));
                 if c.coverage >= 0.5 {
                     count += 1;
                 }
@@ -255,6 +266,39 @@ pub fn compose(
         .sum();
     out.crack_texels = counts;
     out
+}
+
+/// Steps of a crack's coverage over a plain base colour (the crack's edge
+/// shades in 1/64ths, below what a viewer shows apart).
+const COVERAGE_LEVELS: f64 = 64.0;
+/// Steps of the shadow band over a material without an occlusion map
+/// (with white: 16 greys, a 4-bit palette image).
+const SHADOW_LEVELS: f64 = 15.0;
+/// Azimuth steps of a groove's normal over a material without a normal map
+/// (11.25 degrees), and tilt steps from flat to edge-on (11.25 degrees, the
+/// last short of edge-on): at most 1 + 32 x 7 normals, a palette image.
+const AZIMUTH_STEPS: f64 = 32.0;
+const TILT_STEPS: f64 = 8.0;
+
+/// A unit normal in the tangent frame, to the nearest of the directions
+/// [`AZIMUTH_STEPS`] x [`TILT_STEPS`] span (the groove's shading; its
+/// shape stays the coverage's).
+fn quantize_direction(n: [f64; 3]) -> [f64; 3] {
+    use std::f64::consts::{FRAC_PI_2, TAU};
+    let r = n[0].hypot(n[1]);
+    // Edge-on (a step of 90 degrees) is no groove's: at most the step below.
+    let step = FRAC_PI_2 / TILT_STEPS;
+    let tilt = (r.atan2(n[2]) / step).round().min(TILT_STEPS - 1.0) * step;
+    if tilt == 0.0 {
+        return [0.0, 0.0, 1.0];
+    }
+    let az = n[1].atan2(n[0]);
+    // One step for both ends of the angle's range.
+    let az = (az / (TAU / AZIMUTH_STEPS))
+        .round()
+        .rem_euclid(AZIMUTH_STEPS)
+        * (TAU / AZIMUTH_STEPS);
+    [tilt.sin() * az.cos(), tilt.sin() * az.sin(), tilt.cos()]
 }
 
 fn to_u8(x: f64) -> u8 {
@@ -281,23 +325,143 @@ pub fn linear_to_srgb(c: f64) -> f64 {
 }
 
 /// A PNG of `size` x `size` pixels of `channels` (1: grey, 3: RGB, 4: RGBA)
-/// 8-bit samples.
+/// 8-bit samples, as small as the encoder makes it without loss: an image of
+/// at most 256 distinct pixels is written with a palette (1 byte a pixel,
+/// or fewer bits for 16 or fewer grey levels), and each image is compressed
+/// with the row filters chosen per row and with none, keeping the smaller
+/// (maps of flat areas and few colours compress best unfiltered).
 ///
 /// # Errors
 /// The encoder's, when `data` does not hold `size * size * channels` bytes.
 pub fn encode_png(size: u32, channels: usize, data: &[u8]) -> Result<Vec<u8>, png::EncodingError> {
+    let color = match channels {
+        1 => png::ColorType::Grayscale,
+        3 => png::ColorType::Rgb,
+        _ => png::ColorType::Rgba,
+    };
+    if data.len() != (size as usize).pow(2) * channels || ![1, 3, 4].contains(&channels) {
+        // The encoder names the mismatch.
+        return encode_with(size, color, data, None, png::Filter::NoFilter);
+    }
+    let layout = palette(data, channels);
+    let (a, b) = rayon::join(
+        || encode_with(size, color, data, layout.as_ref(), png::Filter::Adaptive),
+        || encode_with(size, color, data, layout.as_ref(), png::Filter::NoFilter),
+    );
+    let (a, b) = (a?, b?);
+    Ok(if b.len() < a.len() { b } else { a })
+}
+
+/// An image's pixels as indices into a palette, when it has at most 256
+/// distinct pixels: the palette sorted (so the same pixels give the same
+/// file), the indices packed at the fewest bits a pixel (8, or 4 for 16 or
+/// fewer colours).
+struct Palette {
+    /// RGB entries.
+    rgb: Vec<u8>,
+    /// Alpha per entry, when any is not opaque.
+    alpha: Option<Vec<u8>>,
+    /// Packed index rows.
+    packed: Vec<u8>,
+    depth: png::BitDepth,
+}
+
+fn palette(data: &[u8], channels: usize) -> Option<Palette> {
+    let px = |c: &[u8]| -> [u8; 4] {
+        match channels {
+            1 => [c[0], c[0], c[0], 255],
+            3 => [c[0], c[1], c[2], 255],
+            _ => [c[0], c[1], c[2], c[3]],
+        }
+    };
+    let mut seen: Vec<[u8; 4]> = Vec::new();
+    let mut last: Option<[u8; 4]> = None;
+    for c in data.chunks_exact(channels) {
+        let p = px(c);
+        if last == Some(p) {
+            continue;
+        }
+        last = Some(p);
+        if let Err(at) = seen.binary_search(&p) {
+            if seen.len() == 256 {
+                return None;
+            }
+            seen.insert(at, p);
+        }
+    }
+    if channels == 1 && seen.len() > 16 {
+        // Grey at 8 bits is already a byte a pixel.
+        return None;
+    }
+    let n = data.len() / channels;
+    let size = (n as f64).sqrt().round() as usize;
+    let bits = if seen.len() <= 16 { 4 } else { 8 };
+    let row_bytes = (size * bits).div_ceil(8);
+    let mut packed = vec![0u8; row_bytes * size];
+    let mut last: Option<([u8; 4], u8)> = None;
+    for (i, c) in data.chunks_exact(channels).enumerate() {
+        let p = px(c);
+        let k = match last {
+            Some((q, k)) if q == p => k,
+            _ => {
+                let k = seen.binary_search(&p).unwrap_or(0) as u8;
+                last = Some((p, k));
+                k
+            }
+        };
+        let (y, x) = (i / size, i % size);
+        if bits == 8 {
+            packed[y * row_bytes + x] = k;
+        } else {
+            packed[y * row_bytes + x / 2] |= if x % 2 == 0 { k << 4 } else { k };
+        }
+    }
+    let alpha = seen
+        .iter()
+        .any(|p| p[3] != 255)
+        .then(|| seen.iter().map(|p| p[3]).collect());
+    Some(Palette {
+        rgb: seen.iter().flat_map(|p| [p[0], p[1], p[2]]).collect(),
+        alpha,
+        packed,
+        depth: if bits == 8 {
+            png::BitDepth::Eight
+        } else {
+            png::BitDepth::Four
+        },
+    })
+}
+
+fn encode_with(
+    size: u32,
+    color: png::ColorType,
+    data: &[u8],
+    palette: Option<&Palette>,
+    filter: png::Filter,
+) -> Result<Vec<u8>, png::EncodingError> {
     let mut out = Vec::new();
     {
         let mut enc = png::Encoder::new(&mut out, size, size);
-        enc.set_color(match channels {
-            1 => png::ColorType::Grayscale,
-            3 => png::ColorType::Rgb,
-            _ => png::ColorType::Rgba,
-        });
-        enc.set_depth(png::BitDepth::Eight);
         enc.set_compression(png::Compression::Balanced);
+        enc.set_filter(filter);
+        let pixels = match palette {
+            Some(p) => {
+                enc.set_color(png::ColorType::Indexed);
+                enc.set_depth(p.depth);
+                enc.set_palette(p.rgb.clone());
+                if let Some(a) = &p.alpha {
+                    enc.set_trns(a.clone());
+                }
+                &p.packed[..]
+            }
+            None => {
+                enc.set_color(color);
+                enc.set_depth(png::BitDepth::Eight);
+                data
+            }
+        };
         let mut w = enc.write_header()?;
-        w.write_image_data(data)?;
+        w.write_image_data(pixels)?;
     }
     Ok(out)
 }

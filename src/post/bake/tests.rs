@@ -269,6 +269,88 @@ fn pngs_decode_to_what_was_encoded() {
     }
 }
 
+/// (colour type, bit depth) from a PNG's header.
+fn png_kind(png: &[u8]) -> (u8, u8) {
+    (png[25], png[24])
+}
+
+fn decoded(png: &[u8], n: usize) -> Vec<[u8; 4]> {
+    let (w, h, back) =
+        crate::stress::texture::decode_channels(png, "t", crate::stress::texture::Channels::Rgba)
+            .unwrap();
+    assert_eq!((w as usize, h as usize), (n, n));
+    back.chunks(4)
+        .map(|p| std::array::from_fn(|c| (p[c] * 255.0).round() as u8))
+        .collect()
+}
+
+#[test]
+fn maps_of_few_colours_are_palette_images_that_decode_to_the_same_pixels() {
+    let n = 64;
+    // 200 colours (a crack's blends over one colour): a palette of 8 bits.
+    let colour = |i: usize| {
+        let k = ((i * 7919) % 200) as u8;
+        [k, 255 - k, k / 2]
+    };
+    let rgb: Vec<u8> = (0..n * n).flat_map(colour).collect();
+    let png = encode_png(n as u32, 3, &rgb).unwrap();
+    assert_eq!(png_kind(&png), (3, 8));
+    for (i, px) in decoded(&png, n).iter().enumerate() {
+        assert_eq!(px[..3], colour(i)[..], "texel {i}");
+        assert_eq!(px[3], 255);
+    }
+    // 300 colours: RGB as before.
+    let rgb: Vec<u8> = (0..n * n)
+        .flat_map(|i| [(i % 300 / 2) as u8, (i % 300 % 2) as u8, 9])
+        .collect();
+    assert_eq!(png_kind(&encode_png(n as u32, 3, &rgb).unwrap()), (2, 8));
+    // RGBA with transparent background: the palette keeps alpha.
+    let rgba: Vec<u8> = (0..n * n)
+        .flat_map(|i| {
+            if i % 3 == 0 {
+                [0, 0, 0, 0]
+            } else {
+                [200, 100, (i % 50) as u8, 255]
+            }
+        })
+        .collect();
+    let png = encode_png(n as u32, 4, &rgba).unwrap();
+    assert_eq!(png_kind(&png), (3, 8));
+    let back = decoded(&png, n);
+    assert!(back.iter().zip(rgba.chunks(4)).all(|(a, b)| a[..] == b[..]));
+    // Grey: 16 levels fit 4 bits, more stay 8-bit grey.
+    let grey: Vec<u8> = (0..n * n).map(|i| (i % 16 * 17) as u8).collect();
+    let png = encode_png(n as u32, 1, &grey).unwrap();
+    assert_eq!(png_kind(&png), (3, 4));
+    assert!(decoded(&png, n).iter().zip(&grey).all(|(a, &g)| a[0] == g));
+    let grey: Vec<u8> = (0..n * n).map(|i| (i % 100) as u8).collect();
+    let png = encode_png(n as u32, 1, &grey).unwrap();
+    assert_eq!(png_kind(&png), (0, 8));
+    assert!(decoded(&png, n).iter().zip(&grey).all(|(a, &g)| a[0] == g));
+    // A wrong length is the encoder's error, not a panic.
+    assert!(encode_png(n as u32, 3, &grey).is_err());
+}
+
+#[test]
+fn groove_normals_snap_to_a_few_hundred_directions_within_eight_degrees() {
+    let mut seen = std::collections::BTreeSet::new();
+    let mut worst = 0.0f64;
+    // Tilts up to 79 degrees: walls five times as deep as half wide.
+    for i in 0..79 {
+        for j in 0..360 {
+            let (tilt, az) = ((i as f64).to_radians(), (j as f64 + 0.37).to_radians());
+            let n = [tilt.sin() * az.cos(), tilt.sin() * az.sin(), tilt.cos()];
+            let q = super::quantize_direction(n);
+            let dot: f64 = (0..3).map(|k| n[k] * q[k]).sum();
+            worst = worst.max(dot.clamp(-1.0, 1.0).acos().to_degrees());
+            seen.insert(q.map(|x| super::to_u8(0.5 * x + 0.5)));
+        }
+    }
+    assert!(worst < 8.0, "{worst} degrees");
+    assert!(seen.len() <= 225, "{} directions", seen.len());
+    assert_eq!(super::quantize_direction([0.01, 0.0, 1.0]), [0.0, 0.0, 1.0]);
+}
+
 #[test]
 fn the_own_normal_map_is_carried_into_the_baked_frame() {
     // The own map's frame: tangent +x, bitangent +y; the baked set's is
