@@ -97,3 +97,37 @@ fn glaze_on_the_duck_and_the_teapot_weighs_under_one_and_a_half_megabytes() {
         }
     }
 }
+
+/// The baked crack width follows the cell size (`post.bake_width_cells`,
+/// the default): cells half as large draw cracks half as wide, measured in
+/// the map's dark texels over the crack length (maps of a fixed size, so a
+/// texel is the same size in both); a width given in scene units does not
+/// follow.
+#[test]
+fn finer_cells_draw_finer_cracks() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = dir.path().join("square.obj");
+    square(&input);
+    let fixed = ["--set", "post.bake_size=2048"];
+    let at = |cell: &str, extra: &[&str]| {
+        let mut args = vec!["--cell-size-relative", cell];
+        args.extend_from_slice(&fixed);
+        args.extend_from_slice(extra);
+        texels_across(dir.path(), &input, &args).1
+    };
+    let (coarse, fine) = (at("0.05", &[]), at("0.025", &[]));
+    eprintln!("cracks {coarse:.2} texels across at cells of 0.05, {fine:.2} at 0.025");
+    assert!(
+        (0.4..=0.6).contains(&(fine / coarse)),
+        "{fine} against {coarse}"
+    );
+    let (coarse, fine) = (
+        at("0.05", &["--width", "0.03"]),
+        at("0.025", &["--width", "0.03"]),
+    );
+    eprintln!("--width 0.03: {coarse:.2} and {fine:.2} texels across");
+    assert!(
+        (0.85..=1.15).contains(&(fine / coarse)),
+        "{fine} against {coarse}"
+    );
+}

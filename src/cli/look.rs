@@ -200,8 +200,14 @@ pub fn summary(p: &Pipeline) -> Vec<String> {
         "--width W",
         if post.bake_width > 0.0 {
             format!("{} scene units", num(post.bake_width))
-        } else {
+        } else if post.bake_width_relative > 0.0 {
             format!("{} of the diagonal", num(post.bake_width_relative))
+        } else {
+            format!(
+                "{} of the cell size (models without one: {} of the diagonal)",
+                num(post.bake_width_cells),
+                num(crackle::post::BAKE_WIDTH_OF_DIAGONAL)
+            )
         },
     );
     line(

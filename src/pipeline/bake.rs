@@ -31,7 +31,8 @@ const ATLAS_PADDING_2048: u32 = 2;
 
 /// Bake crack maps for mesh `mesh_index` of `scene` (its cracked
 /// primitives; `segments` in the mesh's frame, `widths` their width factors
-/// in [0, 1], from [`crate::post::Post::fade`]). Returns the report's details.
+/// in [0, 1], from [`crate::post::Post::fade`]; `cell` the run's cell size,
+/// which the crack width may follow). Returns the report's details.
 ///
 /// # Errors
 /// A mesh without the UV set asked for when `bake_atlas = "never"`, an
@@ -43,6 +44,7 @@ pub fn bake_mesh(
     label: &str,
     segments: &[[[f64; 3]; 2]],
     widths: &[f64],
+    cell: Option<f64>,
     post: &Post,
 ) -> crate::Result<Value> {
     let fail = |message: String| crate::Error::Internal {
@@ -61,8 +63,16 @@ pub fn bake_mesh(
     }
     let mut details = Vec::new();
     for (material, prims) in groups {
-        let d = bake_group(scene, mesh_index, material, &prims, segments, widths, post)
-            .map_err(&fail)?;
+        let d = bake_group(
+            scene,
+            mesh_index,
+            material,
+            &prims,
+            (segments, widths),
+            cell,
+            post,
+        )
+        .map_err(&fail)?;
         details.push(d);
     }
     Ok(json!({ "materials": details }))
@@ -128,8 +138,8 @@ fn bake_group(
     mesh_index: usize,
     material: Option<usize>,
     prims: &[usize],
-    segments: &[[[f64; 3]; 2]],
-    widths: &[f64],
+    (segments, widths): (&[[[f64; 3]; 2]], &[f64]),
+    cell: Option<f64>,
     post: &Post,
 ) -> Result<Value, String> {
     let dilate = post.bake_dilate;
@@ -184,7 +194,7 @@ fn bake_group(
         t0.elapsed().as_secs_f64()
     );
     let diagonal = super::Bounds::of(arrays.positions.iter().copied()).diagonal();
-    let width = post.bake_width_for(diagonal);
+    let width = post.bake_width_for(diagonal, cell);
     let uv_of = |s: u32, v: usize| arrays.uvs.get(&s).map_or([0.0; 2], |u| u[v]);
     // Texels per world unit of a UV set on a map of `texels` texels.
     let density = |set: u32, texels: f64| {

@@ -309,8 +309,10 @@ pub fn apply(
         out.details.push(Value::Object(detail));
     }
     let mut timing = PostOutcome::default();
-    for ((((e, walls), (segments, times, rest)), widths), detail) in entries
+    let cells: Vec<Option<f64>> = reports.iter().map(|(_, r)| r.cell_size).collect();
+    for (((((e, cell), walls), (segments, times, rest)), widths), detail) in entries
         .iter()
+        .zip(cells)
         .zip(walls_of)
         .zip(lines_of)
         .zip(widths_of)
@@ -322,7 +324,7 @@ pub fn apply(
         // crack's width of it.
         let (bake_segments, bake_widths) = if post.keeps_input() && post.bake {
             let diagonal = super::Bounds::of(e.sim.positions().iter().copied()).diagonal();
-            let tolerance = 0.1 * post.bake_width_for(diagonal);
+            let tolerance = 0.1 * post.bake_width_for(diagonal, cell);
             super::keep::onto_input(scene, e, &segments, &widths, tolerance)
         } else {
             (segments.clone(), widths)
@@ -343,6 +345,7 @@ pub fn apply(
                 &e.label,
                 &bake_segments,
                 &bake_widths,
+                cell,
                 post,
             )?;
             let seconds = t.elapsed().as_secs_f64();

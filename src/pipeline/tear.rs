@@ -138,7 +138,8 @@ pub fn tear_meshes(
                 let t = Instant::now();
                 let label = format!("{} (piece {k})", e.label);
                 let widths = vec![1.0; segments.len()];
-                let b = super::bake::bake_mesh(scene, *mesh, &label, &segments, &widths, post)?;
+                let b =
+                    super::bake::bake_mesh(scene, *mesh, &label, &segments, &widths, None, post)?;
                 bake_seconds += t.elapsed().as_secs_f64();
                 bakes.push(b);
             }

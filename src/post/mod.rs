@@ -10,4 +10,6 @@ pub mod taper;
 pub mod walls;
 pub mod width;
 
-pub use options::{OptionsError, Post, BAKE_SIZE_CAP, BAKE_TEXELS_PER_CRACK};
+pub use options::{
+    OptionsError, Post, BAKE_SIZE_CAP, BAKE_TEXELS_PER_CRACK, BAKE_WIDTH_OF_DIAGONAL,
+};

@@ -81,11 +81,17 @@ pub struct Post {
     /// a mesh is an error). Default `auto`.
     pub bake_atlas: String,
     /// Crack width in the maps, in scene units (0: use
-    /// `bake_width_relative`). Default 0.
+    /// `bake_width_relative` or `bake_width_cells`). Default 0.
     pub bake_width: f64,
     /// Crack width as a fraction of the mesh's bounding-box diagonal, when
-    /// `bake_width` is 0. Default 0.002.
+    /// `bake_width` is 0 (0: use `bake_width_cells`). Default 0.
     pub bake_width_relative: f64,
+    /// Crack width as a fraction of the run's cell size, when `bake_width`
+    /// and `bake_width_relative` are 0, so finer cells draw finer cracks
+    /// (models without a cell size: [`BAKE_WIDTH_OF_DIAGONAL`] of the
+    /// diagonal). Default 0.04 (`glaze`'s cells of 0.05 of the diagonal:
+    /// 0.002 of it).
+    pub bake_width_cells: f64,
     /// Colour inside a crack, linear RGB in [0, 1]. Default a dark brown.
     pub crack_color: [f64; 3],
     /// Depth over half-width of the groove the normal map draws (1: walls
@@ -198,7 +204,8 @@ impl Default for Post {
             bake_texcoord: 0,
             bake_atlas: "auto".into(),
             bake_width: 0.0,
-            bake_width_relative: 0.002,
+            bake_width_relative: 0.0,
+            bake_width_cells: 0.04,
             crack_color: [0.02, 0.015, 0.01],
             bake_groove_slope: 1.0,
             bake_occlusion: 0.8,
@@ -217,6 +224,11 @@ impl Default for Post {
         }
     }
 }
+
+/// The baked crack width, as a fraction of the bounding-box diagonal, of a
+/// model without a cell size (the springs, the snapping variant, tearing)
+/// when no width is given.
+pub const BAKE_WIDTH_OF_DIAGONAL: f64 = 0.002;
 
 /// Texels across a crack in maps sized to the asset (`bake_size = 0`).
 pub const BAKE_TEXELS_PER_CRACK: f64 = 3.0;
@@ -280,12 +292,20 @@ impl Post {
     }
 
     /// The baked crack width for a mesh of bounding-box diagonal
-    /// `diagonal`: `bake_width`, else `bake_width_relative * diagonal`.
-    pub fn bake_width_for(&self, diagonal: f64) -> f64 {
+    /// `diagonal` cracked at cell size `cell` (none: a model without one):
+    /// `bake_width`, else `bake_width_relative * diagonal`, else
+    /// `bake_width_cells * cell`, else [`BAKE_WIDTH_OF_DIAGONAL`] of the
+    /// diagonal.
+    pub fn bake_width_for(&self, diagonal: f64, cell: Option<f64>) -> f64 {
         if self.bake_width > 0.0 {
             self.bake_width
-        } else {
+        } else if self.bake_width_relative > 0.0 {
             self.bake_width_relative * diagonal
+        } else {
+            match cell.filter(|c| *c > 0.0 && self.bake_width_cells > 0.0) {
+                Some(c) => self.bake_width_cells * c,
+                None => BAKE_WIDTH_OF_DIAGONAL * diagonal,
+            }
         }
     }
 
@@ -332,6 +352,7 @@ impl Post {
         }
         nonneg("bake_width", self.bake_width)?;
         nonneg("bake_width_relative", self.bake_width_relative)?;
+        nonneg("bake_width_cells", self.bake_width_cells)?;
         nonneg("bake_groove_slope", self.bake_groove_slope)?;
         let unit = |k: &str, x: f64| {
             if (0.0..=1.0).contains(&x) {
@@ -376,8 +397,14 @@ impl Post {
                 self.bake_dilate
             ));
         }
-        if self.bake && self.bake_width == 0.0 && self.bake_width_relative == 0.0 {
-            return Err("post.bake needs bake_width or bake_width_relative > 0".into());
+        if self.bake
+            && self.bake_width == 0.0
+            && self.bake_width_relative == 0.0
+            && self.bake_width_cells == 0.0
+        {
+            return Err(
+                "post.bake needs bake_width, bake_width_relative or bake_width_cells > 0".into(),
+            );
         }
         nonneg("groove", self.groove)?;
         nonneg("groove_relative", self.groove_relative)?;
