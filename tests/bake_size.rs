@@ -131,3 +131,101 @@ fn finer_cells_draw_finer_cracks() {
         "{fine} against {coarse}"
     );
 }
+
+/// The first image of the GLB at `path` that its first material's base
+/// colour texture names, through `EXT_texture_webp` or `source`: (MIME
+/// type, bytes).
+fn base_color_image(path: &Path) -> (String, Vec<u8>) {
+    let b = std::fs::read(path).unwrap();
+    let n = u32::from_le_bytes(b[12..16].try_into().unwrap()) as usize;
+    let j: serde_json::Value = serde_json::from_slice(&b[20..20 + n]).unwrap();
+    let bin = &b[20 + n + 8..];
+    let tex = j["materials"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find_map(|m| m["pbrMetallicRoughness"]["baseColorTexture"]["index"].as_u64())
+        .unwrap() as usize;
+    let t = &j["textures"][tex];
+    let image = t["extensions"]["EXT_texture_webp"]["source"]
+        .as_u64()
+        .or(t["source"].as_u64())
+        .unwrap() as usize;
+    let img = &j["images"][image];
+    let view = &j["bufferViews"][img["bufferView"].as_u64().unwrap() as usize];
+    let off = view["byteOffset"].as_u64().unwrap_or(0) as usize;
+    let len = view["byteLength"].as_u64().unwrap() as usize;
+    (
+        img["mimeType"].as_str().unwrap().to_string(),
+        bin[off..off + len].to_vec(),
+    )
+}
+
+/// `post.bake_format = "webp"`: the same maps as lossless WebP through
+/// `EXT_texture_webp` (required, no fallback), pixel for pixel the PNG's
+/// (decoded here by libwebp and the png crate, not by crackle), smaller, valid, and
+/// read back by crackle (a second bake over the first's WebP base colour).
+#[test]
+fn webp_maps_hold_the_same_pixels_in_fewer_bytes() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = common::fixture("icosphere.obj");
+    let png_out = dir.path().join("png.glb");
+    let webp_out = dir.path().join("webp.glb");
+    for (out, extra) in [
+        (&png_out, vec![]),
+        (&webp_out, vec!["--set", "post.bake_format=webp"]),
+    ] {
+        let mut args = vec!["-q", "--preset", "glaze"];
+        args.extend(extra);
+        let o = common::crack(&input, out, &args);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    }
+    let j = common::gltf_json(&webp_out);
+    assert_eq!(
+        j["extensionsRequired"],
+        serde_json::json!(["EXT_texture_webp"])
+    );
+    assert!(j["textures"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .all(|t| t.get("source").is_none() && t["extensions"]["EXT_texture_webp"].is_object()));
+    let (mime, bytes) = base_color_image(&webp_out);
+    assert_eq!(mime, "image/webp");
+    let decoded = webp::Decoder::new(&bytes).decode().expect("a WebP");
+    let channels = if decoded.is_alpha() { 4 } else { 3 };
+    let (w, h, lum) = common::base_color(&png_out);
+    assert_eq!(
+        (decoded.width() as usize, decoded.height() as usize),
+        (w, h)
+    );
+    let webp_lum: Vec<f64> = decoded
+        .chunks(channels)
+        .map(|p| p[..3].iter().map(|&x| f64::from(x)).sum::<f64>() / 3.0)
+        .collect();
+    assert!(webp_lum == lum, "the WebP's pixels differ from the PNG's");
+    let (png_bytes, webp_bytes) = (
+        std::fs::metadata(&png_out).unwrap().len(),
+        std::fs::metadata(&webp_out).unwrap().len(),
+    );
+    eprintln!("icosphere glaze: PNG maps {png_bytes} bytes, WebP {webp_bytes}");
+    assert!(webp_bytes < png_bytes, "{webp_bytes} against {png_bytes}");
+    if let Some(v) = common::validator() {
+        v.assert_clean(&webp_out);
+    }
+    // Read back: the WebP base colour under a second glaze.
+    let again = dir.path().join("again.glb");
+    let o = common::crack(&webp_out, &again, &["-q", "--preset", "glaze"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let (_, lum2) = {
+        let (_, _, l) = common::base_color(&again);
+        ((), l)
+    };
+    let dark = |l: &[f64]| l.iter().filter(|&&x| x > 0.0 && x < 80.0).count();
+    assert!(
+        dark(&lum2) >= dark(&lum),
+        "{} against {}",
+        dark(&lum2),
+        dark(&lum)
+    );
+}

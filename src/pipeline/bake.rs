@@ -279,31 +279,34 @@ fn bake_group(
         .unwrap_or_else(|| format!("mesh{mesh_index}"));
     let stem = format!("{mesh_name}_{base_name}_cracked");
     let opaque = maps.base.iter().all(|p| p[3] == 255 || p == &[0, 0, 0, 0]);
+    let webp = post.bake_format == "webp";
+    let encode = |channels: usize, data: &[u8]| {
+        if webp {
+            bake::encode_webp(size, channels, data)
+        } else {
+            bake::encode_png(size, channels, data).map_err(|e| e.to_string())
+        }
+    };
     let base = || {
         if opaque {
             let rgb: Vec<u8> = maps.base.iter().flat_map(|p| [p[0], p[1], p[2]]).collect();
-            bake::encode_png(size, 3, &rgb)
+            encode(3, &rgb)
         } else {
-            bake::encode_png(size, 4, &maps.base.concat())
+            encode(4, &maps.base.concat())
         }
     };
     let (base_png, (normal_png, occl_png)) = rayon::join(base, || {
         rayon::join(
-            || bake::encode_png(size, 3, &maps.normal.concat()),
-            || bake::encode_png(size, 1, &maps.occlusion),
+            || encode(3, &maps.normal.concat()),
+            || encode(1, &maps.occlusion),
         )
     });
-    let err = |e: png::EncodingError| e.to_string();
-    let (base_png, normal_png, occl_png) = (
-        base_png.map_err(err)?,
-        normal_png.map_err(err)?,
-        occl_png.map_err(err)?,
-    );
+    let (base_png, normal_png, occl_png) = (base_png?, normal_png?, occl_png?);
     let bytes = base_png.len() + normal_png.len() + occl_png.len();
     log::debug!("bake: png done at {:.3} s", t0.elapsed().as_secs_f64());
-    let tex_base = add_texture(scene, &format!("{stem}_basecolor"), base_png);
-    let tex_normal = add_texture(scene, &format!("{stem}_normal"), normal_png);
-    let tex_occl = add_texture(scene, &format!("{stem}_occlusion"), occl_png);
+    let tex_base = add_texture(scene, &format!("{stem}_basecolor"), base_png, webp);
+    let tex_normal = add_texture(scene, &format!("{stem}_normal"), normal_png, webp);
+    let tex_occl = add_texture(scene, &format!("{stem}_occlusion"), occl_png, webp);
     let mut m: Map<String, Value> = mat_json.clone();
     m.insert("name".into(), json!(stem));
     let pbr = m
@@ -628,19 +631,38 @@ fn material_layers(
 }
 
 /// An image of PNG `bytes` and a texture showing it; the texture's index.
-fn add_texture(scene: &mut Scene, name: &str, bytes: Vec<u8>) -> usize {
+/// An image and a texture of it: a PNG, or a WebP through
+/// `EXT_texture_webp` (then used and required: there is no fallback).
+fn add_texture(scene: &mut Scene, name: &str, bytes: Vec<u8>, webp: bool) -> usize {
+    let (mime, ext) = if webp {
+        ("image/webp", "webp")
+    } else {
+        ("image/png", "png")
+    };
     scene.images.push(Image {
         name: Some(name.to_string()),
-        mime_type: Some("image/png".into()),
+        mime_type: Some(mime.into()),
         source: ImageSource::Bytes(bytes),
-        file_name: format!("{name}.png"),
+        file_name: format!("{name}.{ext}"),
         rest: Map::new(),
     });
-    scene
-        .textures
-        .push(json!({"source": scene.images.len() - 1, "name": name}));
+    let image = scene.images.len() - 1;
+    if webp {
+        for list in [&mut scene.extensions_used, &mut scene.extensions_required] {
+            if !list.iter().any(|e| e == WEBP) {
+                list.push(WEBP.into());
+            }
+        }
+        scene
+            .textures
+            .push(json!({"name": name, "extensions": {WEBP: {"source": image}}}));
+    } else {
+        scene.textures.push(json!({"source": image, "name": name}));
+    }
     scene.textures.len() - 1
 }
+
+const WEBP: &str = "EXT_texture_webp";
 
 fn set_name(k: u32) -> String {
     format!("TEXCOORD_{k}")

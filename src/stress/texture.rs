@@ -88,7 +88,7 @@ pub enum TextureError {
         /// What is wrong with it.
         reason: String,
     },
-    /// The image bytes are not a PNG or JPEG this module can decode.
+    /// The image bytes are not a PNG, JPEG or WebP this module can decode.
     #[error("image {image}: {reason}")]
     Decode {
         /// The image.
@@ -310,7 +310,7 @@ impl GreyImage {
     /// # Errors
     /// [`TextureError::TooLarge`] when the header declares more than
     /// [`MAX_PIXELS`] pixels (checked before decoding pixels),
-    /// [`TextureError::Decode`] when the bytes are not a PNG or JPEG or do not
+    /// [`TextureError::Decode`] when the bytes are not a PNG, JPEG or WebP or do not
     /// decode.
     pub fn decode(bytes: &[u8], name: &str) -> Result<GreyImage, TextureError> {
         Self::decode_within(bytes, name, u64::MAX)
@@ -639,7 +639,14 @@ pub fn texture_of_material(
     };
 
     // Image.
-    let source = match index_of(tex, "source") {
+    // A WebP through EXT_texture_webp first (its `source` is the fallback).
+    let webp = tex
+        .get("extensions")
+        .and_then(|e| e.get("EXT_texture_webp"))
+        .and_then(|w| w.get("source"))
+        .and_then(Value::as_u64)
+        .map(|i| i as usize);
+    let source = match webp.map(Ok).or_else(|| index_of(tex, "source")) {
         Some(Ok(i)) => i,
         Some(Err(())) => return Err(bad(&tex_context, "source is not an image index".into())),
         None => {
@@ -652,7 +659,7 @@ pub fn texture_of_material(
                 "it has no source image".to_string()
             } else {
                 format!(
-                    "it has no PNG/JPEG source, only images of extensions ({}) this tool does not decode",
+                    "it has no PNG/JPEG/WebP source, only images of extensions ({}) this tool does not decode",
                     exts.join(", ")
                 )
             };
@@ -1186,9 +1193,12 @@ mod tests {
         // Not an image at all, and formats that are not decoded.
         let e = GreyImage::decode(b"hello world, not a picture", "'notes.txt'").unwrap_err();
         assert!(e.to_string().contains("notes.txt"), "{e}");
-        assert!(e.to_string().contains("PNG or JPEG"), "{e}");
+        assert!(e.to_string().contains("PNG, JPEG or WebP"), "{e}");
         let e = GreyImage::decode(b"RIFF\0\0\0\0WEBPVP8 ", "'a.webp'").unwrap_err();
-        assert!(e.to_string().contains("WebP"), "{e}");
+        assert!(
+            e.to_string().contains("WebP") && e.to_string().contains("a.webp"),
+            "{e}"
+        );
         // A JPEG cut after its header.
         let jpeg = b64(GREY_JPEG);
         let e = GreyImage::decode(&jpeg[..24], "'cut.jpg'").unwrap_err();

@@ -1,4 +1,4 @@
-//! Decoding PNG and JPEG images into luminance or RGBA values, the
+//! Decoding PNG, JPEG and WebP images into luminance or RGBA values, the
 //! declared size checked (against [`MAX_PIXELS`] and a memory budget)
 //! before any pixel buffer is allocated.
 
@@ -24,7 +24,7 @@ impl Channels {
     }
 }
 
-/// Decode a PNG or JPEG (as [`GreyImage::decode`]) into `(width, height,
+/// Decode a PNG, JPEG or WebP (as [`GreyImage::decode`]) into `(width, height,
 /// values)`, [`Channels::count`] values a pixel, row 0 at the top.
 ///
 /// # Errors
@@ -86,10 +86,10 @@ fn decode_or_check(bytes: &[u8], size: &Size) -> Result<(u32, u32, Vec<f32>), Te
         decode_png(bytes, size)
     } else if bytes.starts_with(&[0xFF, 0xD8, 0xFF]) {
         decode_jpeg(bytes, size)
+    } else if bytes.len() >= 12 && &bytes[..4] == b"RIFF" && &bytes[8..12] == b"WEBP" {
+        decode_webp(bytes, size)
     } else {
-        let what = if bytes.len() >= 12 && &bytes[..4] == b"RIFF" && &bytes[8..12] == b"WEBP" {
-            "a WebP image"
-        } else if bytes.starts_with(b"\xABKTX 20\xBB") {
+        let what = if bytes.starts_with(b"\xABKTX 20\xBB") {
             "a KTX2 texture"
         } else if bytes.is_empty() {
             "empty"
@@ -98,7 +98,7 @@ fn decode_or_check(bytes: &[u8], size: &Size) -> Result<(u32, u32, Vec<f32>), Te
         };
         Err(TextureError::Decode {
             image: name.to_string(),
-            reason: format!("{what}; masks must be PNG or JPEG"),
+            reason: format!("{what}; masks must be PNG, JPEG or WebP"),
         })
     }
 }
@@ -269,6 +269,43 @@ fn decode_png(bytes: &[u8], size: &Size) -> Result<(u32, u32, Vec<f32>), Texture
             ),
         ));
     }
+    Ok((width, height, data))
+}
+
+/// A still WebP (lossy or lossless), its size checked from the bitstream's
+/// header before libwebp decodes it.
+fn decode_webp(bytes: &[u8], size: &Size) -> Result<(u32, u32, Vec<f32>), TextureError> {
+    let fail = |reason: &str| TextureError::Decode {
+        image: size.name.to_string(),
+        reason: reason.to_string(),
+    };
+    let header =
+        webp::BitstreamFeatures::new(bytes).ok_or_else(|| fail("WebP header does not decode"))?;
+    if header.has_animation() {
+        return Err(fail("an animated WebP; a texture must be a still image"));
+    }
+    let (width, height) = (header.width(), header.height());
+    let pixels = size.check(u64::from(width), u64::from(height))?;
+    if size.header_only {
+        return Ok((width, height, Vec::new()));
+    }
+    let image = webp::Decoder::new(bytes)
+        .decode()
+        .ok_or_else(|| fail("WebP does not decode"))?;
+    let channels = if image.is_alpha() { 4 } else { 3 };
+    if (image.width(), image.height()) != (width, height) || image.len() != pixels * channels {
+        return Err(size_mismatch(
+            size.name,
+            format!(
+                "{} x {} with {} bytes, the header says {width} x {height}",
+                image.width(),
+                image.height(),
+                image.len()
+            ),
+        ));
+    }
+    let mut data = Vec::with_capacity(pixels * size.channels.count());
+    push_row(&image, channels, 1, size.channels, &mut data);
     Ok((width, height, data))
 }
 

@@ -352,6 +352,39 @@ pub fn encode_png(size: u32, channels: usize, data: &[u8]) -> Result<Vec<u8>, pn
     Ok(if b.len() < a.len() { b } else { a })
 }
 
+/// A lossless WebP of `size` x `size` pixels of `channels` (1: grey, 3:
+/// RGB, 4: RGBA) 8-bit samples (grey written as RGB, as WebP has no grey).
+///
+/// # Errors
+/// When `data` does not hold `size * size * channels` bytes, or the encoder
+/// fails.
+pub fn encode_webp(size: u32, channels: usize, data: &[u8]) -> Result<Vec<u8>, String> {
+    if data.len() != (size as usize).pow(2) * channels || ![1, 3, 4].contains(&channels) {
+        return Err(format!(
+            "{} bytes are not {size} x {size} pixels of {channels} channels",
+            data.len()
+        ));
+    }
+    let grey: Vec<u8>;
+    let encoder = match channels {
+        1 => {
+            grey = data.iter().flat_map(|&g| [g, g, g]).collect();
+            webp::Encoder::from_rgb(&grey, size, size)
+        }
+        3 => webp::Encoder::from_rgb(data, size, size),
+        _ => webp::Encoder::from_rgba(data, size, size),
+    };
+    let mut config = webp::WebPConfig::new().map_err(|()| "WebP has no default settings")?;
+    config.lossless = 1;
+    config.quality = 75.0;
+    // Pixels under full transparency kept as they are (a lossless copy).
+    config.exact = 1;
+    encoder
+        .encode_advanced(&config)
+        .map(|m| m.to_vec())
+        .map_err(|e| format!("WebP does not encode: {e:?}"))
+}
+
 /// An image's pixels as indices into a palette, when it has at most 256
 /// distinct pixels: the palette sorted (so the same pixels give the same
 /// file), the indices packed at the fewest bits a pixel (8, or 4 for 16 or
