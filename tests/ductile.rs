@@ -318,3 +318,28 @@ fn spot_tears_into_pieces_in_few_steps() {
         v.assert_clean(&out);
     }
 }
+
+/// A cell size that would need more cubes than the grid allows is a clear
+/// error naming the key, not an abort on a failed allocation (exit 134).
+#[test]
+fn a_tiny_ductile_cell_size_is_refused_by_name() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("t.glb");
+    let o = common::crack(
+        &common::fixture("icosphere.obj"),
+        &out,
+        &[
+            "--preset",
+            "tear",
+            "--set",
+            "simulation.ductile.cell_size=0.00001",
+        ],
+    );
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("ductile.cell_size") && err.contains("at most 400"),
+        "{err}"
+    );
+    assert!(!out.exists(), "no partial output");
+}

@@ -165,6 +165,10 @@ struct KeptCycle {
     torn: bool,
 }
 
+/// Most grid cubes along the object's longest side, whether given as
+/// `ductile.grid` or from `ductile.cell_size`.
+pub const MAX_CELLS_ALONG: usize = 400;
+
 /// Why a run cannot start.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum DuctileError {
@@ -218,6 +222,13 @@ impl Ductile {
             .collect();
         let (mlo, mhi) = grid::bounds(&metres);
         let cells = params.cells_along_longest(longest);
+        if cells > MAX_CELLS_ALONG {
+            return Err(DuctileError::Param(format!(
+                "ductile.cell_size {} gives {cells} cubes along the object's longest side ({longest} scene units); at most {MAX_CELLS_ALONG} (as ductile.grid): a cell size of at least {:.3e}",
+                params.cell_size,
+                longest / MAX_CELLS_ALONG as f64
+            )));
+        }
         let grid = Grid::around(mlo, mhi, cells);
         let rest_x: Vec<[f64; 3]> = (0..grid.n_nodes()).map(|i| grid.position(i)).collect();
         let phi = grid::signed_distances(&metres, triangles, &rest_x)?;

@@ -302,9 +302,10 @@ impl DuctileParams {
                 Err(format!("ductile.{name} must be zero or positive, got {x}"))
             }
         };
-        if !(2..=400).contains(&self.grid) {
+        if !(2..=super::MAX_CELLS_ALONG).contains(&self.grid) {
             return Err(format!(
-                "ductile.grid must be in 2..=400, got {}",
+                "ductile.grid must be in 2..={}, got {}",
+                super::MAX_CELLS_ALONG,
                 self.grid
             ));
         }
