@@ -193,6 +193,41 @@ impl Springs {
         self.rebuild_lists();
     }
 
+    /// The node lists after the mesh split node `src` into `src` and `new`
+    /// for each pair of `split`: only the springs at `src` can have moved
+    /// an end to `new`, so only those two lists change (in spring order,
+    /// as [`Springs::rebuild_lists`] makes them). No pass over every spring
+    /// or node: a crack event costs what its nodes hold.
+    fn split_lists(
+        &mut self,
+        mesh: &SimMesh,
+        split: &[(crate::mesh::VertexId, crate::mesh::VertexId)],
+    ) {
+        self.adjacency.resize_with(self.x.len(), Vec::new);
+        for &(new, src) in split {
+            let (new, src) = (new.0, src.0);
+            let at_src = std::mem::take(&mut self.adjacency[src as usize]);
+            let mut at_new = Vec::new();
+            let mut kept = Vec::with_capacity(at_src.len());
+            for (k, _) in at_src {
+                let s = &mut self.springs[k as usize];
+                s.a = mesh.origin(s.h).0;
+                s.b = mesh.dest(s.h).0;
+                for (node, sign) in [(s.a, 1.0), (s.b, -1.0)] {
+                    if node == src {
+                        kept.push((k, sign));
+                    } else if node == new {
+                        at_new.push((k, sign));
+                    }
+                }
+            }
+            kept.sort_by_key(|e| e.0);
+            at_new.sort_by_key(|e| e.0);
+            self.adjacency[src as usize] = kept;
+            self.adjacency[new as usize] = at_new;
+        }
+    }
+
     /// The node-to-spring lists from the springs' endpoints.
     fn rebuild_lists(&mut self) {
         self.adjacency = vec![Vec::new(); self.x.len()];
@@ -476,9 +511,14 @@ fn break_overstrained(
         broke = true;
         break_spring(mesh, st, i, report, unit)?;
     }
-    if broke {
+    // The node lists followed each break (`Springs::split_lists`).
+    debug_assert!({
+        let mut fresh = st.adjacency.clone();
+        std::mem::swap(&mut fresh, &mut st.adjacency);
         st.rebuild_adjacency(mesh);
-    }
+        std::mem::swap(&mut fresh, &mut st.adjacency);
+        fresh == st.adjacency
+    });
     Ok(broke)
 }
 
@@ -602,6 +642,12 @@ fn break_spring(
     st.springs[i].broken = true;
     let h = st.springs[i].h;
     let (a, b) = (mesh.origin(h), mesh.dest(h));
+    // A broken spring pulls no more.
+    for node in [st.springs[i].a, st.springs[i].b] {
+        if let Some(list) = st.adjacency.get_mut(node as usize) {
+            list.retain(|&(k, _)| k as usize != i);
+        }
+    }
     let Some(twin) = mesh.twin(h) else {
         // A border edge (or a side of an earlier crack): nothing
         // to open.
@@ -625,6 +671,7 @@ fn break_spring(
         st.fixed.push(st.fixed[s]);
         st.crack_time.push(st.crack_time[s]);
     }
+    st.split_lists(mesh, &opened.new_vertices);
     for u in [a, b] {
         if st.crack_time[u.idx()].is_nan() {
             st.crack_time[u.idx()] = report.time;
