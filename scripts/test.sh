@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # The project's test command: installs the glTF-Validator the tests use
 # (into tools/node_modules) and Ninja (into tools/ninja), then runs the whole test suite in release mode
-# and closes with one summary line over every test binary.
+# and closes with one summary line over every test binary; a whole run then
+# builds the documentation, failing on any warning.
 # Extra arguments are passed to cargo test (e.g. a test name filter).
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
@@ -23,4 +24,13 @@ fi
 if [ "$passed" -eq 0 ]; then
     echo "ERROR: no test ran" >&2
     exit 1
+fi
+# The library's documentation builds without a warning (broken or private
+# links), on the whole run only (not when a filter picks tests).
+if [ "$#" -eq 0 ]; then
+    RUSTDOCFLAGS="-D warnings" cargo doc --no-deps --quiet || {
+        echo "ERROR: cargo doc has warnings (see above)" >&2
+        exit 1
+    }
+    echo "cargo doc: no warnings"
 fi

@@ -43,7 +43,7 @@ const SNAP_CROSSING: f64 = 1e-6;
 /// hundredth of an edge of the simulation (a fraction of a crack's width),
 /// so no sliver finer than single precision can hold is cut in beside it.
 /// A walk crossing an edge this close to its own vertex or to its end
-/// flips that edge instead ([`Cutter::flip_beside`]).
+/// flips that edge instead (`Cutter::flip_beside`).
 const SNAP_LENGTH: f64 = 1e-2;
 /// Most edges one step of a walk flips before it crosses one.
 const MAX_STEP_FLIPS: usize = 3;
@@ -95,13 +95,13 @@ pub struct Imprinted {
     /// cut on each shell up to its border.
     pub across_shells: usize,
     /// Edges leaving the cracks split near them
-    /// ([`refine_along_cracks`]).
+    /// (`refine_along_cracks`).
     pub refined: usize,
     /// Segments left out: their ends are not joined by the input nearby.
     pub skipped: usize,
     /// Edges next to the cut flipped so no needle lies along a crack
-    /// ([`settle`]), or beside a walk so it cuts no sliver
-    /// ([`Cutter::flip_beside`]).
+    /// (`settle`), or beside a walk so it cuts no sliver
+    /// (`Cutter::flip_beside`).
     pub settled: usize,
 }
 

@@ -149,7 +149,7 @@ pub struct Post {
     pub groove_material: String,
     /// The groove's profile: `v` (walls straight down to the crack line)
     /// or `u` (walls dropping straight from the edges and rounding into
-    /// the bottom, in [`U_ROWS`] rows). Default `v`.
+    /// the bottom, in `U_ROWS` (4) rows). Default `v`.
     pub groove_profile: String,
     /// What the output's surface is. `input` (the default): the artist's
     /// own mesh. When nothing moves or cuts the surface (no `width`,
@@ -288,7 +288,7 @@ impl Post {
         }
     }
 
-    /// Rows of the groove walls: 0 for a V, [`U_ROWS`] for a U.
+    /// Rows of the groove walls: 0 for a V, `U_ROWS` (4) for a U.
     pub fn groove_rows(&self) -> usize {
         if self.groove_profile == "u" {
             U_ROWS

@@ -27,13 +27,13 @@ pub struct Snapshot<'a> {
     /// Simulation time.
     pub time: f64,
     /// Every node's accumulated relaxation displacement, as
-    /// [`SimReport::displacement`].
+    /// [`crate::sim::SimReport::displacement`].
     pub displacement: &'a [[f64; 3]],
     /// Every node's crack time so far (NaN: not on a crack), as
-    /// [`SimReport::crack_time`].
+    /// [`crate::sim::SimReport::crack_time`].
     pub crack_time: &'a [f64],
     /// The crack segments so far and their times, as
-    /// [`SimReport::segments`] and [`SimReport::segment_times`].
+    /// [`crate::sim::SimReport::segments`] and [`crate::sim::SimReport::segment_times`].
     pub segments: &'a [[[f64; 3]; 2]],
     /// See `segments`.
     pub segment_times: &'a [f64],

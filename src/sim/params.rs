@@ -203,7 +203,7 @@ pub enum Integrator {
     /// Forward Euler with one step for every node: the largest step the
     /// Gershgorin bound of the stiffness allows (`1.9 / max_n b_n`), or
     /// `relax_dt` when smaller. A larger requested step is split into
-    /// stable sub-steps and counted in [`SimReport::dt_limited_rounds`].
+    /// stable sub-steps and counted in [`crate::sim::SimReport::dt_limited_rounds`].
     Euler,
     /// Forward Euler with the requested `relax_dt` as it is, as in the
     /// paper: the reference scheme. Diverges above the stable step (the run

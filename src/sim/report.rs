@@ -129,7 +129,7 @@ pub(in crate::sim) fn is_zero(x: &usize) -> bool {
     *x == 0
 }
 
-/// What [`relax_only`] measured.
+/// What [`crate::sim::relax_only`] measured.
 #[derive(Clone, Debug, Default)]
 pub struct Relaxed {
     /// Per-face stress at the end.

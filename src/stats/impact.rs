@@ -7,7 +7,7 @@
 //! segment's direction is compared with the way away from the hit projected
 //! into the surface's tangent plane where the segment's ends are vertices
 //! of the surface, else with the straight way away. Each crack segment is
-//! cut into [`PIECES`] pieces, each binned by the distance of its middle.
+//! cut into `PIECES` pieces, each binned by the distance of its middle.
 
 use super::{vertex_normals, PatternInput};
 use crate::math::v3::{add, dot, norm, scale, sub, unit};

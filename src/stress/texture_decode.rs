@@ -24,11 +24,11 @@ impl Channels {
     }
 }
 
-/// Decode a PNG, JPEG or WebP (as [`GreyImage::decode`]) into `(width, height,
-/// values)`, [`Channels::count`] values a pixel, row 0 at the top.
+/// Decode a PNG, JPEG or WebP (as [`super::GreyImage::decode`]) into `(width, height,
+/// values)`, one (luma) or four (RGBA) values a pixel, row 0 at the top.
 ///
 /// # Errors
-/// Those of [`GreyImage::decode`].
+/// Those of [`super::GreyImage::decode`].
 pub fn decode_channels(
     bytes: &[u8],
     name: &str,
