@@ -229,3 +229,39 @@ fn webp_maps_hold_the_same_pixels_in_fewer_bytes() {
         dark(&lum)
     );
 }
+
+/// `--report` gives each stage the process's peak resident memory when it
+/// ended (Linux): never falling from one stage to the next, and at the
+/// bake at least the maps it held (2048 x 2048 texels of base colour,
+/// normal and occlusion: 8 bytes a texel, 32 MiB).
+#[test]
+fn the_report_gives_each_stage_its_peak_memory() {
+    if !cfg!(target_os = "linux") {
+        eprintln!("SKIP: peak memory is read on Linux only");
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("ico.glb");
+    let o = common::crack(
+        &common::fixture("icosphere.obj"),
+        &out,
+        &["-q", "--preset", "glaze", "--set", "post.bake_size=2048"],
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let r = common::report(&out);
+    let stages = r["stages"].as_array().unwrap();
+    let peaks: Vec<(String, u64)> = stages
+        .iter()
+        .map(|s| {
+            let peak = s["peak_resident_bytes"].as_u64();
+            (
+                s["name"].as_str().unwrap().to_string(),
+                peak.expect("a peak on every stage"),
+            )
+        })
+        .collect();
+    eprintln!("{peaks:?}");
+    assert!(peaks.windows(2).all(|w| w[0].1 <= w[1].1), "{peaks:?}");
+    let bake = peaks.iter().find(|(n, _)| n == "bake").unwrap().1;
+    assert!(bake >= 32 << 20, "{bake}");
+}

@@ -18,17 +18,22 @@ use std::time::Instant;
 /// Seconds per post stage and what each did, summed over meshes.
 #[derive(Default)]
 pub struct PostOutcome {
-    /// (stage name, seconds), in the order the stages ran.
-    pub stages: Vec<(&'static str, f64)>,
+    /// (stage name, seconds, the process's peak resident bytes when it
+    /// last ended), in the order the stages ran.
+    pub stages: Vec<(&'static str, f64, Option<u64>)>,
     /// Per mesh: the stage details for the report.
     pub details: Vec<Value>,
 }
 
 impl PostOutcome {
     fn time(&mut self, name: &'static str, seconds: f64) {
-        match self.stages.iter_mut().find(|(n, _)| *n == name) {
-            Some((_, s)) => *s += seconds,
-            None => self.stages.push((name, seconds)),
+        let peak = super::memory::peak_resident_bytes();
+        match self.stages.iter_mut().find(|(n, ..)| *n == name) {
+            Some((_, s, p)) => {
+                *s += seconds;
+                *p = peak.max(*p);
+            }
+            None => self.stages.push((name, seconds, peak)),
         }
     }
 }

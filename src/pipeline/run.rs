@@ -71,6 +71,10 @@ pub struct Stage {
     /// `remesh`: what it did to each mesh.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub meshes: Option<Vec<Remeshed>>,
+    /// The process's peak resident memory when the stage ended, bytes
+    /// (it only grows; see [`super::memory::peak_resident_bytes`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub peak_resident_bytes: Option<u64>,
 }
 
 impl Stage {
@@ -79,6 +83,7 @@ impl Stage {
             name: name.to_string(),
             seconds,
             meshes: None,
+            peak_resident_bytes: super::memory::peak_resident_bytes(),
         }
     }
 }
@@ -555,8 +560,11 @@ pub fn run(scene: &mut Scene, config: &Config, observer: &mut dyn Observer) -> R
     observer.stage("post");
     let post_options = pipe.post.within(config.read.max_memory);
     let post = super::post::apply(scene, &mut entries, &per_mesh, &post_options)?;
-    for (name, seconds) in &post.stages {
-        stages.push(Stage::new(name, *seconds));
+    for &(name, seconds, peak) in &post.stages {
+        stages.push(Stage {
+            peak_resident_bytes: peak,
+            ..Stage::new(name, seconds)
+        });
     }
     let mut frames_report = None;
     if let (Some(frames), Some(starts), Some(template)) = (&config.frames, starts, template) {
@@ -775,9 +783,8 @@ fn remesh_to_cell_size(
         });
     }
     Ok(Some(Stage {
-        name: "remesh".into(),
-        seconds: t.elapsed().as_secs_f64(),
         meshes: Some(meshes),
+        ..Stage::new("remesh", t.elapsed().as_secs_f64())
     }))
 }
 
