@@ -72,7 +72,7 @@ pub struct Stage {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub meshes: Option<Vec<Remeshed>>,
     /// The process's peak resident memory when the stage ended, bytes
-    /// (it only grows; see [`super::memory::peak_resident_bytes`]).
+    /// (`getrusage`; it only grows from one stage to the next).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub peak_resident_bytes: Option<u64>,
 }
