@@ -132,35 +132,6 @@ fn finer_cells_draw_finer_cracks() {
     );
 }
 
-/// The first image of the GLB at `path` that its first material's base
-/// colour texture names, through `EXT_texture_webp` or `source`: (MIME
-/// type, bytes).
-fn base_color_image(path: &Path) -> (String, Vec<u8>) {
-    let b = std::fs::read(path).unwrap();
-    let n = u32::from_le_bytes(b[12..16].try_into().unwrap()) as usize;
-    let j: serde_json::Value = serde_json::from_slice(&b[20..20 + n]).unwrap();
-    let bin = &b[20 + n + 8..];
-    let tex = j["materials"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .find_map(|m| m["pbrMetallicRoughness"]["baseColorTexture"]["index"].as_u64())
-        .unwrap() as usize;
-    let t = &j["textures"][tex];
-    let image = t["extensions"]["EXT_texture_webp"]["source"]
-        .as_u64()
-        .or(t["source"].as_u64())
-        .unwrap() as usize;
-    let img = &j["images"][image];
-    let view = &j["bufferViews"][img["bufferView"].as_u64().unwrap() as usize];
-    let off = view["byteOffset"].as_u64().unwrap_or(0) as usize;
-    let len = view["byteLength"].as_u64().unwrap() as usize;
-    (
-        img["mimeType"].as_str().unwrap().to_string(),
-        bin[off..off + len].to_vec(),
-    )
-}
-
 /// `post.bake_format = "webp"`: the same maps as lossless WebP through
 /// `EXT_texture_webp` (required, no fallback), pixel for pixel the PNG's
 /// (decoded here by libwebp and the png crate, not by crackle), smaller, valid, and
@@ -190,7 +161,7 @@ fn webp_maps_hold_the_same_pixels_in_fewer_bytes() {
         .unwrap()
         .iter()
         .all(|t| t.get("source").is_none() && t["extensions"]["EXT_texture_webp"].is_object()));
-    let (mime, bytes) = base_color_image(&webp_out);
+    let (mime, bytes) = common::base_color_image(&webp_out);
     assert_eq!(mime, "image/webp");
     let decoded = webp::Decoder::new(&bytes).decode().expect("a WebP");
     let channels = if decoded.is_alpha() { 4 } else { 3 };
@@ -217,10 +188,7 @@ fn webp_maps_hold_the_same_pixels_in_fewer_bytes() {
     let again = dir.path().join("again.glb");
     let o = common::crack(&webp_out, &again, &["-q", "--preset", "glaze"]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let (_, lum2) = {
-        let (_, _, l) = common::base_color(&again);
-        ((), l)
-    };
+    let (_, _, lum2) = common::base_color(&again);
     let dark = |l: &[f64]| l.iter().filter(|&&x| x > 0.0 && x < 80.0).count();
     assert!(
         dark(&lum2) >= dark(&lum),

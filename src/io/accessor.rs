@@ -479,6 +479,19 @@ impl<'a> AccessorReader<'a> {
     }
 }
 
+/// Triangle or line indices into `vertices` vertices as glTF bytes: 16-bit
+/// (componentType 5123) while every index fits below 65,535 (the restart
+/// value), else 32-bit (5125). Returns the bytes and the component type.
+pub fn encode_indices(indices: &[u32], vertices: usize) -> (Vec<u8>, u32) {
+    if vertices <= usize::from(u16::MAX) {
+        let bytes = indices.iter().flat_map(|&i| (i as u16).to_le_bytes());
+        (bytes.collect(), 5123)
+    } else {
+        let bytes = indices.iter().flat_map(|&i| i.to_le_bytes());
+        (bytes.collect(), 5125)
+    }
+}
+
 /// An accessor's values as f64 (normalized integers mapped like glTF says);
 /// None for matrices or malformed data.
 pub fn decode_raw(acc: &crate::scene::RawAccessor) -> Option<(usize, Vec<f64>)> {

@@ -630,9 +630,9 @@ fn material_layers(
     Ok(out)
 }
 
-/// An image of PNG `bytes` and a texture showing it; the texture's index.
 /// An image and a texture of it: a PNG, or a WebP through
-/// `EXT_texture_webp` (then used and required: there is no fallback).
+/// `EXT_texture_webp` (then used and required: there is no fallback); the
+/// texture's index.
 fn add_texture(scene: &mut Scene, name: &str, bytes: Vec<u8>, webp: bool) -> usize {
     let (mime, ext) = if webp {
         ("image/webp", "webp")

@@ -756,23 +756,16 @@ pub(super) fn add_crack_lines(
         let acc = f32_accessor(scene, "VEC3", 3, p_rest, "crack_rest");
         geo.attributes.insert("_CRACK_REST".into(), acc);
     }
-    let wide = n > usize::from(u16::MAX);
+    let (data, component_type) = crate::io::accessor::encode_indices(&indices, n);
     scene.accessors.push(RawAccessor {
-        component_type: if wide { 5125 } else { 5123 },
+        component_type,
         kind: "SCALAR".into(),
         normalized: false,
         count: indices.len(),
         min: None,
         max: None,
         name: Some("crack_lines_indices".into()),
-        data: if wide {
-            indices.iter().flat_map(|i| i.to_le_bytes()).collect()
-        } else {
-            indices
-                .iter()
-                .flat_map(|&i| (i as u16).to_le_bytes())
-                .collect()
-        },
+        data,
     });
     geo.indices = Some(scene.accessors.len() - 1);
     for _ in 0..n_targets(scene, mesh_index) {

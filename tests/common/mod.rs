@@ -392,8 +392,10 @@ pub fn files_under(dir: &Path, exts: &[&str]) -> Vec<PathBuf> {
     out
 }
 
-/// The base colour map of the GLB at `path`, as (width, height, luminance).
-pub fn base_color(path: &std::path::Path) -> (usize, usize, Vec<f64>) {
+/// The image of the GLB at `path` that its first base-coloured material's
+/// base colour texture names, through `EXT_texture_webp` or `source`:
+/// (MIME type, bytes).
+pub fn base_color_image(path: &std::path::Path) -> (String, Vec<u8>) {
     let b = std::fs::read(path).unwrap();
     let n = u32::from_le_bytes(b[12..16].try_into().unwrap()) as usize;
     let j: serde_json::Value = serde_json::from_slice(&b[20..20 + n]).unwrap();
@@ -404,11 +406,26 @@ pub fn base_color(path: &std::path::Path) -> (usize, usize, Vec<f64>) {
         .iter()
         .find_map(|m| m["pbrMetallicRoughness"]["baseColorTexture"]["index"].as_u64())
         .expect("a base colour map") as usize;
-    let image = j["textures"][tex]["source"].as_u64().unwrap() as usize;
-    let view = &j["bufferViews"][j["images"][image]["bufferView"].as_u64().unwrap() as usize];
+    let t = &j["textures"][tex];
+    let image = t["extensions"]["EXT_texture_webp"]["source"]
+        .as_u64()
+        .or(t["source"].as_u64())
+        .unwrap() as usize;
+    let img = &j["images"][image];
+    let view = &j["bufferViews"][img["bufferView"].as_u64().unwrap() as usize];
     let off = view["byteOffset"].as_u64().unwrap_or(0) as usize;
     let len = view["byteLength"].as_u64().unwrap() as usize;
-    let mut decoder = png::Decoder::new(std::io::Cursor::new(&bin[off..off + len]));
+    (
+        img["mimeType"].as_str().unwrap_or_default().to_string(),
+        bin[off..off + len].to_vec(),
+    )
+}
+
+/// The base colour map (a PNG) of the GLB at `path`, as (width, height,
+/// luminance).
+pub fn base_color(path: &std::path::Path) -> (usize, usize, Vec<f64>) {
+    let (_, bytes) = base_color_image(path);
+    let mut decoder = png::Decoder::new(std::io::Cursor::new(&bytes[..]));
     // Palette images (a map of few colours) as their colours.
     decoder.set_transformations(png::Transformations::EXPAND);
     let mut reader = decoder.read_info().unwrap();

@@ -853,21 +853,7 @@ fn write_triangles(
         }
         targets.push(Value::Object(tj));
     }
-    let nv = order.len();
-    let (bytes, ct): (Vec<u8>, u32) = if nv <= u16::MAX as usize {
-        (
-            indices
-                .iter()
-                .flat_map(|&i| (i as u16).to_le_bytes())
-                .collect(),
-            5123,
-        )
-    } else {
-        (
-            indices.iter().flat_map(|&i| i.to_le_bytes()).collect(),
-            5125,
-        )
-    };
+    let (bytes, ct) = crate::io::accessor::encode_indices(&indices, order.len());
     let view = bin.view(&bytes, Some(ELEMENT_ARRAY_BUFFER), None);
     let acc = bin.accessor(
         json!({"bufferView": view, "componentType": ct, "count": indices.len(), "type": "SCALAR"}),

@@ -343,7 +343,7 @@ pub fn encode_png(size: u32, channels: usize, data: &[u8]) -> Result<Vec<u8>, pn
         // The encoder names the mismatch.
         return encode_with(size, color, data, None, png::Filter::NoFilter);
     }
-    let layout = palette(data, channels);
+    let layout = palette(data, channels, size as usize);
     let (a, b) = rayon::join(
         || encode_with(size, color, data, layout.as_ref(), png::Filter::Adaptive),
         || encode_with(size, color, data, layout.as_ref(), png::Filter::NoFilter),
@@ -399,7 +399,9 @@ struct Palette {
     depth: png::BitDepth,
 }
 
-fn palette(data: &[u8], channels: usize) -> Option<Palette> {
+fn palette(data: &[u8], channels: usize, size: usize) -> Option<Palette> {
+    // Grey at 8 bits is already a byte a pixel: a palette only for 4 bits.
+    let most = if channels == 1 { 16 } else { 256 };
     let px = |c: &[u8]| -> [u8; 4] {
         match channels {
             1 => [c[0], c[0], c[0], 255],
@@ -416,18 +418,12 @@ fn palette(data: &[u8], channels: usize) -> Option<Palette> {
         }
         last = Some(p);
         if let Err(at) = seen.binary_search(&p) {
-            if seen.len() == 256 {
+            if seen.len() == most {
                 return None;
             }
             seen.insert(at, p);
         }
     }
-    if channels == 1 && seen.len() > 16 {
-        // Grey at 8 bits is already a byte a pixel.
-        return None;
-    }
-    let n = data.len() / channels;
-    let size = (n as f64).sqrt().round() as usize;
     let bits = if seen.len() <= 16 { 4 } else { 8 };
     let row_bytes = (size * bits).div_ceil(8);
     let mut packed = vec![0u8; row_bytes * size];
@@ -481,9 +477,9 @@ fn encode_with(
             Some(p) => {
                 enc.set_color(png::ColorType::Indexed);
                 enc.set_depth(p.depth);
-                enc.set_palette(p.rgb.clone());
+                enc.set_palette(&p.rgb[..]);
                 if let Some(a) = &p.alpha {
-                    enc.set_trns(a.clone());
+                    enc.set_trns(&a[..]);
                 }
                 &p.packed[..]
             }
