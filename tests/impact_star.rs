@@ -122,8 +122,8 @@ fn crackle_stats_reports_the_impact_as_the_independent_measure_does() {
 }
 
 /// Two hits on one pane, at once (two points in one term) and one after the
-/// other (the second its own term, loaded by `evolve` once the first has
-/// broken): each makes its star, and where they meet a crack ends on the
+/// other (`in_turn`: the second lands once the first's cracks have come to
+/// rest): each makes its star, and where they meet a crack ends on the
 /// other star's instead of crossing it, so the two stars are one network
 /// with no node where four cracks meet.
 #[test]
@@ -146,10 +146,11 @@ fn two_hits_make_two_stars_that_end_on_each_other() {
         star("[[0.38, 1.0, 0.45], [0.62, 1.0, 0.55]]", "init = 30.0")
     );
     let in_turn = format!(
-        "{pane}{}{}",
-        star("[[0.38, 1.0, 0.45]]", "init = 30.0"),
-        // The default load time is 120: the second hit's full load at its end.
-        star("[[0.62, 1.0, 0.55]]", "init = 0.0\nevolve = 0.25")
+        "{pane}{}",
+        star(
+            "[[0.38, 1.0, 0.45], [0.62, 1.0, 0.55]]",
+            "init = 30.0\nin_turn = true"
+        )
     );
     for (name, pipeline) in [("at_once", at_once), ("in_turn", in_turn)] {
         let file = dir.path().join(format!("{name}.toml"));
@@ -188,6 +189,149 @@ fn two_hits_make_two_stars_that_end_on_each_other() {
         let (a, b) = (piece_of(nearest(hits[0])), piece_of(nearest(hits[1])));
         assert!(a.is_some() && a == b, "{name}: the stars are apart");
     }
+}
+
+/// A later hit stops at the earlier cracks (`in_turn`): the second star's
+/// load is measured along the surface as the first left it, so its cracks
+/// stay in the piece of the pane the first star's cracks leave around the
+/// hit (open where the first star's rays end, so a load wraps around their
+/// tips). Counted on the output's crack lines, split by their
+/// `_CRACK_TIME` at the time the report gives for the second hit: the
+/// first stage's lines drawn into a raster of a fifth of a cell, the
+/// regions between them filled, and the second stage's crack length in
+/// each region summed: nearly all of it in one.
+#[test]
+fn a_later_hit_stops_at_the_earlier_cracks() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = dir.path().join("plate.obj");
+    shapes::write_obj(&input, &shapes::jittered_plate(160, 10.0, 0.3, 1));
+    let mut seen = Vec::new();
+    for (seed, b) in [("1", [2.4, 1.6]), ("2", [-2.2, 2.0]), ("3", [1.0, -2.7])] {
+        let out = dir.path().join(format!("in_turn_{seed}.glb"));
+        let hits = format!("stress.0.points=[[0, 0, 0], [{}, 0, {}]]", b[0], b[1]);
+        let turn = [
+            "--seed",
+            seed,
+            "--set",
+            &hits,
+            "--set",
+            "stress.0.in_turn=true",
+        ];
+        common::crack_lines(&input, &out, "glass-impact", &turn);
+        let report: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(out.with_extension("json")).unwrap()).unwrap();
+        let sim = &report["meshes"][0]["report"];
+        // `_CRACK_TIME` is a fraction of the run's time.
+        let end = sim["time"].as_f64().unwrap();
+        let at = sim["hit_times"][0]
+            .as_f64()
+            .unwrap_or_else(|| panic!("no hit time: {sim}"))
+            / end;
+        let cell = sim["cell_size"].as_f64().unwrap();
+        let lines = measure::read_model(&out).timed_rest_lines("crack_lines");
+        assert!(
+            lines.iter().all(|(_, t)| t.is_finite()),
+            "lines without times"
+        );
+        // The first star's finished before the second lands, at the
+        // landing's time; the second's cracks a round later.
+        let split = at + 0.5 * sim["phases"][0]["time"].as_f64().unwrap() / end;
+        let (first, second): (Vec<_>, Vec<_>) = lines.into_iter().partition(|(_, t)| *t < split);
+        let first: Vec<measure::Seg> = first.into_iter().map(|(s, _)| s).collect();
+        let second: Vec<measure::Seg> = second.into_iter().map(|(s, _)| s).collect();
+        let total = measure::crack_length(&second);
+        let by_region = length_by_region(&first, &second, 0.2 * cell, 5.0);
+        let most = by_region.iter().copied().fold(0.0, f64::max);
+        // Segments whose middle lies on a first-stage line are in no region.
+        let placed: f64 = by_region.iter().sum();
+        eprintln!(
+            "seed {seed}: the first hit {:.1} of crack length, the second {total:.1} \
+             (landed at {at:.3} of the run), {:.3} of it in one region ({} regions, \
+             {:.3} of it placed)",
+            measure::crack_length(&first),
+            most / placed,
+            by_region.len(),
+            placed / total
+        );
+        assert!(
+            total > 5.0 * cell,
+            "seed {seed}: the second hit made only {total:.2} of cracks"
+        );
+        seen.push(most / placed);
+    }
+    for (k, share) in seen.iter().enumerate() {
+        assert!(
+            *share >= 0.9,
+            "seed {}: {share:.3} of the second star in its region",
+            k + 1
+        );
+    }
+}
+
+/// The crack length of `lines` in each region of the XZ square
+/// `[-half, half]^2` that `walls` leave (drawn into a raster of `pixel`,
+/// regions filled 4-connected); a segment counts in the region of its
+/// middle's pixel, nowhere when that pixel is a wall.
+fn length_by_region(
+    walls: &[measure::Seg],
+    lines: &[measure::Seg],
+    pixel: f64,
+    half: f64,
+) -> Vec<f64> {
+    let n = (2.0 * half / pixel).ceil() as usize + 1;
+    let at = |x: f64, z: f64| {
+        let i = (((x + half) / pixel).floor().max(0.0) as usize).min(n - 1);
+        let j = (((z + half) / pixel).floor().max(0.0) as usize).min(n - 1);
+        j * n + i
+    };
+    let mut wall = vec![false; n * n];
+    for [p, q] in walls {
+        let steps = (d3(*p, *q) / (0.25 * pixel)).ceil() as usize + 1;
+        for k in 0..=steps {
+            let t = k as f64 / steps as f64;
+            wall[at(p[0] + t * (q[0] - p[0]), p[2] + t * (q[2] - p[2]))] = true;
+        }
+    }
+    let mut region = vec![usize::MAX; n * n];
+    let mut count = 0;
+    for start in 0..n * n {
+        if wall[start] || region[start] != usize::MAX {
+            continue;
+        }
+        let mut stack = vec![start];
+        region[start] = count;
+        while let Some(c) = stack.pop() {
+            let (i, j) = (c % n, c / n);
+            let mut near = Vec::with_capacity(4);
+            if i > 0 {
+                near.push(c - 1);
+            }
+            if i + 1 < n {
+                near.push(c + 1);
+            }
+            if j > 0 {
+                near.push(c - n);
+            }
+            if j + 1 < n {
+                near.push(c + n);
+            }
+            for m in near {
+                if !wall[m] && region[m] == usize::MAX {
+                    region[m] = count;
+                    stack.push(m);
+                }
+            }
+        }
+        count += 1;
+    }
+    let mut length = std::collections::BTreeMap::new();
+    for s in lines {
+        let c = at(0.5 * (s[0][0] + s[1][0]), 0.5 * (s[0][2] + s[1][2]));
+        if !wall[c] {
+            *length.entry(region[c]).or_insert(0.0) += d3(s[0], s[1]);
+        }
+    }
+    length.into_values().collect()
 }
 
 /// The arcs between the rays end on them: the preset's finishing runs on

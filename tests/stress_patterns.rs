@@ -57,6 +57,7 @@ fn impact_cracks_radially_near_the_point() {
             radius,
             concentric_factor: 1.25,
             radial_cracks: 0,
+            in_turn: false,
         },
         init: 6.0,
         evolve: 0.0,

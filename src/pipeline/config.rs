@@ -151,6 +151,10 @@ pub struct StressEntry {
     /// impact: the star's number of radial cracks, 3 to 64. Instead of
     /// `speed`. Without either, the paper's disc of crazing.
     pub radial_cracks: Option<u32>,
+    /// impact with stars: the points hit one after another, each once the
+    /// cracks before it have stopped (a later star ends at the earlier
+    /// cracks). Default false: all at once.
+    pub in_turn: Option<bool>,
     /// curvature: also scale each node's separation by this curvature
     /// measure: gaussian (|k1 k2|), mean (|k1 + k2|/2), frobenius
     /// (sqrt(k1^2 + k2^2)) or sum_squares (k1^2 + k2^2).
@@ -717,6 +721,7 @@ impl StressEntry {
             ("concentric_factor", self.concentric_factor.is_some()),
             ("speed", self.speed.is_some()),
             ("radial_cracks", self.radial_cracks.is_some()),
+            ("in_turn", self.in_turn.is_some()),
             ("separation", self.separation.is_some()),
             ("strength", self.strength.is_some()),
             ("max_factor", self.max_factor.is_some()),
@@ -766,6 +771,7 @@ impl StressEntry {
                 "concentric_factor",
                 "speed",
                 "radial_cracks",
+                "in_turn",
             ],
             other => {
                 return Err(format!(
@@ -915,6 +921,7 @@ impl StressEntry {
                     radius,
                     concentric_factor: self.concentric_factor.unwrap_or(1.25),
                     radial_cracks,
+                    in_turn: self.in_turn.unwrap_or(false),
                 }
             }
         };

@@ -199,6 +199,8 @@ fn run_once(
     let mut hold = false; // hold the load this round (the last one hit the cap)
     let mut g: Vec<[f64; 3]> = Vec::new();
     let rules = crack_rules(params);
+    // Hits that land once the cracks before them have come to rest.
+    let mut later = field.map_or(&[][..], |f| &f.later[..]).iter();
     report.stopped = format!("reached max_rounds ({})", params.max_rounds);
     for round in 0..params.max_rounds {
         // ---- relax, with the load increasing unless held or complete
@@ -253,15 +255,22 @@ fn run_once(
         }
         let load_done = loaded >= params.load_time;
         if cracked_this_round == 0 && load_done {
+            if let Some(hit) = later.next() {
+                // The earlier hits' pattern is finished before the next
+                // lands, so its load stops at their finished cracks.
+                if params.finish {
+                    finish_into(mesh, &mut st, params, &mut g, &mut report, observer)?;
+                }
+                land(mesh, &mut st, hit);
+                report.hit_times.push(report.time);
+                continue;
+            }
             report.stopped = "nothing fails any more".into();
             break;
         }
     }
     if params.finish {
-        let t = std::time::Instant::now();
-        let mut fin = finish_cracks(mesh, &mut st, params, &mut g, &mut report, observer)?;
-        fin.seconds = t.elapsed().as_secs_f64();
-        report.finish = Some(fin);
+        finish_into(mesh, &mut st, params, &mut g, &mut report, observer)?;
     }
     st.segment_at.in_record_order(&mut report);
     report.energy[1] = energy(&st.els, &st.stress);
@@ -271,6 +280,46 @@ fn run_once(
     report.crack_time = st.crack_time;
     report.diffusion_work = st.diffusion_work;
     Ok(report)
+}
+
+/// Finish the cracks' tips ([`finish_cracks`]), adding what it did to the
+/// report's finishing (a run with later hits finishes before each lands).
+fn finish_into(
+    mesh: &mut SimMesh,
+    st: &mut State,
+    params: &SimParams,
+    g: &mut Vec<[f64; 3]>,
+    report: &mut SimReport,
+    observer: &mut dyn Observer,
+) -> Result<(), SimError> {
+    let t = std::time::Instant::now();
+    let mut fin = finish_cracks(mesh, st, params, g, report, observer)?;
+    fin.seconds = t.elapsed().as_secs_f64();
+    if let Some(before) = report.finish.take() {
+        fin.tips += before.tips;
+        fin.cracks += before.cracks;
+        fin.length += before.length;
+        fin.passes += before.passes;
+        fin.stuck += before.stuck;
+        fin.confined += before.confined;
+        fin.seconds += before.seconds;
+    }
+    report.finish = Some(fin);
+    Ok(())
+}
+
+/// Add a later hit's load, built on the surface as cracked now, to the
+/// stress of every face that carries stress.
+fn land(mesh: &SimMesh, st: &mut State, hit: &crate::stress::field::LaterHit) {
+    let added = hit.stress(mesh);
+    for ((s, a), el) in st.stress.iter_mut().zip(added).zip(&st.els.elements) {
+        if el.is_some() {
+            *s += a;
+        }
+    }
+    // What was known at the old stress is stale.
+    st.cache.force = None;
+    st.frozen = None;
 }
 
 /// Crack while the top of the failure queue fails: each crack event is

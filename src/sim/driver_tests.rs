@@ -487,6 +487,7 @@ fn impact_params() -> (SimParams, Vec<crate::stress::Term>) {
             radius: 7.0,
             concentric_factor: 1.25,
             radial_cracks: 0,
+            in_turn: false,
         },
         init: 3.0,
         evolve: 0.0,

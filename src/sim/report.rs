@@ -36,6 +36,9 @@ pub struct SimReport {
     pub time: f64,
     /// Simulation time at which the first crack formed (none: no crack).
     pub first_crack_time: Option<f64>,
+    /// Times at which later hits landed (impacts `in_turn`), in order.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub hit_times: Vec<f64>,
     /// Every crack segment as its two end points (mesh units), in the order formed.
     #[serde(skip)]
     pub segments: Vec<[[f64; 3]; 2]>,

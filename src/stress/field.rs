@@ -56,6 +56,12 @@ pub enum TermKind {
         concentric_factor: f64,
         /// Radial cracks of each star (0: the paper's disc).
         radial_cracks: u32,
+        /// The points hit one after another (stars only): the first loads
+        /// the start, each further one once the cracks before it have come
+        /// to rest, its load measured along the surface as cracked by then
+        /// ([`LaterHit`]), so a later star stops at the earlier cracks.
+        /// `false`: all at once.
+        in_turn: bool,
     },
     /// Seeded noise for material inhomogeneity: a random magnitude in [0, 1]
     /// along a random in-plane direction per input triangle.
@@ -143,6 +149,64 @@ pub struct StressField {
     /// Factor on each face's contribution to the separation tensor (empty:
     /// 1 everywhere); from [`CurvatureScale`] terms, which multiply.
     pub separation_scale: Vec<f64>,
+    /// Hits that land later, in order: each adds its load once the
+    /// simulation has come to rest under the loads before it.
+    pub later: Vec<LaterHit>,
+}
+
+/// An impact that lands once the cracks before it have come to rest (an
+/// impact term's points after its first, with `in_turn`): its star is
+/// built on the surface as cracked by then, so its load does not reach
+/// past the earlier cracks and its radial cracks end at them.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LaterHit {
+    /// Where it hits (on the surface).
+    pub point: [f64; 3],
+    /// The star's reference radius (mesh units).
+    pub radius: f64,
+    /// Radial cracks.
+    pub radial_cracks: u32,
+    /// Weight on the stress it adds.
+    pub weight: f64,
+    /// The term's mask, if any.
+    pub mask: Option<Arc<Mask>>,
+    seed: u64,
+    index: u64,
+}
+
+impl LaterHit {
+    /// The stress the hit adds to each face of `mesh` (the surface as
+    /// cracked when it lands).
+    pub fn stress(&self, mesh: &SimMesh) -> Vec<Sym3> {
+        let star = super::impact::Star::new(
+            mesh,
+            self.point,
+            self.radius,
+            self.radial_cracks,
+            self.seed,
+            self.index,
+        );
+        let channel = self.mask.as_ref().and_then(|m| {
+            mesh.wedges()
+                .channel(&format!("TEXCOORD_{}", m.tex_coord))
+                .filter(|ch| ch.components >= 2)
+        });
+        mesh.faces()
+            .map(|f| {
+                let Some((_, n)) = face_frame(mesh, f) else {
+                    return Sym3::ZERO;
+                };
+                let w = match (&self.mask, channel) {
+                    (Some(m), Some(ch)) => m.weight(face_uv(mesh, f, ch)),
+                    _ => 1.0,
+                };
+                if w == 0.0 {
+                    return Sym3::ZERO;
+                }
+                star.tensor(f.idx(), n) * (w * self.weight)
+            })
+            .collect()
+    }
 }
 
 /// Errors in a term's values.
@@ -211,7 +275,14 @@ impl Term {
                 radius,
                 concentric_factor,
                 radial_cracks,
+                in_turn,
             } => {
+                if *in_turn && *radial_cracks == 0 {
+                    return bad("in_turn needs stars: give 'speed' or 'radial_cracks'".into());
+                }
+                if *in_turn && self.evolve != 0.0 {
+                    return bad("in_turn hits load at once: give 'init', not 'evolve'".into());
+                }
                 if !(radius.is_finite() && *radius > 0.0) {
                     return bad(format!("radius must be > 0, got {radius}"));
                 }
@@ -632,6 +703,7 @@ impl StressField {
             None => 0.0,
         };
         let mut contexts = Vec::with_capacity(terms.len());
+        let mut later = Vec::new();
         for (i, t) in terms.iter().enumerate() {
             let impacts = match &t.kind {
                 TermKind::Impact { points, .. } if points.is_empty() => vec![default_hit(mesh)],
@@ -642,10 +714,12 @@ impl StressField {
                 TermKind::Impact {
                     radius,
                     radial_cracks,
+                    in_turn,
                     ..
                 } if *radial_cracks > 0 => impacts
                     .iter()
                     .enumerate()
+                    .take(if *in_turn { 1 } else { usize::MAX })
                     .map(|(k, &p)| {
                         super::impact::Star::new(mesh, p, *radius, *radial_cracks, seed, k as u64)
                     })
@@ -673,6 +747,29 @@ impl StressField {
                     ..
                 }
             );
+            if let TermKind::Impact {
+                radius,
+                radial_cracks,
+                in_turn: true,
+                ..
+            } = &t.kind
+            {
+                later.extend(
+                    impacts
+                        .iter()
+                        .enumerate()
+                        .skip(1)
+                        .map(|(k, &point)| LaterHit {
+                            point,
+                            radius: *radius,
+                            radial_cracks: *radial_cracks,
+                            weight: t.init,
+                            mask: t.mask.clone(),
+                            seed,
+                            index: k as u64,
+                        }),
+                );
+            }
             contexts.push(Context {
                 seed,
                 impacts,
@@ -692,6 +789,7 @@ impl StressField {
             init: vec![Sym3::ZERO; mesh.n_faces()],
             evolve: vec![Sym3::ZERO; mesh.n_faces()],
             separation_scale: Vec::new(),
+            later,
         };
         for f in mesh.faces() {
             for (t, ctx) in terms.iter().zip(&contexts) {
@@ -888,6 +986,7 @@ mod tests {
                 radius: 4.0,
                 concentric_factor: 1.25,
                 radial_cracks: 0,
+                in_turn: false,
             },
             init: 1.0,
             evolve: 0.0,
@@ -952,6 +1051,7 @@ mod tests {
                 radius: 0.0,
                 concentric_factor: 1.25,
                 radial_cracks: 0,
+                in_turn: false,
             },
             init: 1.0,
             evolve: 0.0,
@@ -1130,5 +1230,56 @@ mod tests {
             }
         }
         assert!(flat > 0 && bent > 0);
+    }
+
+    /// Points hit in turn: the first star loads the start, the others wait
+    /// as later hits (built when they land); without stars, or with an
+    /// `evolve` weight, it is refused by name.
+    #[test]
+    fn hits_in_turn_wait_for_their_turn() {
+        let (mesh, _) = crate::mesh::shapes::build(&crate::mesh::shapes::icosphere_input(3));
+        let impact = |points: Vec<[f64; 3]>, radial_cracks, in_turn, evolve| Term {
+            kind: TermKind::Impact {
+                points,
+                radius: 0.5,
+                concentric_factor: 1.25,
+                radial_cracks,
+                in_turn,
+            },
+            init: 2.0,
+            evolve,
+            mask: None,
+        };
+        let (a, b) = ([0.0, 0.0, 1.0], [1.0, 0.0, 0.0]);
+        let first = StressField::build(&mesh, &[impact(vec![a], 8, false, 0.0)], 3).unwrap();
+        let turn = StressField::build(&mesh, &[impact(vec![a, b], 8, true, 0.0)], 3).unwrap();
+        let once = StressField::build(&mesh, &[impact(vec![a, b], 8, false, 0.0)], 3).unwrap();
+        assert_eq!(
+            turn.init, first.init,
+            "in turn, the start carries the first hit only"
+        );
+        assert_ne!(once.init, first.init, "at once, both");
+        assert_eq!(turn.later.len(), 1);
+        let later = turn.later[0].stress(&mesh);
+        assert!(
+            v3::norm(turn.later[0].point) > 0.99,
+            "projected onto the sphere"
+        );
+        // The later star, added to the first, is the pair hit at once.
+        for f in mesh.faces() {
+            let sum = first.init[f.idx()] + later[f.idx()];
+            let d = (sum - once.init[f.idx()]).frobenius_sq().sqrt();
+            assert!(
+                d <= 1e-9 * (1.0 + sum.frobenius_sq().sqrt()),
+                "face {f:?}: {d}"
+            );
+        }
+        for (term, says) in [
+            (impact(vec![a, b], 0, true, 0.0), "in_turn needs stars"),
+            (impact(vec![a, b], 8, true, 1.0), "not 'evolve'"),
+        ] {
+            let e = StressField::build(&mesh, &[term], 3).unwrap_err();
+            assert!(e.to_string().contains(says), "{e}");
+        }
     }
 }

@@ -97,6 +97,9 @@ pub struct Primitive {
     pub segments: Vec<Seg>,
     /// The segments at rest (`_CRACK_REST`), where the lines carry it.
     pub rest: Vec<Seg>,
+    /// Each segment's time: the later of its ends' `_CRACK_TIME`, where
+    /// the lines carry it.
+    pub times: Vec<f64>,
 }
 
 /// One node's instance of a mesh.
@@ -135,6 +138,21 @@ impl Model {
         })
         .collect()
     }
+    /// [`Model::rest_lines`] with each segment's time (the later of its
+    /// ends' `_CRACK_TIME`; NaN where the lines carry none).
+    pub fn timed_rest_lines(&self, material: &str) -> Vec<(Seg, f64)> {
+        let sel = self.prims().filter(|p| p.material == material);
+        sel.flat_map(|p| {
+            let segs = if p.rest.is_empty() {
+                &p.segments
+            } else {
+                &p.rest
+            };
+            let time = |k: usize| p.times.get(k).copied().unwrap_or(f64::NAN);
+            segs.iter().enumerate().map(move |(k, s)| (*s, time(k)))
+        })
+        .collect()
+    }
     /// Triangles of every primitive whose material name passes `keep`, world units.
     pub fn triangles(&self, keep: impl Fn(&str) -> bool) -> Vec<Tri> {
         let sel = self.prims().filter(|p| keep(&p.material));
@@ -157,6 +175,7 @@ pub fn read_model(path: &Path) -> Model {
                 triangles,
                 segments,
                 rest: Vec::new(),
+                times: Vec::new(),
             }];
             let (node, mesh) = (String::new(), String::new());
             let instances = vec![Instance {
@@ -232,6 +251,7 @@ fn read_accessor(j: &Value, bufs: &[Vec<u8>], idx: usize, vec3: bool) -> Vec<f64
     let ct = a["componentType"].as_u64();
     let (ncomp, size) = match (vec3, ty, ct) {
         (true, "VEC3", Some(5126)) => (3, 4),
+        (false, "SCALAR", Some(5126)) => (1, 4),
         (false, "SCALAR", Some(5121)) => (1, 1),
         (false, "SCALAR", Some(5123)) => (1, 2),
         (false, "SCALAR", Some(5125)) => (1, 4),
@@ -252,7 +272,7 @@ fn read_accessor(j: &Value, bufs: &[Vec<u8>], idx: usize, vec3: bool) -> Vec<f64
     let value = |k: usize| {
         let at = start + (k / ncomp) * stride + (k % ncomp) * size;
         let b = &buf[at..at + size];
-        match (vec3, size) {
+        match (vec3 || ct == Some(5126), size) {
             (true, _) => f32::from_le_bytes([b[0], b[1], b[2], b[3]]) as f64,
             (false, 1) => b[0] as f64,
             (false, 2) => u16::from_le_bytes([b[0], b[1]]) as f64,
@@ -372,11 +392,22 @@ fn instance(j: &Value, bufs: &[Vec<u8>], node: &Value, mi: usize, world: &Affine
             }
             _ => Vec::new(),
         };
+        let times = match prim["attributes"]["_CRACK_TIME"].as_u64() {
+            Some(ta) if mode == 1 => {
+                let t = read_accessor(j, bufs, ta as usize, false);
+                let at = |i: usize| *t.get(idx[i] as usize).expect("vertex index out of range");
+                (0..count(1, 2))
+                    .map(|k| at(2 * k).max(at(2 * k + 1)))
+                    .collect()
+            }
+            _ => Vec::new(),
+        };
         primitives.push(Primitive {
             material,
             triangles,
             segments,
             rest,
+            times,
         });
     }
     let mesh = mesh_name;
