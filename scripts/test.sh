@@ -2,7 +2,8 @@
 # The project's test command: installs the glTF-Validator the tests use
 # (into tools/node_modules) and Ninja (into tools/ninja), then runs the whole test suite in release mode
 # and closes with one summary line over every test binary; a whole run then
-# builds the documentation, failing on any warning.
+# builds the documentation, failing on any warning, and the library without
+# the cli feature (no clap, indicatif, anyhow or plotters).
 # Extra arguments are passed to cargo test (e.g. a test name filter).
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
@@ -33,4 +34,14 @@ if [ "$#" -eq 0 ]; then
         exit 1
     }
     echo "cargo doc: no warnings"
+    # The library builds without the command line's crates.
+    cargo build --lib --release --no-default-features --quiet || {
+        echo "ERROR: the library does not build without the cli feature" >&2
+        exit 1
+    }
+    if cargo tree --no-default-features -e normal --prefix none | grep -qE "^(clap|indicatif|anyhow|plotters) "; then
+        echo "ERROR: the library without the cli feature still depends on clap, indicatif, anyhow or plotters" >&2
+        exit 1
+    fi
+    echo "library without the cli feature: builds, no command-line crates"
 fi
