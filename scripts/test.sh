@@ -44,4 +44,11 @@ if [ "$#" -eq 0 ]; then
         exit 1
     fi
     echo "library without the cli feature: builds, no command-line crates"
+    # The library example runs, file to file and in memory.
+    out=$(mktemp -d)
+    cargo run --release --quiet --example library -- fixtures/icosphere.obj "$out" || {
+        echo "ERROR: examples/library.rs failed" >&2
+        exit 1
+    }
+    rm -rf "$out"
 fi

@@ -4,6 +4,32 @@
 //! Pipeline of one asset: read ([`io`]) into a [`scene::Scene`], weld each
 //! crackable mesh into a simulation mesh ([`mesh`]), simulate, write glTF.
 //! The library does no printing; the binary owns files, progress and exit codes.
+//!
+//! # The front door
+//!
+//! [`read`] or [`read_bytes`] an asset, pick a [`Pipeline`] (a built-in
+//! preset or your own TOML), [`run`] it on the scene, [`write()`] or
+//! [`write_bytes`] the result; or [`crack_file`] does all of it from file to
+//! file. The modules below these are the machinery, public for tools and
+//! tests, and may change between versions.
+//!
+//! ```no_run
+//! use crackle::{Config, Pipeline};
+//!
+//! # fn main() -> crackle::Result<()> {
+//! let mut scene = crackle::read("teapot.obj".as_ref())?;
+//! let pipeline = Pipeline::preset("glaze", &["simulation.seed=7".into()])
+//!     .map_err(|e| crackle::Error::Usage(e.to_string()))?;
+//! let config = Config::in_memory(pipeline, "teapot.obj");
+//! let report = crackle::run(&mut scene, &config, &mut crackle::Quiet)?;
+//! println!("{} cracks", report.cracks);
+//! let glb: Vec<u8> = crackle::write_bytes(&scene)?;
+//! # let _ = glb;
+//! # Ok(())
+//! # }
+//! ```
+//!
+//! `examples/library.rs` runs both ways, file to file and in memory.
 #![warn(missing_docs)]
 
 pub mod batch;
@@ -23,3 +49,91 @@ pub mod stress;
 pub mod study;
 
 pub use error::{Error, Result};
+pub use io::gltf_write::WriteSummary;
+pub use io::ReadOptions;
+pub use pipeline::{crack_file, run, Config, CrackReport, Observer, Pipeline, RunReport};
+pub use scene::Scene;
+
+use std::path::Path;
+
+/// An [`Observer`] that ignores everything (no progress display).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Quiet;
+
+impl Observer for Quiet {}
+
+/// Read an asset file: OBJ (with its MTL and textures), glTF or GLB, by
+/// extension; files it names are read only from its folder.
+///
+/// # Errors
+/// A clear [`Error`] naming the file and element when the file cannot be
+/// read, is malformed, or needs an extension the tool cannot decode.
+pub fn read(path: &Path) -> Result<Scene> {
+    Ok(io::read(path)?)
+}
+
+/// Read an asset held in memory: a GLB, a glTF JSON document whose buffers
+/// and images are embedded (`data:` URIs), or OBJ text without a material
+/// library; `name` names it in messages. Nothing is read from disk: a
+/// document that names another file is refused.
+///
+/// # Errors
+/// Those of [`read`], and a reference to a file.
+pub fn read_bytes(bytes: &[u8], name: &str) -> Result<Scene> {
+    let path = Path::new(name);
+    let refuse = |what: &str| {
+        Err(Error::from(io::IoError::input(
+            path,
+            format!("names the file '{what}'; an asset read from memory must hold all its data (embed it, or read the file with crackle::read)"),
+        )))
+    };
+    let text = bytes.trim_ascii_start();
+    if bytes.starts_with(b"glTF") || text.starts_with(b"{") {
+        let json: Option<serde_json::Value> = if bytes.starts_with(b"glTF") {
+            io::gltf_read::split_glb(bytes)
+                .ok()
+                .and_then(|g| serde_json::from_slice(&g.json).ok())
+        } else {
+            serde_json::from_slice(bytes).ok()
+        };
+        if let Some(uri) = json
+            .as_ref()
+            .and_then(|j| io::gltf_read::file_uris(j).first().map(|u| u.to_string()))
+        {
+            return refuse(&uri);
+        }
+        // Malformed documents are reported by the reader itself.
+        return Ok(io::gltf_read::read_gltf_bytes(bytes, Path::new(""), path)?);
+    }
+    let text = std::str::from_utf8(bytes)
+        .map_err(|e| io::IoError::input(path, format!("neither glTF nor OBJ text: {e}")))?;
+    if let Some(line) = text
+        .lines()
+        .map(str::trim_start)
+        .find(|l| l.starts_with("mtllib"))
+    {
+        return refuse(line.trim_start_matches("mtllib").trim());
+    }
+    Ok(io::obj::read_obj_from_str(text, Path::new(""), name)?)
+}
+
+/// Write `scene` to `path`: `.glb`, or `.gltf` with its buffer and images
+/// beside it; nothing is left behind on error.
+///
+/// # Errors
+/// An extension other than `.gltf`/`.glb`, a non-finite value, an image
+/// that cannot be read, or a file that cannot be written.
+pub fn write(scene: &Scene, path: &Path) -> Result<WriteSummary> {
+    pipeline::write_output(scene, path, false)
+}
+
+/// `scene` as the bytes of a self-contained `.glb`.
+///
+/// # Errors
+/// A non-finite value, or an image that cannot be read or has an unknown type.
+pub fn write_bytes(scene: &Scene) -> Result<Vec<u8>> {
+    Ok(io::gltf_write::glb_scene_bytes(
+        scene,
+        Path::new("scene.glb"),
+    )?)
+}

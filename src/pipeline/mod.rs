@@ -21,3 +21,19 @@ pub use run::{
     BeforeAfter, Config, CrackReport, FramesReport, MeshRun, Observer, Prepared, Remeshed,
     RunReport, Stage, StartEnd,
 };
+
+impl Config {
+    /// A run of `pipeline` on a scene held in memory: `name` names the
+    /// asset in messages; default welding and reading, no time-lapse (a
+    /// time-lapse is written beside [`Config::output`]).
+    pub fn in_memory(pipeline: Pipeline, name: &str) -> Config {
+        Config {
+            pipeline,
+            weld: crate::mesh::WeldOptions::default(),
+            asset: std::path::PathBuf::from(name),
+            frames: None,
+            output: std::path::PathBuf::from(name).with_extension("glb"),
+            read: crate::io::ReadOptions::default(),
+        }
+    }
+}

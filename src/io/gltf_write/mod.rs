@@ -142,6 +142,24 @@ pub fn write_scene_with(scene: &Scene, path: &Path, prefix_images: bool) -> Resu
     })
 }
 
+/// `scene` as the bytes of a self-contained `.glb` (what [`write_scene`]
+/// writes to a `.glb` path; `name` names the scene in messages).
+///
+/// # Errors
+/// A non-finite value, or an image that cannot be read or has an unknown type.
+pub fn glb_scene_bytes(scene: &Scene, name: &Path) -> Result<Vec<u8>> {
+    let fail = |message: String| Error::Output {
+        path: name.into(),
+        message,
+    };
+    if let Some(message) = finite::first_non_finite(scene) {
+        return Err(fail(message));
+    }
+    let doc = build_document(scene, true, "scene", false).map_err(fail)?;
+    let json = serde_json::to_vec(&doc.json).map_err(|e| fail(e.to_string()))?;
+    Ok(glb_bytes(&json, &doc.bin))
+}
+
 struct Document {
     json: Value,
     bin: Vec<u8>,
