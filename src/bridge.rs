@@ -197,17 +197,29 @@ pub fn write_back(scene: &mut Scene, entry: &SimEntry) {
 /// value per simulation vertex)`, e.g. `_CRACK_DISTANCE`) to every
 /// primitive written.
 pub fn write_back_with(scene: &mut Scene, entry: &SimEntry, extra: &[(String, Vec<f64>)]) {
-    let sim = &entry.sim;
+    let mesh = &mut scene.meshes[entry.mesh_index];
+    write_faces_into(mesh, entry, &entry.sim, &|_| true, extra);
+}
+
+/// As [`write_back_with`], from `sim` (a mesh of `entry`'s input, e.g. cut
+/// and moved) into `mesh` (a copy of `entry`'s scene mesh), writing only the
+/// faces `keep` takes.
+pub fn write_faces_into(
+    mesh: &mut crate::scene::Mesh,
+    entry: &SimEntry,
+    sim: &SimMesh,
+    keep: &dyn Fn(crate::mesh::FaceId) -> bool,
+    extra: &[(String, Vec<f64>)],
+) {
     let n_prims = entry.layouts.len();
     let mut per_group: Vec<Vec<u32>> = vec![Vec::new(); n_prims];
     for f in sim.faces() {
         let g = sim.face_group(f) as usize;
-        if g < n_prims {
+        if g < n_prims && keep(f) {
             per_group[g].push(f.0);
         }
     }
     let wedges = sim.wedges();
-    let mesh = &mut scene.meshes[entry.mesh_index];
     for (pi, prim) in mesh.primitives.iter_mut().enumerate() {
         let (Geometry::Triangles(t), Some(layout)) = (&mut prim.geometry, &entry.layouts[pi])
         else {

@@ -13,6 +13,7 @@ mod memory;
 pub mod post;
 mod run;
 mod tear;
+mod tear_embed;
 
 pub use config::*;
 pub use frames::Frames;

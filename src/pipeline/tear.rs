@@ -83,7 +83,7 @@ pub fn tear_meshes(
         let mut frame = FrameWriter {
             frames,
             template: template.as_ref(),
-            mesh_index: e.mesh_index,
+            entry: e,
             params: &p.ductile,
             next: 0,
             written: Vec::new(),
@@ -125,11 +125,33 @@ pub fn tear_meshes(
                 ))
             })
             .sum();
-        let pieces = replace_mesh(scene, e.mesh_index, &d, &surface, &p.ductile);
+        // The artist's surface, cut along the tear; the grid's surface
+        // where the cut cannot be made.
+        let embedded = match super::tear_embed::embed(e, &d, &surface) {
+            Ok(m) => Some(m),
+            Err(why) => {
+                log::warn!(
+                    "{}: {}: the torn surface is the grid's, not the input's: {why}",
+                    input.display(),
+                    e.label
+                );
+                None
+            }
+        };
+        let kept = embedded.as_ref().map(|m| {
+            json!({"surface": "input", "dropped_faces": m.dropped, "skipped_border_segments": m.skipped,
+                   "input_triangles": [e.sim.n_faces(), m.piece.iter().filter(|p| p.is_some()).count()]})
+        });
+        let pieces = replace_mesh(scene, e, &d, &surface, &p.ductile, embedded.as_ref());
+        let border = embedded.as_ref().map(|m| &m.border);
         let mut tear_lines = 0;
         let mut bakes = Vec::new();
         let mut bake_seconds = 0.0;
-        for (k, (mesh, segments)) in pieces.iter().zip(tear_borders(&d, &surface)).enumerate() {
+        for (k, (mesh, segments)) in pieces
+            .iter()
+            .zip(tear_borders(&d, &surface, border))
+            .enumerate()
+        {
             if post.lines {
                 tear_lines += segments.len();
                 super::post::add_crack_lines(scene, *mesh, &segments, &[], None);
@@ -152,6 +174,7 @@ pub fn tear_meshes(
             "torn_area": torn_area,
             "tear_line_segments": tear_lines,
             "pieces": surface.pieces,
+            "surface": kept.unwrap_or_else(|| json!({"surface": "grid"})),
         });
         if post.bake {
             detail["bake"] = json!({ "seconds": bake_seconds, "pieces": bakes });
@@ -165,7 +188,7 @@ pub fn tear_meshes(
 struct FrameWriter<'a> {
     frames: Option<(&'a Frames, &'a Path)>,
     template: Option<&'a Scene>,
-    mesh_index: usize,
+    entry: &'a SimEntry,
     params: &'a DuctileParams,
     next: usize,
     written: Vec<PathBuf>,
@@ -187,7 +210,15 @@ impl FrameWriter<'_> {
             }
             let surface = d.surface(0.25 * d.grid.h);
             let mut scene = template.clone();
-            replace_mesh(&mut scene, self.mesh_index, d, &surface, self.params);
+            let embedded = super::tear_embed::embed(self.entry, d, &surface).ok();
+            replace_mesh(
+                &mut scene,
+                self.entry,
+                d,
+                &surface,
+                self.params,
+                embedded.as_ref(),
+            );
             let path = frames.path(output, self.next);
             match super::run::write_output(&scene, &path, false) {
                 Ok(_) => self.written.push(path),
@@ -332,19 +363,85 @@ fn barycentric(t: [[f64; 3]; 3], p: [f64; 3]) -> [f64; 3] {
 /// Replace mesh `mesh_index` by the torn surface: one primitive per input
 /// primitive (its material, its attributes) and one for the torn surface,
 /// per piece; several pieces become child nodes of the mesh's nodes.
-fn replace_mesh(
+fn replace_grid_surface(
     scene: &mut Scene,
     mesh_index: usize,
     d: &Ductile,
     s: &TornSurface,
     params: &DuctileParams,
 ) -> Vec<usize> {
-    let source = Source::of(&scene.meshes[mesh_index]);
-    let tear_mat = material(
+    let meshes = grid_pieces(scene, mesh_index, d, s, params);
+    place_pieces(scene, mesh_index, meshes)
+}
+
+/// Replace mesh `e.mesh_index` by the torn solid: with `embedded`, per
+/// piece the input's own triangles cut along the tear and moved, and the
+/// torn faces; without, the grid's surface ([`replace_grid_surface`]).
+fn replace_mesh(
+    scene: &mut Scene,
+    e: &SimEntry,
+    d: &Ductile,
+    s: &TornSurface,
+    params: &DuctileParams,
+    embedded: Option<&super::tear_embed::Embedded>,
+) -> Vec<usize> {
+    let Some(m) = embedded else {
+        return replace_grid_surface(scene, e.mesh_index, d, s, params);
+    };
+    let tear_mat = torn_material(scene, params);
+    let old = scene.meshes[e.mesh_index].clone();
+    let no_torn = vec![true; s.rest.len()];
+    let mut meshes = Vec::new();
+    for piece in 0..s.pieces as u32 {
+        let mut mesh = old.clone();
+        crate::bridge::write_faces_into(
+            &mut mesh,
+            e,
+            &m.cut,
+            &|f| m.piece[f.idx()] == Some(piece),
+            &[],
+        );
+        let mut prims: Vec<Primitive> = mesh
+            .primitives
+            .into_iter()
+            .filter(|p| !matches!(&p.geometry, Geometry::Triangles(t) if t.triangles.is_empty()))
+            .collect();
+        let torn: Vec<usize> = (0..s.triangles.len())
+            .filter(|&t| s.torn[t] && s.piece[t] == piece)
+            .collect();
+        if !torn.is_empty() {
+            let geo = piece_geometry(d, s, &torn, None, None, &no_torn, Some(&m.border));
+            prims.push(Primitive {
+                material: Some(tear_mat),
+                geometry: Geometry::Triangles(geo),
+                rest: Default::default(),
+            });
+        }
+        meshes.push(prims);
+    }
+    place_pieces(scene, e.mesh_index, meshes)
+}
+
+/// The torn surface's material (made once per scene).
+fn torn_material(scene: &mut Scene, params: &DuctileParams) -> usize {
+    material(
         scene,
         &params.tear_material,
         json!({"pbrMetallicRoughness": {"baseColorFactor": [0.55, 0.38, 0.28, 1.0], "metallicFactor": 0.0, "roughnessFactor": 0.9}}),
-    );
+    )
+}
+
+/// Per piece, the primitives of the grid's torn surface (the input's
+/// attributes projected onto its original part).
+fn grid_pieces(
+    scene: &mut Scene,
+    mesh_index: usize,
+    d: &Ductile,
+    s: &TornSurface,
+    params: &DuctileParams,
+) -> Vec<Vec<Primitive>> {
+    let source = Source::of(&scene.meshes[mesh_index]);
+    let tear_mat = torn_material(scene, params);
     let old = scene.meshes[mesh_index].clone();
     // A vertex on the original surface only (no torn triangle) is
     // projected back onto the input at rest.
@@ -396,7 +493,7 @@ fn replace_mesh(
                 ),
                 None => (None, Some(tear_mat)),
             };
-            let geo = piece_geometry(d, s, &tris, template, source.as_ref(), &on_torn);
+            let geo = piece_geometry(d, s, &tris, template, source.as_ref(), &on_torn, None);
             prims.push(Primitive {
                 material: material_index,
                 geometry: Geometry::Triangles(geo),
@@ -405,6 +502,18 @@ fn replace_mesh(
         }
         meshes.push(prims);
     }
+    meshes
+}
+
+/// Put `meshes` (per piece, its primitives) in place of mesh `mesh_index`:
+/// one piece replaces its primitives; several become meshes of their own,
+/// child nodes of the mesh's nodes. Returns the pieces' mesh indices.
+fn place_pieces(
+    scene: &mut Scene,
+    mesh_index: usize,
+    mut meshes: Vec<Vec<Primitive>>,
+) -> Vec<usize> {
+    let old = scene.meshes[mesh_index].clone();
     if meshes.len() <= 1 {
         scene.meshes[mesh_index].primitives = meshes.pop().unwrap_or_default();
         return vec![mesh_index];
@@ -448,7 +557,11 @@ fn replace_mesh(
 
 /// Per piece of `s`: the tear's border, the edges between a torn and an
 /// original triangle, deformed, in scene units, in triangle order.
-fn tear_borders(d: &Ductile, s: &TornSurface) -> Vec<Vec<[[f64; 3]; 2]>> {
+fn tear_borders(
+    d: &Ductile,
+    s: &TornSurface,
+    border: Option<&HashMap<u32, [f64; 3]>>,
+) -> Vec<Vec<[[f64; 3]; 2]>> {
     let mut sides: std::collections::BTreeMap<(u32, u32), [usize; 2]> = Default::default();
     for (t, &torn) in s.triangles.iter().zip(&s.torn) {
         for k in 0..3 {
@@ -465,9 +578,12 @@ fn tear_borders(d: &Ductile, s: &TornSurface) -> Vec<Vec<[[f64; 3]; 2]>> {
             let (a, b) = (t[k], t[(k + 1) % 3]);
             if sides[&(a.min(b), a.max(b))][0] > 0 {
                 // Where the torn faces' vertices are (`piece_geometry`).
-                let at = |v: u32| {
-                    let v = v as usize;
-                    d.to_scene(d.deform(s.tet_of[v] as usize, s.rest[v]))
+                let at = |v: u32| match border.and_then(|b| b.get(&v)) {
+                    Some(&p) => p,
+                    None => {
+                        let v = v as usize;
+                        d.to_scene(d.deform(s.tet_of[v] as usize, s.rest[v]))
+                    }
                 };
                 out[piece as usize].push([at(a), at(b)]);
             }
@@ -486,6 +602,7 @@ fn piece_geometry(
     template: Option<(usize, &Primitive)>,
     source: Option<&Source>,
     on_torn: &[bool],
+    border: Option<&HashMap<u32, [f64; 3]>>,
 ) -> TriGeometry {
     let mut index: HashMap<u32, u32> = HashMap::new();
     let mut order: Vec<u32> = Vec::new();
@@ -545,7 +662,10 @@ fn piece_geometry(
             _ => s.rest[vi],
         };
         let tet = s.tet_of[vi] as usize;
-        let now = d.to_scene(d.deform(tet, rest_m));
+        let now = match border.and_then(|b| b.get(&v)) {
+            Some(&p) => p,
+            None => d.to_scene(d.deform(tet, rest_m)),
+        };
         positions.push(now.map(|x| x as f32));
         let f = d.deformation(tet);
         for (a, (sem, c)) in attrs.iter_mut().zip(&layout) {
