@@ -84,6 +84,7 @@ pub fn tear_meshes(
             frames,
             template: template.as_ref(),
             entry: e,
+            smooth_angle: post.smooth_angle,
             params: &p.ductile,
             next: 0,
             written: Vec::new(),
@@ -143,6 +144,13 @@ pub fn tear_meshes(
                    "input_triangles": [e.sim.n_faces(), m.piece.iter().filter(|p| p.is_some()).count()]})
         });
         let pieces = replace_mesh(scene, e, &d, &surface, &p.ductile, embedded.as_ref());
+        if embedded.is_some() {
+            // The input's triangles shade as the input did: smooth by angle
+            // where it had no normals.
+            for &m in &pieces {
+                super::attributes::add_smooth_normals(scene, m, post.smooth_angle);
+            }
+        }
         let border = embedded.as_ref().map(|m| &m.border);
         let mut tear_lines = 0;
         let mut bakes = Vec::new();
@@ -189,6 +197,8 @@ struct FrameWriter<'a> {
     frames: Option<(&'a Frames, &'a Path)>,
     template: Option<&'a Scene>,
     entry: &'a SimEntry,
+    /// `post.smooth_angle`, as the output's.
+    smooth_angle: f64,
     params: &'a DuctileParams,
     next: usize,
     written: Vec<PathBuf>,
@@ -211,7 +221,7 @@ impl FrameWriter<'_> {
             let surface = d.surface(0.25 * d.grid.h);
             let mut scene = template.clone();
             let embedded = super::tear_embed::embed(self.entry, d, &surface).ok();
-            replace_mesh(
+            let pieces = replace_mesh(
                 &mut scene,
                 self.entry,
                 d,
@@ -219,6 +229,11 @@ impl FrameWriter<'_> {
                 self.params,
                 embedded.as_ref(),
             );
+            if embedded.is_some() {
+                for m in pieces {
+                    super::attributes::add_smooth_normals(&mut scene, m, self.smooth_angle);
+                }
+            }
             let path = frames.path(output, self.next);
             match super::run::write_output(&scene, &path, false) {
                 Ok(_) => self.written.push(path),
