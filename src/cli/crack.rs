@@ -383,12 +383,15 @@ pub fn run(a: CrackArgs) -> Result<()> {
     if !a.quiet {
         let run = &report.run;
         if let Some(area) = run.torn_area() {
+            let pieces = match run.pieces().unwrap_or(1) {
+                1 => "1 piece (not torn through)".to_string(),
+                n => format!("{n} pieces"),
+            };
             eprintln!(
-                "{} -> {}: torn into {} pieces, torn faces' area {:.4}, {} -> {} triangles",
+                "{} -> {}: torn into {pieces}, torn faces' area {:.4}, {} -> {} triangles",
                 a.input.display(),
                 a.output.display(),
-                run.pieces().unwrap_or(1),
-                area,
+                area + 0.0, // no "-0.0000"
                 report.mesh_triangles.before,
                 report.mesh_triangles.after,
             );
