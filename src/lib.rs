@@ -107,14 +107,7 @@ pub fn read_bytes(bytes: &[u8], name: &str) -> Result<Scene> {
     }
     let text = std::str::from_utf8(bytes)
         .map_err(|e| io::IoError::input(path, format!("neither glTF nor OBJ text: {e}")))?;
-    if let Some(line) = text
-        .lines()
-        .map(str::trim_start)
-        .find(|l| l.starts_with("mtllib"))
-    {
-        return refuse(line.trim_start_matches("mtllib").trim());
-    }
-    Ok(io::obj::read_obj_from_str(text, Path::new(""), name)?)
+    Ok(io::obj::read_obj_from_memory(text, name)?)
 }
 
 /// Write `scene` to `path`: `.glb`, or `.gltf` with its buffer and images

@@ -60,6 +60,23 @@ fn reading_from_memory_never_reads_a_file() {
     let obj = b"mtllib secret.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
     let e = crackle::read_bytes(obj, "tri.obj").unwrap_err().to_string();
     assert!(e.contains("secret.mtl"), "{e}");
+    // However the line is spelled: after a byte-order mark, indented, in
+    // a continued line; read from inside the folder holding the library.
+    for obj in [
+        "\u{feff}mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl red\nf 1 2 3\n",
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\n \tmtllib m.mtl\nf 1 2 3\n",
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nmtllib \\\nm.mtl\nf 1 2 3\n",
+    ] {
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::write(dir.path().join("m.mtl"), "newmtl red\nKd 1 0 0\n").unwrap();
+        let here = std::env::current_dir().unwrap();
+        let read = {
+            let _back = CwdGuard::enter(dir.path(), &here);
+            crackle::read_bytes(obj.as_bytes(), "tri.obj")
+        };
+        let e = read.unwrap_err().to_string();
+        assert!(e.contains("m.mtl"), "{obj:?}: {e}");
+    }
     let e = crackle::read_bytes(&[0xff, 0xfe, 0x00], "junk.bin")
         .unwrap_err()
         .to_string();
@@ -91,4 +108,20 @@ fn crack_file_writes_what_it_reports() {
     let back = crackle::read_bytes(&bytes, "out.glb").unwrap();
     assert_eq!(back.triangle_count(), report.mesh_triangles.after);
     assert!(report.run.cracks > 10);
+}
+
+/// Sets the working folder for a block and restores it.
+struct CwdGuard(std::path::PathBuf);
+
+impl CwdGuard {
+    fn enter(dir: &std::path::Path, back: &std::path::Path) -> CwdGuard {
+        std::env::set_current_dir(dir).unwrap();
+        CwdGuard(back.to_path_buf())
+    }
+}
+
+impl Drop for CwdGuard {
+    fn drop(&mut self) {
+        let _ = std::env::set_current_dir(&self.0);
+    }
 }

@@ -85,6 +85,7 @@ pub fn tear_meshes(
             template: template.as_ref(),
             entry: e,
             smooth_angle: post.smooth_angle,
+            warned: false,
             params: &p.ductile,
             next: 0,
             written: Vec::new(),
@@ -199,6 +200,8 @@ struct FrameWriter<'a> {
     entry: &'a SimEntry,
     /// `post.smooth_angle`, as the output's.
     smooth_angle: f64,
+    /// Whether a frame fell back to the grid's surface (said once).
+    warned: bool,
     params: &'a DuctileParams,
     next: usize,
     written: Vec<PathBuf>,
@@ -220,7 +223,19 @@ impl FrameWriter<'_> {
             }
             let surface = d.surface(0.25 * d.grid.h);
             let mut scene = template.clone();
-            let embedded = super::tear_embed::embed(self.entry, d, &surface).ok();
+            let embedded = match super::tear_embed::embed(self.entry, d, &surface) {
+                Ok(m) => Some(m),
+                Err(why) => {
+                    if !self.warned {
+                        log::warn!(
+                            "{}: a time-lapse frame shows the grid's surface, not the input's: {why}",
+                            self.entry.label
+                        );
+                        self.warned = true;
+                    }
+                    None
+                }
+            };
             let pieces = replace_mesh(
                 &mut scene,
                 self.entry,
@@ -416,10 +431,15 @@ fn replace_mesh(
             &|f| m.piece[f.idx()] == Some(piece),
             &[],
         );
+        // Primitives the tear does not cut (lines, points) stay with the
+        // first piece, once.
         let mut prims: Vec<Primitive> = mesh
             .primitives
             .into_iter()
-            .filter(|p| !matches!(&p.geometry, Geometry::Triangles(t) if t.triangles.is_empty()))
+            .filter(|p| match &p.geometry {
+                Geometry::Triangles(t) => !t.triangles.is_empty(),
+                Geometry::Raw(_) => piece == 0,
+            })
             .collect();
         let torn: Vec<usize> = (0..s.triangles.len())
             .filter(|&t| s.torn[t] && s.piece[t] == piece)

@@ -111,7 +111,9 @@ pub struct Phase {
 /// What crack finishing did.
 #[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
 pub struct FinishReport {
-    /// Tips found after the run (open crack ends and > 270 degree corners).
+    /// Tips found after the run (open crack ends and > 270 degree corners);
+    /// with later hits, summed over the finishing before each lands and at
+    /// the end (a tip left stuck is counted again).
     pub tips: usize,
     /// Crack events made while finishing.
     pub cracks: usize,

@@ -60,7 +60,7 @@ pub fn read_obj_with(path: &Path, options: &crate::io::ReadOptions) -> Result<Sc
         || "model.obj".to_string(),
         |n| n.to_string_lossy().into_owned(),
     );
-    read_impl(&text, &base_dir, &name, path, options.max_memory)
+    read_impl(&text, &base_dir, &name, path, options.max_memory, true)
 }
 
 /// Read OBJ text as if it were the file `name` in the folder `base_dir`
@@ -75,6 +75,24 @@ pub fn read_obj_from_str(text: &str, base_dir: &Path, name: &str) -> Result<Scen
         name,
         &base_dir.join(name),
         crate::io::DEFAULT_MAX_MEMORY,
+        true,
+    )
+}
+
+/// Read OBJ text held in memory, `name` naming it in messages; no file is
+/// read: a material library it names is refused (by the parser's own
+/// reading of the text, so no spelling of the line slips past).
+///
+/// # Errors
+/// As [`read_obj`], and an `mtllib` line, naming the library.
+pub fn read_obj_from_memory(text: &str, name: &str) -> Result<Scene, Error> {
+    read_impl(
+        text,
+        Path::new(""),
+        name,
+        Path::new(name),
+        crate::io::DEFAULT_MAX_MEMORY,
+        false,
     )
 }
 
@@ -130,6 +148,7 @@ fn read_impl(
     name: &str,
     path: &Path,
     max_memory: u64,
+    files: bool,
 ) -> Result<Scene, Error> {
     // A UTF-8 byte-order mark (Windows editors write one) is not part of
     // the first line: left there, it hid that line (often the `mtllib`).
@@ -205,12 +224,26 @@ fn read_impl(
         ignore_lines: true,
         ..Default::default()
     };
+    // The one place an OBJ reads another file: refused when reading from memory.
+    let refused: RefCell<Option<String>> = RefCell::new(None);
     let loader = |lib: &Path| -> tobj::MTLLoadResult {
-        mtl.borrow_mut().load_libraries(base_dir, name, lib);
+        if files {
+            mtl.borrow_mut().load_libraries(base_dir, name, lib);
+        } else {
+            refused
+                .borrow_mut()
+                .get_or_insert_with(|| lib.to_string_lossy().into_owned());
+        }
         Ok((Vec::new(), Default::default()))
     };
     let (models, _) = tobj::load_obj_buf(&mut Cursor::new(prep.text.as_bytes()), &options, loader)
         .map_err(|e| Error::input(path, format!("OBJ parser (tobj) failed: {e}")))?;
+    if let Some(lib) = refused.into_inner() {
+        return Err(Error::input(
+            path,
+            format!("names the material library '{lib}'; an asset read from memory must hold all its data (read the file with crackle::read)"),
+        ));
+    }
     let mtl = mtl.into_inner();
     warnings.extend(mtl.warnings.iter().cloned());
 
