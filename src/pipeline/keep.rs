@@ -13,14 +13,14 @@ use crate::mesh::spatial::{bbox, closest_on_triangle, dist2, Grid};
 use crate::scene::{Geometry, Scene, VertexAttribute};
 
 /// Triangles with a grid for closest-point searches.
-struct Faces {
+pub(super) struct Faces {
     positions: Vec<[f64; 3]>,
     triangles: Vec<[u32; 3]>,
     grid: Grid,
 }
 
 impl Faces {
-    fn new(positions: Vec<[f64; 3]>, triangles: Vec<[u32; 3]>) -> Faces {
+    pub(super) fn new(positions: Vec<[f64; 3]>, triangles: Vec<[u32; 3]>) -> Faces {
         let mean_edge = mean_edge(&positions, &triangles);
         let grid = Grid::new(
             triangles
@@ -36,7 +36,7 @@ impl Faces {
     }
 
     /// The closest point to `p`: (triangle, barycentric coordinates, point).
-    fn closest(&self, p: [f64; 3]) -> Option<(usize, [f64; 3], [f64; 3])> {
+    pub(super) fn closest(&self, p: [f64; 3]) -> Option<(usize, [f64; 3], [f64; 3])> {
         let mut best: Option<(f64, usize, [f64; 3], [f64; 3])> = None;
         self.grid.search(p, |f| {
             let t = self.triangles[f].map(|i| self.positions[i as usize]);

@@ -144,14 +144,15 @@ pub fn tear_meshes(
             json!({"surface": "input", "dropped_faces": m.dropped, "skipped_border_segments": m.skipped,
                    "input_triangles": [e.sim.n_faces(), m.piece.iter().filter(|p| p.is_some()).count()]})
         });
-        let pieces = replace_mesh(scene, e, &d, &surface, &p.ductile, embedded.as_ref());
-        if embedded.is_some() {
-            // The input's triangles shade as the input did: smooth by angle
-            // where it had no normals.
-            for &m in &pieces {
-                super::attributes::add_smooth_normals(scene, m, post.smooth_angle);
-            }
-        }
+        let pieces = replace_mesh(
+            scene,
+            e,
+            &d,
+            &surface,
+            &p.ductile,
+            embedded.as_ref(),
+            post.smooth_angle,
+        );
         let border = embedded.as_ref().map(|m| &m.border);
         let mut tear_lines = 0;
         let mut bakes = Vec::new();
@@ -236,19 +237,15 @@ impl FrameWriter<'_> {
                     None
                 }
             };
-            let pieces = replace_mesh(
+            replace_mesh(
                 &mut scene,
                 self.entry,
                 d,
                 &surface,
                 self.params,
                 embedded.as_ref(),
+                self.smooth_angle,
             );
-            if embedded.is_some() {
-                for m in pieces {
-                    super::attributes::add_smooth_normals(&mut scene, m, self.smooth_angle);
-                }
-            }
             let path = frames.path(output, self.next);
             match super::run::write_output(&scene, &path, false) {
                 Ok(_) => self.written.push(path),
@@ -406,7 +403,9 @@ fn replace_grid_surface(
 
 /// Replace mesh `e.mesh_index` by the torn solid: with `embedded`, per
 /// piece the input's own triangles cut along the tear and moved, and the
-/// torn faces; without, the grid's surface ([`replace_grid_surface`]).
+/// torn faces, the input's triangles shaded as the input was (smooth by
+/// `smooth_angle` where it had no normals); without, the grid's surface
+/// ([`replace_grid_surface`]).
 fn replace_mesh(
     scene: &mut Scene,
     e: &SimEntry,
@@ -414,6 +413,7 @@ fn replace_mesh(
     s: &TornSurface,
     params: &DuctileParams,
     embedded: Option<&super::tear_embed::Embedded>,
+    smooth_angle: f64,
 ) -> Vec<usize> {
     let Some(m) = embedded else {
         return replace_grid_surface(scene, e.mesh_index, d, s, params);
@@ -454,7 +454,11 @@ fn replace_mesh(
         }
         meshes.push(prims);
     }
-    place_pieces(scene, e.mesh_index, meshes)
+    let pieces = place_pieces(scene, e.mesh_index, meshes);
+    for &m in &pieces {
+        super::attributes::add_smooth_normals(scene, m, smooth_angle);
+    }
+    pieces
 }
 
 /// The torn surface's material (made once per scene).

@@ -8,8 +8,9 @@
 //! torn face's border vertex is moved onto the cut input's, so the two
 //! meet without a seam.
 
+use super::keep::Faces;
 use crate::bridge::SimEntry;
-use crate::mesh::spatial::{bbox, closest_on_triangle, dist2, Grid};
+use crate::mesh::spatial::{bbox, dist2, Grid};
 use crate::mesh::{FaceId, SimMesh};
 use crate::sim::ductile::surface::TornSurface;
 use crate::sim::ductile::Ductile;
@@ -130,51 +131,6 @@ pub(super) fn border_edges(s: &TornSurface) -> Vec<(u32, u32)> {
         .collect()
 }
 
-/// Triangles with a grid for closest-point searches (scene units).
-struct Closest {
-    positions: Vec<[f64; 3]>,
-    triangles: Vec<[u32; 3]>,
-    grid: Grid,
-}
-
-impl Closest {
-    fn new(positions: Vec<[f64; 3]>, triangles: Vec<[u32; 3]>) -> Closest {
-        let mut sum = 0.0;
-        for t in &triangles {
-            for k in 0..3 {
-                sum += dist2(positions[t[k] as usize], positions[t[(k + 1) % 3] as usize]).sqrt();
-            }
-        }
-        let size = (sum / (3 * triangles.len().max(1)) as f64).max(1e-12);
-        let grid = Grid::new(
-            triangles
-                .iter()
-                .map(|t| bbox(&t.map(|i| positions[i as usize]))),
-            size,
-        );
-        Closest {
-            positions,
-            triangles,
-            grid,
-        }
-    }
-
-    /// The closest point to `p`: (triangle, point).
-    fn closest(&self, p: [f64; 3]) -> Option<(usize, [f64; 3])> {
-        let mut best: Option<(f64, usize, [f64; 3])> = None;
-        self.grid.search(p, |f| {
-            let t = self.triangles[f].map(|i| self.positions[i as usize]);
-            let (q, _) = closest_on_triangle(p, t);
-            let d = dist2(p, q);
-            if best.is_none_or(|b| d < b.0 || (d == b.0 && f < b.1)) {
-                best = Some((d, f, q));
-            }
-            best.map(|b| b.0)
-        });
-        best.map(|(_, f, q)| (f, q))
-    }
-}
-
 /// The input of `e` cut along the tear of `d` (surface `s`) and moved by
 /// its deformation.
 ///
@@ -183,7 +139,7 @@ impl Closest {
 /// vertex of the input lies outside the solid's grid.
 pub(super) fn embed(e: &SimEntry, d: &Ductile, s: &TornSurface) -> Result<Embedded, String> {
     let base = &e.sim;
-    let input = Closest::new(
+    let input = Faces::new(
         base.positions().to_vec(),
         base.faces()
             .map(|f| base.face_vertices(f).map(|v| v.0))
@@ -196,7 +152,7 @@ pub(super) fn embed(e: &SimEntry, d: &Ductile, s: &TornSurface) -> Result<Embedd
         for v in [a, b] {
             if let std::collections::hash_map::Entry::Vacant(slot) = on_input.entry(v) {
                 let r = d.to_scene(s.rest[v as usize]);
-                let (_, q) = input
+                let (_, _, q) = input
                     .closest(r)
                     .ok_or("the input has no triangle near the tear")?;
                 slot.insert(q);
@@ -247,7 +203,7 @@ pub(super) fn embed(e: &SimEntry, d: &Ductile, s: &TornSurface) -> Result<Embedd
     // The pieces: by the torn surface's original triangles nearest each
     // component's faces (area-weighted vote).
     let original: Vec<usize> = (0..s.triangles.len()).filter(|&t| !s.torn[t]).collect();
-    let grid_surface = Closest::new(
+    let grid_surface = Faces::new(
         s.rest.iter().map(|&p| d.to_scene(p)).collect(),
         original.iter().map(|&t| s.triangles[t]).collect(),
     );
@@ -257,7 +213,7 @@ pub(super) fn embed(e: &SimEntry, d: &Ductile, s: &TornSurface) -> Result<Embedd
         if open_area[k] > 0.5 * area[k] {
             continue;
         }
-        if let Some((t, _)) = grid_surface.closest(centroid(&cut, f)) {
+        if let Some((t, _, _)) = grid_surface.closest(centroid(&cut, f)) {
             *votes[k].entry(s.piece[original[t]]).or_default() += cut.face_area(f);
         }
     }
@@ -303,7 +259,7 @@ pub(super) fn embed(e: &SimEntry, d: &Ductile, s: &TornSurface) -> Result<Embedd
         tet_of.push(t);
         moved.push(d.to_scene(d.deform(t, metres(at))));
     }
-    let border: HashMap<u32, [f64; 3]> = on_input
+    let mut border: HashMap<u32, [f64; 3]> = on_input
         .iter()
         .map(|(&v, &q)| {
             let piece = nearest.piece_of(v);
@@ -325,7 +281,6 @@ pub(super) fn embed(e: &SimEntry, d: &Ductile, s: &TornSurface) -> Result<Embedd
                 .map(|hit| (v.idx(), hit))
         })
         .collect();
-    let mut border = border;
     // An input vertex the cut runs through stays where the deformation
     // puts it, and the torn border's nearer end moves to it ...
     for &(v, (a, b, t)) in &on_seam {
@@ -358,7 +313,7 @@ const BORDER_SMOOTHING: usize = 6;
 /// Smooth the border's vertices along the border (each to halfway towards
 /// its neighbours' middle), then put them back onto the input: the grid's
 /// border zig-zags across its cubes, and the input is cut along it.
-fn smooth_border(at: &mut HashMap<u32, [f64; 3]>, edges: &[(u32, u32)], input: &Closest) {
+fn smooth_border(at: &mut HashMap<u32, [f64; 3]>, edges: &[(u32, u32)], input: &Faces) {
     let mut near: std::collections::BTreeMap<u32, Vec<u32>> = Default::default();
     for &(a, b) in edges {
         near.entry(a).or_default().push(b);
@@ -381,7 +336,7 @@ fn smooth_border(at: &mut HashMap<u32, [f64; 3]>, edges: &[(u32, u32)], input: &
     // Back onto the input once: where the border ran along a crease,
     // zig-zagging from one side to the other, it now lies on the crease.
     for p in at.values_mut() {
-        if let Some((_, q)) = input.closest(*p) {
+        if let Some((_, _, q)) = input.closest(*p) {
             *p = q;
         }
     }
