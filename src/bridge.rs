@@ -24,6 +24,10 @@ pub struct SimEntry {
     /// The welded input before remeshing, kept when the cracks are to be
     /// cut into it (`post.output = "input"` with a stage that moves or cuts the surface).
     pub unremeshed: Option<SimMesh>,
+    /// The welded input before a margin was grown beyond its border
+    /// (`simulation.margin`), and the cell size: the cracks are kept only
+    /// on it.
+    pub unextended: Option<(SimMesh, f64)>,
     /// Per primitive of the mesh: the attribute semantics and sizes it had.
     layouts: Vec<Option<Vec<(String, usize)>>>,
 }
@@ -149,6 +153,7 @@ pub fn build_sim_meshes(scene: &Scene, options: &WeldOptions) -> (Vec<SimEntry>,
                 sim,
                 report,
                 unremeshed: None,
+                unextended: None,
                 layouts,
             }),
             Err(e) => skipped.push(SkippedMesh {

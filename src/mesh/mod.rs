@@ -22,6 +22,7 @@ pub mod halfedge;
 mod hash;
 pub mod ids;
 pub mod imprint;
+pub mod margin;
 pub mod remesh;
 mod sizing;
 pub(crate) mod spatial;

@@ -269,6 +269,7 @@ fn write_frame(
         reports.push((e.mesh_index, r));
         entries.push(e);
     }
+    super::margin::clip(&entries, &mut reports);
     super::post::apply(&mut scene_k, &mut entries, &reports, post)?;
     super::run::write_output(&scene_k, path, false).map(|_| ())
 }

@@ -9,6 +9,7 @@ mod config;
 pub mod frames;
 mod islands;
 mod keep;
+mod margin;
 mod memory;
 pub mod post;
 mod run;

@@ -471,7 +471,8 @@ pub fn prepare(scene: &Scene, config: &Config, observer: &mut dyn Observer) -> R
         super::bake::check_material_images(scene, &meshes, config.read.max_memory)
             .map_err(|e| Error::Usage(format!("{}: {e}", input.display())))?;
     }
-    let params_of = mesh_params(scene, &entries, pipe, input)?;
+    let mut params_of = mesh_params(scene, &entries, pipe, input)?;
+    super::margin::grow(&mut entries, &mut params_of, &pipe.post, input)?;
     if let Some(stage) = remesh_to_cell_size(
         &mut entries,
         &params_of,
@@ -543,7 +544,8 @@ pub fn run(scene: &mut Scene, config: &Config, observer: &mut dyn Observer) -> R
     // Frames replay each mesh from its start.
     let starts = config.frames.as_ref().map(|_| entries.clone());
     let t = Instant::now();
-    let per_mesh = simulate(&mut entries, &params_of, &fields, input, observer)?;
+    let mut per_mesh = simulate(&mut entries, &params_of, &fields, input, observer)?;
+    super::margin::clip(&entries, &mut per_mesh);
     // Finishing runs inside the simulation; it is its own stage.
     let finish_seconds: f64 = per_mesh
         .iter()
@@ -774,7 +776,7 @@ fn remesh_to_cell_size(
             .map_err(|err| Error::mesh(input, &e.label, format!("remeshing: {err}")))?;
         let before = std::mem::replace(&mut e.sim, sim);
         if keep_input {
-            e.unremeshed = Some(before);
+            e.unremeshed = Some(e.unextended.clone().map_or(before, |u| u.0)); // no margin
         }
         meshes.push(Remeshed {
             mesh: e.label.clone(),
@@ -912,7 +914,8 @@ pub fn stress_field(
     seed: u64,
     input: &Path,
 ) -> Result<StressField> {
-    let bounds = Bounds::of(e.sim.vertices().map(|v| e.sim.position(v)));
+    let own = e.unextended.as_ref().map_or(&e.sim, |u| &u.0); // the input's box
+    let bounds = Bounds::of(own.vertices().map(|v| own.position(v)));
     let place = if pipe.uses_world_space() {
         // World-space keys map into the mesh through its first instance;
         // the crack pattern is shared by every instance.

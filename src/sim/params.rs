@@ -140,6 +140,17 @@ pub struct SimParams {
     /// few cycles. Only the first drying is simulated; the further cycles
     /// age its crack network, which costs little. In 1..=50; default 1.
     pub cycles: usize,
+    /// With a cell size and an output that is the input's own mesh: the
+    /// pattern is grown on the surface extended beyond its open border by
+    /// a strip this many cell sizes wide ([`crate::mesh::margin`]), so the
+    /// border cuts through cells instead of lining them up along it (a
+    /// ground patch, a wall: a piece of a larger surface). The strip is
+    /// never written. It applies to a film (a cell size, `relaxation =
+    /// "tensor"`) on its remeshed surface (`isotropic_remesh`) written back
+    /// onto the input (`post.output = "input"`); elsewhere it is left out
+    /// with a warning. 0 (the default): the border is the film's free edge.
+    /// In [0, 4].
+    pub margin: f64,
 }
 
 /// Which failing node cracks next.
@@ -290,6 +301,7 @@ impl Default for SimParams {
             coarsen: true,
             max_triangles: 2_000_000,
             cycles: 1,
+            margin: 0.0,
         }
     }
 }
@@ -345,6 +357,12 @@ impl SimParams {
             return Err(
                 "cycles above 1 re-open the cracks of a film: they need model = \"quasistatic\" with a cell size (simulation.cell_size or cell_size_relative) and relaxation = \"tensor\"".into(),
             );
+        }
+        if !(self.margin.is_finite() && (0.0..=4.0).contains(&self.margin)) {
+            return Err(format!(
+                "margin must be in [0, 4] cell sizes, got {}",
+                self.margin
+            ));
         }
         if !(0.0..=1.0).contains(&self.diffusion_fraction) {
             return Err(format!(
