@@ -13,11 +13,8 @@ mod measure;
 #[path = "common/shapes.rs"]
 mod shapes;
 
-/// The share of crack length running within 15 degrees of the plate's
-/// axes, in chords a third of a cell long, more than a cell from the
-/// border (a random orientation: 1/3), for `mud` on the 10-unit plate
-/// `text` (in the xz plane).
-fn axis_share(text: &str, args: &[&str]) -> f64 {
+/// The crack lines at rest of `mud` (with `args`) on the plate `text`.
+fn mud_lines(text: &str, args: &[&str]) -> Vec<measure::Seg> {
     let dir = tempfile::tempdir().unwrap();
     let input = dir.path().join("plate.obj");
     shapes::write_obj(&input, text);
@@ -26,7 +23,15 @@ fn axis_share(text: &str, args: &[&str]) -> f64 {
     all.extend(args);
     let o = common::crack(&input, &out, &all);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let lines = measure::flatten(&measure::read_model(&out).rest_lines("crack_lines"), 1, 0.0);
+    measure::read_model(&out).rest_lines("crack_lines")
+}
+
+/// The share of crack length running within 15 degrees of the plate's
+/// axes, in chords a third of a cell long, more than a cell from the
+/// border (a random orientation: 1/3), for `mud` on the 10-unit plate
+/// `text` (in the xz plane).
+fn axis_share(text: &str, args: &[&str]) -> f64 {
+    let lines = measure::flatten(&mud_lines(text, args), 1, 0.0);
     let tris = measure::parse_obj(text);
     let border = measure::flatten(
         &measure::boundary_edges(&tris, measure::DEFAULT_WELD_REL),
@@ -54,4 +59,67 @@ fn mud_on_a_flat_patch_is_not_laid_in_rows() {
         0.5 * (regular + jittered) < 0.55,
         "regular {regular:.3}, jittered {jittered:.3}"
     );
+}
+
+/// For `mud` on the 10-unit plate `text` (in the xz plane, x and z in
+/// [-5, 5]): of the crack length within half a cell of the border, the
+/// share running within 20 degrees of the nearest border's normal; and
+/// the same share from half a cell to a cell and a half in (a random
+/// orientation: 2/9). Read from the output's crack lines at rest, segment
+/// by segment.
+fn border_normal_shares(text: &str, args: &[&str]) -> (f64, f64) {
+    let lines = mud_lines(text, args);
+    // The preset's cell: a tenth of the plate's diagonal.
+    let cell = 0.1 * 200f64.sqrt();
+    let (mut near, mut near_normal, mut inner, mut inner_normal) = (0.0, 0.0, 0.0, 0.0);
+    for [a, b] in &lines {
+        let mid = [0.5 * (a[0] + b[0]), 0.5 * (a[2] + b[2])];
+        let d = [b[0] - a[0], b[2] - a[2]];
+        let len = d[0].hypot(d[1]);
+        if len == 0.0 {
+            continue;
+        }
+        // Distances to the four borders; the nearest one's normal.
+        let to = [mid[0] + 5.0, 5.0 - mid[0], mid[1] + 5.0, 5.0 - mid[1]];
+        let k = (0..4).min_by(|&i, &j| to[i].total_cmp(&to[j])).unwrap();
+        let along_normal = if k < 2 { d[0].abs() } else { d[1].abs() } / len;
+        let normal = along_normal > 20f64.to_radians().cos();
+        if to[k] < 0.5 * cell {
+            near += len;
+            near_normal += if normal { len } else { 0.0 };
+        } else if to[k] < 1.5 * cell {
+            inner += len;
+            inner_normal += if normal { len } else { 0.0 };
+        }
+    }
+    assert!(near > 0.0 && inner > 0.0, "no cracks near the border");
+    (near_normal / near, inner_normal / inner)
+}
+
+#[test]
+fn the_border_cuts_through_mud_cells_instead_of_combing_them() {
+    // A free border relaxes the stress across it: the first cracks reach
+    // it at right angles, evenly spaced, a comb along every edge. The
+    // preset grows its pattern 1.5 cells beyond the border (margin) and
+    // cuts it off there, so near the border the cracks run as they do
+    // further in.
+    for (name, text) in [
+        ("regular", shapes::regular_plate(160, 10.0)),
+        ("jittered", shapes::jittered_plate(160, 10.0, 0.3, 1)),
+    ] {
+        let (free, free_inner) = border_normal_shares(&text, &["--set", "simulation.margin=0"]);
+        let (cut, cut_inner) = border_normal_shares(&text, &[]);
+        eprintln!(
+            "{name}: near the border along its normal: free {free:.3} (further in {free_inner:.3}), with the margin {cut:.3} (further in {cut_inner:.3})"
+        );
+        // The measure sees the comb of a free border (0.72-0.86 measured).
+        assert!(free > 0.6, "{name}: free border {free:.3}");
+        // With the margin, no comb: about what the pattern does further in
+        // (0.26-0.35 measured, further in 0.24-0.31).
+        assert!(cut < 0.45, "{name}: with the margin {cut:.3}");
+        assert!(
+            cut < cut_inner + 0.15,
+            "{name}: {cut:.3} against {cut_inner:.3} further in"
+        );
+    }
 }
