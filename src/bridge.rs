@@ -25,11 +25,20 @@ pub struct SimEntry {
     /// cut into it (`post.output = "input"` with a stage that moves or cuts the surface).
     pub unremeshed: Option<SimMesh>,
     /// The welded input before a margin was grown beyond its border
-    /// (`simulation.margin`), and the cell size: the cracks are kept only
-    /// on it.
-    pub unextended: Option<(SimMesh, f64)>,
+    /// (`simulation.margin`): the cracks are kept only on it.
+    pub unextended: Option<Unextended>,
     /// Per primitive of the mesh: the attribute semantics and sizes it had.
     layouts: Vec<Option<Vec<(String, usize)>>>,
+}
+
+/// A simulation mesh's input before its margin was grown
+/// ([`SimEntry::unextended`]).
+#[derive(Clone, Debug)]
+pub struct Unextended {
+    /// The welded input.
+    pub input: SimMesh,
+    /// The strip grown beyond its border, as triangles.
+    pub strip: Vec<[[f64; 3]; 3]>,
 }
 
 /// Why a mesh could not become a simulation mesh (it is left as it was).

@@ -123,3 +123,50 @@ fn the_border_cuts_through_mud_cells_instead_of_combing_them() {
         );
     }
 }
+
+#[test]
+fn a_margin_grows_only_where_the_cracks_are_cut_into_the_input() {
+    // The strip may never reach the output: over an unchanged input
+    // (glaze's lines and attributes) and with the simulation surface as
+    // the output, the margin is left out with a warning; with mud's gaps
+    // it grows (more simulated triangles than without).
+    let dir = tempfile::tempdir().unwrap();
+    let input = dir.path().join("plate.obj");
+    shapes::write_obj(&input, &shapes::jittered_plate(48, 10.0, 0.3, 1));
+    let simulated = |preset: &str, extra: &[&str]| -> (u64, String) {
+        let out = dir.path().join("out.glb");
+        let report = dir.path().join("report.json");
+        let mut args: Vec<&std::ffi::OsStr> =
+            vec!["crack".as_ref(), input.as_os_str(), out.as_os_str()];
+        for a in ["--preset", preset, "--report"] {
+            args.push(a.as_ref());
+        }
+        args.push(report.as_os_str());
+        for a in extra {
+            args.push(a.as_ref());
+        }
+        let o = common::run_ok(args);
+        let r: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(&report).unwrap()).unwrap();
+        (
+            r["triangles"]["before"].as_u64().unwrap(),
+            String::from_utf8_lossy(&o.stderr).into_owned(),
+        )
+    };
+    let left_out = "simulation.margin is left out";
+    for (preset, extra) in [
+        ("glaze", &["--set", "simulation.margin=1.5"][..]),
+        ("mud", &["--set", "post.output=\"simulation\""][..]),
+    ] {
+        let (with, err) = simulated(preset, extra);
+        let mut none = extra.to_vec();
+        none.extend(["--set", "simulation.margin=0"]);
+        let (without, _) = simulated(preset, &none);
+        assert!(err.contains(left_out), "{preset} {extra:?}: {err}");
+        assert_eq!(with, without, "{preset} {extra:?}");
+    }
+    let (grown, err) = simulated("mud", &[]);
+    let (free, _) = simulated("mud", &["--set", "simulation.margin=0"]);
+    assert!(!err.contains(left_out), "{err}");
+    assert!(grown as f64 > 1.5 * free as f64, "{grown} against {free}");
+}

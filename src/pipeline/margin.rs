@@ -7,17 +7,11 @@
 //! does not know where the border is.
 
 use super::keep::Faces;
-use crate::bridge::SimEntry;
+use crate::bridge::{SimEntry, Unextended};
 use crate::mesh::margin::extend;
 use crate::sim::{SimParams, SimReport};
 use crate::{Error, Result};
 use std::path::Path;
-
-/// A crack point closer to the input than this share of the cell size is
-/// on it: the simulation surface strays from a curved input by at most a
-/// fiftieth of an edge (an eighth of a cell), so this is well above that
-/// and well below a crack's spacing.
-const ON_INPUT: f64 = 0.02;
 
 /// Grow each entry's margin (where its parameters ask for one, it has a
 /// border, and the run can take one: a film on its remeshed surface whose
@@ -39,9 +33,9 @@ pub(super) fn grow(
         if p.margin <= 0.0 || e.sim.n_boundary_halfedges() == 0 {
             continue;
         }
-        if !(p.is_film() && p.isotropic_remesh && post.output == "input") {
+        if !(p.is_film() && p.isotropic_remesh && post.cuts_input()) {
             log::warn!(
-                "{}: simulation.margin is left out: it grows a film's remeshed simulation surface (a cell size, relaxation = \"tensor\", isotropic_remesh = true) written back onto the input (post.output = \"input\")",
+                "{}: simulation.margin is left out: it grows a film's remeshed simulation surface (a cell size, relaxation = \"tensor\", isotropic_remesh = true) whose cracks are cut into the input (post.output = \"input\" with gaps, grooves or walls)",
                 e.label
             );
             continue;
@@ -68,31 +62,48 @@ pub(super) fn grow(
         if report.loops == 0 {
             continue;
         }
-        e.unextended = Some((std::mem::replace(&mut e.sim, extended), cell));
+        // Faces keep their order: the input's first, then the strip's.
+        let n = e.sim.n_faces();
+        let strip = extended
+            .faces()
+            .skip(n)
+            .map(|f| extended.face_vertices(f).map(|v| extended.position(v)))
+            .collect();
+        let input = std::mem::replace(&mut e.sim, extended);
+        e.unextended = Some(Unextended { input, strip });
     }
     Ok(())
 }
 
 /// Keep each report's crack segments (and crossed springs) on its entry's
 /// input: a segment leaving it ends where it leaves, one outside is
-/// dropped; the crack length is that of what is kept.
+/// dropped; the crack length is that of what is kept. A point is on the
+/// input when it lies no farther from the input than from the strip, so
+/// the line between them is the input's border, whatever the simulation
+/// surface's chords stray from a curved input.
 pub(super) fn clip(entries: &[SimEntry], reports: &mut [(usize, SimReport)]) {
     for (e, (_, r)) in entries.iter().zip(reports.iter_mut()) {
-        let Some((base, cell)) = &e.unextended else {
+        let Some(u) = e.unextended.as_ref().filter(|u| !u.strip.is_empty()) else {
             continue;
         };
+        let base = &u.input;
         let faces = Faces::new(
             base.positions().to_vec(),
             base.faces()
                 .map(|f| base.face_vertices(f).map(|v| v.0))
                 .collect(),
         );
-        let tol = ON_INPUT * *cell;
-        let on = |p: [f64; 3]| {
-            faces
-                .closest(p)
-                .is_some_and(|(_, _, q)| crate::mesh::spatial::dist2(p, q) <= tol * tol)
+        let strip = Faces::new(
+            u.strip.iter().flatten().copied().collect(),
+            (0..u.strip.len() as u32)
+                .map(|t| [3 * t, 3 * t + 1, 3 * t + 2])
+                .collect(),
+        );
+        let d2 = |f: &Faces, p: [f64; 3]| {
+            f.closest(p)
+                .map_or(f64::INFINITY, |(_, _, q)| crate::mesh::spatial::dist2(p, q))
         };
+        let on = |p: [f64; 3]| d2(&faces, p) <= d2(&strip, p);
         let times = std::mem::take(&mut r.segment_times);
         let mut kept = Vec::with_capacity(r.segments.len());
         let mut kept_times = Vec::with_capacity(times.len());

@@ -137,6 +137,14 @@ pub fn apply(
                         out.time("cut_input", t.elapsed().as_secs_f64());
                         &cut
                     }
+                    Err(err) if e.unextended.is_some() => {
+                        // The simulation surface has the margin's strip:
+                        // it may not be written.
+                        return Err(crate::Error::Internal {
+                            mesh: e.label.clone(),
+                            message: format!("the cracks cannot be cut into the input ({err}); with simulation.margin = 0 they stay on the simulation surface instead"),
+                        });
+                    }
                     Err(err) => {
                         log::warn!(
                             "{}: the cracks stay on the simulation surface: {err}",

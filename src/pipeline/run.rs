@@ -776,7 +776,7 @@ fn remesh_to_cell_size(
             .map_err(|err| Error::mesh(input, &e.label, format!("remeshing: {err}")))?;
         let before = std::mem::replace(&mut e.sim, sim);
         if keep_input {
-            e.unremeshed = Some(e.unextended.clone().map_or(before, |u| u.0)); // no margin
+            e.unremeshed = Some(e.unextended.as_ref().map_or(before, |u| u.input.clone()));
         }
         meshes.push(Remeshed {
             mesh: e.label.clone(),
@@ -914,7 +914,7 @@ pub fn stress_field(
     seed: u64,
     input: &Path,
 ) -> Result<StressField> {
-    let own = e.unextended.as_ref().map_or(&e.sim, |u| &u.0); // the input's box
+    let own = e.unextended.as_ref().map_or(&e.sim, |u| &u.input); // the input's box
     let bounds = Bounds::of(own.vertices().map(|v| own.position(v)));
     let place = if pipe.uses_world_space() {
         // World-space keys map into the mesh through its first instance;

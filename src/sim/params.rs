@@ -146,9 +146,9 @@ pub struct SimParams {
     /// border cuts through cells instead of lining them up along it (a
     /// ground patch, a wall: a piece of a larger surface). The strip is
     /// never written. It applies to a film (a cell size, `relaxation =
-    /// "tensor"`) on its remeshed surface (`isotropic_remesh`) written back
-    /// onto the input (`post.output = "input"`); elsewhere it is left out
-    /// with a warning. 0 (the default): the border is the film's free edge.
+    /// "tensor"`) on its remeshed surface (`isotropic_remesh`) whose cracks
+    /// are cut into the input (`post.output = "input"` with gaps, grooves
+    /// or walls); elsewhere it is left out with a warning. 0 (the default): the border is the film's free edge.
     /// In [0, 4].
     pub margin: f64,
 }
