@@ -37,8 +37,10 @@ pub struct SimEntry {
 pub struct Unextended {
     /// The welded input.
     pub input: SimMesh,
-    /// The strip grown beyond its border, as triangles.
-    pub strip: Vec<[[f64; 3]; 3]>,
+    /// Its triangles, for distances to it.
+    pub(crate) input_faces: crate::mesh::spatial::Faces,
+    /// The strip grown beyond its border, for distances to it.
+    pub(crate) strip: crate::mesh::spatial::Faces,
 }
 
 /// Why a mesh could not become a simulation mesh (it is left as it was).

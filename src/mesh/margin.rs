@@ -23,7 +23,8 @@ use super::build::{MeshInput, WeldOptions};
 use super::error::MeshError;
 use super::halfedge::SimMesh;
 use super::ids::HalfedgeId;
-use super::spatial::{add, bbox, closest_on_triangle, cross, dist2, dot, norm, scale, sub, Grid};
+use super::spatial::{add, cross, dot, norm, scale, sub, Faces};
+use crate::math::v3::unit;
 
 /// What [`extend`] did.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -111,7 +112,7 @@ pub fn extend(
     let mut values: Vec<Vec<f64>> = channels.iter().map(|c| c.data.clone()).collect();
     let mut triangles = wedge_of_corner;
     let mut groups: Vec<u32> = mesh.faces().map(|f| mesh.face_group(f)).collect();
-    let surface = Surface::new(mesh);
+    let surface = Faces::of_mesh(mesh);
     for lp in &loops {
         let n = lp.len();
         // Each border edge's outward conormal (unit, in its face's plane).
@@ -120,7 +121,7 @@ pub fn extend(
             .map(|&h| {
                 let a = mesh.position(mesh.origin(h));
                 let b = mesh.position(mesh.dest(h));
-                unit(cross(sub(b, a), mesh.face_normal(mesh.face(h))))
+                unit(cross(sub(b, a), mesh.face_normal(mesh.face(h)))).unwrap_or([0.0; 3])
             })
             .collect();
         // Per border vertex (the origin of lp[i]): its direction out.
@@ -131,7 +132,7 @@ pub fn extend(
             let v = mesh.origin(h);
             let c_in = conormal[(i + n - 1) % n];
             let c_out = conormal[i];
-            let mid = unit(add(c_in, c_out));
+            let mid = unit(add(c_in, c_out)).unwrap_or([0.0; 3]);
             let d = if norm(mid) > 0.0 {
                 let cos_half = dot(mid, c_out).max(0.5);
                 scale(mid, 1.0 / cos_half)
@@ -256,45 +257,6 @@ fn next_border(mesh: &SimMesh, h: HalfedgeId) -> Option<HalfedgeId> {
     None
 }
 
-fn unit(v: [f64; 3]) -> [f64; 3] {
-    let l = norm(v);
-    if l > 0.0 {
-        scale(v, 1.0 / l)
-    } else {
-        [0.0; 3]
-    }
-}
-
-/// The mesh's triangles with a grid, for distances to the surface.
-struct Surface {
-    tris: Vec<[[f64; 3]; 3]>,
-    grid: Grid,
-}
-
-impl Surface {
-    fn new(mesh: &SimMesh) -> Surface {
-        let tris: Vec<[[f64; 3]; 3]> = mesh
-            .faces()
-            .map(|f| mesh.face_vertices(f).map(|v| mesh.position(v)))
-            .collect();
-        let grid = Grid::new(tris.iter().map(|t| bbox(t)), mesh.mean_edge_length());
-        Surface { tris, grid }
-    }
-
-    fn distance(&self, p: [f64; 3]) -> f64 {
-        let mut best: Option<f64> = None;
-        self.grid.search(p, |f| {
-            let (q, _) = closest_on_triangle(p, self.tris[f]);
-            let d = dist2(p, q);
-            if best.is_none_or(|b| d < b) {
-                best = Some(d);
-            }
-            best
-        });
-        best.map_or(f64::INFINITY, f64::sqrt)
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -374,7 +336,7 @@ mod tests {
         e.validate().unwrap();
         assert_eq!((r.loops, r.left_free), (2, 0));
         assert!(r.trimmed > 0);
-        let s = Surface::new(&m);
+        let s = Faces::of_mesh(&m);
         let mut in_hole = 0;
         for v in e.vertices() {
             let p = e.position(v);

@@ -1,4 +1,5 @@
-//! A uniform grid for nearest-item searches, and the small geometry the
+//! A uniform grid for nearest-item searches, triangles with such a grid
+//! for closest points and distances ([`Faces`]), and the small geometry the
 //! remesher and the pattern statistics share (closest points on segments
 //! and triangles).
 
@@ -6,6 +7,7 @@ pub(crate) use crate::math::v3::{add, cross, dist2, dot, norm, scale, sub};
 
 /// A uniform grid of items' bounding boxes, stored flat (each cell's items
 /// as a range of one array).
+#[derive(Clone, Debug)]
 pub(crate) struct Grid {
     origin: [f64; 3],
     cell: f64,
@@ -138,6 +140,80 @@ impl Grid {
             }
         }
     }
+}
+
+/// Triangles with a grid for closest-point searches.
+#[derive(Clone, Debug)]
+pub(crate) struct Faces {
+    positions: Vec<[f64; 3]>,
+    triangles: Vec<[u32; 3]>,
+    grid: Grid,
+}
+
+impl Faces {
+    pub(crate) fn new(positions: Vec<[f64; 3]>, triangles: Vec<[u32; 3]>) -> Faces {
+        let mean_edge = mean_edge(&positions, &triangles);
+        let grid = Grid::new(
+            triangles
+                .iter()
+                .map(|t| bbox(&t.map(|i| positions[i as usize]))),
+            mean_edge,
+        );
+        Faces {
+            positions,
+            triangles,
+            grid,
+        }
+    }
+
+    /// Whether there are no triangles.
+    pub(crate) fn is_empty(&self) -> bool {
+        self.triangles.is_empty()
+    }
+
+    /// The triangles of `mesh` (its vertices as they are).
+    pub(crate) fn of_mesh(mesh: &super::SimMesh) -> Faces {
+        Faces::new(
+            mesh.positions().to_vec(),
+            mesh.faces()
+                .map(|f| mesh.face_vertices(f).map(|v| v.0))
+                .collect(),
+        )
+    }
+
+    /// The distance from `p` to the closest point (infinite without
+    /// triangles).
+    pub(crate) fn distance(&self, p: [f64; 3]) -> f64 {
+        self.closest(p)
+            .map_or(f64::INFINITY, |(_, _, q)| dist2(p, q).sqrt())
+    }
+
+    /// The closest point to `p`: (triangle, barycentric coordinates, point).
+    pub(crate) fn closest(&self, p: [f64; 3]) -> Option<(usize, [f64; 3], [f64; 3])> {
+        let mut best: Option<(f64, usize, [f64; 3], [f64; 3])> = None;
+        self.grid.search(p, |f| {
+            let t = self.triangles[f].map(|i| self.positions[i as usize]);
+            let (q, bary) = closest_on_triangle(p, t);
+            let d = dist2(p, q);
+            // Ties go to the lower index, so the result does not depend on
+            // the order cells are visited in.
+            if best.is_none_or(|b| d < b.0 || (d == b.0 && f < b.1)) {
+                best = Some((d, f, bary, q));
+            }
+            best.map(|b| b.0)
+        });
+        best.map(|(_, f, b, q)| (f, b, q))
+    }
+}
+
+fn mean_edge(positions: &[[f64; 3]], triangles: &[[u32; 3]]) -> f64 {
+    let mut sum = 0.0;
+    for t in triangles {
+        for k in 0..3 {
+            sum += dist2(positions[t[k] as usize], positions[t[(k + 1) % 3] as usize]).sqrt();
+        }
+    }
+    (sum / (3 * triangles.len()).max(1) as f64).max(1e-12)
 }
 
 pub(crate) fn bbox(p: &[[f64; 3]]) -> ([f64; 3], [f64; 3]) {

@@ -9,59 +9,8 @@
 //! point of the simulated surface.
 
 use crate::bridge::{simulated_primitives, SimEntry};
-use crate::mesh::spatial::{bbox, closest_on_triangle, dist2, Grid};
+use crate::mesh::spatial::{dist2, Faces};
 use crate::scene::{Geometry, Scene, VertexAttribute};
-
-/// Triangles with a grid for closest-point searches.
-pub(super) struct Faces {
-    positions: Vec<[f64; 3]>,
-    triangles: Vec<[u32; 3]>,
-    grid: Grid,
-}
-
-impl Faces {
-    pub(super) fn new(positions: Vec<[f64; 3]>, triangles: Vec<[u32; 3]>) -> Faces {
-        let mean_edge = mean_edge(&positions, &triangles);
-        let grid = Grid::new(
-            triangles
-                .iter()
-                .map(|t| bbox(&t.map(|i| positions[i as usize]))),
-            mean_edge,
-        );
-        Faces {
-            positions,
-            triangles,
-            grid,
-        }
-    }
-
-    /// The closest point to `p`: (triangle, barycentric coordinates, point).
-    pub(super) fn closest(&self, p: [f64; 3]) -> Option<(usize, [f64; 3], [f64; 3])> {
-        let mut best: Option<(f64, usize, [f64; 3], [f64; 3])> = None;
-        self.grid.search(p, |f| {
-            let t = self.triangles[f].map(|i| self.positions[i as usize]);
-            let (q, bary) = closest_on_triangle(p, t);
-            let d = dist2(p, q);
-            // Ties go to the lower index, so the result does not depend on
-            // the order cells are visited in.
-            if best.is_none_or(|b| d < b.0 || (d == b.0 && f < b.1)) {
-                best = Some((d, f, bary, q));
-            }
-            best.map(|b| b.0)
-        });
-        best.map(|(_, f, b, q)| (f, b, q))
-    }
-}
-
-fn mean_edge(positions: &[[f64; 3]], triangles: &[[u32; 3]]) -> f64 {
-    let mut sum = 0.0;
-    for t in triangles {
-        for k in 0..3 {
-            sum += dist2(positions[t[k] as usize], positions[t[(k + 1) % 3] as usize]).sqrt();
-        }
-    }
-    (sum / (3 * triangles.len()).max(1) as f64).max(1e-12)
-}
 
 /// The input faces the simulation mesh of `entry` was built from, in the
 /// mesh's frame.
@@ -94,7 +43,7 @@ pub(super) fn onto_input(
     tolerance: f64,
 ) -> (Vec<[[f64; 3]; 2]>, Vec<f64>) {
     let faces = input_faces(scene, entry);
-    if faces.triangles.is_empty() {
+    if faces.is_empty() {
         return (segments.to_vec(), times.to_vec());
     }
     let project = |p: [f64; 3]| faces.closest(p).map_or(p, |(_, _, q)| q);

@@ -6,9 +6,9 @@
 //! the output is the input's own surface, cut through by a pattern that
 //! does not know where the border is.
 
-use super::keep::Faces;
 use crate::bridge::{SimEntry, Unextended};
 use crate::mesh::margin::extend;
+use crate::mesh::spatial::Faces;
 use crate::sim::{SimParams, SimReport};
 use crate::{Error, Result};
 use std::path::Path;
@@ -64,13 +64,18 @@ pub(super) fn grow(
         }
         // Faces keep their order: the input's first, then the strip's.
         let n = e.sim.n_faces();
-        let strip = extended
+        let strip: Vec<[u32; 3]> = extended
             .faces()
             .skip(n)
-            .map(|f| extended.face_vertices(f).map(|v| extended.position(v)))
+            .map(|f| extended.face_vertices(f).map(|v| v.0))
             .collect();
+        let strip = Faces::new(extended.positions().to_vec(), strip);
         let input = std::mem::replace(&mut e.sim, extended);
-        e.unextended = Some(Unextended { input, strip });
+        e.unextended = Some(Unextended {
+            input_faces: Faces::of_mesh(&input),
+            input,
+            strip,
+        });
     }
     Ok(())
 }
@@ -86,24 +91,7 @@ pub(super) fn clip(entries: &[SimEntry], reports: &mut [(usize, SimReport)]) {
         let Some(u) = e.unextended.as_ref().filter(|u| !u.strip.is_empty()) else {
             continue;
         };
-        let base = &u.input;
-        let faces = Faces::new(
-            base.positions().to_vec(),
-            base.faces()
-                .map(|f| base.face_vertices(f).map(|v| v.0))
-                .collect(),
-        );
-        let strip = Faces::new(
-            u.strip.iter().flatten().copied().collect(),
-            (0..u.strip.len() as u32)
-                .map(|t| [3 * t, 3 * t + 1, 3 * t + 2])
-                .collect(),
-        );
-        let d2 = |f: &Faces, p: [f64; 3]| {
-            f.closest(p)
-                .map_or(f64::INFINITY, |(_, _, q)| crate::mesh::spatial::dist2(p, q))
-        };
-        let on = |p: [f64; 3]| d2(&faces, p) <= d2(&strip, p);
+        let on = |p: [f64; 3]| u.input_faces.distance(p) <= u.strip.distance(p);
         let times = std::mem::take(&mut r.segment_times);
         let mut kept = Vec::with_capacity(r.segments.len());
         let mut kept_times = Vec::with_capacity(times.len());

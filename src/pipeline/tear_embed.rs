@@ -8,8 +8,8 @@
 //! torn face's border vertex is moved onto the cut input's, so the two
 //! meet without a seam.
 
-use super::keep::Faces;
 use crate::bridge::SimEntry;
+use crate::mesh::spatial::Faces;
 use crate::mesh::spatial::{bbox, dist2, Grid};
 use crate::mesh::{FaceId, SimMesh};
 use crate::sim::ductile::surface::TornSurface;
@@ -139,12 +139,7 @@ pub(super) fn border_edges(s: &TornSurface) -> Vec<(u32, u32)> {
 /// vertex of the input lies outside the solid's grid.
 pub(super) fn embed(e: &SimEntry, d: &Ductile, s: &TornSurface) -> Result<Embedded, String> {
     let base = &e.sim;
-    let input = Faces::new(
-        base.positions().to_vec(),
-        base.faces()
-            .map(|f| base.face_vertices(f).map(|v| v.0))
-            .collect(),
-    );
+    let input = Faces::of_mesh(base);
     // The border's vertices on the input at rest.
     let edges = border_edges(s);
     let mut on_input: HashMap<u32, [f64; 3]> = HashMap::new();
