@@ -27,6 +27,10 @@ pub struct SimEntry {
     /// The welded input before a margin was grown beyond its border
     /// (`simulation.margin`): the cracks are kept only on it.
     pub unextended: Option<Unextended>,
+    /// Its cracks run along edges the simulation surface already has (the
+    /// spring model, the snapping variant), so they zig-zag at its
+    /// triangles' scale ([`crate::post::paths`]).
+    pub along_edges: bool,
     /// Per primitive of the mesh: the attribute semantics and sizes it had.
     layouts: Vec<Option<Vec<(String, usize)>>>,
 }
@@ -165,6 +169,7 @@ pub fn build_sim_meshes(scene: &Scene, options: &WeldOptions) -> (Vec<SimEntry>,
                 report,
                 unremeshed: None,
                 unextended: None,
+                along_edges: false,
                 layouts,
             }),
             Err(e) => skipped.push(SkippedMesh {

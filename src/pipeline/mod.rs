@@ -11,6 +11,7 @@ mod islands;
 mod keep;
 mod margin;
 mod memory;
+mod params;
 pub mod post;
 mod run;
 mod tear;
@@ -18,10 +19,10 @@ mod tear_embed;
 
 pub use config::*;
 pub use frames::Frames;
+pub use params::fixed_groups;
 pub use run::{
-    crack_file, fixed_groups, prepare, read_crackable, run, stress_field, write_output,
-    BeforeAfter, Config, CrackReport, FramesReport, MeshRun, Observer, Prepared, Remeshed,
-    RunReport, Stage, StartEnd,
+    crack_file, prepare, read_crackable, run, stress_field, write_output, BeforeAfter, Config,
+    CrackReport, FramesReport, MeshRun, Observer, Prepared, Remeshed, RunReport, Stage, StartEnd,
 };
 
 impl Config {

@@ -72,6 +72,9 @@ pub fn apply(
             "width"
         };
         let moves = post.width > 0.0 || post.curl > 0.0 || groove_width > 0.0;
+        // Cracks along the simulation surface's edges, off its zig-zag.
+        let straightened = straighten(e, r, post, moves, &mut detail)?;
+        let r = straightened.as_ref().unwrap_or(r);
         // Broken springs: lines across them where no gap opens along their
         // edges.
         let crossed;
@@ -437,6 +440,43 @@ fn wall_options(post: &Post, groove_width: f64, mean_gap: f64) -> WallOptions {
         0
     };
     WallOptions { depth, rows }
+}
+
+/// The report of `e` with its cracks taken off the simulation surface's
+/// edges ([`crate::post::paths`]), `e.sim` moved with them; none when its
+/// cracks split their triangles, `post.smooth_paths` is 0, or no gap opens
+/// (`moves` false) and the lines across broken springs are drawn.
+fn straighten(
+    e: &mut SimEntry,
+    r: &SimReport,
+    post: &Post,
+    moves: bool,
+    detail: &mut serde_json::Map<String, Value>,
+) -> crate::Result<Option<SimReport>> {
+    // Where no gap opens, the lines across the broken springs are drawn
+    // (one path through the triangles they share): left as they are.
+    let lines_across = !moves && r.crossings.len() == r.segments.len();
+    if !e.along_edges || post.smooth_paths == 0 || r.segments.is_empty() || lines_across {
+        return Ok(None);
+    }
+    let mut s = r.clone();
+    s.crossings.clear();
+    let p = crate::post::paths::smooth(
+        &mut e.sim,
+        &mut s.segments,
+        &mut s.segment_times,
+        post.smooth_paths,
+    )
+    .map_err(|err| crate::Error::Internal {
+        mesh: e.label.clone(),
+        message: err.to_string(),
+    })?;
+    s.crack_length = p.length[1];
+    detail.insert(
+        "paths".into(),
+        json!({"passes": post.smooth_paths, "free_points": p.free, "held": p.held, "spurs": p.spurs, "loops": p.loops, "loop_sides": p.loop_sides, "length": p.length}),
+    );
+    Ok(Some(s))
 }
 
 /// Cut the cracks of `e` (simulated on its remeshed surface, `r`) into

@@ -9,7 +9,7 @@ use crate::bridge::{build_sim_meshes, SimEntry};
 use crate::geometry::curvature::CurvatureField;
 use crate::mesh::remesh::{self, RemeshReport};
 use crate::mesh::WeldOptions;
-use crate::scene::{Geometry, Scene};
+use crate::scene::Scene;
 use crate::sim::{SimParams, SimReport};
 use crate::stress::StressField;
 use crate::{Error, Result};
@@ -471,7 +471,10 @@ pub fn prepare(scene: &Scene, config: &Config, observer: &mut dyn Observer) -> R
         super::bake::check_material_images(scene, &meshes, config.read.max_memory)
             .map_err(|e| Error::Usage(format!("{}: {e}", input.display())))?;
     }
-    let mut params_of = mesh_params(scene, &entries, pipe, input)?;
+    let mut params_of = super::params::mesh_params(scene, &entries, pipe, input)?;
+    for (e, p) in entries.iter_mut().zip(&params_of) {
+        e.along_edges = p.cracks_along_edges();
+    }
     super::margin::grow(&mut entries, &mut params_of, &pipe.post, input)?;
     if let Some(stage) = remesh_to_cell_size(
         &mut entries,
@@ -672,31 +675,6 @@ fn select_meshes(
     Ok(entries)
 }
 
-/// Each mesh's simulation parameters (its fixed groups from the
-/// pipeline's `select.fix`, every name of which must match).
-fn mesh_params(
-    scene: &Scene,
-    entries: &[SimEntry],
-    pipe: &Pipeline,
-    input: &Path,
-) -> Result<Vec<SimParams>> {
-    let mut matched: Vec<String> = Vec::new();
-    let mut params_of = Vec::new();
-    for e in entries {
-        let (groups, m) = fixed_groups(scene, e.mesh_index, &pipe.select.fix);
-        matched.extend(m);
-        params_of.push(pipe.params(&groups));
-    }
-    if let Some(missing) = pipe.select.fix.iter().find(|n| !matched.contains(n)) {
-        return Err(Error::Usage(format!(
-            "--fix {missing}: no crackable primitive of {} has that material or group name (names: {})",
-            input.display(),
-            all_names(scene).join(", ")
-        )));
-    }
-    Ok(params_of)
-}
-
 /// Memory a run takes per triangle of the simulation surface, about
 /// (measured peaks: 20 one-triangle objects simulated on 334,000 triangles
 /// under `glaze` in 300 MB; a 2,000-triangle non-manifold fan on 1.64
@@ -854,49 +832,6 @@ fn simulate(
         per_mesh.push((e.mesh_index, r));
     }
     Ok(per_mesh)
-}
-
-/// Groups (primitive indices) of mesh `mesh_index` whose material or OBJ
-/// group name is in `names`, and the names that matched.
-pub fn fixed_groups(scene: &Scene, mesh_index: usize, names: &[String]) -> (Vec<u32>, Vec<String>) {
-    let mut groups = Vec::new();
-    let mut matched = Vec::new();
-    for (pi, p) in scene.meshes[mesh_index].primitives.iter().enumerate() {
-        let material = p
-            .material
-            .and_then(|m| scene.materials.get(m))
-            .and_then(|m| m.name());
-        let group = match &p.geometry {
-            Geometry::Triangles(t) => t.group.as_deref(),
-            Geometry::Raw(_) => None,
-        };
-        for n in names {
-            if Some(n.as_str()) == material || Some(n.as_str()) == group {
-                groups.push(pi as u32);
-                matched.push(n.clone());
-            }
-        }
-    }
-    (groups, matched)
-}
-
-/// Every material and group name in the scene, for error messages.
-fn all_names(scene: &Scene) -> Vec<String> {
-    let mut out: Vec<String> = scene
-        .materials
-        .iter()
-        .filter_map(|m| m.name().map(str::to_owned))
-        .collect();
-    for m in &scene.meshes {
-        for p in &m.primitives {
-            if let Geometry::Triangles(t) = &p.geometry {
-                out.extend(t.group.clone());
-            }
-        }
-    }
-    out.sort();
-    out.dedup();
-    out
 }
 
 /// The stress field of simulation mesh `e` from the pipeline's terms:

@@ -6,6 +6,7 @@ pub mod bake;
 pub mod distance;
 pub mod islands;
 mod options;
+pub mod paths;
 pub mod taper;
 pub mod walls;
 pub mod width;

@@ -58,6 +58,11 @@ pub struct Post {
     /// The crack network as a LINES primitive (material `crack_lines`,
     /// attribute `_CRACK_TIME`). Default true.
     pub lines: bool,
+    /// Passes that take cracks running along the simulation surface's
+    /// edges (the spring model, the snapping variant) off its zig-zag
+    /// ([`crate::post::paths`]); 0 leaves them on the edges. Films that
+    /// split their triangles along the crack are not touched. Default 4.
+    pub smooth_paths: usize,
     /// Shader attributes on the surface: `_CRACK_DISTANCE` (distance along
     /// the surface to the nearest crack, scene units) and `_CRACK_TIME`
     /// (when the nearest crack formed, 0..1). Default false.
@@ -202,6 +207,7 @@ impl Default for Post {
             wall_depth_relative: 1.0,
             wall_material: "crack_wall".into(),
             lines: true,
+            smooth_paths: 4,
             attributes: false,
             split_islands: false,
             bake: false,

@@ -328,6 +328,17 @@ impl SimParams {
             && (self.cell_size.is_some() || self.cell_size_relative.is_some())
     }
 
+    /// Whether this mesh's cracks run along edges it already has (the
+    /// spring model, or the quasistatic model snapping to its edges)
+    /// instead of splitting triangles along the crack.
+    pub fn cracks_along_edges(&self) -> bool {
+        match self.model {
+            Model::Springs => true,
+            Model::Quasistatic => !self.remesh,
+            Model::Ductile => false,
+        }
+    }
+
     /// Check every value, naming the parameter that is wrong.
     pub fn validate(&self) -> Result<(), super::ParamError> {
         self.check_values().map_err(super::ParamError)

@@ -683,10 +683,9 @@ fn break_spring(
     report.cracks += 1;
     report.crack_length += st.springs[i].rest0 * unit;
     report.first_crack_time.get_or_insert(report.time);
-    report.segments.push([
-        v3::scale(st.x0[a.idx()], unit),
-        v3::scale(st.x0[b.idx()], unit),
-    ]);
+    // At the mesh's own rest positions (bit for bit), so the ends name
+    // the crack's vertices.
+    report.segments.push([mesh.position(a), mesh.position(b)]);
     report.crossings.push(across.map(|p| v3::scale(p, unit)));
     report.segment_times.push(report.time);
     Ok(())
