@@ -112,12 +112,14 @@ fn spring_cracks_leave_the_edges_zig_zag() {
     let dir = tempfile::tempdir().unwrap();
     let plate = dir.path().join("plate.obj");
     shapes::write_obj(&plate, &shapes::jittered_plate(160, 10.0, 0.3, 1));
-    let preset = "springs-mud";
-    let on = dir.path().join("on.glb");
-    let off = dir.path().join("edges.glb");
-    common::crack_lines(&plate, &on, preset, &[]);
-    common::crack_lines(&plate, &off, preset, &["--set", "post.smooth_paths=0"]);
-    let (t_on, t_off) = (zig_zag_per_length(&on), zig_zag_per_length(&off));
-    eprintln!("{preset}: turning at sharp corners per unit length {t_off:.2} on the edges, {t_on:.2} smoothed");
-    assert!(t_on < 0.5 * t_off, "{preset}: {t_on} against {t_off}");
+    let ico = common::fixture("icosphere.obj");
+    for (input, preset) in [(&plate, "springs-mud"), (&ico, "springs-glaze")] {
+        let on = dir.path().join(format!("{preset}.glb"));
+        let off = dir.path().join(format!("{preset}-edges.glb"));
+        common::crack_lines(input, &on, preset, &[]);
+        common::crack_lines(input, &off, preset, &["--set", "post.smooth_paths=0"]);
+        let (t_on, t_off) = (zig_zag_per_length(&on), zig_zag_per_length(&off));
+        eprintln!("{preset}: turning at sharp corners per unit length {t_off:.2} on the edges, {t_on:.2} smoothed");
+        assert!(t_on < 0.5 * t_off, "{preset}: {t_on} against {t_off}");
+    }
 }

@@ -444,8 +444,9 @@ fn wall_options(post: &Post, groove_width: f64, mean_gap: f64) -> WallOptions {
 
 /// The report of `e` with its cracks taken off the simulation surface's
 /// edges ([`crate::post::paths`]), `e.sim` moved with them; none when its
-/// cracks split their triangles, `post.smooth_paths` is 0, or no gap opens
-/// (`moves` false) and the lines across broken springs are drawn.
+/// cracks split their triangles or `post.smooth_paths` is 0. Where no gap
+/// opens (`moves` false) and the lines across broken springs are drawn,
+/// those lines are smoothed instead and `e.sim` stays.
 fn straighten(
     e: &mut SimEntry,
     r: &SimReport,
@@ -453,28 +454,37 @@ fn straighten(
     moves: bool,
     detail: &mut serde_json::Map<String, Value>,
 ) -> crate::Result<Option<SimReport>> {
-    // Where no gap opens, the lines across the broken springs are drawn
-    // (one path through the triangles they share): left as they are.
-    let lines_across = !moves && r.crossings.len() == r.segments.len();
-    if !e.along_edges || post.smooth_paths == 0 || r.segments.is_empty() || lines_across {
+    if !e.along_edges || post.smooth_paths == 0 || r.segments.is_empty() {
         return Ok(None);
     }
     let mut s = r.clone();
-    s.crossings.clear();
-    let p = crate::post::paths::smooth(
-        &mut e.sim,
-        &mut s.segments,
-        &mut s.segment_times,
-        post.smooth_paths,
-    )
-    .map_err(|err| crate::Error::Internal {
-        mesh: e.label.clone(),
-        message: err.to_string(),
-    })?;
+    let p = if !moves && s.crossings.len() == s.segments.len() {
+        // No gap opens: the lines across the broken springs are drawn.
+        let broken = std::mem::replace(&mut s.segments, std::mem::take(&mut s.crossings));
+        crate::post::paths::smooth_lines(
+            &e.sim,
+            &broken,
+            &mut s.segments,
+            &mut s.segment_times,
+            post.smooth_paths,
+        )
+    } else {
+        s.crossings.clear();
+        crate::post::paths::smooth(
+            &mut e.sim,
+            &mut s.segments,
+            &mut s.segment_times,
+            post.smooth_paths,
+        )
+        .map_err(|err| crate::Error::Internal {
+            mesh: e.label.clone(),
+            message: err.to_string(),
+        })?
+    };
     s.crack_length = p.length[1];
     detail.insert(
         "paths".into(),
-        json!({"passes": post.smooth_paths, "free_points": p.free, "held": p.held, "spurs": p.spurs, "loops": p.loops, "loop_sides": p.loop_sides, "length": p.length}),
+        json!({"passes": post.smooth_paths, "free_points": p.free, "held": p.held, "spurs": p.spurs, "rings": p.rings, "joined": p.joined, "loops": p.loops, "loop_sides": p.loop_sides, "length": p.length}),
     );
     Ok(Some(s))
 }

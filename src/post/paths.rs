@@ -23,6 +23,18 @@ const STEP: f64 = 0.5;
 const MIN_AREA_SHARE: f64 = 0.1;
 /// Times a step is halved before the point stays for the pass.
 const HALVINGS: usize = 4;
+/// How far an open end of a line reaches for another crack to join, in
+/// the surface's mean edge lengths.
+pub const JOIN_EDGES: f64 = 1.0;
+/// A line's end joins its own crack only farther along it than this many
+/// segments.
+pub const JOIN_HOPS: usize = 10;
+/// Most segments of a loop of lines whose points stay (smoothing would
+/// shrink it).
+const SMALL_LOOP: usize = 12;
+/// Longest loop of lines, in the surface's mean edge lengths, drawn in to
+/// a point (a knot of joined dashes, smaller than any cell).
+pub const KNOT_EDGES: f64 = 6.0;
 /// Most segments of a spur: a crack from a tip this short is left out.
 pub const SPUR_SEGMENTS: usize = 2;
 
@@ -36,6 +48,14 @@ pub struct PathReport {
     pub held: usize,
     /// Segments left out as spurs.
     pub spurs: usize,
+    /// Open ends of lines joined to a crack nearby.
+    pub joined: usize,
+    /// Nodes whose springs all broke (or all but one), their ring of lines
+    /// drawn in to them.
+    pub rings: usize,
+    /// Small loops of lines drawn in to a point (where dashes joined round
+    /// a junction).
+    pub knots: usize,
     /// Loops round a single triangle opened or left out.
     pub loops: usize,
     /// Their sides left out.
@@ -51,7 +71,7 @@ pub struct PathReport {
 /// crack of at most [`SPUR_SEGMENTS`] segments from a tip to a junction,
 /// the border or another tip, the lattice's own noise at the scale of its
 /// triangles; the crack it branched from then runs on through the junction.
-/// So do loops round one triangle ([`open_loops`]).
+/// So do loops round one triangle whose corners meet other cracks.
 ///
 /// # Errors
 /// A moved position that is not finite (never on a valid mesh).
@@ -113,6 +133,354 @@ pub fn smooth(
     report.held = held;
     report.length[1] = report_of(segments).length[1];
     Ok(report)
+}
+
+/// Smooth crack lines drawn over `surface` (not cut into it: the lines
+/// across broken springs), as [`smooth`] does its cracks: first each open
+/// end joins the nearest point of another crack (or of its own, farther
+/// along it than [`JOIN_HOPS`] segments) within [`JOIN_EDGES`] of the
+/// surface's edges (where the springs across a crack's path broke only
+/// every other one, the dashes join into the crack); then spurs and loops
+/// leave, and each point between two others moves toward their mean, kept
+/// on the surface.
+pub fn smooth_lines(
+    surface: &SimMesh,
+    broken: &[[[f64; 3]; 2]],
+    lines: &mut Vec<[[f64; 3]; 2]>,
+    times: &mut Vec<f64>,
+    passes: usize,
+) -> PathReport {
+    if passes == 0 || lines.is_empty() {
+        return report_of(lines);
+    }
+    let before = report_of(lines).length[0];
+    let rings = ring_nodes(surface, broken, lines, times);
+    let reach = JOIN_EDGES * surface.mean_edge_length();
+    let joined = join_tips(lines, times, reach) + join_border(surface, lines, times, reach);
+    let faces = Faces::of_mesh(surface);
+    let knots = contract_knots(
+        lines,
+        times,
+        KNOT_EDGES * surface.mean_edge_length(),
+        &faces,
+    );
+    let Some((mut report, g)) = prune(lines, times, passes, &Default::default()) else {
+        return report_of(lines);
+    };
+    report.joined = joined;
+    report.rings = rings;
+    report.knots = knots;
+    report.length[0] = before;
+    // A point on a small loop stays: smoothing would shrink the loop (a
+    // line has no faces to hold it, as a cut crack has).
+    let free: Vec<usize> = (0..g.rest.len())
+        .filter(|&i| g.next[i].len() == 2 && !on_small_loop(&g, i))
+        .collect();
+    let (point, held) = relax(&g, &free, passes, &faces, |_, _| true);
+    for (s, e) in lines.iter_mut().zip(&g.ends) {
+        *s = e.map(|i| point[i]);
+    }
+    report.free = free.len();
+    report.held = held;
+    report.length[1] = report_of(lines).length[1];
+    report
+}
+
+/// A node's neighbours (by position), its broken springs (indices), and
+/// whether it is on the surface's own border.
+type Around = (Vec<[u64; 3]>, Vec<usize>, bool);
+
+/// A node whose springs all broke (or all but one) stands (nearly) alone,
+/// and the lines across its springs ring it (`lines[k]` crosses
+/// `broken[k]`, an edge of `surface` at rest): the cracks meet there. Each such ring's points move to the
+/// node and its own lines (now of no length) leave. How many nodes.
+fn ring_nodes(
+    surface: &SimMesh,
+    broken: &[[[f64; 3]; 2]],
+    lines: &mut Vec<[[f64; 3]; 2]>,
+    times: &mut Vec<f64>,
+) -> usize {
+    if broken.len() != lines.len() {
+        return 0;
+    }
+    // Each position's neighbours on the surface, and its broken springs.
+    let mut around: BTreeMap<[u64; 3], Around> = BTreeMap::new();
+    for h in surface.halfedges() {
+        let (a, b) = (
+            surface.position(surface.origin(h)),
+            surface.position(surface.dest(h)),
+        );
+        let e = around.entry(key(a)).or_default();
+        if !e.0.contains(&key(b)) {
+            e.0.push(key(b));
+        }
+        e.2 |= surface.is_boundary_halfedge(h) && !surface.is_crack_halfedge(h);
+    }
+    for (k, s) in broken.iter().enumerate() {
+        for p in s {
+            if let Some(e) = around.get_mut(&key(*p)) {
+                e.1.push(k);
+            }
+        }
+    }
+    let mut to: BTreeMap<[u64; 3], [f64; 3]> = BTreeMap::new();
+    let mut rings = 0;
+    for (p, (next, springs, border)) in &around {
+        if *border || next.len() < 3 || springs.len() + 1 < next.len() {
+            continue;
+        }
+        let at = p.map(f64::from_bits);
+        for &k in springs {
+            for q in lines[k] {
+                to.entry(key(q)).or_insert(at);
+            }
+        }
+        rings += 1;
+    }
+    if rings == 0 {
+        return 0;
+    }
+    for l in lines.iter_mut() {
+        *l = l.map(|q| to.get(&key(q)).copied().unwrap_or(q));
+    }
+    let timed = times.len() == lines.len();
+    let gone: Vec<bool> = lines.iter().map(|l| key(l[0]) == key(l[1])).collect();
+    retain(lines, times, timed, &gone);
+    rings
+}
+
+/// Every loop of `lines` of at most [`SMALL_LOOP`] segments and `perimeter`
+/// in length is drawn in to its points' mean on `surface` (loops sharing a
+/// point, to their points' mean together); its own lines (now of no
+/// length) leave.
+/// How many points' groups.
+fn contract_knots(
+    lines: &mut Vec<[[f64; 3]; 2]>,
+    times: &mut Vec<f64>,
+    perimeter: f64,
+    surface: &Faces,
+) -> usize {
+    let g = Graph::of(lines);
+    let n = g.rest.len();
+    let mut parent: Vec<usize> = (0..n).collect();
+    fn root(parent: &mut [usize], mut i: usize) -> usize {
+        while parent[i] != i {
+            parent[i] = parent[parent[i]];
+            i = parent[i];
+        }
+        i
+    }
+    let seg_len = |k: usize| {
+        let [a, b] = g.ends[k];
+        v3::norm(v3::sub(g.rest[a], g.rest[b]))
+    };
+    let mut any = false;
+    for (k, &[a, b]) in g.ends.iter().enumerate() {
+        if a == b {
+            continue;
+        }
+        // The shortest way (in segments) from a to b without segment k,
+        // within the loop's reach.
+        let mut from: BTreeMap<usize, (usize, usize)> = BTreeMap::new();
+        from.insert(a, (a, usize::MAX));
+        let mut ring = vec![a];
+        let mut found = false;
+        for _ in 0..SMALL_LOOP - 1 {
+            let mut next = Vec::new();
+            for &p in &ring {
+                for &(q, j) in &g.next[p] {
+                    if j == k || from.contains_key(&q) {
+                        continue;
+                    }
+                    from.insert(q, (p, j));
+                    next.push(q);
+                    found |= q == b;
+                }
+            }
+            if found || next.is_empty() {
+                break;
+            }
+            ring = next;
+        }
+        if !found {
+            continue;
+        }
+        let mut cycle = vec![b];
+        let mut length = seg_len(k);
+        let mut at = b;
+        while at != a {
+            let (p, j) = from[&at];
+            length += seg_len(j);
+            cycle.push(p);
+            at = p;
+        }
+        if length > perimeter {
+            continue;
+        }
+        for w in cycle.windows(2) {
+            let (x, y) = (root(&mut parent, w[0]), root(&mut parent, w[1]));
+            if x != y {
+                parent[x.max(y)] = x.min(y);
+                any = true;
+            }
+        }
+    }
+    if !any {
+        return 0;
+    }
+    let mut sum: BTreeMap<usize, ([f64; 3], f64)> = BTreeMap::new();
+    for i in 0..n {
+        let r = root(&mut parent, i);
+        let e = sum.entry(r).or_insert(([0.0; 3], 0.0));
+        e.0 = v3::add(e.0, g.rest[i]);
+        e.1 += 1.0;
+    }
+    let groups = sum.values().filter(|e| e.1 > 1.0).count();
+    let at: Vec<[f64; 3]> = (0..n)
+        .map(|i| {
+            let (p, c) = sum[&root(&mut parent, i)];
+            if c > 1.0 {
+                let m = v3::scale(p, 1.0 / c);
+                surface.closest(m).map_or(m, |(_, _, q)| q)
+            } else {
+                g.rest[i]
+            }
+        })
+        .collect();
+    for (l, e) in lines.iter_mut().zip(&g.ends) {
+        *l = e.map(|i| at[i]);
+    }
+    let timed = times.len() == lines.len();
+    let gone: Vec<bool> = lines.iter().map(|l| key(l[0]) == key(l[1])).collect();
+    retain(lines, times, timed, &gone);
+    groups
+}
+
+/// Whether point `i` (between two others) lies on a loop of at most
+/// [`SMALL_LOOP`] segments: its neighbours meet again without it.
+fn on_small_loop(g: &Graph, i: usize) -> bool {
+    let (a, b) = (g.next[i][0].0, g.next[i][1].0);
+    let mut seen = vec![a];
+    let mut ring = vec![a];
+    for _ in 0..SMALL_LOOP - 2 {
+        let mut next = Vec::new();
+        for &p in &ring {
+            for &(q, _) in &g.next[p] {
+                if q == b {
+                    return true;
+                }
+                if q != i && !seen.contains(&q) {
+                    seen.push(q);
+                    next.push(q);
+                }
+            }
+        }
+        ring = next;
+    }
+    false
+}
+
+/// Join each open end of `lines` (in the order of its points) to the
+/// nearest point within `reach` that is not within [`JOIN_HOPS`] segments
+/// along its own crack: a new segment, timed as the end's own. How many.
+fn join_tips(lines: &mut Vec<[[f64; 3]; 2]>, times: &mut Vec<f64>, reach: f64) -> usize {
+    let g = Graph::of(lines);
+    let timed = times.len() == lines.len();
+    let grid = crate::mesh::spatial::Grid::new(g.rest.iter().map(|&p| (p, p)), reach);
+    let mut degree: Vec<usize> = g.next.iter().map(Vec::len).collect();
+    let mut joined = 0;
+    for tip in 0..g.rest.len() {
+        if degree[tip] != 1 {
+            continue;
+        }
+        // Its own crack's points near it.
+        let mut near = vec![tip];
+        let mut ring = vec![tip];
+        for _ in 0..JOIN_HOPS {
+            let mut next = Vec::new();
+            for &i in &ring {
+                for &(j, _) in &g.next[i] {
+                    if !near.contains(&j) {
+                        near.push(j);
+                        next.push(j);
+                    }
+                }
+            }
+            ring = next;
+        }
+        let p = g.rest[tip];
+        let mut best: Option<(f64, usize)> = None;
+        grid.search(p, |j| {
+            let d = crate::mesh::spatial::dist2(p, g.rest[j]);
+            if d <= reach * reach
+                && !near.contains(&j)
+                && best.is_none_or(|b| d < b.0 || (d == b.0 && j < b.1))
+            {
+                best = Some((d, j));
+            }
+            Some(best.map_or(reach * reach, |b| b.0))
+        });
+        if let Some((_, j)) = best {
+            lines.push([p, g.rest[j]]);
+            if timed {
+                times.push(times[g.next[tip][0].1]);
+            }
+            degree[tip] += 1;
+            degree[j] += 1;
+            joined += 1;
+        }
+    }
+    joined
+}
+
+/// Run each open end of `lines` within `reach` of `surface`'s own border
+/// on to its closest point there (a line across broken springs ends at a
+/// triangle's centroid, short of the border the crack reached). How many.
+fn join_border(
+    surface: &SimMesh,
+    lines: &mut Vec<[[f64; 3]; 2]>,
+    times: &mut Vec<f64>,
+    reach: f64,
+) -> usize {
+    use crate::mesh::spatial::{closest_on_segment, dist2, Grid};
+    let border: Vec<[[f64; 3]; 2]> = surface
+        .halfedges()
+        .filter(|&h| surface.is_boundary_halfedge(h) && !surface.is_crack_halfedge(h))
+        .map(|h| {
+            [
+                surface.position(surface.origin(h)),
+                surface.position(surface.dest(h)),
+            ]
+        })
+        .collect();
+    if border.is_empty() {
+        return 0;
+    }
+    let grid = Grid::new(border.iter().map(|s| crate::mesh::spatial::bbox(s)), reach);
+    let g = Graph::of(lines);
+    let timed = times.len() == lines.len();
+    let mut joined = 0;
+    for tip in (0..g.rest.len()).filter(|&i| g.next[i].len() == 1) {
+        let p = g.rest[tip];
+        let mut best: Option<(f64, [f64; 3])> = None;
+        grid.search(p, |k| {
+            let q = closest_on_segment(p, border[k][0], border[k][1]);
+            let d = dist2(p, q);
+            if d <= reach * reach && best.is_none_or(|b| d < b.0) {
+                best = Some((d, q));
+            }
+            Some(best.map_or(reach * reach, |b| b.0))
+        });
+        if let Some((d, q)) = best.filter(|b| b.0 > 0.0) {
+            let _ = d;
+            lines.push([p, q]);
+            if timed {
+                times.push(times[g.next[tip][0].1]);
+            }
+            joined += 1;
+        }
+    }
+    joined
 }
 
 /// A report of segments left as they are.
@@ -541,5 +909,70 @@ mod tests {
         let report = smooth(&mut mesh, &mut segments, &mut Vec::new(), 2).unwrap();
         assert_eq!(report.spurs, 2);
         assert_eq!(segments.len(), 3);
+    }
+
+    /// The lines' points and how many lines meet at each.
+    fn degrees(lines: &[[[f64; 3]; 2]]) -> BTreeMap<[u64; 3], usize> {
+        let mut d = BTreeMap::new();
+        for l in lines {
+            for p in l {
+                *d.entry(key(*p)).or_insert(0) += 1;
+            }
+        }
+        d
+    }
+
+    #[test]
+    fn dashes_join_into_a_crack_from_border_to_border() {
+        let (mesh, _) = grid(8);
+        let at = |x: f64| [x, 3.0, 0.0];
+        let mut lines: Vec<[[f64; 3]; 2]> = [0.5, 1.5, 2.5, 3.5]
+            .windows(2)
+            .chain([4.6, 5.5, 6.5, 7.5].windows(2))
+            .map(|w| [at(w[0]), at(w[1])])
+            .collect();
+        let mut times = vec![0.0; lines.len()];
+        let r = smooth_lines(&mesh, &[], &mut lines, &mut times, 2);
+        // The gap between the dashes and both ends to the border.
+        assert_eq!(r.joined, 3, "{r:?}");
+        assert_eq!(times.len(), lines.len());
+        let d = degrees(&lines);
+        let tips: Vec<_> = d
+            .iter()
+            .filter(|e| *e.1 == 1)
+            .map(|e| e.0.map(f64::from_bits))
+            .collect();
+        assert_eq!(tips.len(), 2, "{tips:?}");
+        assert!(tips.iter().all(|p| p[0] == 0.0 || p[0] == 8.0), "{tips:?}");
+    }
+
+    #[test]
+    fn a_small_loop_of_lines_draws_in_to_a_junction() {
+        let (mesh, _) = grid(8);
+        // A square 0.4 across round (4, 4), a crack off each corner.
+        let c = [[3.8, 3.8], [4.2, 3.8], [4.2, 4.2], [3.8, 4.2]].map(|[x, y]| [x, y, 0.0]);
+        let out = [[1.0, 1.0], [7.0, 1.0], [7.0, 7.0], [1.0, 7.0]].map(|[x, y]| [x, y, 0.0]);
+        let mut lines = Vec::new();
+        let along = |a: [f64; 3], b: [f64; 3], t: f64| v3::add(a, v3::scale(v3::sub(b, a), t));
+        for k in 0..4 {
+            lines.push([c[k], c[(k + 1) % 4]]);
+            // Three segments out: not a spur.
+            let (p, q) = (along(c[k], out[k], 0.33), along(c[k], out[k], 0.67));
+            lines.extend([[c[k], p], [p, q], [q, out[k]]]);
+        }
+        let r = smooth_lines(&mesh, &[], &mut lines, &mut Vec::new(), 1);
+        assert_eq!(r.knots, 1, "{r:?}");
+        // The square's four sides left; each outer tip ran on to the border.
+        assert_eq!(lines.len(), 12 + 4);
+        let d = degrees(&lines);
+        let centre = d
+            .iter()
+            .find(|e| *e.1 == 4)
+            .map(|e| e.0.map(f64::from_bits));
+        let centre = centre.expect("a four-way junction");
+        assert!(
+            v3::norm(v3::sub(centre, [4.0, 4.0, 0.0])) < 1e-9,
+            "{centre:?}"
+        );
     }
 }
