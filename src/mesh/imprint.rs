@@ -28,7 +28,9 @@
 use super::error::MeshError;
 use super::halfedge::SimMesh;
 use super::ids::{FaceId, HalfedgeId, VertexId};
-use super::spatial::{add, bbox, closest_on_triangle, cross, dist2, dot, norm, scale, sub, Grid};
+use super::spatial::{
+    add, bbox, closest_on_triangle, cross, dist2, dot, norm, position_key as key, scale, sub, Grid,
+};
 use std::collections::BTreeMap;
 
 /// A point closer to a vertex than this barycentric distance is that
@@ -277,10 +279,6 @@ pub fn imprint(
         refined,
         settled,
     })
-}
-
-fn key(p: [f64; 3]) -> [u64; 3] {
-    p.map(|x| (x + 0.0).to_bits())
 }
 
 /// The crack ends inserted so far, per shell of the input.

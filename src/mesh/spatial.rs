@@ -142,6 +142,22 @@ impl Grid {
     }
 }
 
+/// A position as a map key: its coordinates' bits, -0.0 taken as 0.0, so
+/// points are equal exactly when their coordinates are.
+pub(crate) fn position_key(p: [f64; 3]) -> [u64; 3] {
+    p.map(|x| (x + 0.0).to_bits())
+}
+
+/// The keys ([`position_key`]) of `mesh`'s vertices on its own border (an
+/// open edge that is not a crack's side).
+pub(crate) fn border_keys(mesh: &super::SimMesh) -> std::collections::BTreeSet<[u64; 3]> {
+    mesh.halfedges()
+        .filter(|&h| mesh.is_boundary_halfedge(h) && !mesh.is_crack_halfedge(h))
+        .flat_map(|h| [mesh.origin(h), mesh.dest(h)])
+        .map(|v| position_key(mesh.position(v)))
+        .collect()
+}
+
 /// Triangles with a grid for closest-point searches.
 #[derive(Clone, Debug)]
 pub(crate) struct Faces {

@@ -555,7 +555,7 @@ fn follow_gaps(
     positions: &[[f64; 3]],
     segments: &[[[f64; 3]; 2]],
 ) -> Vec<[[f64; 3]; 2]> {
-    let key = |p: [f64; 3]| p.map(|x| (x + 0.0).to_bits());
+    let key = crate::mesh::spatial::position_key;
     let mut at: std::collections::BTreeMap<[u64; 3], ([f64; 3], f64)> = Default::default();
     for v in crack_vertices(mesh) {
         let e = at.entry(key(mesh.position(v))).or_insert(([0.0; 3], 0.0));
@@ -579,7 +579,7 @@ fn openings(
     displacement: &[[f64; 3]],
     segments: &[[[f64; 3]; 2]],
 ) -> Vec<f64> {
-    let key = |p: [f64; 3]| p.map(|x| (x + 0.0).to_bits());
+    let key = crate::mesh::spatial::position_key;
     let mut at: std::collections::BTreeMap<[u64; 3], Vec<[f64; 3]>> = Default::default();
     for v in crack_vertices(mesh) {
         if let Some(d) = displacement.get(v.idx()) {
@@ -606,14 +606,8 @@ fn openings(
 /// Whether a rest position is one of `mesh`'s vertices on its own border
 /// (a boundary edge that is not a crack's side).
 fn border_points(mesh: &crate::mesh::SimMesh) -> impl Fn([f64; 3]) -> bool {
-    let key = |p: [f64; 3]| p.map(|x| (x + 0.0).to_bits());
-    let on: std::collections::BTreeSet<[u64; 3]> = mesh
-        .halfedges()
-        .filter(|&h| mesh.is_boundary_halfedge(h) && !mesh.is_crack_halfedge(h))
-        .flat_map(|h| [mesh.origin(h), mesh.dest(h)])
-        .map(|v| key(mesh.position(v)))
-        .collect();
-    move |p| on.contains(&key(p))
+    let on = crate::mesh::spatial::border_keys(mesh);
+    move |p| on.contains(&crate::mesh::spatial::position_key(p))
 }
 
 /// Index of the material named `name`, added with `json` when missing.

@@ -12,7 +12,7 @@
 //! shrinks below a tenth of its area.
 
 use crate::math::v3;
-use crate::mesh::spatial::Faces;
+use crate::mesh::spatial::{border_keys, position_key as key, Faces};
 use crate::mesh::{MeshError, SimMesh, VertexId};
 use std::collections::BTreeMap;
 
@@ -81,35 +81,26 @@ pub fn smooth(
     times: &mut Vec<f64>,
     passes: usize,
 ) -> Result<PathReport, MeshError> {
-    let border: std::collections::BTreeSet<[u64; 3]> = mesh
-        .halfedges()
-        .filter(|&h| mesh.is_boundary_halfedge(h) && !mesh.is_crack_halfedge(h))
-        .flat_map(|h| [mesh.origin(h), mesh.dest(h)])
-        .map(|v| key(mesh.position(v)))
-        .collect();
+    let border = border_keys(mesh);
     let Some((mut report, g)) = prune(segments, times, passes, &border) else {
         return Ok(report_of(segments));
     };
     // Every vertex resting at a crack point (its copies along the crack).
     let mut copies: Vec<Vec<VertexId>> = vec![Vec::new(); g.rest.len()];
-    let mut on_border = vec![false; g.rest.len()];
-    for h in mesh.halfedges() {
-        if !mesh.is_boundary_halfedge(h) {
-            continue;
-        }
-        let border = !mesh.is_crack_halfedge(h);
+    for h in mesh.halfedges().filter(|&h| mesh.is_boundary_halfedge(h)) {
         for v in [mesh.origin(h), mesh.dest(h)] {
             if let Some(&i) = g.index.get(&key(mesh.position(v))) {
                 if !copies[i].contains(&v) {
                     copies[i].push(v);
                 }
-                on_border[i] |= border;
             }
         }
     }
     // A tip's single vertex is on no boundary; it stays anyway.
     let free: Vec<usize> = (0..g.rest.len())
-        .filter(|&i| g.next[i].len() == 2 && !on_border[i] && !copies[i].is_empty())
+        .filter(|&i| {
+            g.next[i].len() == 2 && !border.contains(&key(g.rest[i])) && !copies[i].is_empty()
+        })
         .collect();
     let surface = Faces::of_mesh(mesh);
     let start: Vec<[f64; 3]> = mesh.positions().to_vec();
@@ -471,8 +462,7 @@ fn join_border(
             }
             Some(best.map_or(reach * reach, |b| b.0))
         });
-        if let Some((d, q)) = best.filter(|b| b.0 > 0.0) {
-            let _ = d;
+        if let Some((_, q)) = best.filter(|b| b.0 > 0.0) {
             lines.push([p, q]);
             if timed {
                 times.push(times[g.next[tip][0].1]);
@@ -726,10 +716,6 @@ fn faces_keep(
 /// Twice the area vector of a triangle.
 fn normal([a, b, c]: [[f64; 3]; 3]) -> [f64; 3] {
     v3::cross(v3::sub(b, a), v3::sub(c, a))
-}
-
-fn key(p: [f64; 3]) -> [u64; 3] {
-    p.map(|x| (x + 0.0).to_bits())
 }
 
 #[cfg(test)]

@@ -13,7 +13,7 @@ use std::collections::BTreeMap;
 /// along chains with a free tip (an end no other segment shares, off the
 /// border), taken at the segment's middle.
 pub fn tapers(segments: &[[[f64; 3]; 2]], on_border: impl Fn([f64; 3]) -> bool) -> Vec<f64> {
-    let key = |p: [f64; 3]| p.map(|x| (x + 0.0).to_bits());
+    let key = crate::mesh::spatial::position_key;
     // Node ids by position, and the segments at each node.
     let mut id: BTreeMap<[u64; 3], usize> = BTreeMap::new();
     let mut ends: Vec<[usize; 2]> = Vec::with_capacity(segments.len());

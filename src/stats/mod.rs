@@ -46,7 +46,7 @@ mod sides;
 pub use impact::{impact_stats, ImpactStats};
 
 use crate::math::v3::{add, cross, dot, norm, scale, sub};
-use crate::mesh::spatial::{bbox, closest_on_segment};
+use crate::mesh::spatial::{bbox, closest_on_segment, position_key as key};
 use crate::mesh::{MeshInput, SimMesh, WeldOptions};
 use crate::scene::{Geometry, Scene};
 use std::cmp::Reverse;
@@ -588,10 +588,6 @@ impl Welder {
         }
         id
     }
-}
-
-fn key(p: [f64; 3]) -> [u64; 3] {
-    p.map(|x| (x + 0.0).to_bits())
 }
 
 /// Items by the cells of a uniform grid (a segment in the cells of points
