@@ -17,7 +17,9 @@ pub struct Post {
     /// distance, within 45 degrees of the tip's direction), each at most
     /// twice that far: the arcs between an impact's rays join them, while
     /// the rays' outer tips stay where the load left them. 0: every tip
-    /// runs on until it meets a crack or the border. Default 0.
+    /// runs on until it meets a crack or the border. On the spring model:
+    /// a tip runs on only to a crack or the border within this many cell
+    /// sizes along its path of springs (0: one cell size). Default 0.
     pub finish_reach: f64,
     /// Crack width: move every node by this multiple of its accumulated
     /// relaxation displacement, so the sides of each crack pull apart

@@ -67,13 +67,17 @@ pub struct SimParams {
     /// Finish cracks after the run (sec. 5): every remaining crack tip, and
     /// every vertex where two crack edges enclose more than 270 degrees of
     /// surface, keeps cracking along its last direction, with relaxation
-    /// between steps, until it meets another crack or the border. Set by a
-    /// pipeline's `[post] finish`. Default false.
+    /// between steps, until it meets another crack or the border. On the
+    /// spring model: each open tip runs along the shortest path of unbroken
+    /// springs to the crack or border ahead. Set by a pipeline's
+    /// `[post] finish`. Default false.
     #[serde(skip)]
     pub finish: bool,
     /// With `finish` on a film: only tips with another crack ahead within
     /// this many cell sizes run on, at most twice that far (0: all, to the
-    /// end). Set by a pipeline's `[post] finish_reach`. Default 0.
+    /// end). On the spring model: a tip runs on only to a crack or the
+    /// border within this many cell sizes along its path (0: one cell
+    /// size). Set by a pipeline's `[post] finish_reach`. Default 0.
     #[serde(skip)]
     pub finish_reach: f64,
     /// How relaxation is integrated over each round's `relax_time`; see
@@ -357,9 +361,6 @@ impl SimParams {
         }
         if self.model == Model::Springs {
             self.springs.validate().map_err(|e| e.0)?;
-            if self.finish {
-                return Err("post.finish runs the quasistatic engine's tips on; it does not apply to model = \"springs\"".into());
-            }
         }
         if !(1..=50).contains(&self.cycles) {
             return Err(format!("cycles must be in 1..=50, got {}", self.cycles));

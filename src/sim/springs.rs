@@ -15,6 +15,8 @@ use crate::mesh::{HalfedgeId, SimMesh, VertexId};
 pub use crate::sim::params::{DryingLaw, SpringParams};
 use crate::sim::{Observer, SimError, SimParams, SimReport, Snapshot};
 
+mod finish;
+
 impl SpringParams {
     /// Check every value, naming the key.
     pub fn validate(&self) -> Result<(), crate::sim::ParamError> {
@@ -468,6 +470,11 @@ pub fn run(
     if report.cracks < params.max_cracks && join_near_tips(mesh, &mut st, &mut report, unit)? > 0 {
         st.rebuild_adjacency(mesh);
     }
+    if params.finish {
+        let reach = finish_reach(mesh, params, unit);
+        let fin = finish::finish_tips(mesh, &mut st, &mut report, unit, reach, params.max_cracks)?;
+        report.finish = Some(fin);
+    }
     let (e1, _) = st.energy(sp.mass);
     report.energy[1] = e1;
     report.triangles[1] = mesh.n_faces();
@@ -480,6 +487,26 @@ pub fn run(
     report.crack_time = st.crack_time;
     Ok(report)
 }
+
+/// How far (normalised units: the mean edge is 1) a tip runs on in
+/// finishing: `finish_reach` cell sizes, one when it is 0 (a cell size with
+/// none given: [`FINISH_EDGES_PER_CELL`] mean edges).
+fn finish_reach(mesh: &SimMesh, params: &SimParams, unit: f64) -> f64 {
+    let cells = if params.finish_reach > 0.0 {
+        params.finish_reach
+    } else {
+        1.0
+    };
+    match params.cell_size_for(mesh) {
+        Some(cell) => cells * cell / unit,
+        None => cells * FINISH_EDGES_PER_CELL,
+    }
+}
+
+/// Mean edges in a cell size when the spring model runs on the input's own
+/// triangles without one (the simulation surface's edges are an eighth of
+/// the cell size).
+const FINISH_EDGES_PER_CELL: f64 = 8.0;
 
 /// Breaking: every spring at or over its strain breaks in this step, in
 /// spring order (a spring between two fixed nodes cannot relax: it
@@ -695,6 +722,7 @@ fn break_spring(
 mod tests {
     use super::*;
     use crate::mesh::shapes::jittered_plate;
+    use std::collections::BTreeMap;
 
     /// A spring state without a mesh: nodes, springs `(a, b, k, rest)`,
     /// fixed flags, normal +z for every node.
@@ -956,18 +984,72 @@ mod tests {
         assert!(r.substeps > 1, "{}", r.substeps);
     }
 
+    /// Open crack ends by position: crack points with one crack
+    /// neighbour, off the plate's border (the unit plate's box).
+    fn open_ends(r: &SimReport, lo: [f64; 3], hi: [f64; 3]) -> usize {
+        let mut degree: BTreeMap<[u64; 3], std::collections::BTreeSet<[u64; 3]>> = BTreeMap::new();
+        for s in &r.segments {
+            let [a, b] = s.map(|p| p.map(f64::to_bits));
+            degree.entry(a).or_default().insert(b);
+            degree.entry(b).or_default().insert(a);
+        }
+        let inside = |k: &[u64; 3]| {
+            let p = k.map(f64::from_bits);
+            (0..2).all(|i| p[i] > lo[i] + 1e-9 && p[i] < hi[i] - 1e-9)
+        };
+        degree
+            .iter()
+            .filter(|(k, n)| n.len() == 1 && inside(k))
+            .count()
+    }
+
+    #[test]
+    fn finishing_runs_open_tips_on_to_the_crack_ahead() {
+        let crack = |finish: bool, reach: f64| {
+            let mut mesh = jittered_plate(24, 0.3, 5);
+            let params = SimParams {
+                fixed_boundary: true,
+                seed: 3,
+                model: crate::sim::Model::Springs,
+                finish,
+                finish_reach: reach,
+                springs: SpringParams {
+                    break_strain: [0.05, 0.07],
+                    bond: 0.05,
+                    max_time: 150.0,
+                    ..Default::default()
+                },
+                ..Default::default()
+            };
+            let box_ = mesh.bounding_box();
+            let r = run(&mut mesh, &params, &mut ()).unwrap();
+            mesh.validate().unwrap();
+            (open_ends(&r, box_.0, box_.1), r)
+        };
+        let (ends0, r0) = crack(false, 0.0);
+        let (ends1, r1) = crack(true, 40.0);
+        assert!(r0.finish.is_none());
+        let fin = r1.finish.as_ref().unwrap();
+        assert!(ends0 >= 6, "{ends0} open ends to finish");
+        // The drying is the same; finishing only adds springs after it.
+        assert_eq!(r1.segments[..r0.segments.len()], r0.segments[..]);
+        assert_eq!(fin.cracks, r1.cracks - r0.cracks);
+        assert!(fin.cracks > 0);
+        assert!(
+            ends1 * 4 <= ends0,
+            "open ends {ends0} -> {ends1} ({} tips, {} stuck)",
+            fin.tips,
+            fin.stuck
+        );
+        // Within a short reach fewer tips find a crack ahead.
+        let (ends2, r2) = crack(true, 0.05);
+        assert!(ends2 > ends1, "{ends2} <= {ends1}");
+        assert!(r2.finish.unwrap().stuck > fin.stuck);
+    }
+
     #[test]
     fn options_of_the_other_engine_are_refused() {
         let mut mesh = jittered_plate(4, 0.0, 1);
-        let params = SimParams {
-            model: crate::sim::Model::Springs,
-            finish: true,
-            ..Default::default()
-        };
-        let e = crate::sim::run(&mut mesh, &params, &mut ())
-            .unwrap_err()
-            .to_string();
-        assert!(e.contains("post.finish"), "{e}");
         let terms = [crate::stress::Term {
             kind: crate::stress::TermKind::Uniform,
             init: 1.0,
