@@ -339,3 +339,52 @@ fn curvature_preset_gathers_cracks_where_curvature_is_high() {
         density[0]
     );
 }
+
+#[test]
+fn texture_mask_on_a_mesh_without_uvs_cracks_where_the_projected_mask_is_dark() {
+    // The icosphere has no UV set: the mask is projected along the three
+    // axes over the box (triplanar, blended by the normal to the fourth
+    // power), as the README says; the same projection here, by hand.
+    let (before, _, r, p) = run_preset("icosphere.obj", "texture-mask");
+    let mask = p.image_masks[0].clone().unwrap();
+    let pts: Vec<[f64; 3]> = before.vertices().map(|v| before.position(v)).collect();
+    let lo = [0, 1, 2].map(|k| pts.iter().map(|q| q[k]).fold(f64::INFINITY, f64::min));
+    let hi = [0, 1, 2].map(|k| pts.iter().map(|q| q[k]).fold(f64::NEG_INFINITY, f64::max));
+    let size = (0..3).map(|k| hi[k] - lo[k]).fold(0.0, f64::max);
+    let centre = [0, 1, 2].map(|k| 0.5 * (lo[k] + hi[k]));
+    let weight = |m: [f64; 3]| {
+        let d: Vec<f64> = (0..3).map(|k| m[k] - centre[k]).collect();
+        let l = d.iter().map(|x| x * x).sum::<f64>().sqrt();
+        let (mut sum, mut total) = (0.0, 0.0);
+        for (axis, [a, b]) in [(0, [1, 2]), (1, [0, 2]), (2, [0, 1])] {
+            let w = (d[axis] / l).powi(4);
+            sum += w * mask.weight([(m[a] - lo[a]) / size, (m[b] - lo[b]) / size]);
+            total += w;
+        }
+        sum / total
+    };
+    let (mut total, mut dark, mut white) = (0.0, 0.0, 0.0);
+    for (m, _, l) in segments(&r) {
+        let w = weight(m);
+        total += l;
+        if w >= 0.3 {
+            dark += l;
+        }
+        if w < 0.05 {
+            white += l;
+        }
+    }
+    eprintln!(
+        "texture-mask without UVs: {} cracks, {:.3} of the length where the projected mask is dark, {:.3} white",
+        r.cracks,
+        dark / total,
+        white / total
+    );
+    assert!(r.cracks > 20, "{r:?}");
+    assert!(
+        dark / total > 0.8 && white / total < 0.05,
+        "{:.3} dark, {:.3} white",
+        dark / total,
+        white / total
+    );
+}

@@ -879,6 +879,13 @@ pub fn stress_field(
     let terms = pipe
         .terms(&place, masks)
         .map_err(|e| Error::Usage(format!("stress: {}", e.message)))?;
-    StressField::build_with(&e.sim, &terms, seed, curvature)
-        .map_err(|err| Error::mesh(input, &e.label, err))
+    let field = StressField::build_with(&e.sim, &terms, seed, curvature)
+        .map_err(|err| Error::mesh(input, &e.label, err))?;
+    for i in &field.projected_masks {
+        log::warn!(
+            "{}: the mesh has no UVs: stress term {i}'s mask is projected along the three axes over the mesh's box",
+            e.label
+        );
+    }
+    Ok(field)
 }

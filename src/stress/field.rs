@@ -152,6 +152,9 @@ pub struct StressField {
     /// Hits that land later, in order: each adds its load once the
     /// simulation has come to rest under the loads before it.
     pub later: Vec<LaterHit>,
+    /// The terms whose mask is projected along the axes because the mesh
+    /// has no UV set (see the term's mask), in order.
+    pub projected_masks: Vec<usize>,
 }
 
 /// An impact that lands once the cracks before it have come to rest (an
@@ -186,18 +189,17 @@ impl LaterHit {
             self.seed,
             self.index,
         );
-        let channel = self.mask.as_ref().and_then(|m| {
-            mesh.wedges()
-                .channel(&format!("TEXCOORD_{}", m.tex_coord))
-                .filter(|ch| ch.components >= 2)
-        });
+        let coords = self
+            .mask
+            .as_ref()
+            .and_then(|m| MaskCoords::of(mesh, m).ok());
         mesh.faces()
             .map(|f| {
                 let Some((_, n)) = face_frame(mesh, f) else {
                     return Sym3::ZERO;
                 };
-                let w = match (&self.mask, channel) {
-                    (Some(m), Some(ch)) => m.weight(face_uv(mesh, f, ch)),
+                let w = match (&self.mask, &coords) {
+                    (Some(m), Some(c)) => c.weight(mesh, f, m),
                     _ => 1.0,
                 };
                 if w == 0.0 {
@@ -323,8 +325,8 @@ impl Term {
 
     /// The term's unit tensor on face `f` times its mask weight.
     fn masked_tensor(&self, mesh: &SimMesh, f: FaceId, ctx: &Context) -> Sym3 {
-        let w = match (&self.mask, ctx.uv_channel) {
-            (Some(m), Some(ch)) => m.weight(face_uv(mesh, f, ch)),
+        let w = match (&self.mask, &ctx.mask_coords) {
+            (Some(m), Some(c)) => c.weight(mesh, f, m),
             _ => 1.0,
         };
         if w == 0.0 {
@@ -435,8 +437,8 @@ struct Context<'a> {
     impacts: Vec<[f64; 3]>,
     /// Each impact's star (impact terms with radial cracks).
     stars: Vec<super::impact::Star>,
-    /// The UV channel a mask samples (masked terms).
-    uv_channel: Option<&'a crate::mesh::Channel>,
+    /// Where a mask samples (masked terms).
+    mask_coords: Option<MaskCoords<'a>>,
     curvature: Option<&'a CurvatureField>,
     /// Area-weighted RMS of the curvature tensors' Frobenius norms.
     curvature_rms: f64,
@@ -530,6 +532,80 @@ const CHECK_THRESHOLD: f64 = 0.2;
 const CHECK_FULL: f64 = 0.5;
 
 /// The UV of face `f`'s centroid in channel `ch` (2 components).
+/// Where a mask's coordinates come from on a mesh.
+#[derive(Clone, Copy, Debug)]
+enum MaskCoords<'a> {
+    /// The UV set it names.
+    Uv(&'a crate::mesh::Channel),
+    /// A mesh with no UV set at all: the mask projected along the three
+    /// axes (triplanar), one image across the bounding box's largest
+    /// extent from its low corner, blended by the face normal's components
+    /// to the fourth power, so a surface facing an axis takes that
+    /// projection and the blend is smooth between.
+    Box { lo: [f64; 3], size: f64 },
+}
+
+impl<'a> MaskCoords<'a> {
+    /// The coordinates `mask` samples on `mesh`: its `TEXCOORD_n`; with no
+    /// `TEXCOORD_*` set at all, the projection over the box.
+    ///
+    /// # Errors
+    /// The mesh has UV sets but not the one the mask names.
+    fn of(mesh: &'a SimMesh, mask: &Mask) -> Result<MaskCoords<'a>, FieldError> {
+        let name = format!("TEXCOORD_{}", mask.tex_coord);
+        let wedges = mesh.wedges();
+        if let Some(ch) = wedges.channel(&name).filter(|ch| ch.components >= 2) {
+            return Ok(MaskCoords::Uv(ch));
+        }
+        if wedges
+            .channels()
+            .iter()
+            .any(|c| c.name.starts_with("TEXCOORD_"))
+        {
+            return Err(FieldError::Invalid(format!(
+                "the mask samples {name}, which the mesh does not have (it has other UV sets: pick one with the mask's tex_coord)"
+            )));
+        }
+        let (lo, hi) = mesh.bounding_box();
+        let size = (0..3).map(|k| hi[k] - lo[k]).fold(0.0, f64::max);
+        Ok(MaskCoords::Box {
+            lo,
+            size: if size > 0.0 { size } else { 1.0 },
+        })
+    }
+
+    /// `mask`'s weight on face `f`.
+    fn weight(&self, mesh: &SimMesh, f: FaceId, mask: &Mask) -> f64 {
+        match *self {
+            MaskCoords::Uv(ch) => mask.weight(face_uv(mesh, f, ch)),
+            MaskCoords::Box { lo, size } => {
+                let Some((c, n)) = face_frame(mesh, f) else {
+                    return mask.weight([0.0; 2]);
+                };
+                let mut sum = (0.0, 0.0);
+                for (axis, [a, b]) in [(0, [1, 2]), (1, [0, 2]), (2, [0, 1])] {
+                    let w = n[axis].powi(4);
+                    if w > 0.0 {
+                        let uv = [(c[a] - lo[a]) / size, (c[b] - lo[b]) / size];
+                        sum.0 += w * mask.weight(uv);
+                        sum.1 += w;
+                    }
+                }
+                if sum.1 > 0.0 {
+                    sum.0 / sum.1
+                } else {
+                    1.0
+                }
+            }
+        }
+    }
+
+    /// Whether the mask is projected (the mesh has no UV set).
+    fn projected(&self) -> bool {
+        matches!(self, MaskCoords::Box { .. })
+    }
+}
+
 fn face_uv(mesh: &SimMesh, f: FaceId, ch: &crate::mesh::Channel) -> [f64; 2] {
     let mut uv = [0.0; 2];
     for w in mesh.face_wedges(f) {
@@ -726,18 +802,8 @@ impl StressField {
                     .collect(),
                 _ => Vec::new(),
             };
-            let uv_channel = match &t.mask {
-                Some(m) => {
-                    let name = format!("TEXCOORD_{}", m.tex_coord);
-                    match mesh.wedges().channel(&name) {
-                        Some(ch) if ch.components >= 2 => Some(ch),
-                        _ => {
-                            return Err(named(i)(FieldError::Invalid(format!(
-                                "the mask samples {name}, which the mesh does not have (a mask needs UVs)"
-                            ))))
-                        }
-                    }
-                }
+            let mask_coords = match &t.mask {
+                Some(m) => Some(MaskCoords::of(mesh, m).map_err(named(i))?),
                 None => None,
             };
             let checks = matches!(
@@ -774,7 +840,7 @@ impl StressField {
                 seed,
                 impacts,
                 stars,
-                uv_channel,
+                mask_coords,
                 curvature,
                 curvature_rms,
                 cell: if checks { cell_size(mesh) } else { 0.0 },
@@ -790,6 +856,12 @@ impl StressField {
             evolve: vec![Sym3::ZERO; mesh.n_faces()],
             separation_scale: Vec::new(),
             later,
+            projected_masks: contexts
+                .iter()
+                .enumerate()
+                .filter(|(_, c)| c.mask_coords.is_some_and(|m| m.projected()))
+                .map(|(i, _)| i)
+                .collect(),
         };
         for f in mesh.faces() {
             for (t, ctx) in terms.iter().zip(&contexts) {
@@ -810,9 +882,9 @@ impl StressField {
             }
         };
         for (t, ctx) in terms.iter().zip(&contexts) {
-            if let (Some(m), Some(ch)) = (&t.mask, ctx.uv_channel) {
+            if let (Some(m), Some(c)) = (&t.mask, &ctx.mask_coords) {
                 if m.confine {
-                    scale(&|f| m.weight(face_uv(mesh, f, ch)));
+                    scale(&|f| c.weight(mesh, f, m));
                 }
             }
             if let (TermKind::Curvature { scale: Some(sc) }, Some(k)) = (&t.kind, curvature) {
@@ -1124,16 +1196,45 @@ mod tests {
     }
 
     #[test]
-    fn a_mask_on_a_mesh_without_its_uvs_is_named() {
-        let mesh = jittered_plate(3, 0.0, 1); // its channel is "uv", not TEXCOORD_0
+    fn a_mask_on_a_mesh_without_uvs_is_projected_and_a_missing_set_named() {
+        // No TEXCOORD set at all (its channel is "uv"): the mask is
+        // projected along the axes over the box; the plate lies in z = 0,
+        // facing z, so x runs along the image's u.
+        let mesh = jittered_plate(8, 0.0, 1);
         let t = Term {
             kind: TermKind::Uniform,
             init: 1.0,
             evolve: 0.0,
             mask: Some(half_mask(false)),
         };
-        let e = StressField::build(&mesh, &[t], 1).unwrap_err().to_string();
-        assert!(e.contains("TEXCOORD_0") && e.contains("term 0"), "{e}");
+        let field = StressField::build(&mesh, std::slice::from_ref(&t), 1).unwrap();
+        assert_eq!(field.projected_masks, vec![0]);
+        let (lo, hi) = mesh.bounding_box();
+        let (mut on, mut off) = (0, 0);
+        for f in mesh.faces() {
+            let (c, _) = face_frame(&mesh, f).unwrap();
+            let u = (c[0] - lo[0]) / (hi[0] - lo[0]);
+            let s = field.init[f.idx()].trace();
+            let want = t.mask.as_ref().unwrap().weight([u, 0.5]);
+            assert!((s - 2.0 * want).abs() < 1e-9, "{s} against {want} at u {u}");
+            if want > 0.5 {
+                on += 1;
+            } else {
+                off += 1;
+            }
+        }
+        assert!(on > 10 && off > 10, "{on} / {off}");
+        // A mesh with UV sets, but not the one asked for: an error.
+        let mut m = (*t.mask.clone().unwrap()).clone();
+        m.tex_coord = 1;
+        let t1 = Term {
+            mask: Some(Arc::new(m)),
+            ..t
+        };
+        let e = StressField::build(&uv_plate(3), &[t1], 1)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("TEXCOORD_1") && e.contains("term 0"), "{e}");
     }
 
     #[test]
