@@ -15,11 +15,22 @@ mod shapes;
 
 /// The crack lines at rest of `mud` (with `args`) on the plate `text`.
 fn mud_lines(text: &str, args: &[&str]) -> Vec<measure::Seg> {
+    preset_lines("mud", text, args, None)
+}
+
+/// The crack lines at rest of `preset` (with `args`) on the plate `text`,
+/// the output also written to `keep` when given.
+fn preset_lines(
+    preset: &str,
+    text: &str,
+    args: &[&str],
+    keep: Option<&std::path::Path>,
+) -> Vec<measure::Seg> {
     let dir = tempfile::tempdir().unwrap();
     let input = dir.path().join("plate.obj");
     shapes::write_obj(&input, text);
-    let out = dir.path().join("out.glb");
-    let mut all = vec!["-q", "--preset", "mud", "--set", "post.lines=true"];
+    let out = keep.map_or_else(|| dir.path().join("out.glb"), |k| k.to_path_buf());
+    let mut all = vec!["-q", "--preset", preset, "--set", "post.lines=true"];
     all.extend(args);
     let o = common::crack(&input, &out, &all);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
@@ -68,11 +79,15 @@ fn mud_on_a_flat_patch_is_not_laid_in_rows() {
 /// orientation: 2/9). Read from the output's crack lines at rest, segment
 /// by segment.
 fn border_normal_shares(text: &str, args: &[&str]) -> (f64, f64) {
-    let lines = mud_lines(text, args);
     // The preset's cell: a tenth of the plate's diagonal.
-    let cell = 0.1 * 200f64.sqrt();
+    border_shares_of(&mud_lines(text, args), 0.1 * 200f64.sqrt())
+}
+
+/// [`border_normal_shares`] of crack lines at rest on the 10-unit plate
+/// (x and z in [-5, 5]) for a cell of `cell`.
+fn border_shares_of(lines: &[measure::Seg], cell: f64) -> (f64, f64) {
     let (mut near, mut near_normal, mut inner, mut inner_normal) = (0.0, 0.0, 0.0, 0.0);
-    for [a, b] in &lines {
+    for [a, b] in lines {
         let mid = [0.5 * (a[0] + b[0]), 0.5 * (a[2] + b[2])];
         let d = [b[0] - a[0], b[2] - a[2]];
         let len = d[0].hypot(d[1]);
@@ -125,9 +140,71 @@ fn the_border_cuts_through_mud_cells_instead_of_combing_them() {
 }
 
 #[test]
-fn a_margin_grows_only_where_the_cracks_are_cut_into_the_input() {
-    // The strip may never reach the output: over an unchanged input
-    // (glaze's lines and attributes) and with the simulation surface as
+fn a_glaze_with_a_margin_is_cut_by_the_border_and_its_attributes_see_only_the_input() {
+    // glaze keeps the input unchanged (lines, attributes, baked maps); with
+    // `simulation.margin` its pattern grows past the border like mud's,
+    // the lines are clipped there, and the crack distance attribute counts
+    // only the cracks on the input: no vertex lies nearer a crack by its
+    // attribute than half its distance to the nearest crack line drawn
+    // (a crack in the strip just outside would make border vertices so).
+    let plate = shapes::jittered_plate(160, 10.0, 0.3, 1);
+    let cell = 0.05 * 200f64.sqrt(); // glaze: 5% of the diagonal
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("glaze.glb");
+    let free = border_shares_of(&preset_lines("glaze", &plate, &[], None), cell);
+    let lines = preset_lines(
+        "glaze",
+        &plate,
+        &["--set", "simulation.margin=1.5"],
+        Some(&out),
+    );
+    let cut = border_shares_of(&lines, cell);
+    eprintln!(
+        "glaze near the border along its normal: free {:.3} (further in {:.3}), with a margin {:.3} (further in {:.3})",
+        free.0, free.1, cut.0, cut.1
+    );
+    assert!(free.0 > 0.6, "without the margin: {free:?}");
+    assert!(
+        cut.0 < 0.45 && cut.0 < cut.1 + 0.15,
+        "with the margin: {cut:?}"
+    );
+    let scene = crackle::io::read(&out).unwrap();
+    let mut checked = 0;
+    for prim in &scene.meshes[0].primitives {
+        let crackle::scene::Geometry::Triangles(t) = &prim.geometry else {
+            continue;
+        };
+        let Some(dist) = t.attribute("_CRACK_DISTANCE") else {
+            continue;
+        };
+        for (p, d) in t.positions.iter().zip(&dist.data) {
+            let q = [f64::from(p[0]), f64::from(p[2])];
+            let nearest = lines
+                .iter()
+                .map(|[a, b]| {
+                    let (ab, aq) = ([b[0] - a[0], b[2] - a[2]], [q[0] - a[0], q[1] - a[2]]);
+                    let l2 = ab[0] * ab[0] + ab[1] * ab[1];
+                    let s = if l2 > 0.0 {
+                        ((aq[0] * ab[0] + aq[1] * ab[1]) / l2).clamp(0.0, 1.0)
+                    } else {
+                        0.0
+                    };
+                    (aq[0] - s * ab[0]).hypot(aq[1] - s * ab[1])
+                })
+                .fold(f64::INFINITY, f64::min);
+            assert!(
+                f64::from(*d) >= 0.5 * nearest - 0.03 * cell,
+                "vertex {p:?}: attribute distance {d}, nearest crack line {nearest}"
+            );
+            checked += 1;
+        }
+    }
+    assert!(checked > 10_000, "{checked} vertices with _CRACK_DISTANCE");
+}
+
+#[test]
+fn a_margin_grows_only_where_the_cracks_go_onto_the_input() {
+    // The strip may never reach the output: with the simulation surface as
     // the output, the margin is left out with a warning; with mud's gaps
     // it grows (more simulated triangles than without).
     let dir = tempfile::tempdir().unwrap();
@@ -155,8 +232,16 @@ fn a_margin_grows_only_where_the_cracks_are_cut_into_the_input() {
     };
     let left_out = "simulation.margin is left out";
     for (preset, extra) in [
-        ("glaze", &["--set", "simulation.margin=1.5"][..]),
         ("mud", &["--set", "post.output=\"simulation\""][..]),
+        (
+            "glaze",
+            &[
+                "--set",
+                "post.output=\"simulation\"",
+                "--set",
+                "simulation.margin=1.5",
+            ][..],
+        ),
     ] {
         let (with, err) = simulated(preset, extra);
         let mut none = extra.to_vec();

@@ -17,7 +17,7 @@ use std::path::Path;
 /// border, and the run can take one: a film on its remeshed surface whose
 /// output is the input's own mesh; with `post.output = "simulation"` the
 /// simulation surface is written, and no strip may be in it; elsewhere a
-/// warning): its cell size is fixed in scene units first (a relative cell
+/// warning; the input kept unchanged or cut): its cell size is fixed in scene units first (a relative cell
 /// size is the input's, not the extended surface's), and the welded input
 /// is kept as [`SimEntry::unextended`].
 ///
@@ -33,9 +33,9 @@ pub(super) fn grow(
         if p.margin <= 0.0 || e.sim.n_boundary_halfedges() == 0 {
             continue;
         }
-        if !(p.is_film() && p.isotropic_remesh && post.cuts_input()) {
+        if !(p.is_film() && p.isotropic_remesh && post.output == "input") {
             log::warn!(
-                "{}: simulation.margin is left out: it grows a film's remeshed simulation surface (a cell size, relaxation = \"tensor\", isotropic_remesh = true) whose cracks are cut into the input (post.output = \"input\" with gaps, grooves or walls)",
+                "{}: simulation.margin is left out: it grows a film's remeshed simulation surface (a cell size, relaxation = \"tensor\", isotropic_remesh = true) whose cracks go onto the input (post.output = \"input\")",
                 e.label
             );
             continue;
@@ -88,10 +88,9 @@ pub(super) fn grow(
 /// surface's chords stray from a curved input.
 pub(super) fn clip(entries: &[SimEntry], reports: &mut [(usize, SimReport)]) {
     for (e, (_, r)) in entries.iter().zip(reports.iter_mut()) {
-        let Some(u) = e.unextended.as_ref().filter(|u| !u.strip.is_empty()) else {
+        let Some(on) = on_input(e) else {
             continue;
         };
-        let on = |p: [f64; 3]| u.input_faces.distance(p) <= u.strip.distance(p);
         let times = std::mem::take(&mut r.segment_times);
         let mut kept = Vec::with_capacity(r.segments.len());
         let mut kept_times = Vec::with_capacity(times.len());
@@ -116,6 +115,24 @@ pub(super) fn clip(entries: &[SimEntry], reports: &mut [(usize, SimReport)]) {
             .map(|[a, b]| crate::mesh::spatial::dist2(*a, *b).sqrt())
             .sum();
     }
+}
+
+/// For an entry grown with a margin: whether a point of its simulation
+/// surface lies on the input (no farther from it than from the strip).
+pub(super) fn on_input(e: &SimEntry) -> Option<impl Fn([f64; 3]) -> bool + '_> {
+    let u = e.unextended.as_ref().filter(|u| !u.strip.is_empty())?;
+    Some(move |p: [f64; 3]| u.input_faces.distance(p) <= u.strip.distance(p))
+}
+
+/// For an entry grown with a margin: whether a point lies on the input's
+/// own border (within `tolerance` of the strip), where [`clip`] ends the
+/// cracks that leave the input: those ends are not crack tips.
+pub(super) fn on_input_border(
+    e: &SimEntry,
+    tolerance: f64,
+) -> Option<impl Fn([f64; 3]) -> bool + '_> {
+    let u = e.unextended.as_ref().filter(|u| !u.strip.is_empty())?;
+    Some(move |p: [f64; 3]| u.strip.distance(p) <= tolerance)
 }
 
 /// `[a, b]` cut back to the part on the input (`on`): whole when both ends

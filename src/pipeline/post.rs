@@ -230,8 +230,12 @@ pub fn apply(
         let mut extra: Vec<(String, Vec<f64>)> = Vec::new();
         if post.attributes {
             let t = Instant::now();
+            // With a margin, only the input's cracks count: a crack in the
+            // strip just past the border is not one the asset shows.
+            let on_input = super::margin::on_input(e);
             let sources: Vec<_> = crack_vertices(&e.sim)
                 .into_iter()
+                .filter(|&v| on_input.as_ref().is_none_or(|on| on(e.sim.position(v))))
                 .map(|v| {
                     let time = r.crack_time.get(v.idx()).copied().unwrap_or(f64::NAN);
                     (v, if time.is_nan() { 1.0 } else { time / end })
@@ -302,9 +306,16 @@ pub fn apply(
             o.sort_by(f64::total_cmp);
             o.get(o.len() * 95 / 100).copied().unwrap_or(0.0)
         };
-        let taper = post
-            .bake_taper
-            .then(|| crate::post::taper::tapers(&r.segments, border_points(&e.sim)));
+        let taper = post.bake_taper.then(|| {
+            // Ends where the margin's clip cut a crack at the input's
+            // border are on the border, not tips.
+            let tolerance = 1e-4 * r.cell_size.unwrap_or(0.0);
+            let cut = super::margin::on_input_border(e, tolerance);
+            let border = border_points(&e.sim);
+            crate::post::taper::tapers(&r.segments, |p| {
+                border(p) || cut.as_ref().is_some_and(|on| on(p))
+            })
+        });
         let widths = r
             .segment_times
             .iter()
