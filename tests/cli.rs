@@ -1070,3 +1070,30 @@ fn many_objects_or_primitives_are_held_to_the_memory_budget() {
         std::fs::remove_file(&out).unwrap();
     }
 }
+
+#[test]
+fn a_run_that_forms_no_crack_says_why() {
+    // The curvature preset on a flat plate: no crack, as it should, and a
+    // warning saying the field keeps the flat surface from cracking.
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("flat.glb");
+    let o = common::crack(
+        &common::fixture("plate_jittered.obj"),
+        &out,
+        &["--preset", "curvature", "--no-bake"],
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("no crack formed") && err.contains("curvature term"),
+        "{err}"
+    );
+    // A run that cracks says nothing of the kind.
+    let o = common::crack(
+        &common::fixture("plate_jittered.obj"),
+        &out,
+        &["--preset", "glaze", "--no-bake"],
+    );
+    assert!(o.status.success());
+    assert!(!String::from_utf8_lossy(&o.stderr).contains("no crack formed"));
+}

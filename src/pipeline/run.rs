@@ -829,9 +829,31 @@ fn simulate(
                 r.substeps
             );
         }
+        if r.cracks == 0 {
+            warn_no_crack(input, &e.label, field.as_ref());
+        }
         per_mesh.push((e.mesh_index, r));
     }
     Ok(per_mesh)
+}
+
+/// Say why a mesh came back uncracked: a field that scales the material's
+/// cracking down everywhere (a flat surface under the curvature term, a
+/// confining mask that is white all over), or a load below the toughness.
+fn warn_no_crack(input: &Path, label: &str, field: Option<&StressField>) {
+    let most = field
+        .filter(|f| !f.separation_scale.is_empty())
+        .map(|f| f.separation_scale.iter().copied().fold(0.0, f64::max));
+    match most {
+        Some(m) if m < 0.5 => log::warn!(
+            "{}: {label}: no crack formed: the stress field lets the material crack at most {m:.2} of its full measure anywhere (the curvature term on a surface flat at the cell size's scale, or a confining mask white all over)",
+            input.display()
+        ),
+        _ => log::warn!(
+            "{}: {label}: no crack formed: the stress stayed below the toughness everywhere (raise the load or lower simulation.toughness)",
+            input.display()
+        ),
+    }
 }
 
 /// The stress field of simulation mesh `e` from the pipeline's terms:
