@@ -164,7 +164,7 @@ pub fn junction_histogram(segments: &[[[f64; 3]; 2]]) -> Vec<f64> {
 /// mask images must be loaded. The study compares the integrators of the
 /// mesh-scale relaxation: a film (a pipeline's cell size) is always solved
 /// for equilibrium, so its cell size is left out here (and the mesh is not
-/// remeshed).
+/// remeshed, nor grown a margin).
 ///
 /// # Errors
 /// What [`prepare`] refuses; [`Error::NothingToCrack`] without a
@@ -173,6 +173,9 @@ pub fn study(scene: &Scene, config: &Config, options: &StudyOptions) -> Result<S
     let mut config = config.clone();
     config.pipeline.simulation.cell_size = None;
     config.pipeline.simulation.cell_size_relative = None;
+    // A margin is grown only round a film: without the cell size there is
+    // none to grow (and nothing to warn about).
+    config.pipeline.simulation.margin = 0.0;
     let prepared = prepare(scene, &config, &mut ())?;
     let input = config.asset.as_path();
     let Some(k) = (0..prepared.entries.len()).max_by_key(|&k| {
