@@ -210,7 +210,7 @@ fn a_margin_grows_only_where_the_cracks_go_onto_the_input() {
     let dir = tempfile::tempdir().unwrap();
     let input = dir.path().join("plate.obj");
     shapes::write_obj(&input, &shapes::jittered_plate(48, 10.0, 0.3, 1));
-    let simulated = |preset: &str, extra: &[&str]| -> (u64, String) {
+    let simulated = |preset: &str, extra: &[&str]| -> (u64, String, serde_json::Value) {
         let out = dir.path().join("out.glb");
         let report = dir.path().join("report.json");
         let mut args: Vec<&std::ffi::OsStr> =
@@ -228,6 +228,7 @@ fn a_margin_grows_only_where_the_cracks_go_onto_the_input() {
         (
             r["triangles"]["before"].as_u64().unwrap(),
             String::from_utf8_lossy(&o.stderr).into_owned(),
+            r["meshes"][0]["post"]["margin"].clone(),
         )
     };
     let left_out = "simulation.margin is left out";
@@ -243,15 +244,21 @@ fn a_margin_grows_only_where_the_cracks_go_onto_the_input() {
             ][..],
         ),
     ] {
-        let (with, err) = simulated(preset, extra);
+        let (with, err, margin) = simulated(preset, extra);
         let mut none = extra.to_vec();
         none.extend(["--set", "simulation.margin=0"]);
-        let (without, _) = simulated(preset, &none);
+        let (without, _, _) = simulated(preset, &none);
+        assert!(margin.is_null(), "{preset} {extra:?}: {margin}");
         assert!(err.contains(left_out), "{preset} {extra:?}: {err}");
         assert_eq!(with, without, "{preset} {extra:?}");
     }
-    let (grown, err) = simulated("mud", &[]);
-    let (free, _) = simulated("mud", &["--set", "simulation.margin=0"]);
+    let (grown, err, margin) = simulated("mud", &[]);
+    let (free, _, none) = simulated("mud", &["--set", "simulation.margin=0"]);
     assert!(!err.contains(left_out), "{err}");
     assert!(grown as f64 > 1.5 * free as f64, "{grown} against {free}");
+    // The report says what grew: the input's triangles (48 x 48 x 2) and
+    // the strip's, as grown.
+    assert_eq!(margin["input_triangles"], 4608, "{margin}");
+    assert!(margin["strip_triangles"].as_u64().unwrap() > 0, "{margin}");
+    assert!(none.is_null(), "{none}");
 }

@@ -187,6 +187,11 @@ impl Faces {
         self.triangles.is_empty()
     }
 
+    /// How many triangles.
+    pub(crate) fn len(&self) -> usize {
+        self.triangles.len()
+    }
+
     /// The triangles of `mesh` (its vertices as they are).
     pub(crate) fn of_mesh(mesh: &super::SimMesh) -> Faces {
         Faces::new(

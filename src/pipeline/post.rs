@@ -56,6 +56,18 @@ pub fn apply(
     let mut widths_of: Vec<Vec<f64>> = Vec::new();
     for (e, (_, r)) in entries.iter_mut().zip(reports) {
         let mut detail = serde_json::Map::new();
+        if let Some(u) = e.unextended.as_ref().filter(|u| !u.strip.is_empty()) {
+            // The simulation's crack events, triangles and energy count the
+            // strip too; its crack length and segments are the input's. The
+            // input's and the strip's triangles as grown (before remeshing).
+            detail.insert(
+                "margin".into(),
+                json!({
+                    "strip_triangles": u.strip.len(),
+                    "input_triangles": u.input.n_faces(),
+                }),
+            );
+        }
         // Grooves: a width from the cell size (or, for models without one,
         // the bounding-box diagonal).
         let groove_width = if post.grooves() {
