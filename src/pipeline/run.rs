@@ -850,7 +850,7 @@ fn warn_no_crack(input: &Path, label: &str, field: Option<&StressField>) {
             input.display()
         ),
         _ => log::warn!(
-            "{}: {label}: no crack formed: the stress stayed below the toughness everywhere (raise the load or lower simulation.toughness)",
+            "{}: {label}: no crack formed: the stress stayed below the toughness everywhere (raise the load, or lower simulation.toughness; for the spring model, simulation.springs.break_strain)",
             input.display()
         ),
     }
