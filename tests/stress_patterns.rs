@@ -255,32 +255,23 @@ fn texture_mask_preset_cracks_only_where_the_mask_is_dark() {
             assert!((m[0] - ch.get(w)[0]).abs() < 1e-5 && (m[1] - ch.get(w)[1]).abs() < 1e-5);
         }
     }
-    let (mut total, mut dark, mut white) = (0.0, 0.0, 0.0);
+    let weight = |m: [f64; 3]| mask.weight(uv(m));
+    let (dark, white) = mask_shares(&r, &weight, 0.5);
     let mut quadrants = [0.0; 4];
     for (m, _, l) in segments(&r) {
-        let w = mask.weight(uv(m));
-        total += l;
-        if w >= 0.5 {
-            dark += l;
+        if weight(m) >= 0.5 {
             let q = uv(m);
             quadrants[usize::from(q[0] > 0.5) + 2 * usize::from(q[1] > 0.5)] += l;
         }
-        if w < 0.05 {
-            white += l;
-        }
     }
     eprintln!(
-        "texture-mask: {} cracks, {:.3} of the length dark, {:.3} white, per quadrant {quadrants:.3?}",
-        r.cracks,
-        dark / total,
-        white / total
+        "texture-mask: {} cracks, {dark:.3} of the length dark, {white:.3} white, per quadrant {quadrants:.3?}",
+        r.cracks
     );
     assert!(r.cracks > 20, "{r:?}");
     assert!(
-        dark / total > 0.9 && white / total < 0.02,
-        "cracks where the mask is dark: {:.3} of the length, where it is white: {:.3}",
-        dark / total,
-        white / total
+        dark > 0.9 && white < 0.02,
+        "cracks where the mask is dark: {dark:.3} of the length, where it is white: {white:.3}"
     );
     // Every blotch cracks (they lie in three different UV quadrants).
     assert!(
@@ -363,28 +354,31 @@ fn texture_mask_on_a_mesh_without_uvs_cracks_where_the_projected_mask_is_dark() 
         }
         sum / total
     };
+    let (dark, white) = mask_shares(&r, &weight, 0.3);
+    eprintln!(
+        "texture-mask without UVs: {} cracks, {dark:.3} of the length where the projected mask is dark, {white:.3} white",
+        r.cracks
+    );
+    assert!(r.cracks > 20, "{r:?}");
+    assert!(
+        dark > 0.8 && white < 0.05,
+        "{dark:.3} dark, {white:.3} white"
+    );
+}
+
+/// The shares of `r`'s crack length (by segment middle) where the mask's
+/// `weight` is at least `dark_at`, and where it is below 0.05 (white).
+fn mask_shares(r: &SimReport, weight: &dyn Fn([f64; 3]) -> f64, dark_at: f64) -> (f64, f64) {
     let (mut total, mut dark, mut white) = (0.0, 0.0, 0.0);
-    for (m, _, l) in segments(&r) {
+    for (m, _, l) in segments(r) {
         let w = weight(m);
         total += l;
-        if w >= 0.3 {
+        if w >= dark_at {
             dark += l;
         }
         if w < 0.05 {
             white += l;
         }
     }
-    eprintln!(
-        "texture-mask without UVs: {} cracks, {:.3} of the length where the projected mask is dark, {:.3} white",
-        r.cracks,
-        dark / total,
-        white / total
-    );
-    assert!(r.cracks > 20, "{r:?}");
-    assert!(
-        dark / total > 0.8 && white / total < 0.05,
-        "{:.3} dark, {:.3} white",
-        dark / total,
-        white / total
-    );
+    (dark / total, white / total)
 }

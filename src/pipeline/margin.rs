@@ -17,9 +17,10 @@ use std::path::Path;
 /// border, and the run can take one: a film on its remeshed surface whose
 /// output is the input's own mesh; with `post.output = "simulation"` the
 /// simulation surface is written, and no strip may be in it; elsewhere a
-/// warning; the input kept unchanged or cut): its cell size is fixed in scene units first (a relative cell
-/// size is the input's, not the extended surface's), and the welded input
-/// is kept as [`SimEntry::unextended`].
+/// warning; the input kept unchanged or cut): its cell size is fixed in
+/// scene units first (a relative cell size is the input's, not the
+/// extended surface's), and the welded input is kept as
+/// [`SimEntry::unextended`].
 ///
 /// # Errors
 /// [`Error::Mesh`] when the strip cannot be built.
@@ -117,10 +118,15 @@ pub(super) fn clip(entries: &[SimEntry], reports: &mut [(usize, SimReport)]) {
     }
 }
 
+/// The input and strip of an entry grown with a margin.
+pub(super) fn grown(e: &SimEntry) -> Option<&Unextended> {
+    e.unextended.as_ref().filter(|u| !u.strip.is_empty())
+}
+
 /// For an entry grown with a margin: whether a point of its simulation
 /// surface lies on the input (no farther from it than from the strip).
 pub(super) fn on_input(e: &SimEntry) -> Option<impl Fn([f64; 3]) -> bool + '_> {
-    let u = e.unextended.as_ref().filter(|u| !u.strip.is_empty())?;
+    let u = grown(e)?;
     Some(move |p: [f64; 3]| u.input_faces.distance(p) <= u.strip.distance(p))
 }
 
@@ -131,7 +137,7 @@ pub(super) fn on_input_border(
     e: &SimEntry,
     tolerance: f64,
 ) -> Option<impl Fn([f64; 3]) -> bool + '_> {
-    let u = e.unextended.as_ref().filter(|u| !u.strip.is_empty())?;
+    let u = grown(e)?;
     Some(move |p: [f64; 3]| u.strip.distance(p) <= tolerance)
 }
 

@@ -56,7 +56,7 @@ pub fn apply(
     let mut widths_of: Vec<Vec<f64>> = Vec::new();
     for (e, (_, r)) in entries.iter_mut().zip(reports) {
         let mut detail = serde_json::Map::new();
-        if let Some(u) = e.unextended.as_ref().filter(|u| !u.strip.is_empty()) {
+        if let Some(u) = super::margin::grown(e) {
             // The simulation's crack events, triangles and energy count the
             // strip too; its crack length and segments are the input's. The
             // input's and the strip's triangles as grown (before remeshing).

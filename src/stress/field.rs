@@ -531,7 +531,6 @@ const CHECK_THRESHOLD: f64 = 0.2;
 /// The noise level from which it acts in full.
 const CHECK_FULL: f64 = 0.5;
 
-/// The UV of face `f`'s centroid in channel `ch` (2 components).
 /// Where a mask's coordinates come from on a mesh.
 #[derive(Clone, Copy, Debug)]
 enum MaskCoords<'a> {
@@ -606,6 +605,7 @@ impl<'a> MaskCoords<'a> {
     }
 }
 
+/// The UV of face `f`'s centroid in channel `ch` (2 components).
 fn face_uv(mesh: &SimMesh, f: FaceId, ch: &crate::mesh::Channel) -> [f64; 2] {
     let mut uv = [0.0; 2];
     for w in mesh.face_wedges(f) {

@@ -19,6 +19,7 @@ use std::collections::{BTreeMap, BTreeSet, BinaryHeap, HashMap};
 
 use super::{break_spring, Springs};
 use crate::math::v3;
+use crate::mesh::spatial::position_key as key;
 use crate::mesh::{SimMesh, VertexId};
 use crate::sim::{FinishReport, SimError, SimReport};
 
@@ -36,10 +37,6 @@ const OWN_HOPS: usize = 12;
 const DIRECTION_HOPS: usize = 3;
 
 type Key = [u64; 3];
-
-fn key(p: [f64; 3]) -> Key {
-    crate::mesh::spatial::position_key(p)
-}
 
 /// Run every open tip on to a crack or the border ahead within `reach`
 /// (normalised units: the mean edge is 1), in vertex order, each seeing the
