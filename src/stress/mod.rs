@@ -4,6 +4,7 @@
 pub mod field;
 pub mod geodesic;
 pub mod impact;
+mod mask_coords;
 pub mod texture;
 
 pub use field::{CurvatureMeasure, CurvatureScale, StressField, Term, TermKind};
