@@ -84,6 +84,10 @@ pub fn apply(
             "width"
         };
         let moves = post.width > 0.0 || post.curl > 0.0 || groove_width > 0.0;
+        // Gaps opened in a band move each copy of a crack node by its own
+        // opening, so a move shortened later is shortened alone; whole
+        // cells' moves (and grooves) stay tied across the crack.
+        let tied = post.gap_band <= 0.0 || groove_width > 0.0;
         // Cracks along the simulation surface's edges, off its zig-zag.
         let straightened = straighten(e, r, post, moves, &mut detail)?;
         let r = straightened.as_ref().unwrap_or(r);
@@ -128,7 +132,7 @@ pub fn apply(
                     let mut top = d.positions.clone();
                     let bottoms = (post.walls || groove_width > 0.0).then(|| {
                         let opts = wall_options(post, groove_width, d.mean_gap);
-                        build_walls_uncrossed(&e.sim, &mut top, &opts, None);
+                        build_walls_uncrossed(&e.sim, &mut top, &opts, None, tied);
                         bottom_offsets(&e.sim, &top, &opts)
                     });
                     (moves_from_rest(&e.sim, &top), bottoms)
@@ -183,6 +187,7 @@ pub fn apply(
                 "width_limited_nodes": d.width_limited,
                 "inverted_triangles_prevented": d.inverted_triangles,
                 "shortened_nodes": d.shortened_nodes,
+                "rounded_corner_nodes": d.rounded_nodes,
             });
             mean_gap = d.mean_gap;
             positions = match carried {
@@ -193,7 +198,7 @@ pub fn apply(
                     for (p, m) in positions.iter_mut().zip(m) {
                         *p = crate::math::v3::add(*p, m);
                     }
-                    let n = crate::post::width::shorten(&e.sim, &mut positions, &[], 1.0);
+                    let n = crate::post::width::shorten(&e.sim, &mut positions, &[], 1.0, tied);
                     info["shortened_nodes_on_input"] = json!(n);
                     out.time(stage, t.elapsed().as_secs_f64());
                     positions
@@ -212,7 +217,7 @@ pub fn apply(
                 offsets: o,
                 normals: n,
             });
-            let (w, fix) = build_walls_uncrossed(&e.sim, &mut positions, &opts, hang);
+            let (w, fix) = build_walls_uncrossed(&e.sim, &mut positions, &opts, hang, tied);
             if fix.crossing_after > 0 {
                 log::info!(
                     "{}: {} wall triangle pairs cross",

@@ -29,11 +29,13 @@ pub struct Post {
     /// Largest gap across a crack, in scene units (0: no limit). Default 0.
     pub max_width: f64,
     /// Gaps opened locally: each side of a crack moves by its opening only
-    /// (the crack line stays), and the nodes off the cracks follow their
-    /// nearest crack node, fading to rest over this many times its opening
-    /// (along the surface), so cell interiors, their texture and the
-    /// silhouette stay put. 0: every node moves by its displacement, whole
-    /// cells shrinking as in the paper. Default 0.
+    /// (the crack line stays; a cell's corners where cracks meet round off
+    /// as far as the gap is wide), and the nodes off the cracks follow in a
+    /// band this many times the nearest crack node's opening wide (along
+    /// the surface), their moves the smooth (harmonic) blend of the crack
+    /// nodes' moves fading to rest across the band, so cell interiors,
+    /// their texture and the silhouette stay put. 0: every node moves by
+    /// its displacement, whole cells shrinking as in the paper. Default 0.
     pub gap_band: f64,
     /// Curling: lift crack nodes along the normal by this fraction of how
     /// far they moved (0: none). With `gap_band` the lift of every node in

@@ -15,11 +15,13 @@
 use crate::math::v3;
 use crate::mesh::spatial::closest_on_triangle;
 use crate::mesh::{FaceId, HalfedgeId, SimMesh, VertexId, WedgeId};
-use crate::post::distance::{crack_vertices, distance_field};
+use crate::post::distance::crack_vertices;
 use crate::post::Post;
 
+mod band;
 mod even;
-use even::{even_openings, group_sizes, side_runs, smooth_runs, t_corner};
+use band::spread_over_band;
+use even::{even_openings, group_sizes, round_corners, side_runs, smooth_runs, t_corner};
 
 /// How many times a node's move is halved before it is dropped.
 pub const MAX_HALVINGS: usize = 12;
@@ -46,6 +48,8 @@ pub struct Displaced {
     pub inverted_triangles: usize,
     /// Nodes whose move was shortened so no triangle flips.
     pub shortened_nodes: usize,
+    /// Crack copies moved onto a cell's rounded corner (gap band only).
+    pub rounded_nodes: usize,
     /// Widest gap across a crack after the moves (scene units).
     pub max_gap: f64,
     /// Mean gap over the crack nodes (scene units; 0 without cracks).
@@ -182,6 +186,14 @@ struct Links {
 }
 
 impl Links {
+    /// No node tied to another.
+    fn none(n: usize) -> Links {
+        Links {
+            set_of: vec![usize::MAX; n],
+            sets: Vec::new(),
+        }
+    }
+
     /// `v` and every node tied to it (just `v` when it is not a crack node).
     fn of(&self, v: VertexId) -> Vec<VertexId> {
         match self.set_of[v.idx()] {
@@ -417,7 +429,15 @@ fn open_up(mesh: &SimMesh, displacement: &[[f64; 3]], opts: &Post, even: bool) -
     }
 
     if local {
-        fade_into_band(mesh, &mut mv, opts.gap_band);
+        if even {
+            let sizes = group_sizes(mesh, &groups);
+            let mut on_t = vec![false; mesh.n_vertices()];
+            for &(q, _, _, _) in &junctions {
+                on_t[q.idx()] = true;
+            }
+            out.rounded_nodes = round_corners(mesh, &sizes, &on_t, &opening, &mut mv);
+        }
+        spread_over_band(mesh, &mut mv, opts.gap_band);
     }
 
     // Curling: crack nodes rise by a fraction of how far they moved, and
@@ -477,7 +497,15 @@ fn open_up(mesh: &SimMesh, displacement: &[[f64; 3]], opts: &Post, even: bool) -
     // to above (its copies, and at a T-junction the spanning edge's ends
     // and their copies), so the two sides of a crack stay apart: halving
     // one copy alone would slide it against the other side.
-    let links = linked_nodes(mesh, &groups, &junctions);
+    // With a gap band each copy moves by its own opening alone, so one
+    // copy shortened does not slide against the others: nothing is tied
+    // (tied, one flipped triangle shortened every copy of its corners and
+    // pinched the gap shut on the far side of the crack too).
+    let links = if local {
+        Links::none(mesh.n_vertices())
+    } else {
+        linked_nodes(mesh, &groups, &junctions)
+    };
     let mut shortened = vec![false; mesh.n_vertices()];
     out.inverted_triangles = unflip(mesh, &links, &mut mv, &mut positions, &mut shortened);
     out.shortened_nodes = shortened.iter().filter(|&&s| s).count();
@@ -492,40 +520,6 @@ fn open_up(mesh: &SimMesh, displacement: &[[f64; 3]], opts: &Post, even: bool) -
     }
     out.positions = positions;
     out
-}
-
-/// Gaps opened locally (`[post] gap_band`): every node that is not on a
-/// crack moves with the crack node nearest to it over the surface (on its
-/// own side, since the crack's sides share no face), by that node's move
-/// times `1 - d / (band |move|)` at surface distance `d`, and not at all
-/// farther away. The cells' interiors, their texture and the silhouette
-/// stay; each side of a crack is squeezed over a strip `band` times its
-/// own opening wide.
-fn fade_into_band(mesh: &SimMesh, mv: &mut [[f64; 3]], band: f64) {
-    let nodes = crack_vertices(mesh);
-    let sources: Vec<(VertexId, f64)> = nodes.iter().map(|&v| (v, v.idx() as f64)).collect();
-    let (distance, nearest) = distance_field(mesh, mesh.positions(), &sources);
-    let mut on_crack = vec![false; mesh.n_vertices()];
-    for v in &nodes {
-        on_crack[v.idx()] = true;
-    }
-    for i in 0..mv.len() {
-        if on_crack[i] {
-            continue;
-        }
-        let (d, c) = (distance[i], nearest[i]);
-        mv[i] = if d.is_finite() && c.is_finite() {
-            let m = mv[c as usize];
-            let reach = band * v3::norm(m);
-            if d < reach {
-                v3::scale(m, 1.0 - d / reach)
-            } else {
-                [0.0; 3]
-            }
-        } else {
-            [0.0; 3]
-        };
-    }
 }
 
 /// Grooves (`[post] groove`): every copy of a split crack node moves
@@ -633,19 +627,27 @@ fn unflip(
 }
 
 /// Scale by `factor` the moves (from the rest positions to `positions`)
-/// of `nodes` and of every node tied to them (the copies of a crack vertex,
-/// and at a T-junction the spanning edge's ends), so the sides of a crack
-/// keep their shape relative to each other; then halve moves that this
-/// flipped as [`displace`] does. Returns the number of nodes moved.
+/// of `nodes` and, when `tied`, of every node tied to them (the copies of a
+/// crack vertex, and at a T-junction the spanning edge's ends), so the
+/// sides of a crack keep their shape relative to each other; then halve
+/// moves that this flipped as [`displace`] does (tied or each node alone:
+/// gaps opened in a band move each copy by its own opening, so a copy
+/// shortened alone slides against no other). Returns the number of nodes
+/// moved.
 pub fn shorten(
     mesh: &SimMesh,
     positions: &mut [[f64; 3]],
     nodes: &[VertexId],
     factor: f64,
+    tied: bool,
 ) -> usize {
     let groups = crack_groups(mesh);
     let junctions = t_junctions(mesh);
-    let links = linked_nodes(mesh, &groups, &junctions);
+    let links = if tied {
+        linked_nodes(mesh, &groups, &junctions)
+    } else {
+        Links::none(mesh.n_vertices())
+    };
     let mut tied: Vec<VertexId> = nodes.iter().flat_map(|&v| links.of(v)).collect();
     tied.sort();
     tied.dedup();
@@ -1041,6 +1043,85 @@ mod tests {
             let want = 0.2 * (std::f64::consts::PI * (x + 1) as f64 / 6.0).sin();
             assert!((g - want).abs() < 1e-9, "{gaps:?}");
         }
+    }
+
+    /// [`cracked_plate`] with a second crack up from its middle: the edges
+    /// along x = 3 opened from y = 3 to the border, so two cells meet the
+    /// first crack at right-angled corners.
+    fn plate_with_a_junction() -> SimMesh {
+        let mut m = cracked_plate();
+        for y in 3..6 {
+            let at = |m: &SimMesh, p: [f64; 2]| -> Vec<VertexId> {
+                m.vertices()
+                    .filter(|&v| m.position(v)[0] == p[0] && m.position(v)[1] == p[1])
+                    .collect()
+            };
+            let h = at(&m, [3.0, y as f64])
+                .into_iter()
+                .flat_map(|a| m.vertex_outgoing(a).collect::<Vec<_>>())
+                .find(|&h| m.position(m.dest(h)) == [3.0, y as f64 + 1.0, 0.0])
+                .unwrap();
+            if m.twin(h).is_some() {
+                m.open_edge(h).unwrap();
+            }
+        }
+        m.validate().unwrap();
+        m
+    }
+
+    #[test]
+    fn a_cells_corner_rounds_off_and_no_triangle_turns_over() {
+        let m = plate_with_a_junction();
+        // Each cell shrinks towards its middle: a quarter of the way.
+        let middle = |v: VertexId| -> [f64; 3] {
+            let c = m
+                .vertex_faces(v)
+                .flat_map(|f| m.face_vertices(f))
+                .fold([0.0; 3], |s, u| v3::add(s, m.position(u)));
+            let n = m.vertex_faces(v).count() as f64 * 3.0;
+            let (x, y) = (c[0] / n, c[1] / n);
+            if y < 3.0 {
+                [3.0, 1.5, 0.0]
+            } else if x < 3.0 {
+                [1.5, 4.5, 0.0]
+            } else {
+                [4.5, 4.5, 0.0]
+            }
+        };
+        let d: Vec<[f64; 3]> = m
+            .vertices()
+            .map(|v| v3::scale(v3::sub(middle(v), m.position(v)), 0.25))
+            .collect();
+        let out = displace(
+            &m,
+            &d,
+            &Post {
+                gap_band: 2.0,
+                ..opts(1.0)
+            },
+        );
+        assert_eq!(out.inverted_triangles, 0);
+        assert_eq!(out.shortened_nodes, 0);
+        assert!(out.rounded_nodes >= 2, "{}", out.rounded_nodes);
+        // Every side opens by 0.375; the upper left cell's corner lies on
+        // the circle of radius 0.375 touching both sides' offset lines
+        // (centre (2.25, 3.75)), towards the corner: 0.686 into the cell,
+        // where straight offsets would have met at 0.530.
+        let corner = m
+            .vertices()
+            .find(|&v| {
+                m.position(v) == [3.0, 3.0, 0.0] && middle(v)[0] == 1.5 && middle(v)[1] == 4.5
+            })
+            .unwrap();
+        let p = out.positions[corner.idx()];
+        let h = 0.375 * std::f64::consts::FRAC_1_SQRT_2;
+        for (got, want) in p.iter().zip([2.25 + h, 3.75 - h, 0.0]) {
+            assert!((got - want).abs() < 1e-9, "{p:?}");
+        }
+        // The gap is widest where the cracks meet, not pinched there.
+        let side = gap_at(&m, &out, 1.0);
+        assert!(side >= 0.75 - 1e-9, "{side}");
+        assert!(gap_at(&m, &out, 3.0) > side);
     }
 
     #[test]

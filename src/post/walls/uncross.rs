@@ -35,12 +35,16 @@ pub struct Uncrossing {
 /// crosses or [`MAX_HALVINGS`](crate::post::width::MAX_HALVINGS) passes
 /// are done; the passes that left the fewest crossings are kept. `top` is
 /// updated in place. The bottom line hangs from `hang` where given
-/// ([`build_walls_hung`]) unless the mesh's own crosses less.
+/// ([`build_walls_hung`]) unless the mesh's own crosses less. `tied`: a
+/// crack node's move is halved with every node tied to it (gaps opened by
+/// moving whole cells), or alone (gaps opened in a band, each copy by its
+/// own opening: halving the far side too pinched the gap there shut).
 pub fn build_walls_uncrossed(
     mesh: &SimMesh,
     top: &mut [[f64; 3]],
     opts: &WallOptions,
     hang: Option<Hang>,
+    tied: bool,
 ) -> (Walls, Uncrossing) {
     let max = crate::post::width::MAX_HALVINGS;
     let mut walls = build_walls_hung(mesh, top, opts, hang);
@@ -73,7 +77,7 @@ pub fn build_walls_uncrossed(
         // directions differ at a bend) crosses at any fraction of its
         // opening, and only shutting it helps.
         if fix.passes < HALVINGS_BEFORE_SHUTTING {
-            crate::post::width::shorten(mesh, top, &nodes, 0.5);
+            crate::post::width::shorten(mesh, top, &nodes, 0.5, tied);
         } else {
             crate::post::width::shut(mesh, top, &nodes);
         }

@@ -260,3 +260,120 @@ pub(super) fn smooth_runs(mesh: &SimMesh, runs: &[SideRun], open: &mut [[f64; 3]
         }
     }
 }
+
+/// How many copies along each side of a corner [`round_corners`] looks at.
+const CORNER_WALK: usize = 12;
+
+/// Corners flatter than this (radians between their two sides) are left
+/// as they are: their sides' offsets do not run into each other.
+const FLAT_CORNER: f64 = 160.0 * std::f64::consts::PI / 180.0;
+
+/// Round the cells' corners where cracks meet (`[post] gap_band`): at a
+/// junction's or T-junction's copy whose two sides meet at an angle below
+/// [`FLAT_CORNER`], its sides offset straight by their openings would run
+/// into each other wherever the gap is wider than a side's first edges
+/// (a swallowtail: the triangles there turned over, and their shortening
+/// pinched the gap shut at the junction, where mud's gaps are widest). The
+/// corner's copies, and the side copies up to where the rounding meets the
+/// straight offset, move instead onto a circle of radius `r` (the sides'
+/// mean opening) touching both sides' offset lines: each to the circle's
+/// point towards its rest position, so they keep their order along the
+/// outline and the cell's corner shrinks as a dried one does. `mv` holds
+/// each crack copy's move (its opening); `opening` the openings as
+/// evened. Returns the number of copies moved onto a circle.
+pub(super) fn round_corners(
+    mesh: &SimMesh,
+    size: &[usize],
+    on_t: &[bool],
+    opening: &[f64],
+    mv: &mut [[f64; 3]],
+) -> usize {
+    let in_run = |v: VertexId| size[v.idx()] == 2 && !on_t[v.idx()];
+    let mut targets: Vec<(VertexId, [f64; 3])> = Vec::new();
+    let mut corners: Vec<VertexId> = (0..mesh.n_vertices() as u32)
+        .map(VertexId)
+        .filter(|&v| size[v.idx()] >= 3 || (on_t[v.idx()] && size[v.idx()] >= 1))
+        .collect();
+    corners.sort();
+    for c in corners {
+        let beside = beside_on_crack(mesh, c);
+        let pc = mesh.position(c);
+        let Some(b) = mesh.fan_middle(c).map(|(_, m)| m) else {
+            continue;
+        };
+        // Each side: its copies out from the corner, its direction, its
+        // opening.
+        let mut sides: Vec<(Vec<VertexId>, [f64; 3], f64)> = Vec::new();
+        for (k, first) in beside.iter().enumerate() {
+            let Some(mut u) = *first else { break };
+            let mut walked = Vec::new();
+            while in_run(u) && walked.len() < CORNER_WALK && u != c {
+                walked.push(u);
+                match beside_on_crack(mesh, u)[k] {
+                    Some(next) => u = next,
+                    None => break,
+                }
+            }
+            let Some(&first) = walked.first() else { break };
+            let o = opening[first.idx()];
+            // The side's way from the corner: to its third copy, or as far
+            // as it goes.
+            let far = walked[walked.len().min(3) - 1];
+            let Some(t) = v3::unit(v3::sub(mesh.position(far), pc)) else {
+                break;
+            };
+            sides.push((walked, t, o));
+        }
+        let [(w1, t1, o1), (w2, t2, o2)] = match <[_; 2]>::try_from(sides) {
+            Ok(s) => s,
+            Err(_) => continue,
+        };
+        if v3::dot(t1, t2).clamp(-1.0, 1.0).acos() > FLAT_CORNER || o1 <= 0.0 || o2 <= 0.0 {
+            continue;
+        }
+        // Inward normals of the sides, in the corner's plane.
+        let inward = |t: [f64; 3]| v3::unit(v3::sub(b, v3::scale(t, v3::dot(b, t))));
+        let (Some(n1), Some(n2)) = (inward(t1), inward(t2)) else {
+            continue;
+        };
+        let r = 0.5 * (o1 + o2);
+        // The circle's centre: `o_k + r` off side k's line, for both.
+        let c12 = v3::dot(n1, n2);
+        let det = 1.0 - c12 * c12;
+        if det < 1e-6 {
+            continue;
+        }
+        let (d1, d2) = (o1 + r, o2 + r);
+        let alpha = (d1 - c12 * d2) / det;
+        let beta = (d2 - c12 * d1) / det;
+        let x = v3::add(v3::scale(n1, alpha), v3::scale(n2, beta));
+        let q = v3::add(pc, x);
+        let onto = |p: [f64; 3]| -> Option<[f64; 3]> {
+            let u = v3::unit(v3::sub(p, q))?;
+            Some(v3::sub(v3::add(q, v3::scale(u, r)), p))
+        };
+        if let Some(m) = onto(pc) {
+            targets.push((c, m));
+        }
+        for (walked, t) in [(&w1, t1), (&w2, t2)] {
+            // Up to where the circle touches the side's offset line.
+            let reach = v3::dot(x, t);
+            for &p in walked {
+                let pp = mesh.position(p);
+                if v3::dot(v3::sub(pp, pc), t) >= reach {
+                    break;
+                }
+                if let Some(m) = onto(pp) {
+                    targets.push((p, m));
+                }
+            }
+        }
+    }
+    // A copy near two corners keeps the larger move.
+    targets.sort_by(|a, b| a.0.cmp(&b.0).then(v3::norm(b.1).total_cmp(&v3::norm(a.1))));
+    targets.dedup_by_key(|t| t.0);
+    for &(v, m) in &targets {
+        mv[v.idx()] = m;
+    }
+    targets.len()
+}

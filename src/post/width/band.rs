@@ -1,0 +1,133 @@
+//! The band a gap's moves spread over ([`super::displace`] with
+//! `[post] gap_band`), solved as one smooth deformation instead of node by
+//! node.
+
+use crate::math::v3;
+use crate::mesh::{SimMesh, VertexId};
+use crate::post::distance::{crack_vertices, distance_field};
+
+/// Gauss-Seidel sweeps at most.
+const MAX_SWEEPS: usize = 400;
+
+/// The sweeps stop when no node moved by more than this fraction of the
+/// largest crack move.
+const TOLERANCE: f64 = 1e-4;
+
+/// Spread the crack nodes' moves `mv` over the band beside them: a node off
+/// the cracks lies in the band when its distance `d` over the surface to
+/// the nearest crack node is below `band` times that node's move `m`. The
+/// band's nodes take the harmonic blend (cotangent weights, negative ones
+/// dropped) of the crack nodes' moves and, just beyond the band, of the
+/// linear fade `m (1 - d / (band |m|))` carried on past zero; every node
+/// outside the band stays. Along a straight side that is the move fading
+/// linearly to nothing over the band, as when each node followed its
+/// nearest crack node alone; where a cell's corner rounds off, the moves
+/// turn smoothly round it instead of jumping where the nearest crack node
+/// changes (which turned the triangles there over). The two sides of a
+/// crack share no face, so each side's band follows its own side. Sweeps
+/// run in vertex order: the same moves whatever the thread count.
+pub(super) fn spread_over_band(mesh: &SimMesh, mv: &mut [[f64; 3]], band: f64) {
+    let nodes = crack_vertices(mesh);
+    let sources: Vec<(VertexId, f64)> = nodes.iter().map(|&v| (v, v.idx() as f64)).collect();
+    let (distance, nearest) = distance_field(mesh, mesh.positions(), &sources);
+    let n = mesh.n_vertices();
+    let mut on_crack = vec![false; n];
+    for v in &nodes {
+        on_crack[v.idx()] = true;
+    }
+    let mut inside = vec![false; n];
+    let mut largest: f64 = 0.0;
+    for v in &nodes {
+        largest = largest.max(v3::norm(mv[v.idx()]));
+    }
+    // Each node's nearest crack node's move, faded (past zero beyond the
+    // band): the band's first guess and the values just beyond it.
+    for i in 0..n {
+        if on_crack[i] {
+            continue;
+        }
+        let (d, c) = (distance[i], nearest[i]);
+        mv[i] = [0.0; 3];
+        if d.is_finite() && c.is_finite() {
+            let m = mv[c as usize];
+            let reach = band * v3::norm(m);
+            if reach > 0.0 {
+                mv[i] = v3::scale(m, 1.0 - d / reach);
+                inside[i] = d < reach;
+            }
+        }
+    }
+    if largest > 0.0 {
+        blend(mesh, mv, &inside, largest);
+    }
+    for i in 0..n {
+        if !inside[i] && !on_crack[i] {
+            mv[i] = [0.0; 3];
+        }
+    }
+}
+
+/// The harmonic blend over the nodes `inside` of the moves `mv` of their
+/// neighbours (every node not inside fixed at its value), by Gauss-Seidel
+/// sweeps in vertex order from `mv` as given, until no node moves by more
+/// than [`TOLERANCE`] times `largest`.
+fn blend(mesh: &SimMesh, mv: &mut [[f64; 3]], inside: &[bool], largest: f64) {
+    let n = mesh.n_vertices();
+    // Cotangent weights of the edges at the band's nodes.
+    let mut edges: Vec<(u32, u32, f64)> = Vec::new();
+    for f in mesh.faces() {
+        let vs = mesh.face_vertices(f);
+        if !vs.iter().any(|v| inside[v.idx()]) {
+            continue;
+        }
+        let p = vs.map(|v| mesh.position(v));
+        for k in 0..3 {
+            let (a, b) = (vs[(k + 1) % 3], vs[(k + 2) % 3]);
+            let (ea, eb) = (v3::sub(p[(k + 1) % 3], p[k]), v3::sub(p[(k + 2) % 3], p[k]));
+            let sin = v3::norm(v3::cross(ea, eb));
+            if sin <= 0.0 || !sin.is_finite() {
+                continue;
+            }
+            let cot = 0.5 * v3::dot(ea, eb) / sin;
+            edges.push((a.0.min(b.0), a.0.max(b.0), cot));
+        }
+    }
+    edges.sort_by_key(|e| (e.0, e.1));
+    let mut neighbours: Vec<Vec<(u32, f64)>> = vec![Vec::new(); n];
+    let mut i = 0;
+    while i < edges.len() {
+        let (a, b) = (edges[i].0, edges[i].1);
+        let mut w = 0.0;
+        while i < edges.len() && (edges[i].0, edges[i].1) == (a, b) {
+            w += edges[i].2;
+            i += 1;
+        }
+        if w > 0.0 {
+            for (x, y) in [(a, b), (b, a)] {
+                if inside[x as usize] {
+                    neighbours[x as usize].push((y, w));
+                }
+            }
+        }
+    }
+    let band_nodes: Vec<usize> = (0..n).filter(|&i| inside[i]).collect();
+    for _ in 0..MAX_SWEEPS {
+        let mut change: f64 = 0.0;
+        for &i in &band_nodes {
+            let (mut sum, mut weight) = ([0.0; 3], 0.0);
+            for &(j, w) in &neighbours[i] {
+                sum = v3::add(sum, v3::scale(mv[j as usize], w));
+                weight += w;
+            }
+            if weight <= 0.0 {
+                continue;
+            }
+            let new = v3::scale(sum, 1.0 / weight);
+            change = change.max(v3::norm(v3::sub(new, mv[i])));
+            mv[i] = new;
+        }
+        if change <= TOLERANCE * largest {
+            break;
+        }
+    }
+}
