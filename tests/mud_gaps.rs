@@ -94,9 +94,9 @@ fn pane(path: &std::path::Path) {
 #[test]
 fn wide_gaps_on_a_pane_stay_open_where_cracks_meet() {
     // `--gaps 0.03` on a pane: the gaps used to pinch to hairlines at the
-    // junctions, with crumpled bits of surface in them (0.047 / 0.127 of
+    // junctions, with crumpled bits of surface in them (0.056 / 0.110 of
     // the outline under a quarter / half of the median width; 0.013 /
-    // 0.040 with rounded corners).
+    // 0.030 with rounded corners).
     let dir = tempfile::tempdir().unwrap();
     let input = dir.path().join("pane.obj");
     pane(&input);
