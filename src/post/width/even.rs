@@ -268,6 +268,12 @@ const CORNER_WALK: usize = 12;
 /// as they are: their sides' offsets do not run into each other.
 const FLAT_CORNER: f64 = 160.0 * std::f64::consts::PI / 180.0;
 
+/// How far a rounded corner may move, in its sides' larger opening: a
+/// right-angled corner moves 1.83 of it, one of 60 degrees 3; sharper
+/// corners (slivers of cells between two nearly parallel cracks, or a
+/// corner misread on a coarse or strongly curved surface) are not rounded.
+const MAX_ROUNDING: f64 = 3.0;
+
 /// Round the cells' corners where cracks meet (`[post] gap_band`): at a
 /// junction's or T-junction's copy whose two sides meet at an angle below
 /// [`FLAT_CORNER`], its sides offset straight by their openings would run
@@ -298,7 +304,13 @@ pub(super) fn round_corners(
     for c in corners {
         let beside = beside_on_crack(mesh, c);
         let pc = mesh.position(c);
-        let Some(b) = mesh.fan_middle(c).map(|(_, m)| m) else {
+        // A reflex corner (a fan over half a turn) opens without running
+        // into itself.
+        let Some(b) = mesh
+            .fan_middle(c)
+            .filter(|&(angle, _)| angle < FLAT_CORNER)
+            .map(|(_, m)| m)
+        else {
             continue;
         };
         // Each side: its copies out from the corner, its direction, its
@@ -328,7 +340,11 @@ pub(super) fn round_corners(
             Ok(s) => s,
             Err(_) => continue,
         };
-        if v3::dot(t1, t2).clamp(-1.0, 1.0).acos() > FLAT_CORNER || o1 <= 0.0 || o2 <= 0.0 {
+        if v3::dot(t1, t2).clamp(-1.0, 1.0).acos() > FLAT_CORNER
+            || v3::dot(b, v3::add(t1, t2)) <= 0.0
+            || o1 <= 0.0
+            || o2 <= 0.0
+        {
             continue;
         }
         // Inward normals of the sides, in the corner's plane.
@@ -347,6 +363,11 @@ pub(super) fn round_corners(
         let alpha = (d1 - c12 * d2) / det;
         let beta = (d2 - c12 * d1) / det;
         let x = v3::add(v3::scale(n1, alpha), v3::scale(n2, beta));
+        // A corner sharper than the rounding may take keeps its straight
+        // offsets (shortened where they turn a triangle over).
+        if v3::norm(x) - r > MAX_ROUNDING * o1.max(o2) {
+            continue;
+        }
         let q = v3::add(pc, x);
         let onto = |p: [f64; 3]| -> Option<[f64; 3]> {
             let u = v3::unit(v3::sub(p, q))?;
