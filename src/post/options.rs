@@ -30,7 +30,7 @@ pub struct Post {
     pub max_width: f64,
     /// Gaps opened locally: each side of a crack moves by its opening only
     /// (the crack line stays; a cell's corners where cracks meet round off
-    /// as far as the gap is wide), and the nodes off the cracks follow in a
+    /// on a circle of the sides' opening, half the gap, as radius), and the nodes off the cracks follow in a
     /// band this many times the nearest crack node's opening wide (along
     /// the surface), their moves the smooth (harmonic) blend of the crack
     /// nodes' moves fading to rest across the band, so cell interiors,

@@ -670,8 +670,9 @@ pub fn shorten(
 /// Shut the cracks at `nodes`: every copy of each of those crack vertices
 /// moves to the copies' mean position (so the sides meet exactly and their
 /// walls are left out), and a T-junction node among them onto the edge it
-/// lies on; then halve moves that this flipped as [`displace`] does.
-pub fn shut(mesh: &SimMesh, positions: &mut [[f64; 3]], nodes: &[VertexId]) {
+/// lies on; then halve moves that this flipped as [`displace`] does, each
+/// with the nodes tied to it when `tied` (as [`shorten`]).
+pub fn shut(mesh: &SimMesh, positions: &mut [[f64; 3]], nodes: &[VertexId], tied: bool) {
     let groups = crack_groups(mesh);
     let junctions = t_junctions(mesh);
     let mut wanted = vec![false; mesh.n_vertices()];
@@ -697,7 +698,11 @@ pub fn shut(mesh: &SimMesh, positions: &mut [[f64; 3]], nodes: &[VertexId]) {
             );
         }
     }
-    let links = linked_nodes(mesh, &groups, &junctions);
+    let links = if tied {
+        linked_nodes(mesh, &groups, &junctions)
+    } else {
+        Links::none(mesh.n_vertices())
+    };
     let mut mv: Vec<[f64; 3]> = mesh
         .positions()
         .iter()

@@ -79,7 +79,7 @@ pub fn build_walls_uncrossed(
         if fix.passes < HALVINGS_BEFORE_SHUTTING {
             crate::post::width::shorten(mesh, top, &nodes, 0.5, tied);
         } else {
-            crate::post::width::shut(mesh, top, &nodes);
+            crate::post::width::shut(mesh, top, &nodes, tied);
         }
         walls = build_walls_hung(mesh, top, opts, hang);
         (count, nodes) = crossings(mesh, top, &walls);

@@ -49,11 +49,14 @@ pub(super) fn spread_over_band(mesh: &SimMesh, mv: &mut [[f64; 3]], band: f64) {
         let (d, c) = (distance[i], nearest[i]);
         mv[i] = [0.0; 3];
         if d.is_finite() && c.is_finite() {
+            // `unit(m) (|m| - d / band)`: the same as `m (1 - d / (band
+            // |m|))` without dividing by a tiny move, and no more than `|m|`
+            // back past zero beyond the band.
             let m = mv[c as usize];
-            let reach = band * v3::norm(m);
-            if reach > 0.0 {
-                mv[i] = v3::scale(m, 1.0 - d / reach);
-                inside[i] = d < reach;
+            let size = v3::norm(m);
+            if let Some(u) = v3::unit(m).filter(|_| band > 0.0) {
+                mv[i] = v3::scale(u, (size - d / band).max(-size));
+                inside[i] = d < band * size;
             }
         }
     }

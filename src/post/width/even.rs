@@ -261,8 +261,10 @@ pub(super) fn smooth_runs(mesh: &SimMesh, runs: &[SideRun], open: &mut [[f64; 3]
     }
 }
 
-/// How many copies along each side of a corner [`round_corners`] looks at.
-const CORNER_WALK: usize = 12;
+/// How many copies along each side of a corner [`round_corners`] looks at
+/// at most (the rounding reaches `2 r cot(angle / 2)` along a side: 3.5 r at
+/// 60 degrees, many copies on a fine surface with wide gaps).
+const CORNER_WALK: usize = 64;
 
 /// Corners flatter than this (radians between their two sides) are left
 /// as they are: their sides' offsets do not run into each other.
