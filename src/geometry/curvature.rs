@@ -159,31 +159,7 @@ fn smooth_normals(
         return normals;
     }
     let nv = normals.len();
-    let mut pairs: Vec<(u32, u32, f64)> = Vec::with_capacity(6 * faces.len());
-    for f in faces {
-        if f.iter().any(|&i| i as usize >= nv) || f[0] == f[1] || f[1] == f[2] || f[0] == f[2] {
-            continue;
-        }
-        let p = f.map(|i| positions[i as usize]);
-        for k in 0..3 {
-            let (a, b) = (f[(k + 1) % 3], f[(k + 2) % 3]);
-            let (u, v) = (v3::sub(p[(k + 1) % 3], p[k]), v3::sub(p[(k + 2) % 3], p[k]));
-            let sin = v3::norm(v3::cross(u, v));
-            let cot = if sin > 0.0 { v3::dot(u, v) / sin } else { 0.0 };
-            pairs.push((a, b, 0.5 * cot));
-            pairs.push((b, a, 0.5 * cot));
-        }
-    }
-    pairs.sort_unstable_by_key(|x| (x.0, x.1));
-    let mut edges: Vec<(u32, u32, f64)> = Vec::with_capacity(pairs.len() / 2);
-    for run in pairs.chunk_by(|x, y| (x.0, x.1) == (y.0, y.1)) {
-        let w: f64 = run.iter().map(|x| x.2).sum();
-        edges.push((
-            run[0].0,
-            run[0].1,
-            if w.is_finite() { w.max(0.0) } else { 0.0 },
-        ));
-    }
+    let mut edges = cotangent_weights(positions, faces.iter().copied(), nv);
     let mut start = vec![0usize; nv + 1];
     for &(a, _, _) in &edges {
         start[a as usize + 1] += 1;
@@ -221,6 +197,45 @@ fn smooth_normals(
             .collect();
     }
     n
+}
+
+/// The cotangent weight of every edge of `faces` (vertices below `nv`;
+/// faces with a repeated or out-of-range corner left out), both ways:
+/// `(a, b, w)` sorted by `(a, b)`, `w` half the sum of the cotangents of
+/// the corners across the edge, negative or non-finite sums (across obtuse
+/// corners) taken as 0. The sums run in a fixed order: the same weights at
+/// any thread count.
+pub(crate) fn cotangent_weights(
+    positions: &[[f64; 3]],
+    faces: impl Iterator<Item = [u32; 3]>,
+    nv: usize,
+) -> Vec<(u32, u32, f64)> {
+    let mut pairs: Vec<(u32, u32, f64)> = Vec::new();
+    for f in faces {
+        if f.iter().any(|&i| i as usize >= nv) || f[0] == f[1] || f[1] == f[2] || f[0] == f[2] {
+            continue;
+        }
+        let p = f.map(|i| positions[i as usize]);
+        for k in 0..3 {
+            let (a, b) = (f[(k + 1) % 3], f[(k + 2) % 3]);
+            let (u, v) = (v3::sub(p[(k + 1) % 3], p[k]), v3::sub(p[(k + 2) % 3], p[k]));
+            let sin = v3::norm(v3::cross(u, v));
+            let cot = if sin > 0.0 { v3::dot(u, v) / sin } else { 0.0 };
+            pairs.push((a, b, 0.5 * cot));
+            pairs.push((b, a, 0.5 * cot));
+        }
+    }
+    pairs.sort_unstable_by_key(|x| (x.0, x.1));
+    let mut edges: Vec<(u32, u32, f64)> = Vec::with_capacity(pairs.len() / 2);
+    for run in pairs.chunk_by(|x, y| (x.0, x.1) == (y.0, y.1)) {
+        let w: f64 = run.iter().map(|x| x.2).sum();
+        edges.push((
+            run[0].0,
+            run[0].1,
+            if w.is_finite() { w.max(0.0) } else { 0.0 },
+        ));
+    }
+    edges
 }
 
 /// Faces whose double area is at most this times their longest edge squared

@@ -383,8 +383,8 @@ fn open_up(mesh: &SimMesh, displacement: &[[f64; 3]], opts: &Post, even: bool) -
         }
     }
     let mut runs = Vec::new();
+    let sizes = group_sizes(mesh, &groups);
     if even {
-        let sizes = group_sizes(mesh, &groups);
         runs = side_runs(mesh, &groups, &sizes, &junctions);
         even_openings(mesh, &groups, &sizes, &runs, &mut opening);
     }
@@ -430,7 +430,6 @@ fn open_up(mesh: &SimMesh, displacement: &[[f64; 3]], opts: &Post, even: bool) -
 
     if local {
         if even {
-            let sizes = group_sizes(mesh, &groups);
             let mut on_t = vec![false; mesh.n_vertices()];
             for &(q, _, _, _) in &junctions {
                 on_t[q.idx()] = true;

@@ -2,6 +2,7 @@
 //! `[post] gap_band`), solved as one smooth deformation instead of node by
 //! node.
 
+use crate::geometry::curvature::cotangent_weights;
 use crate::math::v3;
 use crate::mesh::{SimMesh, VertexId};
 use crate::post::distance::{crack_vertices, distance_field};
@@ -77,40 +78,14 @@ pub(super) fn spread_over_band(mesh: &SimMesh, mv: &mut [[f64; 3]], band: f64) {
 fn blend(mesh: &SimMesh, mv: &mut [[f64; 3]], inside: &[bool], largest: f64) {
     let n = mesh.n_vertices();
     // Cotangent weights of the edges at the band's nodes.
-    let mut edges: Vec<(u32, u32, f64)> = Vec::new();
-    for f in mesh.faces() {
-        let vs = mesh.face_vertices(f);
-        if !vs.iter().any(|v| inside[v.idx()]) {
-            continue;
-        }
-        let p = vs.map(|v| mesh.position(v));
-        for k in 0..3 {
-            let (a, b) = (vs[(k + 1) % 3], vs[(k + 2) % 3]);
-            let (ea, eb) = (v3::sub(p[(k + 1) % 3], p[k]), v3::sub(p[(k + 2) % 3], p[k]));
-            let sin = v3::norm(v3::cross(ea, eb));
-            if sin <= 0.0 || !sin.is_finite() {
-                continue;
-            }
-            let cot = 0.5 * v3::dot(ea, eb) / sin;
-            edges.push((a.0.min(b.0), a.0.max(b.0), cot));
-        }
-    }
-    edges.sort_by_key(|e| (e.0, e.1));
+    let faces = mesh
+        .faces()
+        .map(|f| mesh.face_vertices(f).map(|v| v.0))
+        .filter(|f| f.iter().any(|&v| inside[v as usize]));
     let mut neighbours: Vec<Vec<(u32, f64)>> = vec![Vec::new(); n];
-    let mut i = 0;
-    while i < edges.len() {
-        let (a, b) = (edges[i].0, edges[i].1);
-        let mut w = 0.0;
-        while i < edges.len() && (edges[i].0, edges[i].1) == (a, b) {
-            w += edges[i].2;
-            i += 1;
-        }
-        if w > 0.0 {
-            for (x, y) in [(a, b), (b, a)] {
-                if inside[x as usize] {
-                    neighbours[x as usize].push((y, w));
-                }
-            }
+    for (a, b, w) in cotangent_weights(mesh.positions(), faces, n) {
+        if w > 0.0 && inside[a as usize] {
+            neighbours[a as usize].push((b, w));
         }
     }
     let band_nodes: Vec<usize> = (0..n).filter(|&i| inside[i]).collect();
