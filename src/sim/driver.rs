@@ -11,7 +11,7 @@ use crate::math::v3;
 use crate::math::Sym3;
 use crate::mesh::{FaceId, SimMesh, VertexId};
 use crate::sim::crack::{crack_node_avoiding, CrackRules};
-use crate::sim::diffusion::eigen_diffusion_around;
+use crate::sim::diffusion::{eigen_diffusion_around, relieve_beside};
 use crate::sim::finish::crowded_junction;
 use crate::sim::finish::finish_cracks;
 use crate::sim::forces::{separation_tensor, Elements};
@@ -342,18 +342,29 @@ fn crack_while_failing(
     let mut chain = false;
     // The nodes the current crack run touched (eigen-diffusion).
     let mut run_nodes: Vec<VertexId> = Vec::new();
+    // Its crack segments, as end points (the shadow beside it).
+    let mut run_segments: Vec<([f64; 3], [f64; 3])> = Vec::new();
     loop {
         if follow.is_empty() {
             // A crack run ended: diffuse before the next one.
             if chain && params.relaxation == Relaxation::EigenDiffusion {
-                let changed =
-                    eigen_diffusion_around(mesh, st, params, &run_nodes, params.diffusion_passes);
+                let mut changed = relieve_beside(mesh, st, &run_segments, &run_nodes);
+                changed.extend(eigen_diffusion_around(
+                    mesh,
+                    st,
+                    params,
+                    &run_nodes,
+                    params.diffusion_passes,
+                ));
+                changed.sort_unstable();
+                changed.dedup();
                 for u in changed {
                     let s = node_separation(mesh, st, VertexId(u));
                     queue.set(u, queue_value(s, params.toughness), params.toughness);
                 }
             }
             run_nodes.clear();
+            run_segments.clear();
             chain = false;
         }
         // The round's cap ends a round between crack runs, never
@@ -414,6 +425,13 @@ fn crack_while_failing(
             {
                 st.residual[tip.idx()] += Sym3::m(dir) * (params.alpha * residual);
             }
+        }
+        if params.relaxation == Relaxation::EigenDiffusion {
+            run_segments.extend(
+                ev.segments
+                    .iter()
+                    .map(|&(a, b)| (mesh.position(a), mesh.position(b))),
+            );
         }
         // New and nearby nodes get their separation immediately.
         for n in touched_nodes(mesh, &ev) {
