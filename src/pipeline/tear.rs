@@ -619,10 +619,7 @@ fn tear_borders(
                 // Where the torn faces' vertices are (`piece_geometry`).
                 let at = |v: u32| match border.and_then(|b| b.get(&v)) {
                     Some(&p) => p,
-                    None => {
-                        let v = v as usize;
-                        d.to_scene(d.deform(s.tet_of[v] as usize, s.rest[v]))
-                    }
+                    None => d.to_scene(s.positions[v as usize]),
                 };
                 out[piece as usize].push([at(a), at(b)]);
             }
@@ -696,14 +693,18 @@ fn piece_geometry(
             }
             _ => None,
         };
-        let rest_m = match hit {
-            Some((_, _, p)) if !on_torn[vi] => d.to_metres(p),
-            _ => s.rest[vi],
+        // A vertex of the original surface shows the input point it
+        // projects to, mapped by its tetrahedron; one of the torn surface
+        // is where the surface puts it (smoothed: see `TornSurface`).
+        let projected = match hit {
+            Some((_, _, p)) if !on_torn[vi] => Some(d.to_metres(p)),
+            _ => None,
         };
         let tet = s.tet_of[vi] as usize;
-        let now = match border.and_then(|b| b.get(&v)) {
-            Some(&p) => p,
-            None => d.to_scene(d.deform(tet, rest_m)),
+        let now = match (border.and_then(|b| b.get(&v)), projected) {
+            (Some(&p), _) => p,
+            (None, Some(rest_m)) => d.to_scene(d.deform(tet, rest_m)),
+            (None, None) => d.to_scene(s.positions[vi]),
         };
         positions.push(now.map(|x| x as f32));
         let f = d.deformation(tet);

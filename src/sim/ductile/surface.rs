@@ -14,12 +14,19 @@ use std::collections::HashMap;
 /// The extracted surface, in metres.
 #[derive(Clone, Debug, Default)]
 pub struct TornSurface {
-    /// Vertex positions, deformed.
+    /// Vertex positions, deformed: where the surface is. A smoothed torn
+    /// vertex's position is smoothed itself, not its rest position mapped
+    /// by [`TornSurface::tet_of`]'s tetrahedron: smoothing moves it off the
+    /// edge it was cut from, and the tetrahedron's map there weighs grid
+    /// nodes the material hardly holds (on a block turned 30 degrees to the
+    /// grid and torn at 24 cubes, the mapped torn faces came out 1e9 m
+    /// away).
     pub positions: Vec<[f64; 3]>,
     /// Vertex positions at rest.
     pub rest: Vec<[f64; 3]>,
     /// The tetrahedron each vertex was cut from (its deformation maps
-    /// points near the vertex).
+    /// points on the vertex's cut edge; for the vertex itself read
+    /// [`TornSurface::positions`]).
     pub tet_of: Vec<u32>,
     /// Triangles, counter-clockwise seen from outside.
     pub triangles: Vec<[u32; 3]>,
