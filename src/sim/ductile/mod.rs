@@ -56,6 +56,33 @@ const ERSATZ: f64 = 1e-3;
 /// tie their pieces together, for the multigrid's coarse levels.
 const BRIDGE: f64 = 0.1;
 
+/// `values` on a grid of `dims` nodes (x fastest), each replaced by its
+/// sum along `axis` weighted by `kernel[d]` at `d` nodes away.
+fn tent_along(values: &[f64], dims: [usize; 3], axis: usize, kernel: &[f64]) -> Vec<f64> {
+    let stride = match axis {
+        0 => 1,
+        1 => dims[0],
+        _ => dims[0] * dims[1],
+    };
+    let len = dims[axis];
+    (0..values.len())
+        .into_par_iter()
+        .map(|i| {
+            let at = (i / stride) % len;
+            let mut sum = kernel[0] * values[i];
+            for (d, &w) in kernel.iter().enumerate().skip(1) {
+                if at >= d {
+                    sum += w * values[i - d * stride];
+                }
+                if at + d < len {
+                    sum += w * values[i + d * stride];
+                }
+            }
+            sum
+        })
+        .collect()
+}
+
 /// What one step did.
 #[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
 pub struct StepReport {
@@ -380,6 +407,56 @@ impl Ductile {
         el.iter().zip(&w).map(|(e, w)| e.psi * w).sum()
     }
 
+    /// The energy density the level set reads: [`Ductile::nodal_energy`]
+    /// averaged over `params.nonlocal` around each node (see
+    /// [`DuctileParams::nonlocal`]): three passes of a tent along the grid's
+    /// axes over the nodes' material times energy and over their material,
+    /// then the ratio. Nodes without material keep their own.
+    pub fn driving_energy(&self, elements: &[Element], weights: &[f64]) -> Vec<f64> {
+        let psi = self.nodal_energy(elements, weights);
+        // The tent's reach in cubes: weight 1 - d / reach at d nodes away.
+        let reach = self.params.nonlocal / self.grid.h;
+        if reach <= 1.0 {
+            return psi;
+        }
+        let mass = self.masses(weights);
+        let mut num: Vec<f64> = psi.iter().zip(&mass).map(|(p, m)| p * m).collect();
+        let mut den = mass.clone();
+        let kernel: Vec<f64> = (0..)
+            .map(|d| 1.0 - f64::from(d) / reach)
+            .take_while(|&w| w > 0.0)
+            .collect();
+        let dims = self.grid.nodes_per_axis();
+        for axis in 0..3 {
+            for values in [&mut num, &mut den] {
+                *values = tent_along(values, dims, axis, &kernel);
+            }
+        }
+        // Beside material already torn (a node whose level set rose, or
+        // one sharing a tetrahedron with it) the front runs on its own
+        // energy: the average is the onset's.
+        let rose: Vec<bool> = self
+            .phi
+            .iter()
+            .zip(&self.phi0)
+            .map(|(p, q)| p > q)
+            .collect();
+        (0..psi.len())
+            .into_par_iter()
+            .map(|i| {
+                let at_front = rose[i]
+                    || self.node_tets[i]
+                        .iter()
+                        .any(|&(e, _)| self.tets[e as usize].iter().any(|&j| rose[j as usize]));
+                if at_front || mass[i] <= 0.0 || den[i] <= 0.0 {
+                    psi[i]
+                } else {
+                    num[i] / den[i]
+                }
+            })
+            .collect()
+    }
+
     /// Strain-energy density at each node: its tetrahedra's, weighted by
     /// the part of their volume it carries (eq. 4 of the text).
     pub fn nodal_energy(&self, elements: &[Element], weights: &[f64]) -> Vec<f64> {
@@ -463,7 +540,7 @@ impl Ductile {
         let weights = self.weights();
         let elements = self.elements_now(&weights);
         let mass = self.masses(&weights);
-        let psi = self.nodal_energy(&elements, &weights);
+        let psi = self.driving_energy(&elements, &weights);
         let dt = self.cfl_step(&psi, &mass);
         let mut report = self.implicit_step(dt, &weights, &elements, &mass);
         self.time += dt;
@@ -471,7 +548,7 @@ impl Ductile {
         // The level set, from the energies after the step.
         let weights = self.weights();
         let elements = self.elements(&weights);
-        let psi = self.nodal_energy(&elements, &weights);
+        let psi = self.driving_energy(&elements, &weights);
         report.tearing_nodes = self.advance_level_set(&psi, dt);
         if report.tearing_nodes > 0 {
             if self.params.redistance {

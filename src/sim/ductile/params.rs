@@ -231,6 +231,15 @@ pub struct DuctileParams {
     /// at the same speed on any grid; false: the distance to the input's
     /// surface throughout, as a reference. Default true.
     pub redistance: bool,
+    /// Radius (metres) of the nonlocal average through which the level set
+    /// reads the strain-energy density where no tear has started yet: each
+    /// node's energy is the mean of the nodes' around it, weighted by their
+    /// material and a tent of this radius along each axis, so where and
+    /// when a tear starts does not follow the grid (a notch's tip is a
+    /// singularity, whose peak energy grows as the grid refines). Beside
+    /// material already torn the front runs on each node's own energy.
+    /// 0: each node's own everywhere (the text's). Default 0.0125.
+    pub nonlocal: f64,
     /// Passes of Taubin smoothing over the extracted torn surface (its
     /// vertices off the original surface), softening the grid's terraces
     /// where the tear steps between layers of nodes; 0: none. Default 10.
@@ -265,6 +274,7 @@ impl Default for DuctileParams {
             max_cg: 2000,
             multigrid: true,
             redistance: true,
+            nonlocal: 0.0125,
             smooth_tear: 10,
             max_steps: 10_000,
             pull: Pull::default(),
@@ -341,6 +351,7 @@ impl DuctileParams {
         pos("dt", self.dt)?;
         pos("cfl", self.cfl)?;
         pos("tear_cells", self.tear_cells)?;
+        within("nonlocal", self.nonlocal, 0.0, 1e3, "m")?;
         if !(self.tolerance > 0.0 && self.tolerance < 1.0) {
             return Err(format!(
                 "ductile.tolerance must be in (0, 1), got {}",
