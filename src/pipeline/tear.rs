@@ -53,26 +53,44 @@ pub fn tear_meshes(
     // Frames are drawn on the scene as it was before tearing.
     let template = frames.map(|_| scene.clone());
     for (e, p) in entries.iter().zip(params_of) {
-        let loops = boundary_loops(e);
-        if loops > 0 {
-            return Err(crate::Error::mesh(
-                input,
-                &e.label,
-                format!("model = \"ductile\" tears closed solids; this surface is open along {loops} boundary loop(s) after welding"),
-            ));
-        }
-        let positions = e.sim.positions().to_vec();
-        let triangles: Vec<[u32; 3]> = e
+        let mut positions = e.sim.positions().to_vec();
+        let mut triangles: Vec<[u32; 3]> = e
             .sim
             .faces()
             .map(|f| e.sim.face_vertices(f).map(|v| v.0))
             .collect();
+        // An open surface (a scan with holes in its base) is closed for the
+        // solid by a fan across each hole; the output keeps its holes.
+        match close_holes(e, &mut positions, &mut triangles) {
+            Ok(0) => {}
+            Ok(holes) if !encloses_volume(&positions, &triangles) => {
+                return Err(crate::Error::mesh(
+                    input,
+                    &e.label,
+                    format!("model = \"ductile\" tears solids; this surface is open along {holes} boundary loop(s) and closed across them it encloses no volume (a sheet)"),
+                ))
+            }
+            Ok(holes) => log::warn!(
+                "{}: {}: the surface is open along {holes} boundary loop(s); the solid closes each with a fan across it (the output keeps the holes)",
+                input.display(),
+                e.label
+            ),
+            Err(loops) => {
+                return Err(crate::Error::mesh(
+                    input,
+                    &e.label,
+                    format!("model = \"ductile\" tears closed solids; this surface is open along {loops} boundary loop(s) after welding, and they do not close as simple loops"),
+                ))
+            }
+        }
         let t = Instant::now();
         // The `[select] fix` groups are the grips (none: the pull's slabs).
         let grips: Vec<bool> = e
             .sim
             .faces()
             .map(|f| p.fixed_groups.contains(&e.sim.face_group(f)))
+            .chain(std::iter::repeat(false))
+            .take(triangles.len())
             .collect();
         let mut d = Ductile::with_grips(&positions, &triangles, &grips, &p.ductile)
             .map_err(|err| crate::Error::mesh(input, &e.label, err.to_string()))?;
@@ -162,6 +180,7 @@ pub fn tear_meshes(
             .zip(tear_borders(&d, &surface, border))
             .enumerate()
         {
+            let Some(mesh) = mesh else { continue };
             if post.lines {
                 tear_lines += segments.len();
                 super::post::add_crack_lines(scene, *mesh, &segments, &[], None);
@@ -183,7 +202,7 @@ pub fn tear_meshes(
             "torn_triangles": torn_triangles,
             "torn_area": torn_area,
             "tear_line_segments": tear_lines,
-            "pieces": surface.pieces,
+            "pieces": pieces.iter().flatten().count(),
             "surface": kept.unwrap_or_else(|| json!({"surface": "grid"})),
         });
         if post.bake {
@@ -257,31 +276,82 @@ impl FrameWriter<'_> {
 }
 
 /// Boundary loops of a welded surface (0 when closed).
-fn boundary_loops(e: &SimEntry) -> usize {
-    let mut next: HashMap<u32, u32> = HashMap::new();
+/// Whether the closed surface `positions` / `triangles` encloses a volume
+/// of at least a millionth of its bounding box's diagonal cubed (a sheet
+/// closed across its border encloses none).
+fn encloses_volume(positions: &[[f64; 3]], triangles: &[[u32; 3]]) -> bool {
+    let (lo, hi) = crate::sim::ductile::grid::bounds(positions);
+    let c: [f64; 3] = std::array::from_fn(|k| 0.5 * (lo[k] + hi[k]));
+    let volume: f64 = triangles
+        .iter()
+        .map(|t| {
+            let [a, b, p] = t.map(|v| {
+                let q = positions[v as usize];
+                [q[0] - c[0], q[1] - c[1], q[2] - c[2]]
+            });
+            crate::math::v3::dot(a, crate::math::v3::cross(b, p)) / 6.0
+        })
+        .sum();
+    let diagonal = crate::math::v3::norm(crate::math::v3::sub(hi, lo));
+    volume.abs() > 1e-6 * diagonal.powi(3)
+}
+
+/// Closes each boundary loop of `e`'s surface (added to `positions` /
+/// `triangles`, which start as its own) with a fan from the loop's
+/// centroid, oriented with the faces beside it. Returns the loops closed,
+/// or the number of boundary loops when they are not simple cycles (a
+/// vertex on two of them).
+fn close_holes(
+    e: &SimEntry,
+    positions: &mut Vec<[f64; 3]>,
+    triangles: &mut Vec<[u32; 3]>,
+) -> Result<usize, usize> {
+    let mut next: std::collections::BTreeMap<u32, u32> = Default::default();
+    let mut simple = true;
     for h in e.sim.halfedges() {
         if e.sim.twin(h).is_none() {
-            next.insert(e.sim.origin(h).0, e.sim.dest(h).0);
+            simple &= next.insert(e.sim.origin(h).0, e.sim.dest(h).0).is_none();
         }
     }
     let mut seen = std::collections::HashSet::new();
-    let mut starts: Vec<u32> = next.keys().copied().collect();
-    starts.sort_unstable();
-    let mut loops = 0;
-    for s in starts {
+    let mut loops: Vec<Vec<u32>> = Vec::new();
+    for &s in next.keys() {
         if seen.contains(&s) {
             continue;
         }
-        loops += 1;
+        let mut cycle = Vec::new();
         let mut v = s;
         while seen.insert(v) {
+            cycle.push(v);
             match next.get(&v) {
                 Some(&w) => v = w,
-                None => break,
+                None => {
+                    simple = false;
+                    break;
+                }
             }
         }
+        simple &= v == s && cycle.len() >= 3;
+        loops.push(cycle);
     }
-    loops
+    if !simple {
+        return Err(loops.len());
+    }
+    for cycle in &loops {
+        let n = cycle.len() as f64;
+        let c = cycle.iter().fold([0.0; 3], |acc, &v| {
+            let p = positions[v as usize];
+            std::array::from_fn(|k| acc[k] + p[k] / n)
+        });
+        let centre = positions.len() as u32;
+        positions.push(c);
+        for (k, &a) in cycle.iter().enumerate() {
+            // The surface's face has a -> b; the cap's has b -> a.
+            let b = cycle[(k + 1) % cycle.len()];
+            triangles.push([b, a, centre]);
+        }
+    }
+    Ok(loops.len())
 }
 
 /// The input's triangles for projection, one set per triangle primitive
@@ -396,7 +466,7 @@ fn replace_grid_surface(
     d: &Ductile,
     s: &TornSurface,
     params: &DuctileParams,
-) -> Vec<usize> {
+) -> Vec<Option<usize>> {
     let meshes = grid_pieces(scene, mesh_index, d, s, params);
     place_pieces(scene, mesh_index, meshes)
 }
@@ -414,7 +484,7 @@ fn replace_mesh(
     params: &DuctileParams,
     embedded: Option<&super::tear_embed::Embedded>,
     smooth_angle: f64,
-) -> Vec<usize> {
+) -> Vec<Option<usize>> {
     let Some(m) = embedded else {
         return replace_grid_surface(scene, e.mesh_index, d, s, params);
     };
@@ -455,7 +525,7 @@ fn replace_mesh(
         meshes.push(prims);
     }
     let pieces = place_pieces(scene, e.mesh_index, meshes);
-    for &m in &pieces {
+    for &m in pieces.iter().flatten() {
         super::attributes::add_smooth_normals(scene, m, smooth_angle);
     }
     pieces
@@ -550,12 +620,26 @@ fn grid_pieces(
 fn place_pieces(
     scene: &mut Scene,
     mesh_index: usize,
-    mut meshes: Vec<Vec<Primitive>>,
-) -> Vec<usize> {
+    meshes: Vec<Vec<Primitive>>,
+) -> Vec<Option<usize>> {
+    // A piece with nothing to show (a sliver of the solid under a hole of
+    // the input, closed only for the solid) gets no mesh and no node.
+    let mut placed: Vec<Option<usize>> = vec![None; meshes.len()];
+    let shown: Vec<(usize, Vec<Primitive>)> = meshes
+        .into_iter()
+        .enumerate()
+        .filter(|(_, prims)| !prims.is_empty())
+        .collect();
     let old = scene.meshes[mesh_index].clone();
-    if meshes.len() <= 1 {
-        scene.meshes[mesh_index].primitives = meshes.pop().unwrap_or_default();
-        return vec![mesh_index];
+    if shown.len() <= 1 {
+        match shown.into_iter().next() {
+            Some((k, prims)) => {
+                scene.meshes[mesh_index].primitives = prims;
+                placed[k] = Some(mesh_index);
+            }
+            None => scene.meshes[mesh_index].primitives.clear(),
+        }
+        return placed;
     }
     // Pieces: each its own mesh and node, children of the mesh's nodes.
     let name = old
@@ -563,9 +647,12 @@ fn place_pieces(
         .clone()
         .unwrap_or_else(|| format!("mesh{mesh_index}"));
     let first = scene.meshes.len();
-    for (k, prims) in meshes.into_iter().enumerate() {
+    let count = shown.len();
+    let mut order = Vec::with_capacity(count);
+    for (i, (k, prims)) in shown.into_iter().enumerate() {
+        order.push(k);
         scene.meshes.push(Mesh {
-            name: Some(format!("{name}_piece{k}")),
+            name: Some(format!("{name}_piece{i}")),
             primitives: prims,
             weights: None,
             rest: old.rest.clone(),
@@ -587,11 +674,13 @@ fn place_pieces(
             scene.nodes[n].children.push(child);
         }
     }
-    let count = scene.meshes.len() - first;
     // Removing the emptied mesh (before the pieces) shifts their indices.
     super::islands::remove_empty_meshes(scene);
     let shift = (first + count).saturating_sub(scene.meshes.len());
-    (first - shift..first - shift + count).collect()
+    for (i, k) in order.into_iter().enumerate() {
+        placed[k] = Some(first - shift + i);
+    }
+    placed
 }
 
 /// Per piece of `s`: the tear's border, the edges between a torn and an
