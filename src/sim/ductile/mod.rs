@@ -674,6 +674,9 @@ impl Ductile {
             tetrahedra: self.tets.len(),
             ..Default::default()
         };
+        // A solid in several pieces from the start (an input of separate
+        // shells) comes apart when it has more.
+        let initial = self.fragments();
         while self.pull_fraction() < self.params.pull.distance
             && report.steps < self.params.max_steps
         {
@@ -687,7 +690,8 @@ impl Ductile {
             if s.tearing_nodes > 0 && report.first_tear_pull.is_none() {
                 report.first_tear_pull = Some(self.pull_fraction());
             }
-            if report.separated_pull.is_none() && s.tearing_nodes > 0 && self.fragments() > 1 {
+            if report.separated_pull.is_none() && s.tearing_nodes > 0 && self.fragments() > initial
+            {
                 report.separated_pull = Some(self.pull_fraction());
             }
             on_step(self, &s);
