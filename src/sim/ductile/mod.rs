@@ -48,8 +48,8 @@ const FRONT_MATERIAL: f64 = 1e-2;
 /// cuts it) a node whose tetrahedra are all slivers had an all but empty
 /// row, which the solve's tolerance left free: on a block turned 30
 /// degrees to the grid and torn at 24 cubes such nodes drifted up to
-/// 7e8 m, their slivers' energy densities soared, and the input's
-/// vertices mapped by their tetrahedra came out a metre away.
+/// 7e8 m, and the input's vertices mapped by their tetrahedra came out
+/// 0.9 of the block's length below it.
 const ERSATZ: f64 = 1e-3;
 
 /// The inside fraction from which the tetrahedra around a node outside
