@@ -606,3 +606,7 @@ pub fn relax_only(
 #[cfg(test)]
 #[path = "driver_tests.rs"]
 mod tests;
+
+#[cfg(test)]
+#[path = "snapping_tests.rs"]
+mod snapping_tests;
