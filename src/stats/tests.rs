@@ -1,5 +1,6 @@
 //! Pattern statistics on patterns whose answers are known.
 
+use super::graph::split_within;
 use super::*;
 
 /// An n x n grid of unit squares (two triangles each) and a vertex id.
