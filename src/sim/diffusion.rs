@@ -124,16 +124,9 @@ const SHADOW_REACH: f64 = 0.8;
 /// the segment and the way from its nearest point to `p`.
 fn beside(p: [f64; 3], (p0, p1): ([f64; 3], [f64; 3])) -> (f64, [f64; 3], f64) {
     use crate::math::v3;
-    let d = v3::sub(p1, p0);
-    let l2 = v3::dot(d, d);
-    let t = if l2 > 0.0 {
-        (v3::dot(v3::sub(p, p0), d) / l2).clamp(0.0, 1.0)
-    } else {
-        0.0
-    };
-    let q = v3::sub(p, v3::add(p0, v3::scale(d, t)));
+    let q = v3::sub(p, crate::mesh::spatial::closest_on_segment(p, p0, p1));
     let dist = v3::norm(q);
-    let u = v3::unit(d).unwrap_or([0.0; 3]);
+    let u = v3::unit(v3::sub(p1, p0)).unwrap_or([0.0; 3]);
     let n = v3::sub(q, v3::scale(u, v3::dot(q, u)));
     let sin2 = if dist > 0.0 {
         (v3::dot(n, n) / (dist * dist)).min(1.0)

@@ -412,16 +412,15 @@ impl Ductile {
     /// [`DuctileParams::nonlocal`]): three passes of a tent along the grid's
     /// axes over the nodes' material times energy and over their material,
     /// then the ratio. Nodes without material keep their own.
-    pub fn driving_energy(&self, elements: &[Element], weights: &[f64]) -> Vec<f64> {
+    pub fn driving_energy(&self, elements: &[Element], weights: &[f64], mass: &[f64]) -> Vec<f64> {
         let psi = self.nodal_energy(elements, weights);
         // The tent's reach in cubes: weight 1 - d / reach at d nodes away.
         let reach = self.params.nonlocal / self.grid.h;
         if reach <= 1.0 {
             return psi;
         }
-        let mass = self.masses(weights);
-        let mut num: Vec<f64> = psi.iter().zip(&mass).map(|(p, m)| p * m).collect();
-        let mut den = mass.clone();
+        let mut num: Vec<f64> = psi.iter().zip(mass).map(|(p, m)| p * m).collect();
+        let mut den = mass.to_vec();
         let kernel: Vec<f64> = (0..)
             .map(|d| 1.0 - f64::from(d) / reach)
             .take_while(|&w| w > 0.0)
@@ -540,7 +539,7 @@ impl Ductile {
         let weights = self.weights();
         let elements = self.elements_now(&weights);
         let mass = self.masses(&weights);
-        let psi = self.driving_energy(&elements, &weights);
+        let psi = self.driving_energy(&elements, &weights, &mass);
         let dt = self.cfl_step(&psi, &mass);
         let mut report = self.implicit_step(dt, &weights, &elements, &mass);
         self.time += dt;
@@ -548,7 +547,8 @@ impl Ductile {
         // The level set, from the energies after the step.
         let weights = self.weights();
         let elements = self.elements(&weights);
-        let psi = self.driving_energy(&elements, &weights);
+        let mass = self.masses(&weights);
+        let psi = self.driving_energy(&elements, &weights, &mass);
         report.tearing_nodes = self.advance_level_set(&psi, dt);
         if report.tearing_nodes > 0 {
             if self.params.redistance {
@@ -560,7 +560,6 @@ impl Ductile {
         }
         report.dt = dt;
         report.energy = elements.iter().zip(&weights).map(|(e, w)| e.psi * w).sum();
-        let mass = self.masses(&weights);
         self.kept_elements = Some(KeptElements {
             x: self.x.clone(),
             weights,
