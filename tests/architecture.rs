@@ -18,7 +18,7 @@ const LAYERS: &[&[&str]] = &[
 ];
 
 /// Most lines of a library source file (tests excluded).
-const MAX_FILE_LINES: usize = 950;
+const MAX_FILE_LINES: usize = 900;
 
 /// Largest share of `src/` the command line may have.
 const MAX_CLI_SHARE: f64 = 0.12;

@@ -13,16 +13,21 @@ mod margin;
 mod memory;
 mod params;
 pub mod post;
+mod report;
 mod run;
+mod stress_entry;
 mod tear;
 mod tear_embed;
 
 pub use config::*;
 pub use frames::Frames;
 pub use params::fixed_groups;
+pub use report::{
+    BeforeAfter, CrackReport, FramesReport, MeshRun, Remeshed, RunReport, Stage, StartEnd,
+};
 pub use run::{
-    crack_file, prepare, read_crackable, run, stress_field, write_output, BeforeAfter, Config,
-    CrackReport, FramesReport, MeshRun, Observer, Prepared, Remeshed, RunReport, Stage, StartEnd,
+    crack_file, prepare, read_crackable, run, stress_field, write_output, Config, Observer,
+    Prepared,
 };
 
 impl Config {

@@ -4,16 +4,18 @@
 //! `crackle batch` and `--frames` use.
 
 use super::frames::{self, Frames, Replay};
+use super::report::{
+    BeforeAfter, CrackReport, FramesReport, MeshRun, Remeshed, RunReport, Stage, StartEnd,
+};
 use super::{Bounds, Pipeline, Placement};
 use crate::bridge::{build_sim_meshes, SimEntry};
 use crate::geometry::curvature::CurvatureField;
-use crate::mesh::remesh::{self, RemeshReport};
+use crate::mesh::remesh;
 use crate::mesh::WeldOptions;
 use crate::scene::Scene;
 use crate::sim::{SimParams, SimReport};
 use crate::stress::StressField;
 use crate::{Error, Result};
-use serde::Serialize;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -59,158 +61,6 @@ pub trait Observer {
 }
 
 impl Observer for () {}
-
-/// One stage of a run and its time.
-#[derive(Clone, Debug, Serialize)]
-pub struct Stage {
-    /// `read`, `texture`, `weld`, `remesh`, `curvature`, `stress`,
-    /// `simulate`, `finish`, a post stage, `write`, `frames`.
-    pub name: String,
-    /// Wall-clock seconds.
-    pub seconds: f64,
-    /// `remesh`: what it did to each mesh.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub meshes: Option<Vec<Remeshed>>,
-    /// The process's peak resident memory when the stage ended, bytes
-    /// (`getrusage`; it only grows from one stage to the next).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub peak_resident_bytes: Option<u64>,
-}
-
-impl Stage {
-    fn new(name: &str, seconds: f64) -> Stage {
-        Stage {
-            name: name.to_string(),
-            seconds,
-            meshes: None,
-            peak_resident_bytes: super::memory::peak_resident_bytes(),
-        }
-    }
-}
-
-/// What remeshing did to one mesh.
-#[derive(Clone, Debug, Serialize)]
-pub struct Remeshed {
-    /// The mesh's label.
-    pub mesh: String,
-    /// The edge length asked for (scene units).
-    pub target_edge: f64,
-    /// What the remesher did.
-    pub report: RemeshReport,
-}
-
-/// A count before and after the run.
-#[derive(Clone, Copy, Debug, Default, Serialize)]
-pub struct BeforeAfter<T> {
-    /// Before.
-    pub before: T,
-    /// After.
-    pub after: T,
-}
-
-/// Energy at the start and the end.
-#[derive(Clone, Copy, Debug, Default, Serialize)]
-pub struct StartEnd {
-    /// At the start.
-    pub start: f64,
-    /// At the end.
-    pub end: f64,
-}
-
-/// One simulated mesh's part of a run.
-#[derive(Clone, Debug, Serialize)]
-pub struct MeshRun {
-    /// Index of the mesh in the scene.
-    pub index: usize,
-    /// The simulation's report.
-    pub report: SimReport,
-    /// What each post stage did to it.
-    pub post: serde_json::Value,
-}
-
-/// The time-lapse frames a run wrote.
-#[derive(Clone, Debug, Serialize)]
-pub struct FramesReport {
-    /// How many.
-    pub count: usize,
-    /// The files, in time order.
-    pub files: Vec<String>,
-}
-
-/// What a run did: totals over its meshes, its stages and each mesh.
-#[derive(Clone, Debug, Serialize)]
-pub struct RunReport {
-    /// Crack events.
-    pub cracks: usize,
-    /// Total crack length (scene units).
-    pub crack_length: f64,
-    /// Triangles of the simulation meshes.
-    pub triangles: BeforeAfter<usize>,
-    /// Nodes of the simulation meshes.
-    pub nodes: BeforeAfter<usize>,
-    /// Relaxation steps.
-    pub relaxation_steps: usize,
-    /// Rounds of the longest mesh.
-    pub rounds: usize,
-    /// Stress energy.
-    pub energy: StartEnd,
-    /// The stages that ran, in order.
-    pub stages: Vec<Stage>,
-    /// Each simulated mesh.
-    pub meshes: Vec<MeshRun>,
-    /// The reader's warnings about the scene.
-    pub warnings: Vec<String>,
-    /// The frames written, when asked.
-    pub frames: Option<FramesReport>,
-}
-
-impl RunReport {
-    /// Pieces the run's meshes came apart into: the ductile model's torn
-    /// pieces and `split_islands`' pieces, summed over meshes (`None` when
-    /// no mesh was torn or split).
-    pub fn pieces(&self) -> Option<usize> {
-        let of = |m: &MeshRun| {
-            m.post
-                .get("pieces")
-                .or_else(|| m.post.get("islands").and_then(|i| i.get("pieces")))
-                .and_then(serde_json::Value::as_u64)
-        };
-        let counts: Vec<u64> = self.meshes.iter().filter_map(of).collect();
-        (!counts.is_empty()).then(|| counts.iter().sum::<u64>() as usize)
-    }
-
-    /// Area of the ductile model's torn faces, summed over meshes (scene
-    /// units squared; `None` when no mesh was torn).
-    pub fn torn_area(&self) -> Option<f64> {
-        let areas: Vec<f64> = self
-            .meshes
-            .iter()
-            .filter_map(|m| m.post.get("torn_area").and_then(serde_json::Value::as_f64))
-            .collect();
-        (!areas.is_empty()).then(|| areas.iter().sum())
-    }
-}
-
-/// What [`crack_file`] did: the files, then the run.
-#[derive(Clone, Debug, Serialize)]
-pub struct CrackReport {
-    /// The input file.
-    pub input: String,
-    /// The output file.
-    pub output: String,
-    /// Every file written (the main file first).
-    pub files: Vec<String>,
-    /// Bytes written.
-    pub bytes: u64,
-    /// The files the input refers to (buffers, images, material libraries).
-    pub sources: Vec<String>,
-    /// Triangles of the scene's meshes as read and as written (the
-    /// simulation's own are `triangles`).
-    pub mesh_triangles: BeforeAfter<usize>,
-    /// The run.
-    #[serde(flatten)]
-    pub run: RunReport,
-}
 
 /// Read an asset, log its warnings, and refuse it when nothing in it can
 /// be cracked.

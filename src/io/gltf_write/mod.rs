@@ -18,7 +18,13 @@ use std::path::{Path, PathBuf};
 
 mod files;
 mod finite;
+mod names;
+mod refs;
 pub use files::*;
+use names::{sanitize_file_name, unique_name, uri_encode};
+use refs::{
+    as_idx, remap, set_idx, visit_image_refs, visit_texture_refs, visit_variant_material_refs,
+};
 
 const ARRAY_BUFFER: u32 = 34962;
 const ELEMENT_ARRAY_BUFFER: u32 = 34963;
@@ -262,70 +268,6 @@ impl Bin {
             a["name"] = n.clone().into();
         }
         self.accessor(a)
-    }
-}
-
-/// Old index -> new index for the used subset, keeping the original order.
-fn remap(used: &BTreeSet<usize>) -> BTreeMap<usize, usize> {
-    used.iter()
-        .enumerate()
-        .map(|(new, &old)| (old, new))
-        .collect()
-}
-
-/// Texture references in a material: every `*Texture` object with an `index`,
-/// in the core material and its extensions (not in extras).
-fn visit_texture_refs(v: &mut Value, f: &mut dyn FnMut(&mut Value)) {
-    if let Value::Object(o) = v {
-        for (k, child) in o.iter_mut() {
-            if k == "extras" {
-                continue;
-            }
-            if k.ends_with("Texture") && child.get("index").is_some() {
-                f(child.get_mut("index").expect("checked"));
-            }
-            visit_texture_refs(child, f);
-        }
-    }
-}
-
-/// Image references of a texture: `source` and each extension's `source`.
-fn visit_image_refs(t: &mut Value, f: &mut dyn FnMut(&mut Value)) {
-    if let Some(s) = t.get_mut("source") {
-        f(s);
-    }
-    if let Some(ext) = t.get_mut("extensions").and_then(Value::as_object_mut) {
-        for (_, e) in ext.iter_mut() {
-            if let Some(s) = e.get_mut("source") {
-                f(s);
-            }
-        }
-    }
-}
-
-/// Material references in a primitive's `KHR_materials_variants` mappings.
-fn visit_variant_material_refs(rest: &mut Map<String, Value>, f: &mut dyn FnMut(&mut Value)) {
-    if let Some(maps) = rest
-        .get_mut("extensions")
-        .and_then(|e| e.get_mut("KHR_materials_variants"))
-        .and_then(|v| v.get_mut("mappings"))
-        .and_then(Value::as_array_mut)
-    {
-        for m in maps {
-            if let Some(x) = m.get_mut("material") {
-                f(x);
-            }
-        }
-    }
-}
-
-fn as_idx(v: &Value) -> Option<usize> {
-    v.as_u64().map(|x| x as usize)
-}
-
-fn set_idx(v: &mut Value, map: &BTreeMap<usize, usize>) {
-    if let Some(new) = as_idx(v).and_then(|o| map.get(&o)) {
-        *v = (*new).into();
     }
 }
 
@@ -877,55 +819,6 @@ fn write_triangles(
         json!({"bufferView": view, "componentType": ct, "count": indices.len(), "type": "SCALAR"}),
     );
     Ok((attrs, acc, targets))
-}
-
-/// A file name without folders or characters that are unsafe in file names.
-fn sanitize_file_name(name: &str) -> String {
-    let base = name.rsplit(['/', '\\']).next().unwrap_or(name);
-    let s: String = base
-        .chars()
-        .map(|c| {
-            if c.is_control() || matches!(c, ':' | '*' | '?' | '"' | '<' | '>' | '|') {
-                '_'
-            } else {
-                c
-            }
-        })
-        .collect();
-    let s = s.trim_start_matches('.').to_string();
-    if s.is_empty() {
-        "image".into()
-    } else {
-        s
-    }
-}
-
-fn unique_name(name: &str, taken: &mut BTreeSet<String>) -> String {
-    let (stem, ext) = match name.rfind('.') {
-        Some(i) => (&name[..i], &name[i..]),
-        None => (name, ""),
-    };
-    let mut candidate = name.to_string();
-    let mut k = 1;
-    while taken.contains(&candidate.to_lowercase()) {
-        candidate = format!("{stem}_{k}{ext}");
-        k += 1;
-    }
-    taken.insert(candidate.to_lowercase());
-    candidate
-}
-
-/// Percent-encode a relative file name for a glTF URI.
-fn uri_encode(name: &str) -> String {
-    let mut out = String::new();
-    for b in name.bytes() {
-        if b.is_ascii_alphanumeric() || b"-_.~".contains(&b) {
-            out.push(b as char);
-        } else {
-            out.push_str(&format!("%{b:02X}"));
-        }
-    }
-    out
 }
 
 #[cfg(test)]

@@ -1,0 +1,190 @@
+//! The OBJ reader's primitives: each (group, material) section's faces,
+//! its unique (v, vt, vn) corners becoming the primitive's vertices.
+
+use super::*;
+
+/// A primitive being built: unique (v, vt, vn) corners become its vertices.
+#[derive(Clone)]
+pub(super) struct PrimBuilder {
+    pub(super) group: Option<String>,
+    pub(super) material: Option<usize>,
+    vertex_of: HashMap<Corner, u32>,
+    vertices: Vec<Corner>,
+    triangles: Vec<[u32; 3]>,
+    some_vt: bool,
+    missing_vt: bool,
+    some_vn: bool,
+    missing_vn: bool,
+}
+
+impl PrimBuilder {
+    pub(super) fn new(group: Option<String>, material: Option<usize>) -> Self {
+        PrimBuilder {
+            group,
+            material,
+            vertex_of: HashMap::new(),
+            vertices: Vec::new(),
+            triangles: Vec::new(),
+            some_vt: false,
+            missing_vt: false,
+            some_vn: false,
+            missing_vn: false,
+        }
+    }
+
+    pub(super) fn add_face(
+        &mut self,
+        corners: &[Corner],
+        positions: &[[f32; 3]],
+        scratch: &mut Vec<u32>,
+    ) {
+        scratch.clear();
+        for &c in corners {
+            if c.vt == ABSENT {
+                self.missing_vt = true;
+            } else {
+                self.some_vt = true;
+            }
+            if c.vn == ABSENT {
+                self.missing_vn = true;
+            } else {
+                self.some_vn = true;
+            }
+            let next = self.vertices.len() as u32;
+            let id = *self.vertex_of.entry(c).or_insert(next);
+            if id == next {
+                self.vertices.push(c);
+            }
+            scratch.push(id);
+        }
+        if scratch.len() == 3 {
+            self.triangles.push([scratch[0], scratch[1], scratch[2]]);
+            return;
+        }
+        let points: Vec<[f64; 3]> = corners
+            .iter()
+            .map(|c| {
+                let p = positions[c.v as usize];
+                [p[0] as f64, p[1] as f64, p[2] as f64]
+            })
+            .collect();
+        for t in triangulate_polygon(&points) {
+            self.triangles.push([
+                scratch[t[0] as usize],
+                scratch[t[1] as usize],
+                scratch[t[2] as usize],
+            ]);
+        }
+    }
+
+    pub(super) fn finish(
+        self,
+        data: &Data,
+        has_colors: bool,
+        object: &str,
+        scene: &mut Scene,
+    ) -> Primitive {
+        let label = || {
+            let mut s = format!("object '{object}'");
+            if let Some(g) = &self.group {
+                s.push_str(&format!(", group '{g}'"));
+            }
+            if let Some(m) = self
+                .material
+                .and_then(|m| scene.materials.get(m))
+                .and_then(Material::name)
+            {
+                s.push_str(&format!(", material '{m}'"));
+            }
+            s
+        };
+        let mut warnings = Vec::new();
+        let positions = self
+            .vertices
+            .iter()
+            .map(|c| data.positions[c.v as usize])
+            .collect();
+        let mut attributes = Vec::new();
+        if self.some_vn {
+            if self.missing_vn {
+                warnings.push(format!(
+                    "{}: only some face corners have a normal; NORMAL left out",
+                    label()
+                ));
+            } else {
+                let mut normals = Vec::with_capacity(self.vertices.len() * 3);
+                let mut ok = true;
+                for c in &self.vertices {
+                    let n = data.normals[c.vn as usize];
+                    let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+                    if !len.is_finite() || len <= 1e-12 {
+                        ok = false;
+                        break;
+                    }
+                    normals.extend([n[0] / len, n[1] / len, n[2] / len]);
+                }
+                if ok {
+                    attributes.push(VertexAttribute {
+                        semantic: "NORMAL".into(),
+                        components: 3,
+                        data: normals,
+                    });
+                } else {
+                    warnings.push(format!(
+                        "{}: a normal is zero or invalid; NORMAL left out",
+                        label()
+                    ));
+                }
+            }
+        }
+        if self.some_vt {
+            if self.missing_vt {
+                warnings.push(format!(
+                    "{}: only some face corners have texture coordinates; TEXCOORD_0 left out",
+                    label()
+                ));
+            } else {
+                let uv = self
+                    .vertices
+                    .iter()
+                    .flat_map(|c| {
+                        let t = data.texcoords[c.vt as usize];
+                        [t[0], 1.0 - t[1]]
+                    })
+                    .collect();
+                attributes.push(VertexAttribute {
+                    semantic: "TEXCOORD_0".into(),
+                    components: 2,
+                    data: uv,
+                });
+            }
+        }
+        if has_colors {
+            let colors = self
+                .vertices
+                .iter()
+                .flat_map(|c| data.colors[c.v as usize].map(|x| x.clamp(0.0, 1.0)))
+                .collect();
+            attributes.push(VertexAttribute {
+                semantic: "COLOR_0".into(),
+                components: 3,
+                data: colors,
+            });
+        }
+        scene.warnings.extend(warnings);
+        Primitive {
+            material: self.material,
+            geometry: Geometry::Triangles(TriGeometry {
+                positions,
+                attributes,
+                triangles: self.triangles,
+                group: self.group,
+                ..Default::default()
+            }),
+            rest: Map::new(),
+        }
+    }
+}
+
+// ---------------------------------------------------------------------------
+// Material libraries

@@ -1,0 +1,238 @@
+//! A `[[stress]]` entry as written to the stress term it describes on one
+//! mesh: which keys its kind takes, points and axes from the mesh's
+//! bounding box, every value checked.
+
+use super::{Bounds, Placement, StressEntry};
+use crate::stress::texture::Mask;
+use crate::stress::{CurvatureScale, Term, TermKind};
+use std::sync::Arc;
+
+impl StressEntry {
+    /// The kind-specific keys this entry gives.
+    pub(super) fn present(&self) -> Vec<&'static str> {
+        [
+            ("direction", self.direction.is_some()),
+            ("mesh_axis", self.mesh_axis.is_some()),
+            ("checks", self.checks.is_some()),
+            ("center", self.center.is_some()),
+            ("center_relative", self.center_relative.is_some()),
+            ("axis", self.axis.is_some()),
+            ("points", self.points.is_some()),
+            ("points_relative", self.points_relative.is_some()),
+            ("radius", self.radius.is_some()),
+            ("radius_relative", self.radius_relative.is_some()),
+            ("concentric_factor", self.concentric_factor.is_some()),
+            ("speed", self.speed.is_some()),
+            ("radial_cracks", self.radial_cracks.is_some()),
+            ("in_turn", self.in_turn.is_some()),
+            ("separation", self.separation.is_some()),
+            ("strength", self.strength.is_some()),
+            ("max_factor", self.max_factor.is_some()),
+        ]
+        .into_iter()
+        .filter_map(|(k, given)| given.then_some(k))
+        .collect()
+    }
+
+    /// The unit vector of `mesh_axis` in the mesh's frame.
+    pub(super) fn mesh_axis(&self, b: &Bounds) -> Result<[f64; 3], String> {
+        let name = self.mesh_axis.as_deref().unwrap_or_default();
+        let k = match name {
+            "x" => 0,
+            "y" => 1,
+            "z" => 2,
+            "longest" => (0..3)
+                .max_by(|&i, &j| {
+                    (b.max[i] - b.min[i])
+                        .total_cmp(&(b.max[j] - b.min[j]))
+                        .then(j.cmp(&i))
+                })
+                .unwrap_or(0),
+            other => {
+                return Err(format!(
+                    "mesh_axis must be x, y, z or longest, got '{other}'"
+                ))
+            }
+        };
+        let mut a = [0.0; 3];
+        a[k] = 1.0;
+        Ok(a)
+    }
+
+    /// The term this entry describes on a mesh placed at `place`.
+    pub(super) fn term(&self, place: &Placement, mask: Option<Arc<Mask>>) -> Result<Term, String> {
+        let allowed: &[&str] = match self.kind.as_str() {
+            "uniform" | "noise" => &[],
+            "curvature" => &["separation", "strength", "max_factor"],
+            "directional" => &["direction", "mesh_axis", "checks"],
+            "concentric" => &["center", "center_relative", "axis", "mesh_axis"],
+            "impact" => &[
+                "points",
+                "points_relative",
+                "radius",
+                "radius_relative",
+                "concentric_factor",
+                "speed",
+                "radial_cracks",
+                "in_turn",
+            ],
+            other => {
+                return Err(format!(
+                    "unknown kind '{other}'; the kinds are uniform, directional, concentric, impact, noise, curvature"
+                ))
+            }
+        };
+        if let Some(k) = self.present().into_iter().find(|k| !allowed.contains(k)) {
+            return Err(format!("key '{k}' does not apply to this kind"));
+        }
+        let one_of = |a: bool, b: bool, an: &str, bn: &str| match (a, b) {
+            (true, true) => Err(format!("give '{an}' or '{bn}', not both")),
+            (false, false) => Err(format!("missing key '{an}' (or '{bn}')")),
+            _ => Ok(()),
+        };
+        let kind = match self.kind.as_str() {
+            "uniform" => TermKind::Uniform,
+            "noise" => TermKind::Noise,
+            "curvature" => {
+                if self.separation.is_none() {
+                    if let Some(k) = ["strength", "max_factor"]
+                        .into_iter()
+                        .find(|k| self.present().contains(k))
+                    {
+                        return Err(format!("key '{k}' needs 'separation'"));
+                    }
+                    if self.init == 0.0 && self.evolve == 0.0 {
+                        return Err(
+                            "a curvature entry needs 'init', 'evolve' or 'separation'".into()
+                        );
+                    }
+                }
+                TermKind::Curvature {
+                    scale: self.separation.map(|measure| CurvatureScale {
+                        measure,
+                        strength: self.strength.unwrap_or(1.0),
+                        max_factor: self.max_factor.unwrap_or(4.0),
+                    }),
+                }
+            }
+            "directional" => {
+                one_of(
+                    self.direction.is_some(),
+                    self.mesh_axis.is_some(),
+                    "direction",
+                    "mesh_axis",
+                )?;
+                TermKind::Directional {
+                    direction: match self.direction {
+                        Some(d) => place.vector(d),
+                        None => self.mesh_axis(&place.bounds)?,
+                    },
+                    checks: self.checks,
+                }
+            }
+            "concentric" => {
+                one_of(
+                    self.center.is_some(),
+                    self.center_relative.is_some(),
+                    "center",
+                    "center_relative",
+                )?;
+                one_of(
+                    self.axis.is_some(),
+                    self.mesh_axis.is_some(),
+                    "axis",
+                    "mesh_axis",
+                )?;
+                TermKind::Concentric {
+                    center: match (self.center, self.center_relative) {
+                        (Some(c), _) => place.point(c),
+                        (None, Some(c)) => place.bounds.at(c),
+                        _ => [0.0; 3],
+                    },
+                    axis: match self.axis {
+                        Some(a) => place.vector(a),
+                        None => self.mesh_axis(&place.bounds)?,
+                    },
+                }
+            }
+            _ => {
+                // Neither: the hit lands where the asset faces the viewer
+                // (`stress::field::default_hit`).
+                if self.points.is_some() && self.points_relative.is_some() {
+                    return Err("give 'points' or 'points_relative', not both".into());
+                }
+                if let Some((key, [])) = [
+                    ("points", &self.points),
+                    ("points_relative", &self.points_relative),
+                ]
+                .into_iter()
+                .find_map(|(k, p)| p.as_ref().map(|p| (k, p.as_slice())))
+                {
+                    return Err(format!("'{key}' is empty: give at least one point, or leave it out for the default hit"));
+                }
+                one_of(
+                    self.radius.is_some(),
+                    self.radius_relative.is_some(),
+                    "radius",
+                    "radius_relative",
+                )?;
+                let points = match (&self.points, &self.points_relative) {
+                    (Some(p), _) => p.iter().map(|&q| place.point(q)).collect(),
+                    (None, Some(p)) => p.iter().map(|&q| place.bounds.at(q)).collect(),
+                    _ => Vec::new(),
+                };
+                let radius = match (self.radius, self.radius_relative) {
+                    (Some(r), _) => place.length(r),
+                    (None, Some(r)) => r * place.bounds.diagonal(),
+                    _ => 0.0,
+                };
+                if let Some(r) = self.radius.or(self.radius_relative) {
+                    if !(r.is_finite() && r > 0.0) {
+                        let key = if self.radius.is_some() {
+                            "radius"
+                        } else {
+                            "radius_relative"
+                        };
+                        return Err(format!("{key} must be > 0, got {r}"));
+                    }
+                }
+                let radial_cracks = match (self.speed, self.radial_cracks) {
+                    (Some(_), Some(_)) => {
+                        return Err("give 'speed' or 'radial_cracks', not both".into())
+                    }
+                    (Some(v), None) if !(v.is_finite() && v > 0.0 && v <= 1e4) => {
+                        return Err(format!("speed must be in (0, 10000] m/s, got {v}"))
+                    }
+                    (Some(v), None) => crate::stress::impact::rays_for_speed(v),
+                    (None, Some(n))
+                        if !(crate::stress::impact::MIN_RAYS..=crate::stress::impact::MAX_RAYS)
+                            .contains(&n) =>
+                    {
+                        return Err(format!("radial_cracks must be 3 to 64, got {n}"))
+                    }
+                    (None, Some(n)) => n,
+                    (None, None) => 0,
+                };
+                if radial_cracks > 0 && self.concentric_factor.is_some() {
+                    return Err(
+                        "'concentric_factor' is the paper's disc's: not with 'speed' or 'radial_cracks'"
+                            .into(),
+                    );
+                }
+                TermKind::Impact {
+                    points,
+                    radius,
+                    concentric_factor: self.concentric_factor.unwrap_or(1.25),
+                    radial_cracks,
+                    in_turn: self.in_turn.unwrap_or(false),
+                }
+            }
+        };
+        Ok(Term {
+            kind,
+            init: self.init,
+            evolve: self.evolve,
+            mask,
+        })
+    }
+}
