@@ -11,12 +11,18 @@
 //! *along the surface* ([`super::geodesic`]), so it wraps over a curved
 //! asset and stops at a gap:
 //! - hoop tension (cracks open across it: radial cracks) decaying as
-//!   `1 / (1 + (d / 0.7 R)^4)`, with no cut-off: cracks end where it
+//!   `1 / (1 + (d / 0.8 R)^4)`, with no cut-off: cracks end where it
 //!   falls below the toughness. It is nearly all along `N` rays from the hit
 //!   (seeded angles, each ray its own strength, so rays end at different
 //!   distances), which is where the star's cracks start and run;
-//! - radial tension (cracks open across it: arcs) along rings at
-//!   `0.2 R * 1.6^j`, in a seeded half of the sectors between rays.
+//! - radial tension (cracks open across it: arcs), decaying as
+//!   `1 / (1 + (d / 0.7 R)^4)`, along rings at
+//!   `0.2 R * 1.6^(j + p - 1/2)`, in a seeded half of the sectors between
+//!   rays; each sector has its own phase `p` in [0, 1), spread evenly over
+//!   the sectors (a golden-ratio sequence from a seeded start), so the arcs
+//!   of neighbouring sectors meet a ray at different distances (a ring is
+//!   a broken polygon, not a circle, and no circle holds much of the
+//!   length).
 //!
 //! A faster hit also loads harder: the term's weight is the load of a
 //! star of [`LOAD_RAYS`] rays, and a star of `N` carries `sqrt(N / 8)` of
@@ -54,8 +60,13 @@ pub fn rays_for_speed(speed: f64) -> u32 {
 pub const LOAD_RAYS: f64 = 8.0;
 
 /// Hoop tension's decay length, in radii: it falls as
-/// `1 / (1 + (d / (0.7 R))^4)`, to a fifth at `R`.
-const HOOP_DECAY: f64 = 0.7;
+/// `1 / (1 + (d / (0.8 R))^4)`, to 0.29 at `R` (at 0.7 the rays of
+/// `glass-impact` ended short and its arcs held too much of the length).
+const HOOP_DECAY: f64 = 0.8;
+/// The rings' decay length, in radii: `1 / (1 + (d / (0.7 R))^4)`, to a
+/// fifth at `R` (reaching as far as the rays, the rings filled a slow
+/// hit's wide sectors with arcs that curled into rays).
+const RING_DECAY: f64 = 0.7;
 /// Ring tension against the hoop tension on a ray.
 const RING_STRENGTH: f64 = 0.4;
 /// How far a ray may move from even spacing, as a share of the gap.
@@ -212,15 +223,22 @@ impl Star {
                 (k + n - 1) % n
             }
         };
+        // The sector's phase: the golden ratio's multiples from a seeded
+        // start, so no two sectors' arcs lie at one distance.
+        let start = 0.5 * (hash_unit(self.seed, 0x7068_6173) + 1.0);
+        let p = (start + 0.618_033_988_749_895 * sector as f64).fract();
+        let phase = RING_RATIO.powf(p - 0.5);
         let mut ring: f64 = 0.0;
         for (j, &rj) in self.rings.iter().enumerate() {
             let h = hash_unit(self.seed, (j * 1024 + sector) as u64);
             if 0.5 * (h + 1.0) > RING_SECTORS {
                 continue;
             }
+            let rj = rj * phase;
             ring = ring.max((-((d - rj) / self.width).powi(2)).exp());
         }
-        let radial = self.load * RING_STRENGTH * hoop_decay * ring;
+        let ring_decay = 1.0 / (1.0 + (rho / RING_DECAY).powi(4));
+        let radial = self.load * RING_STRENGTH * ring_decay * ring;
         let hoop_dir = v3::cross(n, away);
         Sym3::outer(hoop_dir) * hoop + Sym3::outer(away) * radial
     }
