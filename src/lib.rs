@@ -23,6 +23,10 @@
 //! let config = Config::in_memory(pipeline, "teapot.obj");
 //! let report = crackle::run(&mut scene, &config, &mut crackle::Quiet)?;
 //! println!("{} cracks", report.cracks);
+//! // What each post stage did, typed: here the maps baked per material.
+//! if let Some(bake) = &report.meshes[0].post.bake {
+//!     println!("baked in {:.1} s", bake.seconds);
+//! }
 //! let glb: Vec<u8> = crackle::write_bytes(&scene)?;
 //! # let _ = glb;
 //! # Ok(())
@@ -51,7 +55,9 @@ pub mod study;
 pub use error::{Error, Result};
 pub use io::gltf_write::WriteSummary;
 pub use io::ReadOptions;
-pub use pipeline::{crack_file, run, Config, CrackReport, Observer, Pipeline, RunReport};
+pub use pipeline::{
+    crack_file, run, Config, CrackReport, MeshRun, Observer, Pipeline, PostReport, RunReport,
+};
 pub use scene::Scene;
 
 use std::path::Path;

@@ -21,6 +21,13 @@ fn a_mesh_cracked_in_memory_is_a_valid_glb() {
     let config = Config::in_memory(preset("glaze"), "icosphere.obj");
     let report = crackle::run(&mut scene, &config, &mut crackle::Quiet).unwrap();
     assert!(report.cracks > 100, "{} cracks", report.cracks);
+    // The post stages' report is typed: glaze bakes its maps into each
+    // material and opens no gap.
+    let post: &crackle::PostReport = &report.meshes[0].post;
+    let bake = post.bake.as_ref().expect("glaze bakes");
+    let materials = bake.materials.as_ref().expect("one bake per material");
+    assert!(!materials.is_empty() && materials.iter().all(|m| m.crack_texels > 0));
+    assert!(post.width.is_none() && post.walls.is_none() && post.tear.is_none());
     let glb = crackle::write_bytes(&scene).unwrap();
     assert_eq!(&glb[..4], b"glTF");
     let back = crackle::read_bytes(&glb, "out.glb").unwrap();

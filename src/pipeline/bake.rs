@@ -2,6 +2,7 @@
 //! into the mesh's UV set (or an automatic atlas) and a material variant
 //! that uses them (see [`crate::post::bake`]).
 
+use super::post_report::{AtlasReport, MaterialBake, MeshBake};
 use crate::geometry::tangents::{with_corner_attribute, with_generated_tangents};
 use crate::io::image::Files;
 use crate::math::v3;
@@ -46,7 +47,7 @@ pub fn bake_mesh(
     widths: &[f64],
     cell: Option<f64>,
     post: &Post,
-) -> crate::Result<Value> {
+) -> crate::Result<MeshBake> {
     let fail = |message: String| crate::Error::Internal {
         mesh: label.to_string(),
         message,
@@ -75,7 +76,7 @@ pub fn bake_mesh(
         .map_err(&fail)?;
         details.push(d);
     }
-    Ok(json!({ "materials": details }))
+    Ok(MeshBake { materials: details })
 }
 
 /// Before any work: every texture the bake of `meshes` will decode (their
@@ -141,7 +142,7 @@ fn bake_group(
     (segments, widths): (&[[[f64; 3]; 2]], &[f64]),
     cell: Option<f64>,
     post: &Post,
-) -> Result<Value, String> {
+) -> Result<MaterialBake, String> {
     let dilate = post.bake_dilate;
     // The atlas is laid out (and overlap measured) for a 2048 map when the
     // size follows the asset; the size is then taken from its UV area.
@@ -159,8 +160,11 @@ fn bake_group(
     // The UV set: the one asked for, unless missing or overlapping; then
     // an atlas in a new set (the asset's own sets stay as they are).
     let (set, mut atlas_report) = match why_atlas(scene, mesh_index, prims, post) {
-        None => (post.bake_texcoord, Value::Null),
-        Some((why, overlap)) => make_atlas(scene, mesh_index, prims, post, (&why, overlap))?,
+        None => (post.bake_texcoord, None),
+        Some((why, overlap)) => {
+            let (set, report) = make_atlas(scene, mesh_index, prims, post, (&why, overlap))?;
+            (set, Some(report))
+        }
     };
     log::debug!(
         "bake: uvset+atlas done at {:.3} s",
@@ -219,11 +223,8 @@ fn bake_group(
         post.bake_size
     };
     // The atlas's density was measured on the map it was laid out for.
-    if let Value::Object(a) = &mut atlas_report {
-        if let Some(d) = a.get("texels_per_unit").and_then(Value::as_f64) {
-            let d = d * f64::from(size) / f64::from(post.bake_size);
-            a.insert("texels_per_unit".into(), json!(d));
-        }
+    if let Some(a) = &mut atlas_report {
+        a.texels_per_unit *= f64::from(size) / f64::from(post.bake_size);
     }
     let raster = bake::rasterize(surface.uvs, surface.triangles, size, dilate);
     log::debug!("bake: raster done at {:.3} s", t0.elapsed().as_secs_f64());
@@ -241,10 +242,10 @@ fn bake_group(
     };
     // An atlas resamples the material's base colour texture: say how much
     // of its resolution the baked map keeps.
-    if let (Value::Object(a), Some(own_density)) = (&mut atlas_report, own_density) {
+    if let (Some(a), Some(own_density)) = (&mut atlas_report, own_density) {
         let kept = unit_density * f64::from(size) / own_density;
         if kept.is_finite() {
-            a.insert("base_texture_resolution_kept".into(), json!(kept));
+            a.base_texture_resolution_kept = Some(kept);
             if kept < 0.9 {
                 log::warn!(
                     "the automatic atlas holds the base colour texture at {:.0}% of its resolution; a larger post.bake_size keeps more",
@@ -338,19 +339,19 @@ fn bake_group(
             set_geometry(scene, mesh_index, p, with);
         }
     }
-    Ok(json!({
-        "material": base_name,
-        "variant": stem,
-        "size": size,
-        "texcoord": set,
-        "atlas": atlas_report,
-        "crack_width": width,
-        "covered_texels": raster.covered,
-        "dilated_texels": raster.dilated,
-        "crack_texels": maps.crack_texels,
-        "png_bytes": bytes,
-        "tangent_split_vertices": tangent_splits,
-    }))
+    Ok(MaterialBake {
+        material: base_name,
+        variant: stem,
+        size,
+        texcoord: set,
+        atlas: atlas_report,
+        crack_width: width,
+        covered_texels: raster.covered,
+        dilated_texels: raster.dilated,
+        crack_texels: maps.crack_texels,
+        png_bytes: bytes,
+        tangent_split_vertices: tangent_splits,
+    })
 }
 
 /// The side of maps sized to the asset: a crack of `width` (scene units)
@@ -515,7 +516,7 @@ fn make_atlas(
     prims: &[usize],
     post: &Post,
     (why, overlap): (&str, Option<f64>),
-) -> Result<(u32, Value), String> {
+) -> Result<(u32, AtlasReport), String> {
     if post.bake_atlas == "never" {
         return Err(format!(
             "cannot bake crack maps: {why}, and post.bake_atlas = \"never\" (give the mesh UVs or allow an automatic atlas)"
@@ -573,7 +574,15 @@ fn make_atlas(
         split += with.positions.len() - geo.positions.len();
         set_geometry(scene, mesh_index, p, with);
     }
-    let report = json!({"reason": why, "layout": kind, "charts": a.charts, "texels_per_unit": a.density, "texcoord": set, "split_vertices": split});
+    let report = AtlasReport {
+        reason: why.to_string(),
+        layout: kind.to_string(),
+        charts: a.charts,
+        texels_per_unit: a.density,
+        texcoord: set,
+        split_vertices: split,
+        base_texture_resolution_kept: None,
+    };
     Ok((set, report))
 }
 

@@ -13,6 +13,7 @@ mod margin;
 mod memory;
 mod params;
 pub mod post;
+mod post_report;
 mod report;
 mod run;
 mod stress_entry;
@@ -22,6 +23,10 @@ mod tear_embed;
 pub use config::*;
 pub use frames::Frames;
 pub use params::fixed_groups;
+pub use post_report::{
+    AtlasReport, BakeReport, CutReport, GapReport, IslandsReport, MarginReport, MaterialBake,
+    MeshBake, PathsReport, PostReport, SurfaceReport, TearReport, WallsReport,
+};
 pub use report::{
     BeforeAfter, CrackReport, FramesReport, MeshRun, Remeshed, RunReport, Stage, StartEnd,
 };

@@ -2,6 +2,10 @@
 //! side walls, shader attributes, crack lines. Each runs only when the
 //! pipeline's `[post]` table asks for it.
 
+use super::post_report::{
+    BakeReport, CutReport, GapReport, IslandsReport, MarginReport, PathsReport, PostReport,
+    WallsReport,
+};
 use super::Post;
 use crate::bridge::{write_back_with, SimEntry};
 use crate::post::distance::{crack_vertices, distance_field};
@@ -22,7 +26,7 @@ pub struct PostOutcome {
     /// last ended), in the order the stages ran.
     pub stages: Vec<(&'static str, f64, Option<u64>)>,
     /// Per mesh: the stage details for the report.
-    pub details: Vec<Value>,
+    pub details: Vec<PostReport>,
 }
 
 impl PostOutcome {
@@ -55,18 +59,15 @@ pub fn apply(
     let mut lines_of: Vec<CrackLines> = Vec::new();
     let mut widths_of: Vec<Vec<f64>> = Vec::new();
     for (e, (_, r)) in entries.iter_mut().zip(reports) {
-        let mut detail = serde_json::Map::new();
+        let mut detail = PostReport::default();
         if let Some(u) = super::margin::grown(e) {
             // The simulation's crack events, triangles and energy count the
             // strip too; its crack length and segments are the input's. The
             // input's and the strip's triangles as grown (before remeshing).
-            detail.insert(
-                "margin".into(),
-                json!({
-                    "strip_triangles": u.strip.len(),
-                    "input_triangles": u.input.n_faces(),
-                }),
-            );
+            detail.margin = Some(MarginReport {
+                strip_triangles: u.strip.len(),
+                input_triangles: u.input.n_faces(),
+            });
         }
         // Grooves: a width from the cell size (or, for models without one,
         // the bounding-box diagonal).
@@ -152,7 +153,7 @@ pub fn apply(
                             hung = c.pop().map(|o| (o, n));
                         }
                         carried = c.pop();
-                        detail.insert("cut_input".into(), d);
+                        detail.cut_input = Some(d);
                         out.time("cut_input", t.elapsed().as_secs_f64());
                         &cut
                     }
@@ -169,7 +170,9 @@ pub fn apply(
                             "{}: the cracks stay on the simulation surface: {err}",
                             e.label
                         );
-                        detail.insert("cut_input".into(), json!({ "fell_back": err.to_string() }));
+                        detail.cut_input = Some(CutReport::FellBack {
+                            fell_back: err.to_string(),
+                        });
                         r
                     }
                 }
@@ -181,14 +184,15 @@ pub fn apply(
         let opening = openings(&e.sim, &r.displacement, &r.segments);
         let mut mean_gap = 0.0;
         if let Some(d) = opened {
-            let mut info = json!({
-                "max_gap": d.max_gap,
-                "mean_gap": d.mean_gap,
-                "width_limited_nodes": d.width_limited,
-                "inverted_triangles_prevented": d.inverted_triangles,
-                "shortened_nodes": d.shortened_nodes,
-                "rounded_corner_nodes": d.rounded_nodes,
-            });
+            let mut info = GapReport {
+                max_gap: d.max_gap,
+                mean_gap: d.mean_gap,
+                width_limited_nodes: d.width_limited,
+                inverted_triangles_prevented: d.inverted_triangles,
+                shortened_nodes: d.shortened_nodes,
+                rounded_corner_nodes: d.rounded_nodes,
+                shortened_nodes_on_input: None,
+            };
             mean_gap = d.mean_gap;
             positions = match carried {
                 // The input's own vertices follow the gaps' moves; moves
@@ -199,13 +203,17 @@ pub fn apply(
                         *p = crate::math::v3::add(*p, m);
                     }
                     let n = crate::post::width::shorten(&e.sim, &mut positions, &[], 1.0, tied);
-                    info["shortened_nodes_on_input"] = json!(n);
+                    info.shortened_nodes_on_input = Some(n);
                     out.time(stage, t.elapsed().as_secs_f64());
                     positions
                 }
                 None => d.positions,
             };
-            detail.insert(stage.into(), info);
+            if groove_width > 0.0 {
+                detail.groove = Some(info);
+            } else {
+                detail.width = Some(info);
+            }
         }
         let walls = if post.walls || groove_width > 0.0 {
             let t = Instant::now();
@@ -225,18 +233,15 @@ pub fn apply(
                     fix.crossing_after
                 );
             }
-            detail.insert(
-                "walls".into(),
-                json!({
-                    "depth": depth,
-                    "crossing_pairs": fix.crossing_after,
-                    "crossing_pairs_prevented": fix.crossing_before - fix.crossing_after,
-                    "shortened_nodes": fix.shortened_nodes,
-                    "triangles": w.triangles.len(),
-                    "skipped_degenerate": w.skipped_degenerate,
-                    "skipped_closed_sides": w.skipped_closed,
-                }),
-            );
+            detail.walls = Some(WallsReport {
+                depth,
+                crossing_pairs: fix.crossing_after,
+                crossing_pairs_prevented: fix.crossing_before - fix.crossing_after,
+                shortened_nodes: fix.shortened_nodes,
+                triangles: w.triangles.len(),
+                skipped_degenerate: w.skipped_degenerate,
+                skipped_closed_sides: w.skipped_closed,
+            });
             out.time("walls", t.elapsed().as_secs_f64());
             Some(w)
         } else {
@@ -298,7 +303,7 @@ pub fn apply(
             // theirs along.
             if post.gap_band > 0.0 || groove_width > 0.0 {
                 let n = resample_moved_wedges(&mut e.sim, &positions);
-                detail.insert("resampled_corners".into(), json!(n));
+                detail.resampled_corners = Some(n);
             }
             turn_normals(&mut e.sim, &positions);
             e.sim
@@ -350,7 +355,7 @@ pub fn apply(
             r.segment_times.iter().map(|t| t / end).collect(),
             rest,
         ));
-        out.details.push(Value::Object(detail));
+        out.details.push(detail);
     }
     let mut timing = PostOutcome::default();
     let cells: Vec<Option<f64>> = reports.iter().map(|(_, r)| r.cell_size).collect();
@@ -393,11 +398,11 @@ pub fn apply(
                 post,
             )?;
             let seconds = t.elapsed().as_secs_f64();
-            if let Value::Object(d) = detail {
-                let mut b = b;
-                b["seconds"] = json!(seconds);
-                d.insert("bake".into(), b);
-            }
+            detail.bake = Some(BakeReport {
+                seconds,
+                materials: Some(b.materials),
+                pieces: None,
+            });
             timing.time("bake", seconds);
         }
         if post.split_islands {
@@ -411,12 +416,11 @@ pub fn apply(
                 wall_primitive(scene, w, tris, offset, wall_material, targets)
             };
             let s = super::islands::split(scene, e, walls.as_ref(), &make);
-            if let Value::Object(d) = detail {
-                d.insert(
-                    "islands".into(),
-                    json!({"pieces": s.pieces, "recentred": s.recentred, "largest_piece_triangles": s.largest}),
-                );
-            }
+            detail.islands = Some(IslandsReport {
+                pieces: s.pieces,
+                recentred: s.recentred,
+                largest_piece_triangles: s.largest,
+            });
             timing.time("islands", t.elapsed().as_secs_f64());
         } else if let Some(w) = walls {
             let all: Vec<usize> = (0..w.triangles.len()).collect();
@@ -480,7 +484,7 @@ fn straighten(
     r: &SimReport,
     post: &Post,
     moves: bool,
-    detail: &mut serde_json::Map<String, Value>,
+    detail: &mut PostReport,
 ) -> crate::Result<Option<SimReport>> {
     if !e.along_edges || post.smooth_paths == 0 || r.segments.is_empty() {
         return Ok(None);
@@ -510,10 +514,17 @@ fn straighten(
         })?
     };
     s.crack_length = p.length[1];
-    detail.insert(
-        "paths".into(),
-        json!({"passes": post.smooth_paths, "free_points": p.free, "held": p.held, "spurs": p.spurs, "rings": p.rings, "joined": p.joined, "loops": p.loops, "loop_sides": p.loop_sides, "length": p.length}),
-    );
+    detail.paths = Some(PathsReport {
+        passes: post.smooth_paths,
+        free_points: p.free,
+        held: p.held,
+        spurs: p.spurs,
+        rings: p.rings,
+        joined: p.joined,
+        loops: p.loops,
+        loop_sides: p.loop_sides,
+        length: p.length,
+    });
     Ok(Some(s))
 }
 
@@ -536,17 +547,17 @@ fn cut_into_input(
         &r.crack_time,
         carry,
     )?;
-    let detail = json!({
-        "triangles": [base.n_faces(), im.mesh.n_faces()],
-        "simulated_triangles": e.sim.n_faces(),
-        "cut_edges": im.segments.len(),
-        "snapped": im.snapped,
-        "cut_along_edges": im.along_edges,
-        "cut_across_shells": im.across_shells,
-        "skipped_segments": im.skipped,
-        "refined_edges": im.refined,
-        "settled_edges": im.settled,
-    });
+    let detail = CutReport::Cut {
+        triangles: [base.n_faces(), im.mesh.n_faces()],
+        simulated_triangles: e.sim.n_faces(),
+        cut_edges: im.segments.len(),
+        snapped: im.snapped,
+        cut_along_edges: im.along_edges,
+        cut_across_shells: im.across_shells,
+        skipped_segments: im.skipped,
+        refined_edges: im.refined,
+        settled_edges: im.settled,
+    };
     e.sim = im.mesh;
     let report = SimReport {
         displacement: im.displacement,
@@ -564,7 +575,7 @@ type BottomLine = (Vec<[f64; 3]>, Vec<[f64; 3]>);
 
 /// The cut input's report, its details for the run report, and the arrays
 /// carried onto its vertices.
-type Cut = (SimReport, Value, Vec<Vec<[f64; 3]>>);
+type Cut = (SimReport, CutReport, Vec<Vec<[f64; 3]>>);
 
 /// Every vertex's move from its rest position in `mesh` to `positions`.
 fn moves_from_rest(mesh: &crate::mesh::SimMesh, positions: &[[f64; 3]]) -> Vec<[f64; 3]> {

@@ -1,6 +1,7 @@
 //! What a run reports: its stages and their times, each simulated mesh's
 //! report, and what [`super::crack_file`] wrote.
 
+use super::post_report::PostReport;
 use crate::mesh::remesh::RemeshReport;
 use crate::sim::SimReport;
 use serde::Serialize;
@@ -70,7 +71,7 @@ pub struct MeshRun {
     /// The simulation's report.
     pub report: SimReport,
     /// What each post stage did to it.
-    pub post: serde_json::Value,
+    pub post: PostReport,
 }
 
 /// The time-lapse frames a run wrote.
@@ -115,13 +116,11 @@ impl RunReport {
     /// no mesh was torn or split).
     pub fn pieces(&self) -> Option<usize> {
         let of = |m: &MeshRun| {
-            m.post
-                .get("pieces")
-                .or_else(|| m.post.get("islands").and_then(|i| i.get("pieces")))
-                .and_then(serde_json::Value::as_u64)
+            let torn = m.post.tear.as_ref().map(|t| t.pieces);
+            torn.or_else(|| m.post.islands.as_ref().map(|i| i.pieces))
         };
-        let counts: Vec<u64> = self.meshes.iter().filter_map(of).collect();
-        (!counts.is_empty()).then(|| counts.iter().sum::<u64>() as usize)
+        let counts: Vec<usize> = self.meshes.iter().filter_map(of).collect();
+        (!counts.is_empty()).then(|| counts.iter().sum())
     }
 
     /// Area of the ductile model's torn faces, summed over meshes (scene
@@ -130,7 +129,7 @@ impl RunReport {
         let areas: Vec<f64> = self
             .meshes
             .iter()
-            .filter_map(|m| m.post.get("torn_area").and_then(serde_json::Value::as_f64))
+            .filter_map(|m| m.post.tear.as_ref().map(|t| t.torn_area))
             .collect();
         (!areas.is_empty()).then(|| areas.iter().sum())
     }

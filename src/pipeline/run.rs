@@ -142,7 +142,7 @@ fn tear_run(
     let (torn, files) = super::tear::tear_meshes(scene, entries, params_of, input, frames, post)?;
     let bake: f64 = torn
         .iter()
-        .filter_map(|(_, v)| v["bake"]["seconds"].as_f64())
+        .filter_map(|(_, v)| v.bake.as_ref().map(|b| b.seconds))
         .sum();
     stages.push(Stage::new("tear", t.elapsed().as_secs_f64() - bake));
     if post.bake {
@@ -150,7 +150,7 @@ fn tear_run(
     }
     let after: usize = torn
         .iter()
-        .map(|(_, v)| v["triangles"].as_u64().unwrap_or(0) as usize)
+        .map(|(_, v)| v.tear.as_ref().map_or(0, |t| t.triangles))
         .sum();
     Ok(RunReport {
         cracks: 0,

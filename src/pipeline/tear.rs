@@ -7,6 +7,7 @@
 
 use super::frames::Frames;
 use super::post::material;
+use super::post_report::{BakeReport, PostReport, SurfaceReport, TearReport};
 use crate::bridge::SimEntry;
 use crate::post::Post;
 use crate::scene::{Geometry, Mesh, Node, Primitive, Scene, TriGeometry, VertexAttribute};
@@ -16,13 +17,13 @@ use crate::sim::SimParams;
 use parry3d::math::Vector;
 use parry3d::query::PointQuery;
 use parry3d::shape::TriMesh;
-use serde_json::{json, Value};
+use serde_json::json;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-/// Each torn mesh's index and report (JSON), and the frames written.
-pub type Torn = (Vec<(usize, Value)>, Vec<PathBuf>);
+/// Each torn mesh's index and report, and the frames written.
+pub type Torn = (Vec<(usize, PostReport)>, Vec<PathBuf>);
 
 /// Tear every mesh of `entries`; each mesh's report as JSON, and the
 /// time-lapse frames when `frames` asks for them (one torn mesh only).
@@ -158,9 +159,14 @@ pub fn tear_meshes(
                 None
             }
         };
-        let kept = embedded.as_ref().map(|m| {
-            json!({"surface": "input", "dropped_faces": m.dropped, "skipped_border_segments": m.skipped,
-                   "input_triangles": [e.sim.n_faces(), m.piece.iter().filter(|p| p.is_some()).count()]})
+        let kept = embedded.as_ref().map(|m| SurfaceReport {
+            surface: "input".into(),
+            dropped_faces: Some(m.dropped),
+            skipped_border_segments: Some(m.skipped),
+            input_triangles: Some([
+                e.sim.n_faces(),
+                m.piece.iter().filter(|p| p.is_some()).count(),
+            ]),
         });
         let pieces = replace_mesh(
             scene,
@@ -195,19 +201,29 @@ pub fn tear_meshes(
                 bakes.push(b);
             }
         }
-        let mut detail = json!({
-            "ductile": report,
-            "seconds": seconds,
-            "triangles": surface.triangles.len(),
-            "torn_triangles": torn_triangles,
-            "torn_area": torn_area,
-            "tear_line_segments": tear_lines,
-            "pieces": pieces.iter().flatten().count(),
-            "surface": kept.unwrap_or_else(|| json!({"surface": "grid"})),
-        });
-        if post.bake {
-            detail["bake"] = json!({ "seconds": bake_seconds, "pieces": bakes });
-        }
+        let detail = PostReport {
+            tear: Some(TearReport {
+                ductile: report,
+                seconds,
+                triangles: surface.triangles.len(),
+                torn_triangles,
+                torn_area,
+                tear_line_segments: tear_lines,
+                pieces: pieces.iter().flatten().count(),
+                surface: kept.unwrap_or_else(|| SurfaceReport {
+                    surface: "grid".into(),
+                    dropped_faces: None,
+                    skipped_border_segments: None,
+                    input_triangles: None,
+                }),
+            }),
+            bake: post.bake.then_some(BakeReport {
+                seconds: bake_seconds,
+                materials: None,
+                pieces: Some(bakes),
+            }),
+            ..PostReport::default()
+        };
         out.push((e.mesh_index, detail));
     }
     Ok((out, written))
