@@ -1,8 +1,8 @@
 //! The layers of ARCHITECTURE.md, checked on the source: every `crate::`
 //! path in the library's non-test code points to a module of the same or a
-//! lower layer, the modules' import graph has no cycle, the command line
-//! stays small, and no library file outside tests grows past about 900
-//! lines.
+//! lower layer, the modules' import graph has no cycle, nor do the files
+//! within each module folder, the command line stays small, and no library
+//! file outside tests grows past about 900 lines.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
@@ -426,7 +426,16 @@ fn the_simulation_files_import_each_other_without_a_cycle() {
             .is_some_and(|d| d.contains("integrate") && d.contains("state")),
         "the file graph missed the driver's imports: {graph:?}"
     );
-    // Kahn's algorithm: what is left over lies on a cycle.
+    let cyclic = on_a_cycle(&graph);
+    assert!(
+        cyclic.is_empty(),
+        "files on an import cycle: {cyclic:?}\n{graph:#?}"
+    );
+}
+
+/// The nodes of `graph` on a cycle or reached from one (Kahn's algorithm:
+/// what is left over); empty when it has none.
+fn on_a_cycle(graph: &BTreeMap<String, BTreeSet<String>>) -> Vec<String> {
     let mut indegree: BTreeMap<&str, usize> = graph.keys().map(|k| (k.as_str(), 0)).collect();
     for deps in graph.values() {
         for d in deps {
@@ -440,9 +449,7 @@ fn the_simulation_files_import_each_other_without_a_cycle() {
         .filter(|(_, &n)| n == 0)
         .map(|(k, _)| *k)
         .collect();
-    let mut done = 0;
     while let Some(m) = ready.pop() {
-        done += 1;
         for d in &graph[m] {
             if let Some(n) = indegree.get_mut(d.as_str()) {
                 *n -= 1;
@@ -452,14 +459,85 @@ fn the_simulation_files_import_each_other_without_a_cycle() {
             }
         }
     }
-    let cyclic: Vec<&str> = indegree
+    indegree
         .iter()
         .filter(|(_, &n)| n > 0)
-        .map(|(k, _)| *k)
+        .map(|(k, _)| k.to_string())
+        .collect()
+}
+
+/// The files directly in `src/<dir>` as modules and the siblings each
+/// names through `super::` or `crate::<dir>::` (comments and tests left
+/// out).
+fn sibling_file_graph(dir: &str) -> BTreeMap<String, BTreeSet<String>> {
+    let root = src_dir().join(dir);
+    let names: BTreeSet<String> = std::fs::read_dir(&root)
+        .expect("readable")
+        .filter_map(|e| {
+            let p = e.ok()?.path();
+            let stem = p.file_stem()?.to_string_lossy().into_owned();
+            (p.extension().is_some_and(|x| x == "rs") || p.is_dir()).then_some(stem)
+        })
+        .filter(|n| n != "mod" && !n.ends_with("_tests"))
         .collect();
-    assert_eq!(
-        done,
-        graph.len(),
-        "files on an import cycle: {cyclic:?}\n{graph:#?}"
+    let mut graph = BTreeMap::new();
+    for name in &names {
+        let file = root.join(format!("{name}.rs"));
+        let file = if file.is_file() {
+            file
+        } else {
+            root.join(name).join("mod.rs")
+        };
+        let Ok(text) = std::fs::read_to_string(&file) else {
+            continue;
+        };
+        let code = code_of(&text);
+        let own = format!("crate::{dir}::");
+        let deps: BTreeSet<String> = code
+            .match_indices("super::")
+            .chain(code.match_indices(own.as_str()))
+            .map(|(k, m)| first_segment(&code[k + m.len()..]))
+            .filter(|d| d != name && names.contains(d))
+            .collect();
+        graph.insert(name.clone(), deps);
+    }
+    graph
+}
+
+/// The files of every module folder import each other without a cycle
+/// (in the pipeline: the run calls the tearing and the time-lapse, which
+/// do not call back into it; in the stress terms: the field builds the
+/// impact's star and the masks' coordinates, which do not call back).
+#[test]
+fn the_files_of_each_module_import_each_other_without_a_cycle() {
+    let pipeline = sibling_file_graph("pipeline");
+    assert!(
+        pipeline
+            .get("run")
+            .is_some_and(|d| d.contains("tear") && d.contains("frames")),
+        "the file graph missed the run's imports: {pipeline:?}"
+    );
+    let mut dirs: Vec<String> = std::fs::read_dir(src_dir())
+        .expect("readable")
+        .filter_map(|e| {
+            let p = e.ok()?.path();
+            p.is_dir()
+                .then(|| p.file_name().map(|n| n.to_string_lossy().into_owned()))?
+        })
+        .collect();
+    dirs.sort();
+    assert!(dirs.len() >= 10, "module folders: {dirs:?}");
+    let mut cycles = Vec::new();
+    for dir in &dirs {
+        let graph = sibling_file_graph(dir);
+        let cyclic = on_a_cycle(&graph);
+        if !cyclic.is_empty() {
+            cycles.push(format!("{dir}: {cyclic:?}\n{graph:#?}"));
+        }
+    }
+    assert!(
+        cycles.is_empty(),
+        "files on an import cycle:\n{}",
+        cycles.join("\n")
     );
 }

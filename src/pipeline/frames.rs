@@ -271,5 +271,5 @@ fn write_frame(
     }
     super::margin::clip(&entries, &mut reports);
     super::post::apply(&mut scene_k, &mut entries, &reports, post)?;
-    super::run::write_output(&scene_k, path, false).map(|_| ())
+    super::output::write_output(&scene_k, path, false).map(|_| ())
 }

@@ -11,6 +11,7 @@ mod islands;
 mod keep;
 mod margin;
 mod memory;
+mod output;
 mod params;
 pub mod post;
 mod post_report;
@@ -22,6 +23,7 @@ mod tear_embed;
 
 pub use config::*;
 pub use frames::Frames;
+pub use output::write_output;
 pub use params::fixed_groups;
 pub use post_report::{
     AtlasReport, BakeReport, CutReport, GapReport, IslandsReport, MarginReport, MaterialBake,
@@ -30,10 +32,7 @@ pub use post_report::{
 pub use report::{
     BeforeAfter, CrackReport, FramesReport, MeshRun, Remeshed, RunReport, Stage, StartEnd,
 };
-pub use run::{
-    crack_file, prepare, read_crackable, run, stress_field, write_output, Config, Observer,
-    Prepared,
-};
+pub use run::{crack_file, prepare, read_crackable, run, stress_field, Config, Observer, Prepared};
 
 impl Config {
     /// A run of `pipeline` on a scene held in memory: `name` names the

@@ -4,6 +4,7 @@
 //! `crackle batch` and `--frames` use.
 
 use super::frames::{self, Frames, Replay};
+use super::output::write_output;
 use super::report::{
     BeforeAfter, CrackReport, FramesReport, MeshRun, Remeshed, RunReport, Stage, StartEnd,
 };
@@ -181,29 +182,6 @@ fn tear_run(
             files: files.iter().map(|f| f.display().to_string()).collect(),
         }),
     })
-}
-
-/// Write `scene` to `output`, creating the output folder first (see
-/// [`crate::io::gltf_write::write_scene_with`] for `prefix_images`).
-///
-/// # Errors
-/// A folder that cannot be created, and the writer's errors.
-pub fn write_output(
-    scene: &Scene,
-    output: &Path,
-    prefix_images: bool,
-) -> Result<crate::io::gltf_write::WriteSummary> {
-    if let Some(dir) = output.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir).map_err(|e| crate::io::IoError::Output {
-            path: dir.to_path_buf(),
-            message: format!("cannot create the output folder: {e}"),
-        })?;
-    }
-    Ok(crate::io::gltf_write::write_scene_with(
-        scene,
-        output,
-        prefix_images,
-    )?)
 }
 
 /// Read `config.asset`, crack it and write `config.output`; the report

@@ -282,7 +282,7 @@ impl FrameWriter<'_> {
                 self.smooth_angle,
             );
             let path = frames.path(output, self.next);
-            match super::run::write_output(&scene, &path, false) {
+            match super::output::write_output(&scene, &path, false) {
                 Ok(_) => self.written.push(path),
                 Err(e) => self.error = Some(e),
             }

@@ -35,7 +35,7 @@
 //! Widths are in cells (the simulation surface's mean edge), so the
 //! pattern is the same at any scale and tessellation.
 
-use super::field::{face_frame, in_plane, unit};
+use super::frame::{face_frame, in_plane, unit};
 use crate::math::{hash_unit, v3, Sym3};
 use crate::mesh::SimMesh;
 

@@ -1,7 +1,7 @@
 //! Where a stress term's mask samples on a mesh: the UV set it names, or,
 //! on a mesh with no UV set at all, a projection along the three axes.
 
-use super::field::{face_frame, FieldError};
+use super::frame::{face_frame, FieldError};
 use super::texture::Mask;
 use crate::mesh::{FaceId, SimMesh};
 
