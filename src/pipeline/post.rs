@@ -55,9 +55,7 @@ pub fn apply(
     post: &Post,
 ) -> crate::Result<PostOutcome> {
     let mut out = PostOutcome::default();
-    let mut walls_of: Vec<Option<Walls>> = Vec::new();
-    let mut lines_of: Vec<CrackLines> = Vec::new();
-    let mut widths_of: Vec<Vec<f64>> = Vec::new();
+    let mut opened_meshes: Vec<Opened> = Vec::new();
     for (e, (_, r)) in entries.iter_mut().zip(reports) {
         let mut detail = PostReport::default();
         if let Some(u) = super::margin::grown(e) {
@@ -252,41 +250,7 @@ pub fn apply(
         let mut extra: Vec<(String, Vec<f64>)> = Vec::new();
         if post.attributes {
             let t = Instant::now();
-            // With a margin, only the input's cracks count: a crack in the
-            // strip just past the border is not one the asset shows.
-            let on_input = super::margin::on_input(e);
-            let sources: Vec<_> = crack_vertices(&e.sim)
-                .into_iter()
-                .filter(|&v| on_input.as_ref().is_none_or(|on| on(e.sim.position(v))))
-                .map(|v| {
-                    let time = r.crack_time.get(v.idx()).copied().unwrap_or(f64::NAN);
-                    (v, if time.is_nan() { 1.0 } else { time / end })
-                })
-                .collect();
-            let (dist, label) = distance_field(&e.sim, &positions, &sources);
-            // Meshes without cracks (or pieces no crack reaches): the
-            // largest finite distance, and time 1 (not yet cracked).
-            let far = dist
-                .iter()
-                .copied()
-                .filter(|d| d.is_finite())
-                .fold(0.0, f64::max);
-            let dist = dist
-                .into_iter()
-                .map(|d| if d.is_finite() { d } else { far })
-                .collect();
-            let label = label
-                .into_iter()
-                .map(|l| {
-                    if l.is_finite() {
-                        l.clamp(0.0, 1.0)
-                    } else {
-                        1.0
-                    }
-                })
-                .collect();
-            extra.push(("_CRACK_DISTANCE".into(), dist));
-            extra.push(("_CRACK_TIME".into(), label));
+            extra = crack_attributes(e, r, &positions, end);
             out.time("attributes", t.elapsed().as_secs_f64());
         }
         // The crack lines follow the opened surface: each end moves to the
@@ -318,121 +282,27 @@ pub fn apply(
         } else {
             write_back_with(scene, e, &extra);
         }
-        walls_of.push(walls);
-        // The baked width of each segment: fading with its age and its
-        // depth (the opening between its sides, the deepest crack full).
-        // Full width from the 95th percentile of the openings up, so one
-        // wide crack does not thin all the others.
-        let deepest = {
-            let mut o: Vec<f64> = opening.iter().copied().filter(|x| x.is_finite()).collect();
-            o.sort_by(f64::total_cmp);
-            o.get(o.len() * 95 / 100).copied().unwrap_or(0.0)
-        };
-        let taper = post.bake_taper.then(|| {
-            // Ends where the margin's clip cut a crack at the input's
-            // border are on the border, not tips.
-            let tolerance = 1e-4 * r.cell_size.unwrap_or(0.0);
-            let cut = super::margin::on_input_border(e, tolerance);
-            let border = border_points(&e.sim);
-            crate::post::taper::tapers(&r.segments, |p| {
-                border(p) || cut.as_ref().is_some_and(|on| on(p))
-            })
-        });
-        let widths = r
-            .segment_times
-            .iter()
-            .zip(&opening)
-            .enumerate()
-            .map(|(i, (t, o))| {
-                let w = post.fade(t / end, if deepest > 0.0 { o / deepest } else { 1.0 });
-                w * taper.as_ref().map_or(1.0, |f| f[i])
-            })
-            .collect();
-        widths_of.push(widths);
         let rest = moves.then(|| r.segments.clone());
-        lines_of.push((
-            segments,
-            r.segment_times.iter().map(|t| t / end).collect(),
-            rest,
-        ));
+        opened_meshes.push(Opened {
+            walls,
+            widths: baked_widths(e, r, post, &opening, end),
+            lines: (
+                segments,
+                r.segment_times.iter().map(|t| t / end).collect(),
+                rest,
+            ),
+        });
         out.details.push(detail);
     }
     let mut timing = PostOutcome::default();
     let cells: Vec<Option<f64>> = reports.iter().map(|(_, r)| r.cell_size).collect();
-    for (((((e, cell), walls), (segments, times, rest)), widths), detail) in entries
+    for (((e, cell), opened), detail) in entries
         .iter()
         .zip(cells)
-        .zip(walls_of)
-        .zip(lines_of)
-        .zip(widths_of)
+        .zip(opened_meshes)
         .zip(out.details.iter_mut())
     {
-        let targets = n_targets(scene, e.mesh_index);
-        // Kept geometry: the cracks carried onto the input's surface; for
-        // the maps, halved until they lie within a tenth of the baked
-        // crack's width of it.
-        let (bake_segments, bake_widths) = if post.keeps_input() && post.bake {
-            let diagonal = super::Bounds::of(e.sim.positions().iter().copied()).diagonal();
-            let tolerance = 0.1 * post.bake_width_for(diagonal, cell);
-            super::keep::onto_input(scene, e, &segments, &widths, tolerance)
-        } else {
-            (segments.clone(), widths)
-        };
-        let (segments, times) = if post.keeps_input() && post.lines {
-            super::keep::onto_input(scene, e, &segments, &times, 0.0)
-        } else {
-            (segments, times)
-        };
-        if post.lines {
-            add_crack_lines(scene, e.mesh_index, &segments, &times, rest.as_deref());
-        }
-        if post.bake {
-            let t = Instant::now();
-            let b = super::bake::bake_mesh(
-                scene,
-                e.mesh_index,
-                &e.label,
-                &bake_segments,
-                &bake_widths,
-                cell,
-                post,
-            )?;
-            let seconds = t.elapsed().as_secs_f64();
-            detail.bake = Some(BakeReport {
-                seconds,
-                materials: Some(b.materials),
-                pieces: None,
-            });
-            timing.time("bake", seconds);
-        }
-        if post.split_islands {
-            let t = Instant::now();
-            let wall_material = if post.grooves() {
-                &post.groove_material
-            } else {
-                &post.wall_material
-            };
-            let make = |scene: &mut Scene, w: &Walls, tris: &[usize], offset: [f64; 3]| {
-                wall_primitive(scene, w, tris, offset, wall_material, targets)
-            };
-            let s = super::islands::split(scene, e, walls.as_ref(), &make);
-            detail.islands = Some(IslandsReport {
-                pieces: s.pieces,
-                recentred: s.recentred,
-                largest_piece_triangles: s.largest,
-            });
-            timing.time("islands", t.elapsed().as_secs_f64());
-        } else if let Some(w) = walls {
-            let all: Vec<usize> = (0..w.triangles.len()).collect();
-            let name = if post.grooves() {
-                &post.groove_material
-            } else {
-                &post.wall_material
-            };
-            if let Some(p) = wall_primitive(scene, &w, &all, [0.0; 3], name, targets) {
-                scene.meshes[e.mesh_index].primitives.push(p);
-            }
-        }
+        lines_bake_and_walls(scene, e, cell, opened, detail, post, &mut timing)?;
     }
     if post.split_islands {
         super::islands::remove_empty_meshes(scene);
@@ -449,6 +319,181 @@ pub fn apply(
     }
     out.stages.extend(timing.stages);
     Ok(out)
+}
+
+/// What the first pass left for a mesh's second: its walls, the baked
+/// width of each crack segment, and its crack lines.
+struct Opened {
+    walls: Option<Walls>,
+    widths: Vec<f64>,
+    lines: CrackLines,
+}
+
+/// The second pass over one mesh, once every mesh is written back: its
+/// crack lines (carried onto the input's surface when it is kept), the
+/// baked maps, and its walls as a primitive or its pieces split apart.
+fn lines_bake_and_walls(
+    scene: &mut Scene,
+    e: &SimEntry,
+    cell: Option<f64>,
+    opened: Opened,
+    detail: &mut PostReport,
+    post: &Post,
+    timing: &mut PostOutcome,
+) -> crate::Result<()> {
+    let Opened {
+        walls,
+        widths,
+        lines: (segments, times, rest),
+    } = opened;
+    let targets = n_targets(scene, e.mesh_index);
+    // Kept geometry: the cracks carried onto the input's surface; for
+    // the maps, halved until they lie within a tenth of the baked
+    // crack's width of it.
+    let (bake_segments, bake_widths) = if post.keeps_input() && post.bake {
+        let diagonal = super::Bounds::of(e.sim.positions().iter().copied()).diagonal();
+        let tolerance = 0.1 * post.bake_width_for(diagonal, cell);
+        super::keep::onto_input(scene, e, &segments, &widths, tolerance)
+    } else {
+        (segments.clone(), widths)
+    };
+    let (segments, times) = if post.keeps_input() && post.lines {
+        super::keep::onto_input(scene, e, &segments, &times, 0.0)
+    } else {
+        (segments, times)
+    };
+    if post.lines {
+        add_crack_lines(scene, e.mesh_index, &segments, &times, rest.as_deref());
+    }
+    if post.bake {
+        let t = Instant::now();
+        let b = super::bake::bake_mesh(
+            scene,
+            e.mesh_index,
+            &e.label,
+            &bake_segments,
+            &bake_widths,
+            cell,
+            post,
+        )?;
+        let seconds = t.elapsed().as_secs_f64();
+        detail.bake = Some(BakeReport {
+            seconds,
+            materials: Some(b.materials),
+            pieces: None,
+        });
+        timing.time("bake", seconds);
+    }
+    if post.split_islands {
+        let t = Instant::now();
+        let wall_material = if post.grooves() {
+            &post.groove_material
+        } else {
+            &post.wall_material
+        };
+        let make = |scene: &mut Scene, w: &Walls, tris: &[usize], offset: [f64; 3]| {
+            wall_primitive(scene, w, tris, offset, wall_material, targets)
+        };
+        let s = super::islands::split(scene, e, walls.as_ref(), &make);
+        detail.islands = Some(IslandsReport {
+            pieces: s.pieces,
+            recentred: s.recentred,
+            largest_piece_triangles: s.largest,
+        });
+        timing.time("islands", t.elapsed().as_secs_f64());
+    } else if let Some(w) = walls {
+        let all: Vec<usize> = (0..w.triangles.len()).collect();
+        let name = if post.grooves() {
+            &post.groove_material
+        } else {
+            &post.wall_material
+        };
+        if let Some(p) = wall_primitive(scene, &w, &all, [0.0; 3], name, targets) {
+            scene.meshes[e.mesh_index].primitives.push(p);
+        }
+    }
+    Ok(())
+}
+
+/// The shader attributes of a cracked mesh: each vertex's distance along
+/// the surface to the nearest crack (`_CRACK_DISTANCE`, at `positions`) and
+/// the time that crack formed (`_CRACK_TIME`, a fraction of the run, whose
+/// end is `end`).
+fn crack_attributes(
+    e: &SimEntry,
+    r: &SimReport,
+    positions: &[[f64; 3]],
+    end: f64,
+) -> Vec<(String, Vec<f64>)> {
+    // With a margin, only the input's cracks count: a crack in the
+    // strip just past the border is not one the asset shows.
+    let on_input = super::margin::on_input(e);
+    let sources: Vec<_> = crack_vertices(&e.sim)
+        .into_iter()
+        .filter(|&v| on_input.as_ref().is_none_or(|on| on(e.sim.position(v))))
+        .map(|v| {
+            let time = r.crack_time.get(v.idx()).copied().unwrap_or(f64::NAN);
+            (v, if time.is_nan() { 1.0 } else { time / end })
+        })
+        .collect();
+    let (dist, label) = distance_field(&e.sim, positions, &sources);
+    // Meshes without cracks (or pieces no crack reaches): the
+    // largest finite distance, and time 1 (not yet cracked).
+    let far = dist
+        .iter()
+        .copied()
+        .filter(|d| d.is_finite())
+        .fold(0.0, f64::max);
+    let dist = dist
+        .into_iter()
+        .map(|d| if d.is_finite() { d } else { far })
+        .collect();
+    let label = label
+        .into_iter()
+        .map(|l| {
+            if l.is_finite() {
+                l.clamp(0.0, 1.0)
+            } else {
+                1.0
+            }
+        })
+        .collect();
+    vec![
+        ("_CRACK_DISTANCE".into(), dist),
+        ("_CRACK_TIME".into(), label),
+    ]
+}
+
+/// The baked width of each segment of `r`: fading with its age and its
+/// depth (`opening`, the opening between its sides, the deepest crack
+/// full), tapered toward its tips when asked. Full width from the 95th
+/// percentile of the openings up, so one wide crack does not thin all the
+/// others.
+fn baked_widths(e: &SimEntry, r: &SimReport, post: &Post, opening: &[f64], end: f64) -> Vec<f64> {
+    let deepest = {
+        let mut o: Vec<f64> = opening.iter().copied().filter(|x| x.is_finite()).collect();
+        o.sort_by(f64::total_cmp);
+        o.get(o.len() * 95 / 100).copied().unwrap_or(0.0)
+    };
+    let taper = post.bake_taper.then(|| {
+        // Ends where the margin's clip cut a crack at the input's
+        // border are on the border, not tips.
+        let tolerance = 1e-4 * r.cell_size.unwrap_or(0.0);
+        let cut = super::margin::on_input_border(e, tolerance);
+        let border = border_points(&e.sim);
+        crate::post::taper::tapers(&r.segments, |p| {
+            border(p) || cut.as_ref().is_some_and(|on| on(p))
+        })
+    });
+    r.segment_times
+        .iter()
+        .zip(opening)
+        .enumerate()
+        .map(|(i, (t, o))| {
+            let w = post.fade(t / end, if deepest > 0.0 { o / deepest } else { 1.0 });
+            w * taper.as_ref().map_or(1.0, |f| f[i])
+        })
+        .collect()
 }
 
 /// The walls' (or grooves') depth and profile: the groove's depth (its
