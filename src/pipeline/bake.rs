@@ -279,8 +279,42 @@ fn bake_group(
         .clone()
         .unwrap_or_else(|| format!("mesh{mesh_index}"));
     let stem = format!("{mesh_name}_{base_name}_cracked");
-    let opaque = maps.base.iter().all(|p| p[3] == 255 || p == &[0, 0, 0, 0]);
     let webp = post.bake_format == "webp";
+    let [base_png, normal_png, occl_png] = encode_maps(&maps, size, webp)?;
+    let bytes = base_png.len() + normal_png.len() + occl_png.len();
+    log::debug!("bake: png done at {:.3} s", t0.elapsed().as_secs_f64());
+    let pngs = [base_png, normal_png, occl_png];
+    add_variant(scene, &mat_json, &stem, set, pngs, webp)?;
+    let variant = scene.materials.len() - 1;
+    let mut tangent_splits = 0;
+    for (&p, drawn) in prims.iter().zip(&drawn) {
+        scene.meshes[mesh_index].primitives[p].material = Some(variant);
+        if let Some(with) = with_drawn_tangents(tri_geometry(scene, mesh_index, p), drawn) {
+            tangent_splits +=
+                with.positions.len() - tri_geometry(scene, mesh_index, p).positions.len();
+            set_geometry(scene, mesh_index, p, with);
+        }
+    }
+    Ok(MaterialBake {
+        material: base_name,
+        variant: stem,
+        size,
+        texcoord: set,
+        atlas: atlas_report,
+        crack_width: width,
+        covered_texels: raster.covered,
+        dilated_texels: raster.dilated,
+        crack_texels: maps.crack_texels,
+        png_bytes: bytes,
+        tangent_split_vertices: tangent_splits,
+    })
+}
+
+/// The maps encoded (PNG, or lossless WebP when `webp`): base colour (RGB
+/// when every texel is opaque or empty, else RGBA), normal and occlusion,
+/// the three at once.
+fn encode_maps(maps: &bake::Maps, size: u32, webp: bool) -> Result<[Vec<u8>; 3], String> {
+    let opaque = maps.base.iter().all(|p| p[3] == 255 || p == &[0, 0, 0, 0]);
     let encode = |channels: usize, data: &[u8]| {
         if webp {
             bake::encode_webp(size, channels, data)
@@ -302,9 +336,21 @@ fn bake_group(
             || encode(1, &maps.occlusion),
         )
     });
-    let (base_png, normal_png, occl_png) = (base_png?, normal_png?, occl_png?);
-    let bytes = base_png.len() + normal_png.len() + occl_png.len();
-    log::debug!("bake: png done at {:.3} s", t0.elapsed().as_secs_f64());
+    Ok([base_png?, normal_png?, occl_png?])
+}
+
+/// The material variant `stem` of `mat_json` with the baked maps (`pngs`:
+/// base colour, normal, occlusion) as its textures in UV set `set`, added
+/// to `scene` with its images and textures.
+fn add_variant(
+    scene: &mut Scene,
+    mat_json: &Map<String, Value>,
+    stem: &str,
+    set: u32,
+    pngs: [Vec<u8>; 3],
+    webp: bool,
+) -> Result<(), String> {
+    let [base_png, normal_png, occl_png] = pngs;
     let tex_base = add_texture(scene, &format!("{stem}_basecolor"), base_png, webp);
     let tex_normal = add_texture(scene, &format!("{stem}_normal"), normal_png, webp);
     let tex_occl = add_texture(scene, &format!("{stem}_occlusion"), occl_png, webp);
@@ -329,29 +375,7 @@ fn bake_group(
         json!({"index": tex_occl, "texCoord": set}),
     );
     scene.materials.push(Material { json: m });
-    let variant = scene.materials.len() - 1;
-    let mut tangent_splits = 0;
-    for (&p, drawn) in prims.iter().zip(&drawn) {
-        scene.meshes[mesh_index].primitives[p].material = Some(variant);
-        if let Some(with) = with_drawn_tangents(tri_geometry(scene, mesh_index, p), drawn) {
-            tangent_splits +=
-                with.positions.len() - tri_geometry(scene, mesh_index, p).positions.len();
-            set_geometry(scene, mesh_index, p, with);
-        }
-    }
-    Ok(MaterialBake {
-        material: base_name,
-        variant: stem,
-        size,
-        texcoord: set,
-        atlas: atlas_report,
-        crack_width: width,
-        covered_texels: raster.covered,
-        dilated_texels: raster.dilated,
-        crack_texels: maps.crack_texels,
-        png_bytes: bytes,
-        tangent_split_vertices: tangent_splits,
-    })
+    Ok(())
 }
 
 /// The side of maps sized to the asset: a crack of `width` (scene units)
