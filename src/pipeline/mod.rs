@@ -15,6 +15,7 @@ mod output;
 mod params;
 pub mod post;
 mod post_report;
+mod primitives;
 mod report;
 mod run;
 mod stress_entry;

@@ -261,3 +261,15 @@ pub struct SurfaceReport {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub input_triangles: Option<[usize; 2]>,
 }
+
+impl SurfaceReport {
+    /// The grid's own surface.
+    pub fn grid() -> SurfaceReport {
+        SurfaceReport {
+            surface: "grid".into(),
+            dropped_faces: None,
+            skipped_border_segments: None,
+            input_triangles: None,
+        }
+    }
+}

@@ -6,8 +6,8 @@
 //! material, and each fragment becomes its own node.
 
 use super::frames::Frames;
-use super::post::material;
 use super::post_report::{BakeReport, PostReport, SurfaceReport, TearReport};
+use super::primitives::material;
 use crate::bridge::SimEntry;
 use crate::post::Post;
 use crate::scene::{Geometry, Mesh, Node, Primitive, Scene, TriGeometry, VertexAttribute};
@@ -189,7 +189,7 @@ pub fn tear_meshes(
             let Some(mesh) = mesh else { continue };
             if post.lines {
                 tear_lines += segments.len();
-                super::post::add_crack_lines(scene, *mesh, &segments, &[], None);
+                super::primitives::add_crack_lines(scene, *mesh, &segments, &[], None);
             }
             if post.bake && !segments.is_empty() {
                 let t = Instant::now();
@@ -210,12 +210,7 @@ pub fn tear_meshes(
                 torn_area,
                 tear_line_segments: tear_lines,
                 pieces: pieces.iter().flatten().count(),
-                surface: kept.unwrap_or_else(|| SurfaceReport {
-                    surface: "grid".into(),
-                    dropped_faces: None,
-                    skipped_border_segments: None,
-                    input_triangles: None,
-                }),
+                surface: kept.unwrap_or_else(SurfaceReport::grid),
             }),
             bake: post.bake.then_some(BakeReport {
                 seconds: bake_seconds,
