@@ -56,15 +56,17 @@ pub struct MarginReport {
 pub struct PathsReport {
     /// Smoothing passes.
     pub passes: usize,
-    /// Crack points free to move.
+    /// Crack points (each once, however many copies) that may move: on a
+    /// crack between two others, off the border.
     pub free_points: usize,
-    /// Crack points held (junctions, the border, tips).
+    /// Moves of a point taken short or left out to keep its faces.
     pub held: usize,
-    /// Spurs left out.
+    /// Segments left out as spurs.
     pub spurs: usize,
-    /// Rings of lines drawn in.
+    /// Nodes whose springs all broke (or all but one), their ring of lines
+    /// drawn in to them.
     pub rings: usize,
-    /// Dashes joined.
+    /// Open ends of lines joined to a crack nearby.
     pub joined: usize,
     /// Loops round a single triangle opened or left out.
     pub loops: usize,
@@ -87,17 +89,21 @@ pub enum CutReport {
         simulated_triangles: usize,
         /// Crack segments cut.
         cut_edges: usize,
-        /// Crack points snapped onto an input vertex or edge.
+        /// Crack ends and edge crossings within rounding of an input
+        /// vertex or edge end, taken to be there.
         snapped: usize,
-        /// Segments that ran along an input edge.
+        /// Segments a straight walk could not follow (across a crease or
+        /// a seam), cut along the input's edges instead.
         cut_along_edges: usize,
-        /// Segments that crossed from one shell to another.
+        /// Segments whose ends lie on two touching shells, cut on each up
+        /// to its border.
         cut_across_shells: usize,
-        /// Segments left out.
+        /// Segments left out: their ends are not joined by the input
+        /// nearby.
         skipped_segments: usize,
-        /// Input edges split to keep the cut's triangles well shaped.
+        /// Edges leaving the cracks split near them.
         refined_edges: usize,
-        /// Edges flipped or settled after the cut.
+        /// Edges next to the cut flipped so no needle lies along a crack.
         settled_edges: usize,
     },
     /// Not cut: the cracks stay on the simulation surface.
@@ -114,13 +120,13 @@ pub struct GapReport {
     pub max_gap: f64,
     /// Mean gap.
     pub mean_gap: f64,
-    /// Nodes whose move the width limit shortened.
+    /// Nodes whose move was shortened by the width limit.
     pub width_limited_nodes: usize,
-    /// Triangles kept from turning over.
+    /// Triangles the full moves would have flipped or collapsed.
     pub inverted_triangles_prevented: usize,
-    /// Nodes whose move was shortened.
+    /// Nodes whose move was shortened so no triangle flips.
     pub shortened_nodes: usize,
-    /// Nodes moved to round a gap's corner.
+    /// Crack copies moved onto a cell's rounded corner (gap band only).
     pub rounded_corner_nodes: usize,
     /// On the input's own vertices (cut input): moves shortened.
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -140,9 +146,9 @@ pub struct WallsReport {
     pub shortened_nodes: usize,
     /// Wall triangles.
     pub triangles: usize,
-    /// Degenerate wall triangles left out.
+    /// Wall triangles of (nearly) zero area left out.
     pub skipped_degenerate: usize,
-    /// Sides of closed cracks left without a wall.
+    /// Crack sides without walls because the crack stayed shut there.
     pub skipped_closed_sides: usize,
 }
 
