@@ -280,12 +280,10 @@ fn bake_group(
         .unwrap_or_else(|| format!("mesh{mesh_index}"));
     let stem = format!("{mesh_name}_{base_name}_cracked");
     let webp = post.bake_format == "webp";
-    let [base_png, normal_png, occl_png] = encode_maps(&maps, size, webp)?;
-    let bytes = base_png.len() + normal_png.len() + occl_png.len();
+    let pngs = encode_maps(&maps, size, webp)?;
+    let bytes = pngs.iter().map(Vec::len).sum();
     log::debug!("bake: png done at {:.3} s", t0.elapsed().as_secs_f64());
-    let pngs = [base_png, normal_png, occl_png];
-    add_variant(scene, &mat_json, &stem, set, pngs, webp)?;
-    let variant = scene.materials.len() - 1;
+    let variant = add_variant(scene, &mat_json, &stem, set, pngs, webp)?;
     let mut tangent_splits = 0;
     for (&p, drawn) in prims.iter().zip(&drawn) {
         scene.meshes[mesh_index].primitives[p].material = Some(variant);
@@ -341,7 +339,7 @@ fn encode_maps(maps: &bake::Maps, size: u32, webp: bool) -> Result<[Vec<u8>; 3],
 
 /// The material variant `stem` of `mat_json` with the baked maps (`pngs`:
 /// base colour, normal, occlusion) as its textures in UV set `set`, added
-/// to `scene` with its images and textures.
+/// to `scene` with its images and textures; its index.
 fn add_variant(
     scene: &mut Scene,
     mat_json: &Map<String, Value>,
@@ -349,7 +347,7 @@ fn add_variant(
     set: u32,
     pngs: [Vec<u8>; 3],
     webp: bool,
-) -> Result<(), String> {
+) -> Result<usize, String> {
     let [base_png, normal_png, occl_png] = pngs;
     let tex_base = add_texture(scene, &format!("{stem}_basecolor"), base_png, webp);
     let tex_normal = add_texture(scene, &format!("{stem}_normal"), normal_png, webp);
@@ -375,7 +373,7 @@ fn add_variant(
         json!({"index": tex_occl, "texCoord": set}),
     );
     scene.materials.push(Material { json: m });
-    Ok(())
+    Ok(scene.materials.len() - 1)
 }
 
 /// The side of maps sized to the asset: a crack of `width` (scene units)

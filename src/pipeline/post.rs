@@ -244,12 +244,14 @@ pub fn apply(
         };
         // Times as fractions of the run (0..1).
         let end = if r.time > 0.0 { r.time } else { 1.0 };
-        let mut extra: Vec<(String, Vec<f64>)> = Vec::new();
-        if post.attributes {
+        let extra = if post.attributes {
             let t = Instant::now();
-            extra = crack_attributes(e, r, &positions, end);
+            let extra = crack_attributes(e, r, &positions, end);
             out.time("attributes", t.elapsed().as_secs_f64());
-        }
+            extra
+        } else {
+            Vec::new()
+        };
         // The crack lines follow the opened surface: each end moves to the
         // middle of the gap (the mean of the crack vertices at its rest
         // position).

@@ -25,7 +25,7 @@ use std::time::Instant;
 /// Each torn mesh's index and report, and the frames written.
 pub type Torn = (Vec<(usize, PostReport)>, Vec<PathBuf>);
 
-/// Tear every mesh of `entries`; each mesh's report as JSON, and the
+/// Tear every mesh of `entries`; each mesh's report, and the
 /// time-lapse frames when `frames` asks for them (one torn mesh only).
 /// Each piece's tear border (where its torn faces meet the original
 /// surface) becomes its crack lines with `post.lines` and its baked crack

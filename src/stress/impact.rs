@@ -89,8 +89,10 @@ pub struct Star {
     faces: Vec<(f64, [f64; 3], f64)>,
     /// The rays' angles and strengths.
     rays: Vec<(f64, f64)>,
-    /// Ring distances.
     rings: Vec<f64>,
+    /// Per sector (between ray `k` and the next): the factor on its rings'
+    /// distances, `1.6^(p - 1/2)` for its phase `p`.
+    ring_phase: Vec<f64>,
     width: f64,
     radius: f64,
     /// `sqrt(N / LOAD_RAYS)`: the load of this star against the weight's.
@@ -164,13 +166,20 @@ impl Star {
         let phase = std::f64::consts::TAU * unit01(0x7261_7973, 0);
         let step = std::f64::consts::TAU / f64::from(rays.max(1));
         let load = (f64::from(rays.max(1)) / LOAD_RAYS).sqrt();
-        let rays = (0..u64::from(rays))
+        let rays: Vec<(f64, f64)> = (0..u64::from(rays))
             .map(|i| {
                 // Evenly around, each moved by up to a fifth of the gap.
                 let jitter = (unit01(0x6A69_7474, i) - 0.5) * RAY_JITTER * step;
                 let strength = 0.8 + 0.5 * unit01(0x7374_7267, i);
                 (phase + step * i as f64 + jitter, strength)
             })
+            .collect();
+        // Each sector's phase: the golden ratio's multiples from a seeded
+        // start, so no two sectors' arcs lie at one distance.
+        let ring_seed = key(0x7269_6e67);
+        let start = 0.5 * (hash_unit(ring_seed, 0x7068_6173) + 1.0);
+        let ring_phase = (0..rays.len())
+            .map(|k| RING_RATIO.powf((start + 0.618_033_988_749_895 * k as f64).fract() - 0.5))
             .collect();
         let mut rings = Vec::new();
         let mut r = FIRST_RING;
@@ -182,10 +191,11 @@ impl Star {
             faces,
             rays,
             rings,
+            ring_phase,
             width: WIDTH_CELLS * mesh.mean_edge_length(),
             radius,
             load,
-            seed: key(0x7269_6e67),
+            seed: ring_seed,
         }
     }
 
@@ -223,11 +233,7 @@ impl Star {
                 (k + n - 1) % n
             }
         };
-        // The sector's phase: the golden ratio's multiples from a seeded
-        // start, so no two sectors' arcs lie at one distance.
-        let start = 0.5 * (hash_unit(self.seed, 0x7068_6173) + 1.0);
-        let p = (start + 0.618_033_988_749_895 * sector as f64).fract();
-        let phase = RING_RATIO.powf(p - 0.5);
+        let phase = self.ring_phase[sector];
         let mut ring: f64 = 0.0;
         for (j, &rj) in self.rings.iter().enumerate() {
             let h = hash_unit(self.seed, (j * 1024 + sector) as u64);
