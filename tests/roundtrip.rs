@@ -77,19 +77,30 @@ fn node_names(scene: &Scene) -> Vec<Option<String>> {
     scene.nodes.iter().map(|n| n.name.clone()).collect()
 }
 
-/// Convert `input` to .glb and .gltf and check everything the issue asks for.
+/// Convert `input` to .glb and .gltf, as read and welded (`--weld`), and
+/// check everything the issue asks for; as read, the output is the input's
+/// own primitives (`crackle diff --geometry --same-indices`).
 fn round_trip(input: &Path) {
     let v = common::validator();
     let src = crackle::io::read(input).unwrap_or_else(|e| panic!("read {}: {e}", input.display()));
     let dir = tempfile::tempdir().unwrap();
-    for ext in ["glb", "gltf"] {
+    for (ext, weld) in [
+        ("glb", false),
+        ("gltf", false),
+        ("glb", true),
+        ("gltf", true),
+    ] {
         let out = dir.path().join(format!("out.{ext}"));
-        let o = common::run_ok([
+        let mut args = vec![
             "convert".as_ref(),
             input.as_os_str(),
             out.as_os_str(),
             "--json".as_ref(),
-        ]);
+        ];
+        if weld {
+            args.push("--weld".as_ref());
+        }
+        let o = common::run_ok(args);
         let report: serde_json::Value =
             serde_json::from_slice(&o.stdout).expect("convert --json prints JSON");
         let dropped: u64 = report["meshes"]
@@ -102,6 +113,22 @@ fn round_trip(input: &Path) {
                     .unwrap()
             })
             .sum();
+        assert_eq!(report["welded"], weld, "{}", input.display());
+        if !weld {
+            let d = common::run([
+                "diff".as_ref(),
+                input.as_os_str(),
+                out.as_os_str(),
+                "--geometry".as_ref(),
+                "--same-indices".as_ref(),
+            ]);
+            assert!(
+                d.status.success(),
+                "{}: convert without --weld changed the primitives: {}",
+                input.display(),
+                String::from_utf8_lossy(&d.stdout)
+            );
+        }
         if let Some(v) = &v {
             // A file crackle writes as it read it has no problem of its
             // own: what the validator finds in the source (the
@@ -355,7 +382,12 @@ fn hostile_sizes_convert() {
         let input = dir.path().join(name);
         std::fs::write(&input, text).unwrap();
         let out = dir.path().join(format!("{name}.glb"));
-        let o = common::run_ok(["convert".as_ref(), input.as_os_str(), out.as_os_str()]);
+        let o = common::run_ok([
+            "convert".as_ref(),
+            input.as_os_str(),
+            out.as_os_str(),
+            "--weld".as_ref(),
+        ]);
         // Triangles too thin for f32 (the fine circle's ears) are dropped
         // with a warning that counts them.
         let stderr = String::from_utf8_lossy(&o.stderr);

@@ -1,5 +1,6 @@
-//! `crackle convert`: read, weld, write — the round trip every cracking
-//! command builds on.
+//! `crackle convert`: read and write, the input's primitives as read; with
+//! `--weld`, the round trip every cracking command builds on (read, weld
+//! and repair, write back).
 
 use anyhow::Result;
 use crackle::bridge::{build_sim_meshes, write_back};
@@ -11,7 +12,7 @@ use std::time::Instant;
 pub fn run(
     input: &Path,
     output: &Path,
-    weld: &WeldOptions,
+    weld: Option<&WeldOptions>,
     as_json: bool,
     quiet: bool,
     read: &crackle::io::ReadOptions,
@@ -21,7 +22,10 @@ pub fn run(
     let mut scene = crackle::pipeline::read_crackable(input, read)?;
     let t_read = t0.elapsed();
     let t1 = Instant::now();
-    let (entries, skipped) = build_sim_meshes(&scene, weld);
+    let (entries, skipped) = match weld {
+        Some(weld) => build_sim_meshes(&scene, weld),
+        None => Default::default(),
+    };
     for s in &skipped {
         log::warn!(
             "{}: {} is written unchanged: {}",
@@ -69,6 +73,7 @@ pub fn run(
             "files": summary.files,
             "bytes": summary.bytes,
             "triangles": summary.triangles,
+            "welded": weld.is_some(),
             "meshes": entries.iter().map(|e| json!({"index": e.mesh_index, "label": e.label, "defects": e.report})).collect::<Vec<_>>(),
             "skipped": skipped.iter().map(|s| json!({"index": s.mesh_index, "label": s.label, "reason": s.reason})).collect::<Vec<_>>(),
             "warnings": scene.warnings,

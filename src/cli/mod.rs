@@ -204,15 +204,18 @@ enum Command {
         #[arg(long, requires = "geometry")]
         same_indices: bool,
     },
-    /// Read, weld and write a mesh (.gltf or .glb output)
+    /// Read and write a mesh (.gltf or .glb output): its primitives as read, or welded and repaired with --weld
     Convert {
         /// Input mesh (.obj, .gltf, .glb)
         input: PathBuf,
         /// Output file: .gltf (with .bin and images beside it) or .glb
         output: PathBuf,
-        /// Weld tolerance, relative to each mesh's bounding-box diagonal
-        #[arg(long, value_name = "REL", default_value_t = crackle::mesh::WeldOptions::default().relative_tolerance)]
-        weld_tolerance: f64,
+        /// Weld each mesh as cracking does (vertices by position, degenerate triangles dropped, split into an oriented manifold) and report its defects; without it the primitives are written as read
+        #[arg(long)]
+        weld: bool,
+        /// Weld tolerance, relative to each mesh's bounding-box diagonal (implies --weld) [default: 1e-6]
+        #[arg(long, value_name = "REL")]
+        weld_tolerance: Option<f64>,
         /// Print a JSON report on stdout
         #[arg(long)]
         json: bool,
@@ -426,12 +429,19 @@ fn run_other(command: Command, quiet: bool, read: &crackle::io::ReadOptions) -> 
         Command::Convert {
             input,
             output,
+            weld,
             weld_tolerance,
             json,
         } => convert::run(
             &input,
             &output,
-            &weld_options(weld_tolerance)?,
+            match (weld, weld_tolerance) {
+                (false, None) => None,
+                (_, rel) => Some(weld_options(
+                    rel.unwrap_or(crackle::mesh::WeldOptions::default().relative_tolerance),
+                )?),
+            }
+            .as_ref(),
             json,
             quiet,
             read,

@@ -2,7 +2,7 @@
 //! keyed by ids or grid cells, where SipHash's protection is not needed
 //! (the keys come from the mesh, and no result depends on a map's order).
 
-use std::collections::HashSet;
+use std::collections::{HashMap, HashSet};
 use std::hash::{BuildHasherDefault, Hasher};
 
 /// A small, fast, deterministic hasher for grid keys (FxHash mixing).
@@ -40,6 +40,9 @@ impl Hasher for FxHasher {
         x
     }
 }
+
+/// A map hashed with [`FxHasher`].
+pub(crate) type FxHashMap<K, V> = HashMap<K, V, BuildHasherDefault<FxHasher>>;
 
 /// A set hashed with [`FxHasher`].
 pub(crate) type FxHashSet<K> = HashSet<K, BuildHasherDefault<FxHasher>>;

@@ -19,7 +19,7 @@ pub mod defects;
 pub mod edit;
 pub mod error;
 pub mod halfedge;
-mod hash;
+pub(crate) mod hash;
 pub mod ids;
 pub mod imprint;
 pub mod margin;

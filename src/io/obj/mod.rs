@@ -1,11 +1,11 @@
 //! Wavefront OBJ reader (with its MTL material libraries).
 //!
-//! Parsing is done by `tobj` on a preprocessed copy of the text that fills
-//! its gaps: continuation lines are joined, indices are checked and made
-//! absolute, `o`/`g`/`usemtl` state changes become numbered sections (so
-//! objects and groups stay distinct), empty `usemtl` means "no material",
-//! `l`/`p` elements are dropped with a warning. MTL files are cleaned the same
-//! way before `tobj` reads them, and texture-map options are parsed here.
+//! The text is read in one pass: continuation lines are joined, numbers
+//! parsed and checked, indices checked and made absolute, `o`/`g`/`usemtl`
+//! state changes become numbered sections (so objects and groups stay
+//! distinct), empty `usemtl` means "no material", `l`/`p` elements are
+//! dropped with a warning. MTL files are cleaned before `tobj` reads them,
+//! and texture-map options are parsed here.
 //!
 //! Mapping: one [`Mesh`] and one root [`Node`] per OBJ object (`o`; the part
 //! of the file before the first `o` is an object named after the file), one
@@ -18,9 +18,7 @@ use crate::scene::{
     Geometry, Material, Mesh, Node, Primitive, Scene, SceneRoot, TriGeometry, VertexAttribute,
 };
 use serde_json::Map;
-use std::cell::RefCell;
 use std::collections::{HashMap, HashSet};
-use std::io::Cursor;
 use std::path::{Path, PathBuf};
 
 mod mtl;
@@ -125,10 +123,13 @@ struct FaceRec {
     len: usize,
 }
 
-/// The preprocessed file: text for `tobj` plus what the preprocessing learnt.
+/// The parsed file: its numbers, sections, faces and what else it held.
 #[derive(Default)]
 struct Prepared {
-    text: String,
+    /// The vertex data by file index (`v` positions divided by `w`).
+    data: Data,
+    /// The material libraries named by `mtllib`, in order.
+    libraries: Vec<String>,
     objects: Vec<String>,
     sections: Vec<Section>,
     faces: Vec<FaceRec>,
@@ -137,7 +138,6 @@ struct Prepared {
     n_vt: usize,
     n_vn: usize,
     colored: usize,
-    strip_colors: bool,
     skipped_elements: usize,
     short_faces: usize,
     freeform: usize,
@@ -158,10 +158,10 @@ fn read_impl(
     let stem = Path::new(name)
         .file_stem()
         .map_or_else(|| name.to_string(), |s| s.to_string_lossy().into_owned());
-    let mut prep = preprocess(text, &stem, false).map_err(|m| Error::input(path, m))?;
-    if prep.colored > 0 && prep.colored < prep.n_v {
-        // tobj would misalign colours when only some vertices have one.
-        prep = preprocess(text, &stem, true).map_err(|m| Error::input(path, m))?;
+    let mut prep = preprocess(text, &stem).map_err(|m| Error::input(path, m))?;
+    let strip_colors = prep.colored > 0 && prep.colored < prep.n_v;
+    if prep.colored < prep.n_v {
+        prep.data.colors = Vec::new();
     }
     if prep.faces.is_empty() {
         return Err(Error::input(
@@ -189,7 +189,7 @@ fn read_impl(
     )
     .map_err(|m| Error::input(path, m))?;
     let mut warnings = Vec::new();
-    if prep.strip_colors {
+    if strip_colors {
         warnings.push(format!(
             "{name}: only some vertices have a colour; vertex colours are ignored"
         ));
@@ -216,41 +216,20 @@ fn read_impl(
         ));
     }
 
-    // Parse with tobj; material libraries come through the callback.
-    let mtl = RefCell::new(MtlState::default());
-    #[allow(clippy::needless_update)]
-    let options = tobj::LoadOptions {
-        single_index: false,
-        triangulate: false,
-        ignore_points: true,
-        ignore_lines: true,
-        ..Default::default()
-    };
-    // The one place an OBJ reads another file: refused when reading from memory.
-    let refused: RefCell<Option<String>> = RefCell::new(None);
-    let loader = |lib: &Path| -> tobj::MTLLoadResult {
-        if files {
-            mtl.borrow_mut().load_libraries(base_dir, name, lib);
-        } else {
-            refused
-                .borrow_mut()
-                .get_or_insert_with(|| lib.to_string_lossy().into_owned());
+    // The material libraries: the one place an OBJ reads another file,
+    // refused when reading from memory.
+    let mut mtl = MtlState::default();
+    for lib in &prep.libraries {
+        if !files {
+            return Err(Error::input(
+                path,
+                format!("names the material library '{lib}'; an asset read from memory must hold all its data (read the file with crackle::read)"),
+            ));
         }
-        Ok((Vec::new(), Default::default()))
-    };
-    let (models, _) = tobj::load_obj_buf(&mut Cursor::new(prep.text.as_bytes()), &options, loader)
-        .map_err(|e| Error::input(path, format!("OBJ parser (tobj) failed: {e}")))?;
-    if let Some(lib) = refused.into_inner() {
-        return Err(Error::input(
-            path,
-            format!("names the material library '{lib}'; an asset read from memory must hold all its data (read the file with crackle::read)"),
-        ));
+        mtl.load_libraries(base_dir, name, Path::new(lib));
     }
-    let mtl = mtl.into_inner();
     warnings.extend(mtl.warnings.iter().cloned());
-
-    let data = gather(&prep, &models)
-        .map_err(|m| Error::input(path, format!("internal OBJ reader error: {m}")))?;
+    let data = std::mem::take(&mut prep.data);
 
     // Every library the OBJ names, found or not (a batch rebuilds when a
     // missing one appears).
@@ -268,12 +247,12 @@ fn read_impl(
         textures: HashMap::new(),
         file_names: HashSet::new(),
     };
-    let has_colors = prep.colored > 0 && !prep.strip_colors;
+    let has_colors = !data.colors.is_empty();
 
     // Primitives per object, in order of first use.
     let mut objects: Vec<Vec<PrimBuilder>> = vec![Vec::new(); prep.objects.len()];
     let mut prim_of_section: Vec<Option<usize>> = vec![None; prep.sections.len()];
-    let mut scratch = Vec::new();
+    let mut scratch = prim::Scratch::new(prep.n_v);
     for face in &prep.faces {
         let prim = match prim_of_section[face.section] {
             Some(p) => p,
@@ -291,7 +270,11 @@ fn read_impl(
                 {
                     Some(p) => p,
                     None => {
-                        prims.push(PrimBuilder::new(section.group.clone(), material));
+                        prims.push(PrimBuilder::new(
+                            section.group.clone(),
+                            material,
+                            &mut scratch,
+                        ));
                         prims.len() - 1
                     }
                 };
@@ -417,12 +400,12 @@ fn split_keyword(s: &str) -> (&str, &str) {
     }
 }
 
-/// A finite number as `tobj` reads it (`f32`).
+/// A finite number, read as `f32`.
 fn number(tok: &str) -> Option<f32> {
     tok.parse::<f32>().ok().filter(|x| x.is_finite())
 }
 
-fn preprocess(text: &str, stem: &str, strip_colors: bool) -> Result<Prepared, String> {
+fn preprocess(text: &str, stem: &str) -> Result<Prepared, String> {
     let mut p = Prepared {
         objects: vec![stem.to_string()],
         sections: vec![Section {
@@ -430,11 +413,8 @@ fn preprocess(text: &str, stem: &str, strip_colors: bool) -> Result<Prepared, St
             group: None,
             material: None,
         }],
-        strip_colors,
         ..Default::default()
     };
-    p.text.reserve(text.len() + 64);
-    p.text.push_str("g 0\n");
     let mut state = Section {
         object: 0,
         group: None,
@@ -489,9 +469,7 @@ impl Prepared {
             "mtllib" => {
                 let lib = rest.trim();
                 if !lib.is_empty() {
-                    self.text.push_str("mtllib ");
-                    self.text.push_str(lib);
-                    self.text.push('\n');
+                    self.libraries.push(lib.to_string());
                 }
                 Ok(())
             }
@@ -503,71 +481,83 @@ impl Prepared {
         }
     }
 
-    /// Start a new section (a `g <index>` line for tobj) when the state changed.
+    /// Start a new section when the state changed.
     fn set_state(&mut self, state: &Section) {
-        let current = self.sections.last();
-        if current == Some(state) {
-            return;
+        if self.sections.last() != Some(state) {
+            self.sections.push(state.clone());
         }
-        self.sections.push(state.clone());
-        self.text
-            .push_str(&format!("g {}\n", self.sections.len() - 1));
     }
 
     fn vertex(&mut self, rest: &str, no: usize) -> Result<(), String> {
-        let toks: Vec<&str> = rest.split_whitespace().collect();
-        if toks.len() < 3 || toks.iter().any(|t| number(t).is_none()) {
+        let mut values = [0f32; 6];
+        let mut n = 0;
+        for tok in rest.split_whitespace() {
+            let x = number(tok).ok_or_else(|| format!("line {no}: invalid vertex 'v {rest}' (expected x y z [w | r g b] as finite numbers)"))?;
+            if n < 6 {
+                values[n] = x;
+            }
+            n += 1;
+        }
+        if n < 3 {
             return Err(format!("line {no}: invalid vertex 'v {rest}' (expected x y z [w | r g b] as finite numbers)"));
         }
         self.n_v += 1;
-        let out = match toks.len() {
-            3 => toks.join(" "),
+        let [x, y, z, a, b, c] = values;
+        let mut position = [x, y, z];
+        match n {
+            3 => {}
             4 => {
-                if number(toks[3]) == Some(0.0) {
+                if a == 0.0 {
                     return Err(format!("line {no}: vertex 'v {rest}' has w = 0"));
                 }
-                toks.join(" ")
+                position = position.map(|p| p / a);
             }
-            5 => {
-                self.odd_vertex_lines += 1;
-                toks[..3].join(" ")
-            }
+            5 => self.odd_vertex_lines += 1,
             _ => {
                 self.colored += 1;
-                if self.strip_colors {
-                    toks[..3].join(" ")
-                } else {
-                    toks[..6].join(" ")
-                }
+                // Uncoloured vertices before this one are white.
+                self.data.colors.resize(self.n_v - 1, [1.0; 3]);
+                self.data.colors.push([a, b, c]);
             }
-        };
-        self.text.push_str("v ");
-        self.text.push_str(&out);
-        self.text.push('\n');
+        }
+        self.data.positions.push(position);
         Ok(())
     }
 
     fn texcoord(&mut self, rest: &str, no: usize) -> Result<(), String> {
-        let toks: Vec<&str> = rest.split_whitespace().take(3).collect();
-        if toks.is_empty() || toks.iter().any(|t| number(t).is_none()) {
+        let mut uv = [0f32; 2];
+        let mut n = 0;
+        for tok in rest.split_whitespace().take(3) {
+            let x = number(tok).ok_or_else(|| format!("line {no}: invalid texture coordinate 'vt {rest}' (expected u [v [w]] as finite numbers)"))?;
+            if n < 2 {
+                uv[n] = x;
+            }
+            n += 1;
+        }
+        if n == 0 {
             return Err(format!("line {no}: invalid texture coordinate 'vt {rest}' (expected u [v [w]] as finite numbers)"));
         }
         self.n_vt += 1;
-        let v = toks.get(1).copied().unwrap_or("0");
-        self.text.push_str(&format!("vt {} {v}\n", toks[0]));
+        self.data.texcoords.push(uv);
         Ok(())
     }
 
     fn normal(&mut self, rest: &str, no: usize) -> Result<(), String> {
-        let toks: Vec<&str> = rest.split_whitespace().take(3).collect();
-        if toks.len() < 3 || toks.iter().any(|t| number(t).is_none()) {
+        let mut v = [0f32; 3];
+        let mut n = 0;
+        for tok in rest.split_whitespace().take(3) {
+            v[n] = number(tok).ok_or_else(|| {
+                format!("line {no}: invalid normal 'vn {rest}' (expected x y z as finite numbers)")
+            })?;
+            n += 1;
+        }
+        if n < 3 {
             return Err(format!(
                 "line {no}: invalid normal 'vn {rest}' (expected x y z as finite numbers)"
             ));
         }
         self.n_vn += 1;
-        self.text
-            .push_str(&format!("vn {} {} {}\n", toks[0], toks[1], toks[2]));
+        self.data.normals.push(v);
         Ok(())
     }
 
@@ -605,17 +595,6 @@ impl Prepared {
             self.short_faces += 1;
             return Ok(());
         }
-        self.text.push('f');
-        for c in &self.corners[start..] {
-            self.text.push_str(&format!(" {}", c.v + 1));
-            match (c.vt != ABSENT, c.vn != ABSENT) {
-                (false, false) => {}
-                (true, false) => self.text.push_str(&format!("/{}", c.vt + 1)),
-                (false, true) => self.text.push_str(&format!("//{}", c.vn + 1)),
-                (true, true) => self.text.push_str(&format!("/{}/{}", c.vt + 1, c.vn + 1)),
-            }
-        }
-        self.text.push('\n');
         self.faces.push(FaceRec {
             section: self.sections.len() - 1,
             start,
@@ -646,84 +625,14 @@ fn resolve_index(tok: &str, count: usize, what: &str, no: usize) -> Result<u32, 
     Ok(idx as u32)
 }
 
-// ---------------------------------------------------------------------------
-// Collecting the numbers tobj parsed
-
-/// The file's vertex data by global (file) index; only referenced entries are filled.
+/// The file's vertex data by file index.
+#[derive(Default)]
 struct Data {
     positions: Vec<[f32; 3]>,
+    /// One per position when every vertex has a colour, else empty.
     colors: Vec<[f32; 3]>,
     texcoords: Vec<[f32; 2]>,
     normals: Vec<[f32; 3]>,
-}
-
-/// Map tobj's per-model data back to the file's indices, checking that tobj
-/// saw the same faces as the preprocessing.
-fn gather(prep: &Prepared, models: &[tobj::Model]) -> Result<Data, String> {
-    let mut d = Data {
-        positions: vec![[0.0; 3]; prep.n_v],
-        colors: if prep.colored > 0 && !prep.strip_colors {
-            vec![[1.0; 3]; prep.n_v]
-        } else {
-            Vec::new()
-        },
-        texcoords: vec![[0.0; 2]; prep.n_vt],
-        normals: vec![[0.0; 3]; prep.n_vn],
-    };
-    let mismatch = || "the parsed faces do not match the file's faces".to_string();
-    let mut next_face = 0;
-    for model in models {
-        let m = &model.mesh;
-        if m.indices.is_empty() {
-            continue;
-        }
-        let section: usize = model.name.parse().map_err(|_| mismatch())?;
-        let faces = if m.face_arities.is_empty() {
-            m.indices.len() / 3
-        } else {
-            m.face_arities.len()
-        };
-        let mut c = 0;
-        for f in 0..faces {
-            let len = if m.face_arities.is_empty() {
-                3
-            } else {
-                m.face_arities[f] as usize
-            };
-            let rec = prep.faces.get(next_face).ok_or_else(mismatch)?;
-            if rec.section != section || rec.len != len {
-                return Err(mismatch());
-            }
-            for j in 0..len {
-                let corner = prep.corners[rec.start + j];
-                let li = *m.indices.get(c + j).ok_or_else(mismatch)? as usize;
-                d.positions[corner.v as usize] = get3(&m.positions, li).ok_or_else(mismatch)?;
-                if !d.colors.is_empty() {
-                    d.colors[corner.v as usize] = get3(&m.vertex_color, li).ok_or_else(mismatch)?;
-                }
-                if corner.vt != ABSENT {
-                    let ti = *m.texcoord_indices.get(c + j).ok_or_else(mismatch)? as usize;
-                    let t = m.texcoords.get(2 * ti..2 * ti + 2).ok_or_else(mismatch)?;
-                    d.texcoords[corner.vt as usize] = [t[0], t[1]];
-                }
-                if corner.vn != ABSENT {
-                    let ni = *m.normal_indices.get(c + j).ok_or_else(mismatch)? as usize;
-                    d.normals[corner.vn as usize] = get3(&m.normals, ni).ok_or_else(mismatch)?;
-                }
-            }
-            c += len;
-            next_face += 1;
-        }
-    }
-    if next_face != prep.faces.len() {
-        return Err(mismatch());
-    }
-    Ok(d)
-}
-
-fn get3(data: &[f32], i: usize) -> Option<[f32; 3]> {
-    let s = data.get(3 * i..3 * i + 3)?;
-    Some([s[0], s[1], s[2]])
 }
 
 #[cfg(test)]
@@ -1240,6 +1149,17 @@ mod tests {
         let s = read_str("v 0 0 0 1 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
         assert!(prims(&s)[0].1.attribute("COLOR_0").is_none());
         assert!(has_warning(&s, "colour"), "{:?}", s.warnings);
+        // A fourth value is w (positions divided by it; 0 is an error); a
+        // fifth is neither w nor a colour: ignored with a warning.
+        let s = read_str("v 2 0 0 2\nv 0 4 0 4\nv 0 0 1 0.5\nf 1 2 3\n").unwrap();
+        assert_eq!(
+            prims(&s)[0].1.positions,
+            [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 2.0]]
+        );
+        assert!(read_str("v 0 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").is_err());
+        let s = read_str("v 0 0 0 1 1\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
+        assert_eq!(prims(&s)[0].1.positions[0], [0.0, 0.0, 0.0]);
+        assert!(has_warning(&s, "5 values"), "{:?}", s.warnings);
         // Shared corners become one vertex; distinct (v, vt) pairs are split.
         let s = read_str(
             "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nvt 0 0\nvt 1 1\nf 1/1 2/1 3/1\nf 2/1 4/1 3/2\n",

@@ -2,13 +2,38 @@
 //! its unique (v, vt, vn) corners becoming the primitive's vertices.
 
 use super::*;
+use crate::mesh::hash::FxHashMap;
+
+/// What [`PrimBuilder::add_face`] reuses from face to face.
+pub(super) struct Scratch {
+    /// The face's vertex ids.
+    polygon: Vec<u32>,
+    /// Per file position: the builder (its `key`) and vertex id of the
+    /// corner with that position seen last, so the common case (a position
+    /// met again with the same texture coordinate and normal) needs no hash.
+    last: Vec<(u32, u32)>,
+    /// Keys given to builders so far.
+    builders: u32,
+}
+
+impl Scratch {
+    pub(super) fn new(positions: usize) -> Self {
+        Scratch {
+            polygon: Vec::new(),
+            last: vec![(u32::MAX, 0); positions],
+            builders: 0,
+        }
+    }
+}
 
 /// A primitive being built: unique (v, vt, vn) corners become its vertices.
 #[derive(Clone)]
 pub(super) struct PrimBuilder {
     pub(super) group: Option<String>,
     pub(super) material: Option<usize>,
-    vertex_of: HashMap<Corner, u32>,
+    /// This builder's key in [`Scratch::last`].
+    key: u32,
+    vertex_of: FxHashMap<Corner, u32>,
     vertices: Vec<Corner>,
     triangles: Vec<[u32; 3]>,
     some_vt: bool,
@@ -18,11 +43,17 @@ pub(super) struct PrimBuilder {
 }
 
 impl PrimBuilder {
-    pub(super) fn new(group: Option<String>, material: Option<usize>) -> Self {
+    pub(super) fn new(
+        group: Option<String>,
+        material: Option<usize>,
+        scratch: &mut Scratch,
+    ) -> Self {
+        scratch.builders += 1;
         PrimBuilder {
             group,
             material,
-            vertex_of: HashMap::new(),
+            key: scratch.builders - 1,
+            vertex_of: FxHashMap::default(),
             vertices: Vec::new(),
             triangles: Vec::new(),
             some_vt: false,
@@ -36,9 +67,10 @@ impl PrimBuilder {
         &mut self,
         corners: &[Corner],
         positions: &[[f32; 3]],
-        scratch: &mut Vec<u32>,
+        scratch: &mut Scratch,
     ) {
-        scratch.clear();
+        let Scratch { polygon, last, .. } = scratch;
+        polygon.clear();
         for &c in corners {
             if c.vt == ABSENT {
                 self.missing_vt = true;
@@ -50,15 +82,22 @@ impl PrimBuilder {
             } else {
                 self.some_vn = true;
             }
-            let next = self.vertices.len() as u32;
-            let id = *self.vertex_of.entry(c).or_insert(next);
-            if id == next {
-                self.vertices.push(c);
-            }
-            scratch.push(id);
+            let (key, seen) = last[c.v as usize];
+            let id = if key == self.key && self.vertices[seen as usize] == c {
+                seen
+            } else {
+                let next = self.vertices.len() as u32;
+                let id = *self.vertex_of.entry(c).or_insert(next);
+                if id == next {
+                    self.vertices.push(c);
+                }
+                last[c.v as usize] = (self.key, id);
+                id
+            };
+            polygon.push(id);
         }
-        if scratch.len() == 3 {
-            self.triangles.push([scratch[0], scratch[1], scratch[2]]);
+        if polygon.len() == 3 {
+            self.triangles.push([polygon[0], polygon[1], polygon[2]]);
             return;
         }
         let points: Vec<[f64; 3]> = corners
@@ -70,9 +109,9 @@ impl PrimBuilder {
             .collect();
         for t in triangulate_polygon(&points) {
             self.triangles.push([
-                scratch[t[0] as usize],
-                scratch[t[1] as usize],
-                scratch[t[2] as usize],
+                polygon[t[0] as usize],
+                polygon[t[1] as usize],
+                polygon[t[2] as usize],
             ]);
         }
     }
