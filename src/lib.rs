@@ -56,7 +56,8 @@ pub use error::{Error, Result};
 pub use io::gltf_write::WriteSummary;
 pub use io::ReadOptions;
 pub use pipeline::{
-    crack_file, run, Config, CrackReport, MeshRun, Observer, Pipeline, PostReport, RunReport,
+    crack_file, run, Config, CrackReport, Frames, MeshRun, Observer, Pipeline, PostReport,
+    RunReport,
 };
 pub use scene::Scene;
 

@@ -329,6 +329,73 @@ fn no_function_of_the_simulation_is_longer_than_about_150_lines() {
     assert!(long.is_empty(), "functions too long:\n{}", long.join("\n"));
 }
 
+/// What reads or writes a file.
+const FILE_IO: &[&str] = &[
+    "std::fs::",
+    "File::",
+    "write_output(",
+    "crate::io::read",
+    "crate::io::write",
+    "read_capped(",
+];
+
+/// The body of function `name` in `code` (from its `fn` line to the brace
+/// closing it at the same indentation).
+fn function_body<'a>(code: &'a str, name: &str) -> Option<String> {
+    let lines: Vec<&'a str> = code.lines().collect();
+    let head = format!("fn {name}(");
+    let i = lines.iter().position(|l| l.contains(&head))?;
+    let indent = lines[i].len() - lines[i].trim_start().len();
+    let close = format!("{}}}", " ".repeat(indent));
+    let k = lines[i + 1..]
+        .iter()
+        .position(|m| m.starts_with(&close) && m.len() == close.len())?;
+    Some(lines[i..=i + 1 + k].join("\n"))
+}
+
+/// `pipeline::run` does no I/O (ARCHITECTURE.md): it reads nothing and
+/// writes nothing, frames included (they reach the run's observer, and
+/// `crack_file` writes them). Only `pipeline/output.rs` and `crack_file` /
+/// `read_crackable` in `pipeline/run.rs` touch files. Before frames left
+/// through the observer, `frames.rs` and `tear.rs` wrote them from inside
+/// `run`, and this failed.
+#[test]
+fn the_pipeline_run_reads_and_writes_no_file() {
+    let dir = src_dir().join("pipeline");
+    let mut files = Vec::new();
+    rs_files(&dir, &mut files);
+    let mut found = Vec::new();
+    for f in &files {
+        let name = f.file_name().unwrap().to_string_lossy().into_owned();
+        let code = code_of(&std::fs::read_to_string(f).expect("readable"));
+        let parts: Vec<(String, String)> = match name.as_str() {
+            "output.rs" => continue,
+            "run.rs" => ["run", "tear_run", "prepare", "simulate"]
+                .iter()
+                .map(|n| {
+                    let body = function_body(&code, n)
+                        .unwrap_or_else(|| panic!("pipeline/run.rs has no fn {n}"));
+                    (format!("run.rs: fn {n}"), body)
+                })
+                .collect(),
+            _ => vec![(name.clone(), code)],
+        };
+        for (where_, body) in parts {
+            for pat in FILE_IO {
+                if body.contains(pat) {
+                    found.push(format!("{where_}: {pat}"));
+                }
+            }
+        }
+    }
+    assert!(files.len() > 10, "the pipeline's files were not found");
+    // The check sees file I/O where it is allowed.
+    let run = code_of(&std::fs::read_to_string(dir.join("run.rs")).unwrap());
+    let crack_file = function_body(&run, "crack_file").expect("fn crack_file");
+    assert!(FILE_IO.iter().any(|p| crack_file.contains(p)));
+    assert!(found.is_empty(), "file I/O inside the run:\n{}", found.join("\n"));
+}
+
 /// The files of `src/sim` as modules (`driver`, `integrate::rkl`...) and
 /// the sibling modules each names through `crate::sim::` (names re-exported
 /// by `sim/mod.rs` count as their defining module).

@@ -52,6 +52,49 @@ fn a_mesh_cracked_in_memory_is_a_valid_glb() {
     }
 }
 
+/// A time-lapse in memory: `run` writes no file, it hands each frame's
+/// scene to the observer as it is reached (the last one the output); an
+/// observer that does not take frames makes the run fail, not lose them.
+#[test]
+fn frames_reach_the_observer_and_no_file_is_written() {
+    struct Keep(Vec<(usize, usize, Vec<u8>)>);
+    impl crackle::Observer for Keep {
+        fn frame(
+            &mut self,
+            index: usize,
+            count: usize,
+            scene: &crackle::Scene,
+        ) -> crackle::Result<()> {
+            self.0.push((index, count, crackle::write_bytes(scene)?));
+            Ok(())
+        }
+    }
+    let text = std::fs::read(common::manifest_dir().join("fixtures/plate_jittered.obj")).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let unused = dir.path().join("frames");
+    let mut config = Config::in_memory(preset("mud"), "plate_jittered.obj");
+    config.frames = Some(crackle::Frames {
+        count: 4,
+        dir: unused.clone(),
+    });
+    let mut scene = crackle::read_bytes(&text, "plate_jittered.obj").unwrap();
+    let mut keep = Keep(Vec::new());
+    let report = crackle::run(&mut scene, &config, &mut keep).unwrap();
+    assert_eq!(report.frames.as_ref().map(|f| f.count), Some(4));
+    let indices: Vec<(usize, usize)> = keep.0.iter().map(|(i, n, _)| (*i, *n)).collect();
+    assert_eq!(indices, [(0, 4), (1, 4), (2, 4), (3, 4)]);
+    assert_eq!(
+        keep.0[3].2,
+        crackle::write_bytes(&scene).unwrap(),
+        "the last frame is the output"
+    );
+    assert_ne!(keep.0[0].2, keep.0[3].2);
+    assert!(!unused.exists(), "run wrote the frames folder");
+    let mut scene = crackle::read_bytes(&text, "plate_jittered.obj").unwrap();
+    let e = crackle::run(&mut scene, &config, &mut crackle::Quiet).unwrap_err();
+    assert!(e.to_string().contains("Observer::frame"), "{e}");
+}
+
 /// A document read from memory that names a file is refused by name,
 /// before anything is read; a glTF with its data embedded is read.
 #[test]

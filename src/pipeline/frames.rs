@@ -7,11 +7,12 @@
 //! mesh (time 0) to the end (the state written as the output). Each frame is
 //! then post-processed with the pipeline's `[post]` steps (width, walls and
 //! curling from the displacement reached by then, lines and attributes,
-//! crack times as fractions of the whole run) and written as
-//! `DIR/<output stem>_<k>.<ext>`, `k` zero-padded from 0. With one simulated mesh each
-//! frame is written as soon as it is reached; with several, the states are
-//! kept (full copies of the meshes) until all meshes reached them, so
-//! memory grows with `N`.
+//! crack times as fractions of the whole run) and handed to the run's
+//! observer ([`super::Observer::frame`]); [`super::crack_file`] writes each
+//! as `DIR/<output stem>_<k>.<ext>`, `k` zero-padded from 0. With one
+//! simulated mesh each frame is handed over as soon as it is reached; with
+//! several, the states are kept (full copies of the meshes) until all
+//! meshes reached them, so memory grows with `N`.
 
 use super::Post;
 use crate::bridge::SimEntry;
@@ -157,28 +158,22 @@ pub fn refuse_cycles(
     }
 }
 
-/// Replay every mesh, post-process each frame on a copy of `scene` (the
-/// scene before post-processing) and write it. Returns the files written.
-pub fn write_frames(
-    frames: &Frames,
-    output: &Path,
+/// Replay every mesh, post-process each of `n` frames on a copy of `scene`
+/// (the scene before post-processing) and hand it to `observer`. Returns
+/// how many it took.
+pub fn replay_frames(
+    n: usize,
     scene: &Scene,
     replays: Vec<Replay>,
     post: &Post,
-) -> crate::Result<Vec<PathBuf>> {
+    observer: &mut dyn super::Observer,
+) -> crate::Result<usize> {
     // Frames carry the cracks as lines and attributes: a 2048 bake per
     // frame would cost more than the rest of the frame.
     let post = &Post {
         bake: false,
         ..post.clone()
     };
-    let n = frames.count;
-    std::fs::create_dir_all(&frames.dir).map_err(|e| {
-        crate::Error::Frames(format!(
-            "{}: cannot create the frames folder: {e}",
-            frames.dir.display()
-        ))
-    })?;
     let targets =
         |end: f64| -> Vec<f64> { (0..n).map(|k| end * k as f64 / (n - 1) as f64).collect() };
     // The replay is the first run again, so it reaches every target (the
@@ -188,19 +183,16 @@ pub fn write_frames(
             "{label}: frames: the replay reached {got} of {n} frames"
         ))
     };
-    // One simulated mesh: each frame is written as soon as it is reached,
-    // so memory does not grow with N.
+    // One simulated mesh: each frame is handed over as soon as it is
+    // reached, so memory does not grow with N.
     if replays.len() == 1 {
         let r = replays.into_iter().next().unwrap_or_else(|| unreachable!());
         let mut entry = r.start;
         let template = entry.clone();
         let end = r.end_time;
-        let mut written = Vec::new();
         let mut write = |k: usize, kept: Kept| -> crate::Result<()> {
-            let path = frames.path(output, k);
-            write_frame(scene, vec![(&template, end, kept)], post, &path)?;
-            written.push(path);
-            Ok(())
+            let frame = frame_scene(scene, vec![(&template, end, kept)], post)?;
+            observer.frame(k, n, &frame)
         };
         let mut keeper = Keeper {
             targets: targets(end),
@@ -217,7 +209,7 @@ pub fn write_frames(
         if keeper.count < n {
             return Err(short(&entry.label, keeper.count));
         }
-        return Ok(written);
+        return Ok(n);
     }
     let mut per_mesh: Vec<(SimEntry, f64, std::vec::IntoIter<Kept>)> = Vec::new();
     for r in replays {
@@ -236,27 +228,23 @@ pub fn write_frames(
         }
         per_mesh.push((entry, r.end_time, keeper.kept.into_iter()));
     }
-    let mut written = Vec::new();
     for k in 0..n {
         let states = per_mesh
             .iter_mut()
             .filter_map(|(entry, end, kept)| kept.next().map(|s| (&*entry, *end, s)))
             .collect();
-        let path = frames.path(output, k);
-        write_frame(scene, states, post, &path)?;
-        written.push(path);
+        observer.frame(k, n, &frame_scene(scene, states, post)?)?;
     }
-    Ok(written)
+    Ok(n)
 }
 
 /// Post-process kept states `(mesh entry, end time of its run, state)` on
-/// a copy of `scene` and write it to `path`.
-fn write_frame(
+/// a copy of `scene`.
+fn frame_scene(
     scene: &Scene,
     states: Vec<(&SimEntry, f64, Kept)>,
     post: &Post,
-    path: &Path,
-) -> crate::Result<()> {
+) -> crate::Result<Scene> {
     let mut scene_k = scene.clone();
     let mut entries: Vec<SimEntry> = Vec::new();
     let mut reports: Vec<(usize, SimReport)> = Vec::new();
@@ -271,5 +259,5 @@ fn write_frame(
     }
     super::margin::clip(&entries, &mut reports);
     super::post::apply(&mut scene_k, &mut entries, &reports, post)?;
-    super::output::write_output(&scene_k, path, false).map(|_| ())
+    Ok(scene_k)
 }

@@ -59,6 +59,20 @@ pub trait Observer {
     }
     /// The simulation of `mesh` ended.
     fn simulate_end(&mut self, _mesh: &str) {}
+    /// Time-lapse frame `index` of `count` (asked for by
+    /// [`Config::frames`]): the whole scene post-processed at that moment,
+    /// handed over as soon as it is reached, so a run keeps no frame and
+    /// writes none. [`crack_file`] writes each beside its output. The
+    /// default refuses it: a run asked for frames by an observer that does
+    /// not take them fails rather than losing them.
+    ///
+    /// # Errors
+    /// Any error stops the run and is returned by it.
+    fn frame(&mut self, index: usize, count: usize, _scene: &Scene) -> Result<()> {
+        Err(Error::Frames(format!(
+            "frame {index} of {count}: this observer does not take time-lapse frames (implement Observer::frame, or use crack_file, which writes them)"
+        )))
+    }
 }
 
 impl Observer for () {}
@@ -131,16 +145,9 @@ fn tear_run(
     let t = Instant::now();
     observer.stage("tear");
     let before: usize = entries.iter().map(|e| e.sim.n_faces()).sum();
-    if let Some(f) = &config.frames {
-        std::fs::create_dir_all(&f.dir).map_err(|e| {
-            Error::Frames(format!(
-                "{}: cannot create the frames folder: {e}",
-                f.dir.display()
-            ))
-        })?;
-    }
-    let frames = config.frames.as_ref().map(|f| (f, config.output.as_path()));
-    let (torn, files) = super::tear::tear_meshes(scene, entries, params_of, input, frames, post)?;
+    let frames = config.frames.as_ref().map(|f| f.count);
+    let (torn, frame_count) =
+        super::tear::tear_meshes(scene, entries, params_of, input, frames, post, observer)?;
     let bake: f64 = torn
         .iter()
         .filter_map(|(_, v)| v.bake.as_ref().map(|b| b.seconds))
@@ -178,8 +185,8 @@ fn tear_run(
             .collect(),
         warnings: scene.warnings.clone(),
         frames: config.frames.as_ref().map(|_| FramesReport {
-            count: files.len(),
-            files: files.iter().map(|f| f.display().to_string()).collect(),
+            count: frame_count,
+            files: Vec::new(),
         }),
     })
 }
@@ -211,8 +218,27 @@ pub fn crack_file(
     let mut scene = read_crackable(&config.asset, &config.read)?;
     let read = Stage::new("read", t.elapsed().as_secs_f64());
     let triangles_read = scene.triangle_count();
-    // `run` post-processes `scene` in place (and writes the frames).
-    let mut run = run(&mut scene, &config, observer)?;
+    // `run` post-processes `scene` in place and hands the frames to
+    // `frames`, which writes them beside the output.
+    let mut frames = FrameFiles {
+        inner: observer,
+        frames: config.frames.as_ref(),
+        output: &config.output,
+        written: Vec::new(),
+    };
+    if let Some(f) = frames.frames {
+        std::fs::create_dir_all(&f.dir).map_err(|e| {
+            Error::Frames(format!(
+                "{}: cannot create the frames folder: {e}",
+                f.dir.display()
+            ))
+        })?;
+    }
+    let mut run = run(&mut scene, &config, &mut frames)?;
+    let (observer, written) = (frames.inner, frames.written);
+    if let Some(report) = &mut run.frames {
+        report.files = written.iter().map(|f| f.display().to_string()).collect();
+    }
     if let Some(s) = run.stages.iter_mut().find(|s| s.name == "texture") {
         s.seconds += image_seconds;
     }
@@ -247,6 +273,47 @@ pub fn crack_file(
         },
         run,
     })
+}
+
+/// [`crack_file`]'s observer: passes everything on to the caller's and
+/// writes each time-lapse frame as `Frames::path` names it.
+struct FrameFiles<'a> {
+    inner: &'a mut dyn Observer,
+    frames: Option<&'a Frames>,
+    output: &'a Path,
+    written: Vec<std::path::PathBuf>,
+}
+
+impl Observer for FrameFiles<'_> {
+    fn stage(&mut self, name: &str) {
+        self.inner.stage(name);
+    }
+    fn simulate_start(&mut self, mesh: &str, max_rounds: usize) {
+        self.inner.simulate_start(mesh, max_rounds);
+    }
+    fn round(
+        &mut self,
+        mesh: &str,
+        round: usize,
+        max_rounds: usize,
+        cracks: usize,
+        relax_steps: usize,
+    ) {
+        self.inner
+            .round(mesh, round, max_rounds, cracks, relax_steps);
+    }
+    fn simulate_end(&mut self, mesh: &str) {
+        self.inner.simulate_end(mesh);
+    }
+    fn frame(&mut self, index: usize, count: usize, scene: &Scene) -> Result<()> {
+        let Some(frames) = self.frames else {
+            return self.inner.frame(index, count, scene);
+        };
+        let path = frames.path(self.output, index);
+        write_output(scene, &path, false)?;
+        self.written.push(path);
+        Ok(())
+    }
 }
 
 /// The simulation meshes of a scene, ready to crack: welded, selected,
@@ -414,12 +481,12 @@ pub fn run(scene: &mut Scene, config: &Config, observer: &mut dyn Observer) -> R
                 end_time: r.time,
             })
             .collect();
-        let files =
-            frames::write_frames(frames, &config.output, &template, replays, &post_options)?;
+        let count =
+            frames::replay_frames(frames.count, &template, replays, &post_options, observer)?;
         stages.push(Stage::new("frames", t.elapsed().as_secs_f64()));
         frames_report = Some(FramesReport {
-            count: files.len(),
-            files: files.iter().map(|f| f.display().to_string()).collect(),
+            count,
+            files: Vec::new(),
         });
     }
     let mut total = SimReport::default();

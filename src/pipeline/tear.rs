@@ -5,9 +5,9 @@
 //! tangent turned by the deformation), the torn surface gets its own
 //! material, and each fragment becomes its own node.
 
-use super::frames::Frames;
 use super::post_report::{BakeReport, PostReport, SurfaceReport, TearReport};
 use super::primitives::material;
+use super::Observer;
 use crate::bridge::SimEntry;
 use crate::post::Post;
 use crate::scene::{Geometry, Mesh, Node, Primitive, Scene, TriGeometry, VertexAttribute};
@@ -19,14 +19,15 @@ use parry3d::query::PointQuery;
 use parry3d::shape::TriMesh;
 use serde_json::json;
 use std::collections::HashMap;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::time::Instant;
 
-/// Each torn mesh's index and report, and the frames written.
-pub type Torn = (Vec<(usize, PostReport)>, Vec<PathBuf>);
+/// Each torn mesh's index and report, and how many frames were handed over.
+pub type Torn = (Vec<(usize, PostReport)>, usize);
 
 /// Tear every mesh of `entries`; each mesh's report, and the
-/// time-lapse frames when `frames` asks for them (one torn mesh only).
+/// time-lapse frames handed to `observer` when `frames` (their count) asks
+/// for them (one torn mesh only).
 /// Each piece's tear border (where its torn faces meet the original
 /// surface) becomes its crack lines with `post.lines` and its baked crack
 /// maps with `post.bake`.
@@ -39,11 +40,12 @@ pub fn tear_meshes(
     entries: &[SimEntry],
     params_of: &[SimParams],
     input: &Path,
-    frames: Option<(&Frames, &Path)>,
+    frames: Option<usize>,
     post: &Post,
+    observer: &mut dyn Observer,
 ) -> crate::Result<Torn> {
     let mut out = Vec::new();
-    let mut written = Vec::new();
+    let mut handed = 0;
     if frames.is_some() && entries.len() > 1 {
         return Err(crate::Error::Usage(format!(
             "{}: --frames with model = \"ductile\" follows one torn mesh; this run tears {} (select one with select.meshes)",
@@ -101,13 +103,13 @@ pub fn tear_meshes(
         // did not reach (it stopped at max_steps) show its last state.
         let mut frame = FrameWriter {
             frames,
+            observer: &mut *observer,
             template: template.as_ref(),
             entry: e,
             smooth_angle: post.smooth_angle,
             warned: false,
             params: &p.ductile,
             next: 0,
-            written: Vec::new(),
             error: None,
         };
         frame.reach(&d, false);
@@ -119,7 +121,9 @@ pub fn tear_meshes(
         if let Some(err) = frame.error {
             return Err(err);
         }
-        written.extend(frame.written);
+        if frames.is_some() {
+            handed += frame.next;
+        }
         let seconds = t.elapsed().as_secs_f64();
         report.seconds_per_step = seconds / report.steps.max(1) as f64;
         if report.cg_unconverged > 0 {
@@ -221,12 +225,15 @@ pub fn tear_meshes(
         };
         out.push((e.mesh_index, detail));
     }
-    Ok((out, written))
+    Ok((out, handed))
 }
 
-/// Writes the time-lapse frames of one torn mesh as the pull reaches them.
+/// Hands the time-lapse frames of one torn mesh to the observer as the
+/// pull reaches them.
 struct FrameWriter<'a> {
-    frames: Option<(&'a Frames, &'a Path)>,
+    /// How many frames (none: no time-lapse).
+    frames: Option<usize>,
+    observer: &'a mut dyn Observer,
     template: Option<&'a Scene>,
     entry: &'a SimEntry,
     /// `post.smooth_angle`, as the output's.
@@ -235,7 +242,6 @@ struct FrameWriter<'a> {
     warned: bool,
     params: &'a DuctileParams,
     next: usize,
-    written: Vec<PathBuf>,
     error: Option<crate::Error>,
 }
 
@@ -243,10 +249,9 @@ impl FrameWriter<'_> {
     /// Write every frame the pull has reached (all that are left when
     /// `last`).
     fn reach(&mut self, d: &Ductile, last: bool) {
-        let (Some((frames, output)), Some(template)) = (self.frames, self.template) else {
+        let (Some(n), Some(template)) = (self.frames, self.template) else {
             return;
         };
-        let n = frames.count;
         while self.next < n && self.error.is_none() {
             let target = self.params.pull.distance * self.next as f64 / (n - 1) as f64;
             if !last && d.pull_fraction() < target - 1e-12 {
@@ -276,10 +281,8 @@ impl FrameWriter<'_> {
                 embedded.as_ref(),
                 self.smooth_angle,
             );
-            let path = frames.path(output, self.next);
-            match super::output::write_output(&scene, &path, false) {
-                Ok(_) => self.written.push(path),
-                Err(e) => self.error = Some(e),
+            if let Err(e) = self.observer.frame(self.next, n, &scene) {
+                self.error = Some(e);
             }
             self.next += 1;
         }
