@@ -393,7 +393,11 @@ fn the_pipeline_run_reads_and_writes_no_file() {
     let run = code_of(&std::fs::read_to_string(dir.join("run.rs")).unwrap());
     let crack_file = function_body(&run, "crack_file").expect("fn crack_file");
     assert!(FILE_IO.iter().any(|p| crack_file.contains(p)));
-    assert!(found.is_empty(), "file I/O inside the run:\n{}", found.join("\n"));
+    assert!(
+        found.is_empty(),
+        "file I/O inside the run:\n{}",
+        found.join("\n")
+    );
 }
 
 /// The files of `src/sim` as modules (`driver`, `integrate::rkl`...) and

@@ -200,23 +200,15 @@ fn bake_group(
     let diagonal = super::Bounds::of(arrays.positions.iter().copied()).diagonal();
     let width = post.bake_width_for(diagonal, cell);
     let uv_of = |s: u32, v: usize| arrays.uvs.get(&s).map_or([0.0; 2], |u| u[v]);
-    // Texels per world unit of a UV set on a map of `texels` texels.
-    let density = |set: u32, texels: f64| {
-        let (mut uv_area, mut world_area) = (0.0, 0.0);
-        for t in &arrays.triangles {
-            let [p, q, r] = t.map(|i| uv_of(set, i as usize));
-            uv_area += 0.5 * ((q[0] - p[0]) * (r[1] - p[1]) - (q[1] - p[1]) * (r[0] - p[0])).abs();
-            let [a, b, c] = t.map(|i| arrays.positions[i as usize]);
-            world_area += 0.5 * v3::norm(v3::cross(v3::sub(b, a), v3::sub(c, a)));
-        }
-        (uv_area * texels / world_area).sqrt()
-    };
-    let own_density = own
-        .base
-        .as_ref()
-        .map(|l| density(l.tex_coord, f64::from(l.width) * f64::from(l.height)));
+    let own_density = own.base.as_ref().map(|l| {
+        density(
+            &arrays,
+            l.tex_coord,
+            f64::from(l.width) * f64::from(l.height),
+        )
+    });
     // Texels per world unit per texel of map side in the baked set.
-    let unit_density = density(set, 1.0);
+    let unit_density = density(&arrays, set, 1.0);
     let size = if sized_to_asset {
         auto_size(width, unit_density, own_density)
     } else {
@@ -240,19 +232,8 @@ fn bake_group(
         crack_color: post.crack_color,
         occlusion: post.bake_occlusion,
     };
-    // An atlas resamples the material's base colour texture: say how much
-    // of its resolution the baked map keeps.
     if let (Some(a), Some(own_density)) = (&mut atlas_report, own_density) {
-        let kept = unit_density * f64::from(size) / own_density;
-        if kept.is_finite() {
-            a.base_texture_resolution_kept = Some(kept);
-            if kept < 0.9 {
-                log::warn!(
-                    "the automatic atlas holds the base colour texture at {:.0}% of its resolution; a larger post.bake_size keeps more",
-                    100.0 * kept
-                );
-            }
-        }
+        note_kept_resolution(a, unit_density * f64::from(size) / own_density);
     }
     let frames = arrays.own_tangents.as_ref().map(|from| bake::Reframe {
         normals: &arrays.normals,
@@ -284,15 +265,7 @@ fn bake_group(
     let bytes = pngs.iter().map(Vec::len).sum();
     log::debug!("bake: png done at {:.3} s", t0.elapsed().as_secs_f64());
     let variant = add_variant(scene, &mat_json, &stem, set, pngs, webp)?;
-    let mut tangent_splits = 0;
-    for (&p, drawn) in prims.iter().zip(&drawn) {
-        scene.meshes[mesh_index].primitives[p].material = Some(variant);
-        if let Some(with) = with_drawn_tangents(tri_geometry(scene, mesh_index, p), drawn) {
-            tangent_splits +=
-                with.positions.len() - tri_geometry(scene, mesh_index, p).positions.len();
-            set_geometry(scene, mesh_index, p, with);
-        }
-    }
+    let tangent_splits = use_variant(scene, mesh_index, prims, &drawn, variant);
     Ok(MaterialBake {
         material: base_name,
         variant: stem,
@@ -306,6 +279,57 @@ fn bake_group(
         png_bytes: bytes,
         tangent_split_vertices: tangent_splits,
     })
+}
+
+/// Texels per world unit of UV set `set` of `arrays` on a map of `texels`
+/// texels.
+fn density(arrays: &Arrays, set: u32, texels: f64) -> f64 {
+    let uv_of = |v: usize| arrays.uvs.get(&set).map_or([0.0; 2], |u| u[v]);
+    let (mut uv_area, mut world_area) = (0.0, 0.0);
+    for t in &arrays.triangles {
+        let [p, q, r] = t.map(|i| uv_of(i as usize));
+        uv_area += 0.5 * ((q[0] - p[0]) * (r[1] - p[1]) - (q[1] - p[1]) * (r[0] - p[0])).abs();
+        let [a, b, c] = t.map(|i| arrays.positions[i as usize]);
+        world_area += 0.5 * v3::norm(v3::cross(v3::sub(b, a), v3::sub(c, a)));
+    }
+    (uv_area * texels / world_area).sqrt()
+}
+
+/// An atlas resamples the material's base colour texture: how much of its
+/// resolution the baked map keeps (`kept`), in the report and, under 90%,
+/// in a warning.
+fn note_kept_resolution(a: &mut AtlasReport, kept: f64) {
+    if kept.is_finite() {
+        a.base_texture_resolution_kept = Some(kept);
+        if kept < 0.9 {
+            log::warn!(
+                "the automatic atlas holds the base colour texture at {:.0}% of its resolution; a larger post.bake_size keeps more",
+                100.0 * kept
+            );
+        }
+    }
+}
+
+/// Give primitives `prims` of mesh `mesh_index` the baked material
+/// `variant` and the tangents the bake drew with (`drawn`); the vertices
+/// split to carry them.
+fn use_variant(
+    scene: &mut Scene,
+    mesh_index: usize,
+    prims: &[usize],
+    drawn: &[TriGeometry],
+    variant: usize,
+) -> usize {
+    let mut tangent_splits = 0;
+    for (&p, drawn) in prims.iter().zip(drawn) {
+        scene.meshes[mesh_index].primitives[p].material = Some(variant);
+        if let Some(with) = with_drawn_tangents(tri_geometry(scene, mesh_index, p), drawn) {
+            tangent_splits +=
+                with.positions.len() - tri_geometry(scene, mesh_index, p).positions.len();
+            set_geometry(scene, mesh_index, p, with);
+        }
+    }
+    tangent_splits
 }
 
 /// The maps encoded (PNG, or lossless WebP when `webp`): base colour (RGB

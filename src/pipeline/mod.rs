@@ -21,6 +21,7 @@ mod run;
 mod stress_entry;
 mod tear;
 mod tear_embed;
+mod tear_solid;
 
 pub use config::*;
 pub use frames::Frames;

@@ -55,242 +55,7 @@ pub fn apply(
     let mut opened_meshes: Vec<Opened> = Vec::new();
     for (e, (_, r)) in entries.iter_mut().zip(reports) {
         let mut detail = PostReport::default();
-        if let Some(u) = super::margin::grown(e) {
-            // The simulation's crack events, triangles and energy count the
-            // strip too; its crack length and segments are the input's. The
-            // input's and the strip's triangles as grown (before remeshing).
-            detail.margin = Some(MarginReport {
-                strip_triangles: u.strip.len(),
-                input_triangles: u.input.n_faces(),
-            });
-        }
-        // Grooves: a width from the cell size (or, for models without one,
-        // the bounding-box diagonal).
-        let groove_width = if post.grooves() {
-            let cell = r
-                .cell_size
-                .unwrap_or_else(|| super::Bounds::of(e.sim.positions().iter().copied()).diagonal());
-            post.groove_width(cell)
-        } else {
-            0.0
-        };
-        let stage = if groove_width > 0.0 {
-            "groove"
-        } else {
-            "width"
-        };
-        let moves = post.width > 0.0 || post.curl > 0.0 || groove_width > 0.0;
-        // Gaps opened in a band move each copy of a crack node by its own
-        // opening, so a move shortened later is shortened alone; whole
-        // cells' moves (and grooves) stay tied across the crack.
-        let tied = post.gap_band <= 0.0 || groove_width > 0.0;
-        // Cracks along the simulation surface's edges, off its zig-zag.
-        let straightened = straighten(e, r, post, moves, &mut detail)?;
-        let r = straightened.as_ref().unwrap_or(r);
-        // Broken springs: lines across them where no gap opens along their
-        // edges.
-        let crossed;
-        let r = if !moves && r.crossings.len() == r.segments.len() && !r.crossings.is_empty() {
-            crossed = SimReport {
-                segments: r.crossings.clone(),
-                ..r.clone()
-            };
-            &crossed
-        } else {
-            r
-        };
-        // Gaps and grooves open on the simulation surface, whose triangles
-        // the method made (well shaped, and a crack's nodes spaced alike).
-        let t = Instant::now();
-        let opened = moves.then(|| {
-            if groove_width > 0.0 {
-                groove(&e.sim, 0.5 * groove_width)
-            } else {
-                displace(&e.sim, &r.displacement, post)
-            }
-        });
-        if moves {
-            out.time(stage, t.elapsed().as_secs_f64());
-        }
-        // Cutting into the input: from here on the mesh is the input's,
-        // cut, with the simulation's values (and the gaps' moves) carried
-        // over.
-        let cut;
-        let mut carried: Option<Vec<[f64; 3]>> = None;
-        let mut hung: Option<BottomLine> = None;
-        let r = match e.unremeshed.take() {
-            Some(base) if post.cuts_input() => {
-                let t = Instant::now();
-                // The gaps' moves and the walls' bottom line, made on the
-                // simulation surface (its walls uncrossed there), go
-                // across with the cracks.
-                let sim = opened.as_ref().map(|d| {
-                    let mut top = d.positions.clone();
-                    let bottoms = (post.walls || groove_width > 0.0).then(|| {
-                        let opts = wall_options(post, groove_width, d.mean_gap);
-                        build_walls_uncrossed(&e.sim, &mut top, &opts, None, tied);
-                        bottom_offsets(&e.sim, &top, &opts)
-                    });
-                    (moves_from_rest(&e.sim, &top), bottoms)
-                });
-                let mut carry: Vec<&[[f64; 3]]> = Vec::new();
-                if let Some((m, bottoms)) = &sim {
-                    carry.push(m);
-                    if let Some((o, n)) = bottoms {
-                        carry.extend([o.as_slice(), n.as_slice()]);
-                    }
-                }
-                match cut_into_input(&base, e, r, &carry) {
-                    Ok((report, d, mut c)) => {
-                        cut = report;
-                        if c.len() == 3 {
-                            let n = c.pop().unwrap_or_default();
-                            hung = c.pop().map(|o| (o, n));
-                        }
-                        carried = c.pop();
-                        detail.cut_input = Some(d);
-                        out.time("cut_input", t.elapsed().as_secs_f64());
-                        &cut
-                    }
-                    Err(err) if e.unextended.is_some() => {
-                        // The simulation surface has the margin's strip:
-                        // it may not be written.
-                        return Err(crate::Error::Internal {
-                            mesh: e.label.clone(),
-                            message: format!("the cracks cannot be cut into the input ({err}); with simulation.margin = 0 they stay on the simulation surface instead"),
-                        });
-                    }
-                    Err(err) => {
-                        log::warn!(
-                            "{}: the cracks stay on the simulation surface: {err}",
-                            e.label
-                        );
-                        detail.cut_input = Some(CutReport::FellBack {
-                            fell_back: err.to_string(),
-                        });
-                        r
-                    }
-                }
-            }
-            _ => r,
-        };
-        let mut positions: Vec<[f64; 3]> = e.sim.positions().to_vec();
-        // How far each crack opened, read at rest (before anything moves).
-        let opening = openings(&e.sim, &r.displacement, &r.segments);
-        let mut mean_gap = 0.0;
-        if let Some(d) = opened {
-            let mut info = GapReport {
-                max_gap: d.max_gap,
-                mean_gap: d.mean_gap,
-                width_limited_nodes: d.width_limited,
-                inverted_triangles_prevented: d.inverted_triangles,
-                shortened_nodes: d.shortened_nodes,
-                rounded_corner_nodes: d.rounded_nodes,
-                shortened_nodes_on_input: None,
-            };
-            mean_gap = d.mean_gap;
-            positions = match carried {
-                // The input's own vertices follow the gaps' moves; moves
-                // that would turn one of its triangles over are shortened.
-                Some(m) => {
-                    let t = Instant::now();
-                    for (p, m) in positions.iter_mut().zip(m) {
-                        *p = crate::math::v3::add(*p, m);
-                    }
-                    let n = crate::post::width::shorten(&e.sim, &mut positions, &[], 1.0, tied);
-                    info.shortened_nodes_on_input = Some(n);
-                    out.time(stage, t.elapsed().as_secs_f64());
-                    positions
-                }
-                None => d.positions,
-            };
-            if groove_width > 0.0 {
-                detail.groove = Some(info);
-            } else {
-                detail.width = Some(info);
-            }
-        }
-        let walls = if post.walls || groove_width > 0.0 {
-            let t = Instant::now();
-            let opts = wall_options(post, groove_width, mean_gap);
-            let depth = opts.depth;
-            // Walls passing through the surface or each other (narrow,
-            // sheared gaps at junctions) have their moves shortened.
-            let hang = hung.as_ref().map(|(o, n)| Hang {
-                offsets: o,
-                normals: n,
-            });
-            let (w, fix) = build_walls_uncrossed(&e.sim, &mut positions, &opts, hang, tied);
-            if fix.crossing_after > 0 {
-                log::info!(
-                    "{}: {} wall triangle pairs cross",
-                    e.label,
-                    fix.crossing_after
-                );
-            }
-            detail.walls = Some(WallsReport {
-                depth,
-                crossing_pairs: fix.crossing_after,
-                crossing_pairs_prevented: fix.crossing_before - fix.crossing_after,
-                shortened_nodes: fix.shortened_nodes,
-                triangles: w.triangles.len(),
-                skipped_degenerate: w.skipped_degenerate,
-                skipped_closed_sides: w.skipped_closed,
-            });
-            out.time("walls", t.elapsed().as_secs_f64());
-            Some(w)
-        } else {
-            None
-        };
-        // Times as fractions of the run (0..1).
-        let end = if r.time > 0.0 { r.time } else { 1.0 };
-        let extra = if post.attributes {
-            let t = Instant::now();
-            let extra = crack_attributes(e, r, &positions, end);
-            out.time("attributes", t.elapsed().as_secs_f64());
-            extra
-        } else {
-            Vec::new()
-        };
-        // The crack lines follow the opened surface: each end moves to the
-        // middle of the gap (the mean of the crack vertices at its rest
-        // position).
-        let segments = if moves {
-            follow_gaps(&e.sim, &positions, &r.segments)
-        } else {
-            r.segments.clone()
-        };
-        if moves {
-            // Gaps opened locally and grooves open over a texture that
-            // stays in place; cells that shrink whole (no gap band) carry
-            // theirs along.
-            if post.gap_band > 0.0 || groove_width > 0.0 {
-                let n = resample_moved_wedges(&mut e.sim, &positions);
-                detail.resampled_corners = Some(n);
-            }
-            turn_normals(&mut e.sim, &positions);
-            e.sim
-                .set_positions(&positions)
-                .map_err(|err| crate::Error::Internal {
-                    mesh: e.label.clone(),
-                    message: err.to_string(),
-                })?;
-        }
-        if post.keeps_input() {
-            super::keep::add_attributes(scene, e, &extra);
-        } else {
-            write_back_with(scene, e, &extra);
-        }
-        let rest = moves.then(|| r.segments.clone());
-        opened_meshes.push(Opened {
-            walls,
-            widths: baked_widths(e, r, post, &opening, end),
-            lines: (
-                segments,
-                r.segment_times.iter().map(|t| t / end).collect(),
-                rest,
-            ),
-        });
+        opened_meshes.push(open_mesh(scene, e, r, post, &mut detail, &mut out)?);
         out.details.push(detail);
     }
     let mut timing = PostOutcome::default();
@@ -318,6 +83,335 @@ pub fn apply(
     }
     out.stages.extend(timing.stages);
     Ok(out)
+}
+
+/// How a mesh's cracks open: the groove width (0 without grooves), the
+/// stage that times it, whether anything moves, and whether the moves of a
+/// crack's two sides stay tied.
+struct Plan {
+    groove_width: f64,
+    stage: &'static str,
+    moves: bool,
+    tied: bool,
+}
+
+impl Plan {
+    fn of(e: &SimEntry, r: &SimReport, post: &Post) -> Plan {
+        // Grooves: a width from the cell size (or, for models without one,
+        // the bounding-box diagonal).
+        let groove_width = if post.grooves() {
+            let cell = r
+                .cell_size
+                .unwrap_or_else(|| super::Bounds::of(e.sim.positions().iter().copied()).diagonal());
+            post.groove_width(cell)
+        } else {
+            0.0
+        };
+        let stage = if groove_width > 0.0 {
+            "groove"
+        } else {
+            "width"
+        };
+        Plan {
+            groove_width,
+            stage,
+            moves: post.width > 0.0 || post.curl > 0.0 || groove_width > 0.0,
+            // Gaps opened in a band move each copy of a crack node by its
+            // own opening, so a move shortened later is shortened alone;
+            // whole cells' moves (and grooves) stay tied across the crack.
+            tied: post.gap_band <= 0.0 || groove_width > 0.0,
+        }
+    }
+}
+
+/// A mesh's first pass: its cracks straightened, its gaps or grooves
+/// opened, cut into the input, its walls built, its attributes added and
+/// the mesh written back into `scene`; what the second pass needs.
+fn open_mesh(
+    scene: &mut Scene,
+    e: &mut SimEntry,
+    r: &SimReport,
+    post: &Post,
+    detail: &mut PostReport,
+    out: &mut PostOutcome,
+) -> crate::Result<Opened> {
+    if let Some(u) = super::margin::grown(e) {
+        // The simulation's crack events, triangles and energy count the
+        // strip too; its crack length and segments are the input's. The
+        // input's and the strip's triangles as grown (before remeshing).
+        detail.margin = Some(MarginReport {
+            strip_triangles: u.strip.len(),
+            input_triangles: u.input.n_faces(),
+        });
+    }
+    let plan = Plan::of(e, r, post);
+    let moves = plan.moves;
+    // Cracks along the simulation surface's edges, off its zig-zag.
+    let straightened = straighten(e, r, post, moves, detail)?;
+    let r = straightened.as_ref().unwrap_or(r);
+    // Broken springs: lines across them where no gap opens along their
+    // edges.
+    let crossed;
+    let r = if !moves && r.crossings.len() == r.segments.len() && !r.crossings.is_empty() {
+        crossed = SimReport {
+            segments: r.crossings.clone(),
+            ..r.clone()
+        };
+        &crossed
+    } else {
+        r
+    };
+    // Gaps and grooves open on the simulation surface, whose triangles
+    // the method made (well shaped, and a crack's nodes spaced alike).
+    let t = Instant::now();
+    let opened = moves.then(|| {
+        if plan.groove_width > 0.0 {
+            groove(&e.sim, 0.5 * plan.groove_width)
+        } else {
+            displace(&e.sim, &r.displacement, post)
+        }
+    });
+    if moves {
+        out.time(plan.stage, t.elapsed().as_secs_f64());
+    }
+    // Cutting into the input: from here on the mesh is the input's, cut,
+    // with the simulation's values (and the gaps' moves) carried over.
+    let cut = cut_mesh(e, r, post, &plan, opened.as_ref(), detail, out)?;
+    let r = cut.report.as_ref().unwrap_or(r);
+    let mut positions: Vec<[f64; 3]> = e.sim.positions().to_vec();
+    // How far each crack opened, read at rest (before anything moves).
+    let opening = openings(&e.sim, &r.displacement, &r.segments);
+    let mut mean_gap = 0.0;
+    if let Some(d) = opened {
+        mean_gap = d.mean_gap;
+        positions = gap_positions(e, d, cut.carried, &plan, detail, out);
+    }
+    let walls = build_walls(
+        e,
+        &mut positions,
+        post,
+        &plan,
+        mean_gap,
+        cut.hung,
+        detail,
+        out,
+    );
+    // Times as fractions of the run (0..1).
+    let end = if r.time > 0.0 { r.time } else { 1.0 };
+    let extra = if post.attributes {
+        let t = Instant::now();
+        let extra = crack_attributes(e, r, &positions, end);
+        out.time("attributes", t.elapsed().as_secs_f64());
+        extra
+    } else {
+        Vec::new()
+    };
+    // The crack lines follow the opened surface: each end moves to the
+    // middle of the gap (the mean of the crack vertices at its rest
+    // position).
+    let segments = if moves {
+        follow_gaps(&e.sim, &positions, &r.segments)
+    } else {
+        r.segments.clone()
+    };
+    if moves {
+        // Gaps opened locally and grooves open over a texture that stays
+        // in place; cells that shrink whole (no gap band) carry theirs
+        // along.
+        if post.gap_band > 0.0 || plan.groove_width > 0.0 {
+            let n = resample_moved_wedges(&mut e.sim, &positions);
+            detail.resampled_corners = Some(n);
+        }
+        turn_normals(&mut e.sim, &positions);
+        e.sim
+            .set_positions(&positions)
+            .map_err(|err| crate::Error::Internal {
+                mesh: e.label.clone(),
+                message: err.to_string(),
+            })?;
+    }
+    if post.keeps_input() {
+        super::keep::add_attributes(scene, e, &extra);
+    } else {
+        write_back_with(scene, e, &extra);
+    }
+    let rest = moves.then(|| r.segments.clone());
+    Ok(Opened {
+        walls,
+        widths: baked_widths(e, r, post, &opening, end),
+        lines: (
+            segments,
+            r.segment_times.iter().map(|t| t / end).collect(),
+            rest,
+        ),
+    })
+}
+
+/// What cutting the cracks into the input left: the report of the cut
+/// mesh (none when the cracks stay on the simulation surface), the gaps'
+/// moves carried onto the input's vertices, and the walls' bottom line.
+#[derive(Default)]
+struct CutMesh {
+    report: Option<SimReport>,
+    carried: Option<Vec<[f64; 3]>>,
+    hung: Option<BottomLine>,
+}
+
+/// Cut `e`'s cracks into its input (its unremeshed mesh, when the pipeline
+/// cuts the input), carrying the gaps' moves and the walls' bottom line
+/// made on the simulation surface across with them.
+fn cut_mesh(
+    e: &mut SimEntry,
+    r: &SimReport,
+    post: &Post,
+    plan: &Plan,
+    opened: Option<&crate::post::width::Displaced>,
+    detail: &mut PostReport,
+    out: &mut PostOutcome,
+) -> crate::Result<CutMesh> {
+    let base = match e.unremeshed.take() {
+        Some(base) if post.cuts_input() => base,
+        _ => return Ok(CutMesh::default()),
+    };
+    let t = Instant::now();
+    // The gaps' moves and the walls' bottom line, made on the simulation
+    // surface (its walls uncrossed there), go across with the cracks.
+    let sim = opened.map(|d| {
+        let mut top = d.positions.clone();
+        let bottoms = (post.walls || plan.groove_width > 0.0).then(|| {
+            let opts = wall_options(post, plan.groove_width, d.mean_gap);
+            build_walls_uncrossed(&e.sim, &mut top, &opts, None, plan.tied);
+            bottom_offsets(&e.sim, &top, &opts)
+        });
+        (moves_from_rest(&e.sim, &top), bottoms)
+    });
+    let mut carry: Vec<&[[f64; 3]]> = Vec::new();
+    if let Some((m, bottoms)) = &sim {
+        carry.push(m);
+        if let Some((o, n)) = bottoms {
+            carry.extend([o.as_slice(), n.as_slice()]);
+        }
+    }
+    match cut_into_input(&base, e, r, &carry) {
+        Ok((report, d, mut c)) => {
+            let mut cut = CutMesh::default();
+            if c.len() == 3 {
+                let n = c.pop().unwrap_or_default();
+                cut.hung = c.pop().map(|o| (o, n));
+            }
+            cut.carried = c.pop();
+            cut.report = Some(report);
+            detail.cut_input = Some(d);
+            out.time("cut_input", t.elapsed().as_secs_f64());
+            Ok(cut)
+        }
+        Err(err) if e.unextended.is_some() => {
+            // The simulation surface has the margin's strip: it may not be
+            // written.
+            Err(crate::Error::Internal {
+                mesh: e.label.clone(),
+                message: format!("the cracks cannot be cut into the input ({err}); with simulation.margin = 0 they stay on the simulation surface instead"),
+            })
+        }
+        Err(err) => {
+            log::warn!(
+                "{}: the cracks stay on the simulation surface: {err}",
+                e.label
+            );
+            detail.cut_input = Some(CutReport::FellBack {
+                fell_back: err.to_string(),
+            });
+            Ok(CutMesh::default())
+        }
+    }
+}
+
+/// The opened positions of `e`'s nodes: the gaps' moves `d`, or on a cut
+/// input its own vertices moved by the moves `carried` across (shortened
+/// where they would turn one of its triangles over); the gaps' report.
+fn gap_positions(
+    e: &SimEntry,
+    d: crate::post::width::Displaced,
+    carried: Option<Vec<[f64; 3]>>,
+    plan: &Plan,
+    detail: &mut PostReport,
+    out: &mut PostOutcome,
+) -> Vec<[f64; 3]> {
+    let mut info = GapReport {
+        max_gap: d.max_gap,
+        mean_gap: d.mean_gap,
+        width_limited_nodes: d.width_limited,
+        inverted_triangles_prevented: d.inverted_triangles,
+        shortened_nodes: d.shortened_nodes,
+        rounded_corner_nodes: d.rounded_nodes,
+        shortened_nodes_on_input: None,
+    };
+    let positions = match carried {
+        Some(m) => {
+            let t = Instant::now();
+            let mut positions: Vec<[f64; 3]> = e.sim.positions().to_vec();
+            for (p, m) in positions.iter_mut().zip(m) {
+                *p = crate::math::v3::add(*p, m);
+            }
+            let n = crate::post::width::shorten(&e.sim, &mut positions, &[], 1.0, plan.tied);
+            info.shortened_nodes_on_input = Some(n);
+            out.time(plan.stage, t.elapsed().as_secs_f64());
+            positions
+        }
+        None => d.positions,
+    };
+    if plan.groove_width > 0.0 {
+        detail.groove = Some(info);
+    } else {
+        detail.width = Some(info);
+    }
+    positions
+}
+
+/// The walls down each crack's sides (with walls or grooves), their moves
+/// shortened where walls would pass through the surface or each other.
+#[allow(clippy::too_many_arguments)]
+fn build_walls(
+    e: &SimEntry,
+    positions: &mut [[f64; 3]],
+    post: &Post,
+    plan: &Plan,
+    mean_gap: f64,
+    hung: Option<BottomLine>,
+    detail: &mut PostReport,
+    out: &mut PostOutcome,
+) -> Option<Walls> {
+    if !(post.walls || plan.groove_width > 0.0) {
+        return None;
+    }
+    let t = Instant::now();
+    let opts = wall_options(post, plan.groove_width, mean_gap);
+    let depth = opts.depth;
+    // Walls passing through the surface or each other (narrow, sheared
+    // gaps at junctions) have their moves shortened.
+    let hang = hung.as_ref().map(|(o, n)| Hang {
+        offsets: o,
+        normals: n,
+    });
+    let (w, fix) = build_walls_uncrossed(&e.sim, positions, &opts, hang, plan.tied);
+    if fix.crossing_after > 0 {
+        log::info!(
+            "{}: {} wall triangle pairs cross",
+            e.label,
+            fix.crossing_after
+        );
+    }
+    detail.walls = Some(WallsReport {
+        depth,
+        crossing_pairs: fix.crossing_after,
+        crossing_pairs_prevented: fix.crossing_before - fix.crossing_after,
+        shortened_nodes: fix.shortened_nodes,
+        triangles: w.triangles.len(),
+        skipped_degenerate: w.skipped_degenerate,
+        skipped_closed_sides: w.skipped_closed,
+    });
+    out.time("walls", t.elapsed().as_secs_f64());
+    Some(w)
 }
 
 /// What the first pass left for a mesh's second: its walls, the baked

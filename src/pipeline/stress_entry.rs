@@ -61,60 +61,14 @@ impl StressEntry {
 
     /// The term this entry describes on a mesh placed at `place`.
     pub(super) fn term(&self, place: &Placement, mask: Option<Arc<Mask>>) -> Result<Term, String> {
-        let allowed: &[&str] = match self.kind.as_str() {
-            "uniform" | "noise" => &[],
-            "curvature" => &["separation", "strength", "max_factor"],
-            "directional" => &["direction", "mesh_axis", "checks"],
-            "concentric" => &["center", "center_relative", "axis", "mesh_axis"],
-            "impact" => &[
-                "points",
-                "points_relative",
-                "radius",
-                "radius_relative",
-                "concentric_factor",
-                "speed",
-                "radial_cracks",
-                "in_turn",
-            ],
-            other => {
-                return Err(format!(
-                    "unknown kind '{other}'; the kinds are uniform, directional, concentric, impact, noise, curvature"
-                ))
-            }
-        };
+        let allowed = allowed_keys(&self.kind)?;
         if let Some(k) = self.present().into_iter().find(|k| !allowed.contains(k)) {
             return Err(format!("key '{k}' does not apply to this kind"));
         }
-        let one_of = |a: bool, b: bool, an: &str, bn: &str| match (a, b) {
-            (true, true) => Err(format!("give '{an}' or '{bn}', not both")),
-            (false, false) => Err(format!("missing key '{an}' (or '{bn}')")),
-            _ => Ok(()),
-        };
         let kind = match self.kind.as_str() {
             "uniform" => TermKind::Uniform,
             "noise" => TermKind::Noise,
-            "curvature" => {
-                if self.separation.is_none() {
-                    if let Some(k) = ["strength", "max_factor"]
-                        .into_iter()
-                        .find(|k| self.present().contains(k))
-                    {
-                        return Err(format!("key '{k}' needs 'separation'"));
-                    }
-                    if self.init == 0.0 && self.evolve == 0.0 {
-                        return Err(
-                            "a curvature entry needs 'init', 'evolve' or 'separation'".into()
-                        );
-                    }
-                }
-                TermKind::Curvature {
-                    scale: self.separation.map(|measure| CurvatureScale {
-                        measure,
-                        strength: self.strength.unwrap_or(1.0),
-                        max_factor: self.max_factor.unwrap_or(4.0),
-                    }),
-                }
-            }
+            "curvature" => self.curvature_kind()?,
             "directional" => {
                 one_of(
                     self.direction.is_some(),
@@ -155,78 +109,7 @@ impl StressEntry {
                     },
                 }
             }
-            _ => {
-                // Neither: the hit lands where the asset faces the viewer
-                // (`stress::field::default_hit`).
-                if self.points.is_some() && self.points_relative.is_some() {
-                    return Err("give 'points' or 'points_relative', not both".into());
-                }
-                if let Some((key, [])) = [
-                    ("points", &self.points),
-                    ("points_relative", &self.points_relative),
-                ]
-                .into_iter()
-                .find_map(|(k, p)| p.as_ref().map(|p| (k, p.as_slice())))
-                {
-                    return Err(format!("'{key}' is empty: give at least one point, or leave it out for the default hit"));
-                }
-                one_of(
-                    self.radius.is_some(),
-                    self.radius_relative.is_some(),
-                    "radius",
-                    "radius_relative",
-                )?;
-                let points = match (&self.points, &self.points_relative) {
-                    (Some(p), _) => p.iter().map(|&q| place.point(q)).collect(),
-                    (None, Some(p)) => p.iter().map(|&q| place.bounds.at(q)).collect(),
-                    _ => Vec::new(),
-                };
-                let radius = match (self.radius, self.radius_relative) {
-                    (Some(r), _) => place.length(r),
-                    (None, Some(r)) => r * place.bounds.diagonal(),
-                    _ => 0.0,
-                };
-                if let Some(r) = self.radius.or(self.radius_relative) {
-                    if !(r.is_finite() && r > 0.0) {
-                        let key = if self.radius.is_some() {
-                            "radius"
-                        } else {
-                            "radius_relative"
-                        };
-                        return Err(format!("{key} must be > 0, got {r}"));
-                    }
-                }
-                let radial_cracks = match (self.speed, self.radial_cracks) {
-                    (Some(_), Some(_)) => {
-                        return Err("give 'speed' or 'radial_cracks', not both".into())
-                    }
-                    (Some(v), None) if !(v.is_finite() && v > 0.0 && v <= 1e4) => {
-                        return Err(format!("speed must be in (0, 10000] m/s, got {v}"))
-                    }
-                    (Some(v), None) => crate::stress::impact::rays_for_speed(v),
-                    (None, Some(n))
-                        if !(crate::stress::impact::MIN_RAYS..=crate::stress::impact::MAX_RAYS)
-                            .contains(&n) =>
-                    {
-                        return Err(format!("radial_cracks must be 3 to 64, got {n}"))
-                    }
-                    (None, Some(n)) => n,
-                    (None, None) => 0,
-                };
-                if radial_cracks > 0 && self.concentric_factor.is_some() {
-                    return Err(
-                        "'concentric_factor' is the paper's disc's: not with 'speed' or 'radial_cracks'"
-                            .into(),
-                    );
-                }
-                TermKind::Impact {
-                    points,
-                    radius,
-                    concentric_factor: self.concentric_factor.unwrap_or(1.25),
-                    radial_cracks,
-                    in_turn: self.in_turn.unwrap_or(false),
-                }
-            }
+            _ => self.impact_kind(place)?,
         };
         Ok(Term {
             kind,
@@ -234,5 +117,137 @@ impl StressEntry {
             evolve: self.evolve,
             mask,
         })
+    }
+
+    /// A curvature entry's kind: the field's scale when `separation` is
+    /// given.
+    fn curvature_kind(&self) -> Result<TermKind, String> {
+        if self.separation.is_none() {
+            if let Some(k) = ["strength", "max_factor"]
+                .into_iter()
+                .find(|k| self.present().contains(k))
+            {
+                return Err(format!("key '{k}' needs 'separation'"));
+            }
+            if self.init == 0.0 && self.evolve == 0.0 {
+                return Err("a curvature entry needs 'init', 'evolve' or 'separation'".into());
+            }
+        }
+        Ok(TermKind::Curvature {
+            scale: self.separation.map(|measure| CurvatureScale {
+                measure,
+                strength: self.strength.unwrap_or(1.0),
+                max_factor: self.max_factor.unwrap_or(4.0),
+            }),
+        })
+    }
+
+    /// An impact entry's kind: its hit points (none: the default hit),
+    /// radius and number of radial cracks, checked.
+    fn impact_kind(&self, place: &Placement) -> Result<TermKind, String> {
+        // Neither: the hit lands where the asset faces the viewer
+        // (`stress::field::default_hit`).
+        if self.points.is_some() && self.points_relative.is_some() {
+            return Err("give 'points' or 'points_relative', not both".into());
+        }
+        if let Some((key, [])) = [
+            ("points", &self.points),
+            ("points_relative", &self.points_relative),
+        ]
+        .into_iter()
+        .find_map(|(k, p)| p.as_ref().map(|p| (k, p.as_slice())))
+        {
+            return Err(format!(
+                "'{key}' is empty: give at least one point, or leave it out for the default hit"
+            ));
+        }
+        one_of(
+            self.radius.is_some(),
+            self.radius_relative.is_some(),
+            "radius",
+            "radius_relative",
+        )?;
+        let points = match (&self.points, &self.points_relative) {
+            (Some(p), _) => p.iter().map(|&q| place.point(q)).collect(),
+            (None, Some(p)) => p.iter().map(|&q| place.bounds.at(q)).collect(),
+            _ => Vec::new(),
+        };
+        let radius = match (self.radius, self.radius_relative) {
+            (Some(r), _) => place.length(r),
+            (None, Some(r)) => r * place.bounds.diagonal(),
+            _ => 0.0,
+        };
+        if let Some(r) = self.radius.or(self.radius_relative) {
+            if !(r.is_finite() && r > 0.0) {
+                let key = if self.radius.is_some() {
+                    "radius"
+                } else {
+                    "radius_relative"
+                };
+                return Err(format!("{key} must be > 0, got {r}"));
+            }
+        }
+        let radial_cracks = match (self.speed, self.radial_cracks) {
+            (Some(_), Some(_)) => return Err("give 'speed' or 'radial_cracks', not both".into()),
+            (Some(v), None) if !(v.is_finite() && v > 0.0 && v <= 1e4) => {
+                return Err(format!("speed must be in (0, 10000] m/s, got {v}"))
+            }
+            (Some(v), None) => crate::stress::impact::rays_for_speed(v),
+            (None, Some(n))
+                if !(crate::stress::impact::MIN_RAYS..=crate::stress::impact::MAX_RAYS)
+                    .contains(&n) =>
+            {
+                return Err(format!("radial_cracks must be 3 to 64, got {n}"))
+            }
+            (None, Some(n)) => n,
+            (None, None) => 0,
+        };
+        if radial_cracks > 0 && self.concentric_factor.is_some() {
+            return Err(
+                "'concentric_factor' is the paper's disc's: not with 'speed' or 'radial_cracks'"
+                    .into(),
+            );
+        }
+        Ok(TermKind::Impact {
+            points,
+            radius,
+            concentric_factor: self.concentric_factor.unwrap_or(1.25),
+            radial_cracks,
+            in_turn: self.in_turn.unwrap_or(false),
+        })
+    }
+}
+
+/// The keys a stress entry of `kind` may have beside the common ones.
+fn allowed_keys(kind: &str) -> Result<&'static [&'static str], String> {
+    Ok(match kind {
+        "uniform" | "noise" => &[],
+        "curvature" => &["separation", "strength", "max_factor"],
+        "directional" => &["direction", "mesh_axis", "checks"],
+        "concentric" => &["center", "center_relative", "axis", "mesh_axis"],
+        "impact" => &[
+            "points",
+            "points_relative",
+            "radius",
+            "radius_relative",
+            "concentric_factor",
+            "speed",
+            "radial_cracks",
+            "in_turn",
+        ],
+        other => {
+            return Err(format!(
+                "unknown kind '{other}'; the kinds are uniform, directional, concentric, impact, noise, curvature"
+            ))
+        }
+    })
+}
+
+/// Exactly one of two keys `an` and `bn` (present: `a`, `b`).
+fn one_of(a: bool, b: bool, an: &str, bn: &str) -> Result<(), String> {
+    match (a, b) {
+        (true, true) => Err(format!("give '{an}' or '{bn}', not both")),
+        (false, false) => Err(format!("missing key '{an}' (or '{bn}')")),
+        _ => Ok(()),
     }
 }

@@ -56,36 +56,7 @@ pub fn tear_meshes(
     // Frames are drawn on the scene as it was before tearing.
     let template = frames.map(|_| scene.clone());
     for (e, p) in entries.iter().zip(params_of) {
-        let mut positions = e.sim.positions().to_vec();
-        let mut triangles: Vec<[u32; 3]> = e
-            .sim
-            .faces()
-            .map(|f| e.sim.face_vertices(f).map(|v| v.0))
-            .collect();
-        // An open surface (a scan with holes in its base) is closed for the
-        // solid by a fan across each hole; the output keeps its holes.
-        match close_holes(e, &mut positions, &mut triangles) {
-            Ok(0) => {}
-            Ok(holes) if !encloses_volume(&positions, &triangles) => {
-                return Err(crate::Error::mesh(
-                    input,
-                    &e.label,
-                    format!("model = \"ductile\" tears solids; this surface is open along {holes} boundary loop(s) and closed across them it encloses no volume (a sheet)"),
-                ))
-            }
-            Ok(holes) => log::warn!(
-                "{}: {}: the surface is open along {holes} boundary loop(s); the solid closes each with a fan across it (the output keeps the holes)",
-                input.display(),
-                e.label
-            ),
-            Err(loops) => {
-                return Err(crate::Error::mesh(
-                    input,
-                    &e.label,
-                    format!("model = \"ductile\" tears closed solids; this surface is open along {loops} boundary loop(s) after welding, and they do not close as simple loops"),
-                ))
-            }
-        }
+        let (positions, triangles) = super::tear_solid::solid_of(e, input)?;
         let t = Instant::now();
         // The `[select] fix` groups are the grips (none: the pull's slabs).
         let grips: Vec<bool> = e
@@ -136,20 +107,7 @@ pub fn tear_meshes(
             );
         }
         let surface = d.surface(0.25 * d.grid.h);
-        let torn_triangles = surface.torn.iter().filter(|&&t| t).count();
-        let torn_area: f64 = surface
-            .triangles
-            .iter()
-            .zip(&surface.torn)
-            .filter(|(_, &torn)| torn)
-            .map(|(t, _)| {
-                let [a, b, c] = t.map(|v| surface.positions[v as usize]);
-                0.5 * crate::math::v3::norm(crate::math::v3::cross(
-                    crate::math::v3::sub(b, a),
-                    crate::math::v3::sub(c, a),
-                ))
-            })
-            .sum();
+        let (torn_triangles, torn_area) = super::tear_solid::torn_area(&surface);
         // The artist's surface, cut along the tear; the grid's surface
         // where the cut cannot be made.
         let embedded = match super::tear_embed::embed(e, &d, &surface) {
@@ -182,29 +140,8 @@ pub fn tear_meshes(
             post.smooth_angle,
         );
         let border = embedded.as_ref().map(|m| &m.border);
-        let mut tear_lines = 0;
-        let mut bakes = Vec::new();
-        let mut bake_seconds = 0.0;
-        for (k, (mesh, segments)) in pieces
-            .iter()
-            .zip(tear_borders(&d, &surface, border))
-            .enumerate()
-        {
-            let Some(mesh) = mesh else { continue };
-            if post.lines {
-                tear_lines += segments.len();
-                super::primitives::add_crack_lines(scene, *mesh, &segments, &[], None);
-            }
-            if post.bake && !segments.is_empty() {
-                let t = Instant::now();
-                let label = format!("{} (piece {k})", e.label);
-                let widths = vec![1.0; segments.len()];
-                let b =
-                    super::bake::bake_mesh(scene, *mesh, &label, &segments, &widths, None, post)?;
-                bake_seconds += t.elapsed().as_secs_f64();
-                bakes.push(b);
-            }
-        }
+        let (tear_lines, bakes, bake_seconds) =
+            lines_and_bakes(scene, e, &d, &surface, &pieces, border, post)?;
         let detail = PostReport {
             tear: Some(TearReport {
                 ductile: report,
@@ -226,6 +163,43 @@ pub fn tear_meshes(
         out.push((e.mesh_index, detail));
     }
     Ok((out, handed))
+}
+
+/// Each piece's tear border as its crack lines (with `post.lines`) and
+/// baked into its maps (with `post.bake`): the segments drawn, each
+/// piece's bake and the seconds baking took.
+fn lines_and_bakes(
+    scene: &mut Scene,
+    e: &SimEntry,
+    d: &Ductile,
+    surface: &TornSurface,
+    pieces: &[Option<usize>],
+    border: Option<&HashMap<u32, [f64; 3]>>,
+    post: &Post,
+) -> crate::Result<(usize, Vec<super::post_report::MeshBake>, f64)> {
+    let mut tear_lines = 0;
+    let mut bakes = Vec::new();
+    let mut bake_seconds = 0.0;
+    for (k, (mesh, segments)) in pieces
+        .iter()
+        .zip(tear_borders(d, surface, border))
+        .enumerate()
+    {
+        let Some(mesh) = mesh else { continue };
+        if post.lines {
+            tear_lines += segments.len();
+            super::primitives::add_crack_lines(scene, *mesh, &segments, &[], None);
+        }
+        if post.bake && !segments.is_empty() {
+            let t = Instant::now();
+            let label = format!("{} (piece {k})", e.label);
+            let widths = vec![1.0; segments.len()];
+            let b = super::bake::bake_mesh(scene, *mesh, &label, &segments, &widths, None, post)?;
+            bake_seconds += t.elapsed().as_secs_f64();
+            bakes.push(b);
+        }
+    }
+    Ok((tear_lines, bakes, bake_seconds))
 }
 
 /// Hands the time-lapse frames of one torn mesh to the observer as the
@@ -287,85 +261,6 @@ impl FrameWriter<'_> {
             self.next += 1;
         }
     }
-}
-
-/// Boundary loops of a welded surface (0 when closed).
-/// Whether the closed surface `positions` / `triangles` encloses a volume
-/// of at least a millionth of its bounding box's diagonal cubed (a sheet
-/// closed across its border encloses none).
-fn encloses_volume(positions: &[[f64; 3]], triangles: &[[u32; 3]]) -> bool {
-    let (lo, hi) = crate::sim::ductile::grid::bounds(positions);
-    let c: [f64; 3] = std::array::from_fn(|k| 0.5 * (lo[k] + hi[k]));
-    let volume: f64 = triangles
-        .iter()
-        .map(|t| {
-            let [a, b, p] = t.map(|v| {
-                let q = positions[v as usize];
-                [q[0] - c[0], q[1] - c[1], q[2] - c[2]]
-            });
-            crate::math::v3::dot(a, crate::math::v3::cross(b, p)) / 6.0
-        })
-        .sum();
-    let diagonal = crate::math::v3::norm(crate::math::v3::sub(hi, lo));
-    volume.abs() > 1e-6 * diagonal.powi(3)
-}
-
-/// Closes each boundary loop of `e`'s surface (added to `positions` /
-/// `triangles`, which start as its own) with a fan from the loop's
-/// centroid, oriented with the faces beside it. Returns the loops closed,
-/// or the number of boundary loops when they are not simple cycles (a
-/// vertex on two of them).
-fn close_holes(
-    e: &SimEntry,
-    positions: &mut Vec<[f64; 3]>,
-    triangles: &mut Vec<[u32; 3]>,
-) -> Result<usize, usize> {
-    let mut next: std::collections::BTreeMap<u32, u32> = Default::default();
-    let mut simple = true;
-    for h in e.sim.halfedges() {
-        if e.sim.twin(h).is_none() {
-            simple &= next.insert(e.sim.origin(h).0, e.sim.dest(h).0).is_none();
-        }
-    }
-    let mut seen = std::collections::HashSet::new();
-    let mut loops: Vec<Vec<u32>> = Vec::new();
-    for &s in next.keys() {
-        if seen.contains(&s) {
-            continue;
-        }
-        let mut cycle = Vec::new();
-        let mut v = s;
-        while seen.insert(v) {
-            cycle.push(v);
-            match next.get(&v) {
-                Some(&w) => v = w,
-                None => {
-                    simple = false;
-                    break;
-                }
-            }
-        }
-        simple &= v == s && cycle.len() >= 3;
-        loops.push(cycle);
-    }
-    if !simple {
-        return Err(loops.len());
-    }
-    for cycle in &loops {
-        let n = cycle.len() as f64;
-        let c = cycle.iter().fold([0.0; 3], |acc, &v| {
-            let p = positions[v as usize];
-            std::array::from_fn(|k| acc[k] + p[k] / n)
-        });
-        let centre = positions.len() as u32;
-        positions.push(c);
-        for (k, &a) in cycle.iter().enumerate() {
-            // The surface's face has a -> b; the cap's has b -> a.
-            let b = cycle[(k + 1) % cycle.len()];
-            triangles.push([b, a, centre]);
-        }
-    }
-    Ok(loops.len())
 }
 
 /// The input's triangles for projection, one set per triangle primitive

@@ -178,57 +178,7 @@ pub(super) fn embed(e: &SimEntry, d: &Ductile, s: &TornSurface) -> Result<Embedd
     };
     let loc = Locator::new(d);
     let metres = |p: [f64; 3]| d.to_metres(p);
-    // Faces the tear opened: the material under them is gone.
-    let depth = 0.5 * d.grid.h;
-    let (n_comp, comp) = cut.connected_components();
-    let mut open_area = vec![0.0; n_comp];
-    let mut area = vec![0.0; n_comp];
-    for f in cut.faces() {
-        let a = cut.face_area(f);
-        let n = cut.face_normal(f);
-        let c = centroid(&cut, f);
-        let probe = metres(c);
-        let probe = [0, 1, 2].map(|k| probe[k] - depth * n[k]);
-        let k = comp[f.idx()] as usize;
-        area[k] += a;
-        if loc.phi(probe) > 0.0 {
-            open_area[k] += a;
-        }
-    }
-    // The pieces: by the torn surface's original triangles nearest each
-    // component's faces (area-weighted vote).
-    let original: Vec<usize> = (0..s.triangles.len()).filter(|&t| !s.torn[t]).collect();
-    let grid_surface = Faces::new(
-        s.rest.iter().map(|&p| d.to_scene(p)).collect(),
-        original.iter().map(|&t| s.triangles[t]).collect(),
-    );
-    let mut votes: Vec<std::collections::BTreeMap<u32, f64>> = vec![Default::default(); n_comp];
-    for f in cut.faces() {
-        let k = comp[f.idx()] as usize;
-        if open_area[k] > 0.5 * area[k] {
-            continue;
-        }
-        if let Some((t, _, _)) = grid_surface.closest(centroid(&cut, f)) {
-            *votes[k].entry(s.piece[original[t]]).or_default() += cut.face_area(f);
-        }
-    }
-    let piece_of_comp: Vec<Option<u32>> = votes
-        .iter()
-        .enumerate()
-        .map(|(k, v)| {
-            if open_area[k] > 0.5 * area[k] {
-                return None;
-            }
-            v.iter()
-                .max_by(|a, b| a.1.total_cmp(b.1).then(b.0.cmp(a.0)))
-                .map(|(&p, _)| p)
-                .or(Some(0))
-        })
-        .collect();
-    let piece: Vec<Option<u32>> = cut
-        .faces()
-        .map(|f| piece_of_comp[comp[f.idx()] as usize])
-        .collect();
+    let piece = pieces(&cut, d, s, &loc);
     let dropped = piece.iter().filter(|p| p.is_none()).count();
     // Each vertex moved by a tetrahedron of its own piece: the one the
     // nearest vertex of that piece's grid surface was cut from (a
@@ -300,6 +250,64 @@ pub(super) fn embed(e: &SimEntry, d: &Ductile, s: &TornSurface) -> Result<Embedd
         dropped,
         skipped,
     })
+}
+
+/// Each face of `cut` (the input cut along the tear's border): the piece
+/// it belongs to, by the torn surface's original triangles nearest its
+/// connected component (an area-weighted vote), or none where the tear
+/// opened the material under most of the component.
+fn pieces(cut: &SimMesh, d: &Ductile, s: &TornSurface, loc: &Locator) -> Vec<Option<u32>> {
+    let metres = |p: [f64; 3]| d.to_metres(p);
+    // Faces the tear opened: the material under them is gone.
+    let depth = 0.5 * d.grid.h;
+    let (n_comp, comp) = cut.connected_components();
+    let mut open_area = vec![0.0; n_comp];
+    let mut area = vec![0.0; n_comp];
+    for f in cut.faces() {
+        let a = cut.face_area(f);
+        let n = cut.face_normal(f);
+        let c = centroid(cut, f);
+        let probe = metres(c);
+        let probe = [0, 1, 2].map(|k| probe[k] - depth * n[k]);
+        let k = comp[f.idx()] as usize;
+        area[k] += a;
+        if loc.phi(probe) > 0.0 {
+            open_area[k] += a;
+        }
+    }
+    // The pieces: by the torn surface's original triangles nearest each
+    // component's faces (area-weighted vote).
+    let original: Vec<usize> = (0..s.triangles.len()).filter(|&t| !s.torn[t]).collect();
+    let grid_surface = Faces::new(
+        s.rest.iter().map(|&p| d.to_scene(p)).collect(),
+        original.iter().map(|&t| s.triangles[t]).collect(),
+    );
+    let mut votes: Vec<std::collections::BTreeMap<u32, f64>> = vec![Default::default(); n_comp];
+    for f in cut.faces() {
+        let k = comp[f.idx()] as usize;
+        if open_area[k] > 0.5 * area[k] {
+            continue;
+        }
+        if let Some((t, _, _)) = grid_surface.closest(centroid(cut, f)) {
+            *votes[k].entry(s.piece[original[t]]).or_default() += cut.face_area(f);
+        }
+    }
+    let piece_of_comp: Vec<Option<u32>> = votes
+        .iter()
+        .enumerate()
+        .map(|(k, v)| {
+            if open_area[k] > 0.5 * area[k] {
+                return None;
+            }
+            v.iter()
+                .max_by(|a, b| a.1.total_cmp(b.1).then(b.0.cmp(a.0)))
+                .map(|(&p, _)| p)
+                .or(Some(0))
+        })
+        .collect();
+    cut.faces()
+        .map(|f| piece_of_comp[comp[f.idx()] as usize])
+        .collect()
 }
 
 /// Passes of [`smooth_border`].

@@ -673,27 +673,7 @@ impl StressField {
         let mut contexts = Vec::with_capacity(terms.len());
         let mut later = Vec::new();
         for (i, t) in terms.iter().enumerate() {
-            let impacts = match &t.kind {
-                TermKind::Impact { points, .. } if points.is_empty() => vec![default_hit(mesh)],
-                TermKind::Impact { points, .. } => project_onto_surface(mesh, points),
-                _ => Vec::new(),
-            };
-            let stars = match &t.kind {
-                TermKind::Impact {
-                    radius,
-                    radial_cracks,
-                    in_turn,
-                    ..
-                } if *radial_cracks > 0 => impacts
-                    .iter()
-                    .enumerate()
-                    .take(if *in_turn { 1 } else { usize::MAX })
-                    .map(|(k, &p)| {
-                        super::impact::Star::new(mesh, p, *radius, *radial_cracks, seed, k as u64)
-                    })
-                    .collect(),
-                _ => Vec::new(),
-            };
+            let (impacts, stars) = impacts_of(mesh, t, seed, &mut later);
             let mask_coords = match &t.mask {
                 Some(m) => Some(MaskCoords::of(mesh, m).map_err(named(i))?),
                 None => None,
@@ -705,29 +685,6 @@ impl StressField {
                     ..
                 }
             );
-            if let TermKind::Impact {
-                radius,
-                radial_cracks,
-                in_turn: true,
-                ..
-            } = &t.kind
-            {
-                later.extend(
-                    impacts
-                        .iter()
-                        .enumerate()
-                        .skip(1)
-                        .map(|(k, &point)| LaterHit {
-                            point,
-                            radius: *radius,
-                            radial_cracks: *radial_cracks,
-                            weight: t.init,
-                            mask: t.mask.clone(),
-                            seed,
-                            index: k as u64,
-                        }),
-                );
-            }
             contexts.push(Context {
                 seed,
                 impacts,
@@ -799,6 +756,63 @@ impl StressField {
         }
         Ok(field)
     }
+}
+
+/// An impact term's hit points on `mesh` (its points projected onto the
+/// surface, or the default hit) and their stars (with a number of radial
+/// cracks); the hits after the first of an `in_turn` term go to `later`.
+/// Empty for other terms.
+fn impacts_of(
+    mesh: &SimMesh,
+    t: &Term,
+    seed: u64,
+    later: &mut Vec<LaterHit>,
+) -> (Vec<[f64; 3]>, Vec<super::impact::Star>) {
+    let impacts = match &t.kind {
+        TermKind::Impact { points, .. } if points.is_empty() => vec![default_hit(mesh)],
+        TermKind::Impact { points, .. } => project_onto_surface(mesh, points),
+        _ => Vec::new(),
+    };
+    let stars = match &t.kind {
+        TermKind::Impact {
+            radius,
+            radial_cracks,
+            in_turn,
+            ..
+        } if *radial_cracks > 0 => impacts
+            .iter()
+            .enumerate()
+            .take(if *in_turn { 1 } else { usize::MAX })
+            .map(|(k, &p)| {
+                super::impact::Star::new(mesh, p, *radius, *radial_cracks, seed, k as u64)
+            })
+            .collect(),
+        _ => Vec::new(),
+    };
+    if let TermKind::Impact {
+        radius,
+        radial_cracks,
+        in_turn: true,
+        ..
+    } = &t.kind
+    {
+        later.extend(
+            impacts
+                .iter()
+                .enumerate()
+                .skip(1)
+                .map(|(k, &point)| LaterHit {
+                    point,
+                    radius: *radius,
+                    radial_cracks: *radial_cracks,
+                    weight: t.init,
+                    mask: t.mask.clone(),
+                    seed,
+                    index: k as u64,
+                }),
+        );
+    }
+    (impacts, stars)
 }
 
 #[cfg(test)]
