@@ -144,6 +144,9 @@ struct Prepared {
     odd_vertex_lines: usize,
 }
 
+/// Read OBJ `text` (the file `name` in `base_dir`, `path` in messages)
+/// within `max_memory`; with `files`, the material libraries it names are
+/// read, else one is an error.
 fn read_impl(
     text: &str,
     base_dir: &Path,
@@ -170,51 +173,13 @@ fn read_impl(
         ));
     }
     // Each (object, group, material) becomes a primitive.
-    let mut used = vec![false; prep.sections.len()];
-    for f in &prep.faces {
-        used[f.section] = true;
-    }
-    let primitives = prep
-        .sections
-        .iter()
-        .zip(&used)
-        .filter(|(_, &u)| u)
-        .map(|(s, _)| (s.object, s.group.as_deref(), s.material.as_deref()))
-        .collect::<HashSet<_>>()
-        .len();
     crate::io::check_primitive_count(
-        primitives,
+        primitive_count(&prep),
         "objects (one per object, group and material)",
         max_memory,
     )
     .map_err(|m| Error::input(path, m))?;
-    let mut warnings = Vec::new();
-    if strip_colors {
-        warnings.push(format!(
-            "{name}: only some vertices have a colour; vertex colours are ignored"
-        ));
-    }
-    if prep.skipped_elements > 0 {
-        warnings.push(format!(
-            "{name}: {} point/line element(s) (p, l) ignored: only faces are read",
-            prep.skipped_elements
-        ));
-    }
-    if prep.short_faces > 0 {
-        warnings.push(format!(
-            "{name}: {} face(s) with fewer than 3 vertices ignored",
-            prep.short_faces
-        ));
-    }
-    if prep.freeform > 0 {
-        warnings.push(format!("{name}: free-form curves/surfaces (curv, curv2, surf) are not supported and were ignored"));
-    }
-    if prep.odd_vertex_lines > 0 {
-        warnings.push(format!(
-            "{name}: {} vertex line(s) with 5 values (neither w nor r g b): the extra values were ignored",
-            prep.odd_vertex_lines
-        ));
-    }
+    let mut warnings = skipped_warnings(&prep, name, strip_colors);
 
     // The material libraries: the one place an OBJ reads another file,
     // refused when reading from memory.
@@ -247,9 +212,86 @@ fn read_impl(
         textures: HashMap::new(),
         file_names: HashSet::new(),
     };
-    let has_colors = !data.colors.is_empty();
+    let objects = object_primitives(&prep, &data, &mut materials, &mut scene);
+    add_objects(objects, &prep, &data, &mut scene);
+    // Positions no face uses are not carried into the scene: say how many.
+    let unreferenced = unreferenced_vertices(&prep);
+    if unreferenced > 0 {
+        scene.warnings.push(format!(
+            "{unreferenced} vertices are not used by any face and are left out"
+        ));
+    }
+    scene.scenes = vec![SceneRoot {
+        name: None,
+        nodes: (0..scene.nodes.len()).collect(),
+        rest: Map::new(),
+    }];
+    scene.default_scene = Some(0);
+    // And every texture the materials name, found or not.
+    scene.sources.extend(materials.textures.keys().cloned());
+    scene.sources.sort();
+    scene.sources.dedup();
+    Ok(scene)
+}
 
-    // Primitives per object, in order of first use.
+/// The number of primitives the file makes: its distinct (object, group,
+/// material) states that hold a face.
+fn primitive_count(prep: &Prepared) -> usize {
+    let mut used = vec![false; prep.sections.len()];
+    for f in &prep.faces {
+        used[f.section] = true;
+    }
+    prep.sections
+        .iter()
+        .zip(&used)
+        .filter(|(_, &u)| u)
+        .map(|(s, _)| (s.object, s.group.as_deref(), s.material.as_deref()))
+        .collect::<HashSet<_>>()
+        .len()
+}
+
+/// The warnings about what of the file `name` is not read (partial
+/// colours, points and lines, short faces, free-form geometry, vertex
+/// lines with 5 values).
+fn skipped_warnings(prep: &Prepared, name: &str, strip_colors: bool) -> Vec<String> {
+    let mut warnings = Vec::new();
+    if strip_colors {
+        warnings.push(format!(
+            "{name}: only some vertices have a colour; vertex colours are ignored"
+        ));
+    }
+    if prep.skipped_elements > 0 {
+        warnings.push(format!(
+            "{name}: {} point/line element(s) (p, l) ignored: only faces are read",
+            prep.skipped_elements
+        ));
+    }
+    if prep.short_faces > 0 {
+        warnings.push(format!(
+            "{name}: {} face(s) with fewer than 3 vertices ignored",
+            prep.short_faces
+        ));
+    }
+    if prep.freeform > 0 {
+        warnings.push(format!("{name}: free-form curves/surfaces (curv, curv2, surf) are not supported and were ignored"));
+    }
+    if prep.odd_vertex_lines > 0 {
+        warnings.push(format!(
+            "{name}: {} vertex line(s) with 5 values (neither w nor r g b): the extra values were ignored",
+            prep.odd_vertex_lines
+        ));
+    }
+    warnings
+}
+
+/// The faces gathered into primitives per object, in order of first use
+/// (one per group and material; materials added to `scene` as met).
+fn object_primitives(
+    prep: &Prepared,
+    data: &Data,
+    materials: &mut MaterialBuilder<'_>,
+    scene: &mut Scene,
+) -> Vec<Vec<PrimBuilder>> {
     let mut objects: Vec<Vec<PrimBuilder>> = vec![Vec::new(); prep.objects.len()];
     let mut prim_of_section: Vec<Option<usize>> = vec![None; prep.sections.len()];
     let mut scratch = prim::Scratch::new(prep.n_v);
@@ -261,8 +303,8 @@ fn read_impl(
                 let material = section
                     .material
                     .as_ref()
-                    .and_then(|m| materials.material(m, &mut scene))
-                    .or_else(|| Some(default_material(&mut scene)));
+                    .and_then(|m| materials.material(m, scene))
+                    .or_else(|| Some(default_material(scene)));
                 let prims = &mut objects[section.object];
                 let p = match prims
                     .iter()
@@ -286,7 +328,12 @@ fn read_impl(
         let corners = &prep.corners[face.start..face.start + face.len];
         objects[object][prim].add_face(corners, &data.positions, &mut scratch);
     }
+    objects
+}
 
+/// One mesh and one root node per object with a primitive, into `scene`.
+fn add_objects(objects: Vec<Vec<PrimBuilder>>, prep: &Prepared, data: &Data, scene: &mut Scene) {
+    let has_colors = !data.colors.is_empty();
     for (object, prims) in objects.into_iter().enumerate() {
         if prims.is_empty() {
             continue;
@@ -294,7 +341,7 @@ fn read_impl(
         let object_name = &prep.objects[object];
         let primitives = prims
             .into_iter()
-            .map(|p| p.finish(&data, has_colors, object_name, &mut scene))
+            .map(|p| p.finish(data, has_colors, object_name, scene))
             .collect();
         scene.meshes.push(Mesh {
             name: Some(object_name.clone()),
@@ -307,30 +354,17 @@ fn read_impl(
             ..Default::default()
         });
     }
-    // Positions no face uses are not carried into the scene: say how many.
+}
+
+/// The number of positions no face uses.
+fn unreferenced_vertices(prep: &Prepared) -> usize {
     let mut referenced = vec![false; prep.n_v];
     for c in &prep.corners {
         if let Some(r) = referenced.get_mut(c.v as usize) {
             *r = true;
         }
     }
-    let unreferenced = referenced.iter().filter(|r| !**r).count();
-    if unreferenced > 0 {
-        scene.warnings.push(format!(
-            "{unreferenced} vertices are not used by any face and are left out"
-        ));
-    }
-    scene.scenes = vec![SceneRoot {
-        name: None,
-        nodes: (0..scene.nodes.len()).collect(),
-        rest: Map::new(),
-    }];
-    scene.default_scene = Some(0);
-    // And every texture the materials name, found or not.
-    scene.sources.extend(materials.textures.keys().cloned());
-    scene.sources.sort();
-    scene.sources.dedup();
-    Ok(scene)
+    referenced.iter().filter(|r| !**r).count()
 }
 
 // ---------------------------------------------------------------------------
