@@ -6,7 +6,7 @@ use super::defects::DefectReport;
 use super::error::MeshError;
 use super::halfedge::{double_area, norm, sub, SimMesh};
 use super::ids::INVALID;
-use super::weld::weld;
+use super::weld::{weld, Welded};
 
 /// An indexed triangle mesh to build a [`SimMesh`] from.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -62,43 +62,9 @@ impl SimMesh {
         options: &WeldOptions,
     ) -> Result<(SimMesh, DefectReport), MeshError> {
         let rel = options.relative_tolerance;
-        if !(rel.is_finite() && rel >= 0.0) {
-            return Err(MeshError::InvalidOption(format!(
-                "relative_tolerance must be finite and >= 0, got {rel}"
-            )));
-        }
+        check_input(input, rel)?;
         let nv_in = input.positions.len();
         let nt_in = input.triangles.len();
-        if nv_in == 0 || nt_in == 0 {
-            return Err(MeshError::EmptyInput {
-                vertices: nv_in,
-                triangles: nt_in,
-            });
-        }
-        if nv_in >= INVALID as usize || nt_in >= (INVALID / 3) as usize {
-            return Err(MeshError::InvalidOption(format!(
-                "mesh too large ({nv_in} vertices, {nt_in} triangles)"
-            )));
-        }
-        if !input.face_groups.is_empty() && input.face_groups.len() != nt_in {
-            return Err(MeshError::LengthMismatch {
-                what: "face_groups".into(),
-                expected: nt_in,
-                got: input.face_groups.len(),
-            });
-        }
-        for ch in &input.wedge_channels {
-            if ch.components == 0 || ch.data.len() != nv_in * ch.components {
-                return Err(MeshError::LengthMismatch {
-                    what: format!(
-                        "wedge channel \"{}\" ({} components)",
-                        ch.name, ch.components
-                    ),
-                    expected: nv_in * ch.components.max(1),
-                    got: ch.data.len(),
-                });
-            }
-        }
         let wedges = WedgeAttributes::new(nv_in, input.wedge_channels.clone())
             .expect("channel lengths checked");
 
@@ -109,34 +75,9 @@ impl SimMesh {
         };
 
         // References, finiteness, bounding box.
-        let mut used = vec![false; nv_in];
-        for (t, tri) in input.triangles.iter().enumerate() {
-            for &i in tri {
-                if i as usize >= nv_in {
-                    return Err(MeshError::IndexOutOfRange {
-                        triangle: t,
-                        index: i,
-                        vertices: nv_in,
-                    });
-                }
-                used[i as usize] = true;
-            }
-        }
+        let used = used_vertices(input)?;
         report.unreferenced_vertices = used.iter().filter(|&&u| !u).count();
-        let mut lo = [f64::INFINITY; 3];
-        let mut hi = [f64::NEG_INFINITY; 3];
-        for (u, p) in used.iter_mut().zip(&input.positions) {
-            if *u {
-                if p.iter().all(|x| x.is_finite()) {
-                    for k in 0..3 {
-                        lo[k] = lo[k].min(p[k]);
-                        hi[k] = hi[k].max(p[k]);
-                    }
-                } else {
-                    *u = false;
-                }
-            }
-        }
+        let (used, lo, hi) = finite_bounds(used, &input.positions);
         if lo[0] > hi[0] {
             return Err(MeshError::AllDegenerate { dropped: nt_in });
         }
@@ -145,49 +86,55 @@ impl SimMesh {
         report.welded_vertices = welded.reps.len();
 
         // Keep non-degenerate triangles, in welded ids.
-        let min_double_area = 2.0 * RELATIVE_AREA_EPSILON * diag * diag;
-        let mut kept: Vec<[u32; 3]> = Vec::with_capacity(nt_in);
-        let mut kept_src: Vec<u32> = Vec::with_capacity(nt_in);
-        for (t, tri) in input.triangles.iter().enumerate() {
-            let w = tri.map(|i| welded.map[i as usize]);
-            if w.contains(&INVALID) || w[0] == w[1] || w[1] == w[2] || w[0] == w[2] {
-                continue;
-            }
-            let [a, b, c] = w.map(|x| input.positions[welded.reps[x as usize] as usize]);
-            let da = double_area(a, b, c);
-            if !(da >= min_double_area && da > 0.0) {
-                continue;
-            }
-            kept.push(w);
-            kept_src.push(t as u32);
-        }
+        let (mut kept, kept_src) = non_degenerate(input, &welded, diag);
         report.degenerate_triangles_dropped = nt_in - kept.len();
         if kept.is_empty() {
             return Err(MeshError::AllDegenerate { dropped: nt_in });
         }
 
         // Compact the welded vertices to the ones still referenced.
-        let mut compact = vec![INVALID; welded.reps.len()];
-        for tri in &kept {
-            for &w in tri {
-                compact[w as usize] = 0;
-            }
-        }
-        let mut vertex_source = Vec::new();
-        for (w, c) in compact.iter_mut().enumerate() {
-            if *c != INVALID {
-                *c = vertex_source.len() as u32;
-                vertex_source.push(welded.reps[w]);
-            }
-        }
-        for tri in &mut kept {
-            *tri = tri.map(|w| compact[w as usize]);
-        }
+        let vertex_source = compact_vertices(&mut kept, &welded.reps);
         let nv = vertex_source.len();
         report.duplicate_triangles = count_duplicate_triangles(&kept, nv);
 
+        let mut mesh = SimMesh::unpaired(input, &kept, kept_src, vertex_source, wedges);
+
+        // Pair halfedges into edges.
+        let edges = EdgeTable::new(&mesh);
+        let cut_groups = mesh.pair_halfedges(&edges, &mut report);
+
+        // Split every vertex into its fans.
+        let bowties_if_clean = mesh.split_fans();
+        if cut_groups.is_empty() {
+            report.non_manifold_vertices = bowties_if_clean;
+        } else {
+            report.non_manifold_vertices = count_non_manifold_vertices(&mesh, &edges, nv);
+            if mesh.cut_shared_ends(&edges, &cut_groups) {
+                mesh.split_fans();
+            }
+        }
+        report.duplicated_vertices = mesh.n_vertices() - nv;
+        report.vertices = mesh.n_vertices();
+        report.faces = mesh.n_faces();
+        report.boundary_edges = mesh.n_boundary_halfedges();
+        report.boundary_loops = mesh.boundary_loops();
+        report.components = mesh.connected_components().0;
+        Ok((mesh, report))
+    }
+
+    /// The mesh of the `kept` triangles (in compacted vertex ids; from the
+    /// input triangles `kept_src`) with no twins yet and one vertex per
+    /// welded vertex (from the input vertices `vertex_source`).
+    fn unpaired(
+        input: &MeshInput,
+        kept: &[[u32; 3]],
+        kept_src: Vec<u32>,
+        vertex_source: Vec<u32>,
+        wedges: WedgeAttributes,
+    ) -> SimMesh {
+        let nv = vertex_source.len();
         let nf = kept.len();
-        let mut mesh = SimMesh {
+        SimMesh {
             positions: vertex_source
                 .iter()
                 .map(|&s| input.positions[s as usize])
@@ -213,20 +160,28 @@ impl SimMesh {
             face_source: kept_src,
             wedges,
             generation: 0,
-        };
+        }
+    }
 
-        // Pair halfedges into edges.
-        let edges = EdgeTable::new(&mesh);
+    /// Makes twins of the two opposite halfedges of each edge (of the
+    /// first opposite pair on a non-manifold edge), counting inconsistent
+    /// and non-manifold edges in `report`. Returns the edges to cut (their
+    /// ranges in `edges`).
+    fn pair_halfedges(
+        &mut self,
+        edges: &EdgeTable,
+        report: &mut DefectReport,
+    ) -> Vec<(usize, usize)> {
         let mut cut_groups: Vec<(usize, usize)> = Vec::new();
         for &(s, e) in &edges.groups {
             let g = &edges.halfedges[s..e];
             let opposite =
-                |x: u32, y: u32| mesh.he_origin[x as usize] != mesh.he_origin[y as usize];
+                |x: u32, y: u32| self.he_origin[x as usize] != self.he_origin[y as usize];
             match g.len() {
                 1 => {}
                 2 if opposite(g[0], g[1]) => {
-                    mesh.he_twin[g[0] as usize] = g[1];
-                    mesh.he_twin[g[1] as usize] = g[0];
+                    self.he_twin[g[0] as usize] = g[1];
+                    self.he_twin[g[1] as usize] = g[0];
                 }
                 2 => {
                     report.inconsistent_orientation_edges += 1;
@@ -242,65 +197,52 @@ impl SimMesh {
                     // pairwise search: one edge of 100,000 duplicate faces).
                     work(g.len());
                     if let Some(&j) = g[1..].iter().find(|&&y| opposite(g[0], y)) {
-                        mesh.he_twin[g[0] as usize] = j;
-                        mesh.he_twin[j as usize] = g[0];
+                        self.he_twin[g[0] as usize] = j;
+                        self.he_twin[j as usize] = g[0];
                     }
                 }
             }
         }
+        cut_groups
+    }
 
-        // Split every vertex into its fans.
-        let bowties_if_clean = mesh.split_fans();
-        if cut_groups.is_empty() {
-            report.non_manifold_vertices = bowties_if_clean;
-        } else {
-            report.non_manifold_vertices = count_non_manifold_vertices(&mesh, &edges, nv);
-            // Unpaired halfedges of a cut edge may still share (origin,
-            // dest) with another halfedge in the same fan; cutting them
-            // makes each one start its own fan.
-            // Sorting each group by (origin, destination) finds the
-            // halfedges sharing them in n log n.
-            let mut recut = false;
-            let mut ends: Vec<(u32, u32, u32)> = Vec::new();
-            for &(s, e) in &cut_groups {
-                ends.clear();
-                ends.extend(edges.halfedges[s..e].iter().map(|&x| {
-                    let x = x as usize;
-                    (mesh.he_origin[x], mesh.he_origin[next_idx(x)], x as u32)
-                }));
-                ends.sort_unstable();
-                work(ends.len());
-                let mut i = 0;
-                while i < ends.len() {
-                    let mut j = i + 1;
-                    while j < ends.len() && ends[j].0 == ends[i].0 && ends[j].1 == ends[i].1 {
-                        j += 1;
-                    }
-                    if j - i > 1 {
-                        for &(_, _, z) in &ends[i..j] {
-                            let z = z as usize;
-                            let t = mesh.he_twin[z];
-                            if t != INVALID {
-                                mesh.he_twin[t as usize] = INVALID;
-                                mesh.he_twin[z] = INVALID;
-                                recut = true;
-                            }
+    /// Unpairs the halfedges of the cut edges `cut_groups` that still share
+    /// (origin, destination) with another halfedge in the same fan, so that
+    /// each one starts its own fan. Returns whether any was unpaired.
+    fn cut_shared_ends(&mut self, edges: &EdgeTable, cut_groups: &[(usize, usize)]) -> bool {
+        // Sorting each group by (origin, destination) finds the
+        // halfedges sharing them in n log n.
+        let mut recut = false;
+        let mut ends: Vec<(u32, u32, u32)> = Vec::new();
+        for &(s, e) in cut_groups {
+            ends.clear();
+            ends.extend(edges.halfedges[s..e].iter().map(|&x| {
+                let x = x as usize;
+                (self.he_origin[x], self.he_origin[next_idx(x)], x as u32)
+            }));
+            ends.sort_unstable();
+            work(ends.len());
+            let mut i = 0;
+            while i < ends.len() {
+                let mut j = i + 1;
+                while j < ends.len() && ends[j].0 == ends[i].0 && ends[j].1 == ends[i].1 {
+                    j += 1;
+                }
+                if j - i > 1 {
+                    for &(_, _, z) in &ends[i..j] {
+                        let z = z as usize;
+                        let t = self.he_twin[z];
+                        if t != INVALID {
+                            self.he_twin[t as usize] = INVALID;
+                            self.he_twin[z] = INVALID;
+                            recut = true;
                         }
                     }
-                    i = j;
                 }
-            }
-            if recut {
-                mesh.split_fans();
+                i = j;
             }
         }
-        report.duplicated_vertices = mesh.n_vertices() - nv;
-        report.vertices = mesh.n_vertices();
-        report.faces = mesh.n_faces();
-        report.boundary_edges = mesh.n_boundary_halfedges();
-        report.boundary_loops = mesh.boundary_loops();
-        report.components = mesh.connected_components().0;
-        Ok((mesh, report))
+        recut
     }
 
     /// Gives every fan of every vertex its own vertex (duplicating vertices
@@ -360,6 +302,136 @@ impl SimMesh {
         }
         n_split
     }
+}
+
+/// Checks `input` and the weld tolerance `rel` before building: a finite
+/// tolerance, a non-empty mesh of a size the ids can hold, and
+/// `face_groups` and wedge channels of the right lengths.
+fn check_input(input: &MeshInput, rel: f64) -> Result<(), MeshError> {
+    if !(rel.is_finite() && rel >= 0.0) {
+        return Err(MeshError::InvalidOption(format!(
+            "relative_tolerance must be finite and >= 0, got {rel}"
+        )));
+    }
+    let nv_in = input.positions.len();
+    let nt_in = input.triangles.len();
+    if nv_in == 0 || nt_in == 0 {
+        return Err(MeshError::EmptyInput {
+            vertices: nv_in,
+            triangles: nt_in,
+        });
+    }
+    if nv_in >= INVALID as usize || nt_in >= (INVALID / 3) as usize {
+        return Err(MeshError::InvalidOption(format!(
+            "mesh too large ({nv_in} vertices, {nt_in} triangles)"
+        )));
+    }
+    if !input.face_groups.is_empty() && input.face_groups.len() != nt_in {
+        return Err(MeshError::LengthMismatch {
+            what: "face_groups".into(),
+            expected: nt_in,
+            got: input.face_groups.len(),
+        });
+    }
+    for ch in &input.wedge_channels {
+        if ch.components == 0 || ch.data.len() != nv_in * ch.components {
+            return Err(MeshError::LengthMismatch {
+                what: format!(
+                    "wedge channel \"{}\" ({} components)",
+                    ch.name, ch.components
+                ),
+                expected: nv_in * ch.components.max(1),
+                got: ch.data.len(),
+            });
+        }
+    }
+    Ok(())
+}
+
+/// Per input vertex: whether a triangle uses it (an index out of range is
+/// an error naming the triangle).
+fn used_vertices(input: &MeshInput) -> Result<Vec<bool>, MeshError> {
+    let nv_in = input.positions.len();
+    let mut used = vec![false; nv_in];
+    for (t, tri) in input.triangles.iter().enumerate() {
+        for &i in tri {
+            if i as usize >= nv_in {
+                return Err(MeshError::IndexOutOfRange {
+                    triangle: t,
+                    index: i,
+                    vertices: nv_in,
+                });
+            }
+            used[i as usize] = true;
+        }
+    }
+    Ok(used)
+}
+
+/// The `used` vertices with a finite position (the others no longer
+/// used), and their bounding box (empty, `lo > hi`, when there is none).
+fn finite_bounds(mut used: Vec<bool>, positions: &[[f64; 3]]) -> (Vec<bool>, [f64; 3], [f64; 3]) {
+    let mut lo = [f64::INFINITY; 3];
+    let mut hi = [f64::NEG_INFINITY; 3];
+    for (u, p) in used.iter_mut().zip(positions) {
+        if *u {
+            if p.iter().all(|x| x.is_finite()) {
+                for k in 0..3 {
+                    lo[k] = lo[k].min(p[k]);
+                    hi[k] = hi[k].max(p[k]);
+                }
+            } else {
+                *u = false;
+            }
+        }
+    }
+    (used, lo, hi)
+}
+
+/// The triangles that are not degenerate after welding (three distinct
+/// welded vertices, an area above [`RELATIVE_AREA_EPSILON`] times `diag`
+/// squared), in welded ids, with the input triangle each comes from.
+fn non_degenerate(input: &MeshInput, welded: &Welded, diag: f64) -> (Vec<[u32; 3]>, Vec<u32>) {
+    let nt_in = input.triangles.len();
+    let min_double_area = 2.0 * RELATIVE_AREA_EPSILON * diag * diag;
+    let mut kept: Vec<[u32; 3]> = Vec::with_capacity(nt_in);
+    let mut kept_src: Vec<u32> = Vec::with_capacity(nt_in);
+    for (t, tri) in input.triangles.iter().enumerate() {
+        let w = tri.map(|i| welded.map[i as usize]);
+        if w.contains(&INVALID) || w[0] == w[1] || w[1] == w[2] || w[0] == w[2] {
+            continue;
+        }
+        let [a, b, c] = w.map(|x| input.positions[welded.reps[x as usize] as usize]);
+        let da = double_area(a, b, c);
+        if !(da >= min_double_area && da > 0.0) {
+            continue;
+        }
+        kept.push(w);
+        kept_src.push(t as u32);
+    }
+    (kept, kept_src)
+}
+
+/// Renumbers the welded vertices of the `kept` triangles to those still
+/// referenced, in order; returns each one's input vertex (from `reps`).
+fn compact_vertices(kept: &mut [[u32; 3]], reps: &[u32]) -> Vec<u32> {
+    let mut compact = vec![INVALID; reps.len()];
+    for tri in kept.iter() {
+        for &w in tri {
+            compact[w as usize] = 0;
+        }
+    }
+    let mut vertex_source = Vec::new();
+    for (w, c) in compact.iter_mut().enumerate() {
+        if *c != INVALID {
+            *c = vertex_source.len() as u32;
+            vertex_source.push(reps[w]);
+        }
+    }
+    for tri in kept.iter_mut() {
+        *tri = tri.map(|w| compact[w as usize]);
+    }
+    vertex_source
 }
 
 #[cfg(test)]
