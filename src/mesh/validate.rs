@@ -26,6 +26,16 @@ impl SimMesh {
     /// # Errors
     /// [`MeshError::Invariant`] describing the first violation found.
     pub fn validate(&self) -> Result<(), MeshError> {
+        self.validate_lengths()?;
+        self.validate_ranges()?;
+        self.validate_faces_and_twins()?;
+        self.validate_directed_edges()?;
+        self.validate_fans()
+    }
+
+    /// Checks the arrays' lengths against each other, and that no crack
+    /// halfedge has a twin.
+    fn validate_lengths(&self) -> Result<(), MeshError> {
         let nv = self.n_vertices();
         let nf = self.face_groups.len();
         let nh = self.he_origin.len();
@@ -69,6 +79,15 @@ impl SimMesh {
             "wedge channel lengths do not match {nw} wedges"
         );
         ensure!(nh < INVALID as usize, "too many halfedges");
+        Ok(())
+    }
+
+    /// Checks that positions are finite and every id a vertex or halfedge
+    /// holds is in range.
+    fn validate_ranges(&self) -> Result<(), MeshError> {
+        let nv = self.n_vertices();
+        let nh = self.he_origin.len();
+        let nw = self.wedges.len();
 
         // Per-element ranges.
         for (v, p) in self.positions.iter().enumerate() {
@@ -104,7 +123,12 @@ impl SimMesh {
                 "halfedge {h} has twin {t} out of range"
             );
         }
+        Ok(())
+    }
 
+    /// Checks that faces have three distinct vertices and twins are
+    /// symmetric and opposite.
+    fn validate_faces_and_twins(&self) -> Result<(), MeshError> {
         // Faces and twins.
         for f in self.faces() {
             let [a, b, c] = self.face_vertices(f);
@@ -134,7 +158,11 @@ impl SimMesh {
                 );
             }
         }
+        Ok(())
+    }
 
+    /// Checks that no two halfedges share (origin, dest).
+    fn validate_directed_edges(&self) -> Result<(), MeshError> {
         // Unique directed edges.
         let mut keys: Vec<(u32, u32, u32)> = self
             .halfedges()
@@ -151,7 +179,14 @@ impl SimMesh {
                 w[0].1
             );
         }
+        Ok(())
+    }
 
+    /// Checks every vertex's fan: its outgoing halfedge leaves it (a
+    /// boundary one on a boundary) and the rotation from it visits all its
+    /// outgoing halfedges.
+    fn validate_fans(&self) -> Result<(), MeshError> {
+        let nv = self.n_vertices();
         // Fans: from each vertex's outgoing halfedge, the rotation must
         // visit all its outgoing halfedges.
         let mut degree = vec![0u32; nv];
