@@ -127,6 +127,55 @@ pub fn imprint(
     carry: &[&[[f64; 3]]],
 ) -> Result<Imprinted, MeshError> {
     let mut cut = Cutter::new(base.clone(), SNAP_LENGTH * cracked.mean_edge_length());
+    let normals = end_normals(cracked, segments);
+    let edge = cracked.mean_edge_length();
+    let mut ends = Ends {
+        normals,
+        at: BTreeMap::new(),
+        first: BTreeMap::new(),
+        reach: 0.1 * edge,
+        shell_reach: 0.5 * edge,
+    };
+    let skipped = cut_segments(&mut cut, &mut ends, segments, times)?;
+    let Cutter {
+        mut mesh,
+        marks,
+        snapped,
+        along_edges_used,
+        across_shells,
+        n_original,
+        children,
+        flipped,
+        ..
+    } = cut;
+    // The faces the cut made or reshaped (and, below, those the
+    // refinement adds): where the triangulation may settle.
+    let reshaped: Vec<bool> = (0..n_original).map(|f| !children[f].is_empty()).collect();
+    let (out_segments, out_times) = open_marks(&mut mesh, &marks)?;
+    let refined = refine_along_cracks(&mut mesh, cracked.mean_edge_length())?;
+    let settled = flipped + settle(&mut mesh, &reshaped);
+    let sampler = Sampler::new(cracked);
+    let on_crack = crack_flags(&mesh);
+    let values = sampler.carry(&mesh, &on_crack, displacement, crack_time, carry);
+    Ok(Imprinted {
+        mesh,
+        displacement: values.displacement,
+        crack_time: values.crack_time,
+        carried: values.carried,
+        segments: out_segments,
+        segment_times: out_times,
+        snapped,
+        along_edges: along_edges_used,
+        across_shells,
+        skipped,
+        refined,
+        settled,
+    })
+}
+
+/// The cracked surface's normal (not normalised) at each crack end of
+/// `segments`, by the end's exact position, to find the end's own shell.
+fn end_normals(cracked: &SimMesh, segments: &[[[f64; 3]; 2]]) -> BTreeMap<[u64; 3], [f64; 3]> {
     // The crack ends, once each (by their exact position).
     let mut wanted: BTreeMap<[u64; 3], ()> = BTreeMap::new();
     for s in segments {
@@ -151,23 +200,27 @@ pub fn imprint(
             normals.insert(key(cracked.position(v)), n);
         }
     }
-    let edge = cracked.mean_edge_length();
-    let mut ends = Ends {
-        normals,
-        at: BTreeMap::new(),
-        first: BTreeMap::new(),
-        reach: 0.1 * edge,
-        shell_reach: 0.5 * edge,
-    };
+    normals
+}
+
+/// Walks every crack segment across the input from end to end; returns
+/// how many were left out (an error when more than
+/// [`MAX_SKIPPED_PERCENT`] percent were).
+fn cut_segments(
+    cut: &mut Cutter,
+    ends: &mut Ends,
+    segments: &[[[f64; 3]; 2]],
+    times: &[f64],
+) -> Result<usize, MeshError> {
     // A segment whose ends the input does not join nearby (the two sides
     // of a hole or of a repaired edge the remeshed surface bridged) is
     // left out; more than a few such, and the cut is refused.
     let mut skipped = 0usize;
     let mut first_skip = None;
     for (i, [a, b]) in segments.iter().enumerate() {
-        let va = ends.vertex(&mut cut, *a, None)?;
+        let va = ends.vertex(cut, *a, None)?;
         let shell = cut.shell_of(va);
-        let vb = ends.vertex(&mut cut, *b, Some(shell))?;
+        let vb = ends.vertex(cut, *b, Some(shell))?;
         let time = times.get(i).copied().unwrap_or(f64::NAN);
         if let Err(m) = cut.walk(va, vb, time) {
             skipped += 1;
@@ -181,24 +234,19 @@ pub fn imprint(
             first_skip.unwrap_or_default()
         )));
     }
-    let Cutter {
-        mut mesh,
-        marks,
-        snapped,
-        along_edges_used,
-        across_shells,
-        n_original,
-        children,
-        flipped,
-        ..
-    } = cut;
-    // The faces the cut made or reshaped (and, below, those the
-    // refinement adds): where the triangulation may settle.
-    let reshaped: Vec<bool> = (0..n_original).map(|f| !children[f].is_empty()).collect();
+    Ok(skipped)
+}
+
+/// The opened edges as segments at rest, and their times.
+type Opened = (Vec<[[f64; 3]; 2]>, Vec<f64>);
+
+/// Opens the walked edges `marks` into cracks; returns them as segments
+/// at rest, with their times.
+fn open_marks(mesh: &mut SimMesh, marks: &BTreeMap<(u32, u32), f64>) -> Result<Opened, MeshError> {
     // Open the walked edges (halfedge ids survive opening; vertices may be
     // copied).
     let mut opened: Vec<(HalfedgeId, f64)> = Vec::new();
-    for (&(a, b), &time) in &marks {
+    for (&(a, b), &time) in marks {
         let Some(h) = mesh.find_halfedge(VertexId(a), VertexId(b)) else {
             continue;
         };
@@ -215,70 +263,7 @@ pub fn imprint(
         out_segments.push([mesh.position(mesh.origin(h)), mesh.position(mesh.dest(h))]);
         out_times.push(time);
     }
-    let refined = refine_along_cracks(&mut mesh, cracked.mean_edge_length())?;
-    let settled = flipped + settle(&mut mesh, &reshaped);
-    let sampler = Sampler::new(cracked);
-    let mut disp = Vec::with_capacity(mesh.n_vertices());
-    let mut carried: Vec<Vec<[f64; 3]>> = carry
-        .iter()
-        .map(|_| Vec::with_capacity(mesh.n_vertices()))
-        .collect();
-    let mut ctime = Vec::with_capacity(mesh.n_vertices());
-    let on_crack = crack_flags(&mesh);
-    for v in mesh.vertices() {
-        let p = mesh.position(v);
-        // A copy of a crack vertex takes its values from the cracked
-        // mesh's crack side running the way of the copy's own side leaving
-        // it; failing that, from the face its fan faces.
-        let corners: Option<(Vec<VertexId>, Vec<f64>)> = if on_crack[v.idx()] {
-            mesh.vertex_outgoing(v)
-                .find(|&h| mesh.twin(h).is_none() && mesh.is_crack_halfedge(h))
-                .and_then(|h| sampler.crack_side_along(p, sub(mesh.position(mesh.dest(h)), p)))
-                .map(|([a, b], t)| (vec![a, b], vec![1.0 - t, t]))
-                .or_else(|| {
-                    let (_, d) = mesh.fan_middle(v)?;
-                    let (vs, bary) = sampler.crack_side(p, d)?;
-                    Some((vs.to_vec(), bary.to_vec()))
-                })
-        } else {
-            None
-        };
-        match corners {
-            Some((vs, w)) => {
-                let at = |values: &[[f64; 3]]| {
-                    vs.iter().zip(&w).fold([0.0; 3], |s, (u, &x)| {
-                        add(s, scale(value(values, u.idx()), x))
-                    })
-                };
-                disp.push(at(displacement));
-                for (out, values) in carried.iter_mut().zip(carry) {
-                    out.push(at(values));
-                }
-                ctime.push(side_time(crack_time, &vs, &w));
-            }
-            None => {
-                disp.push(sampler.face_value(p, displacement));
-                for (out, values) in carried.iter_mut().zip(carry) {
-                    out.push(sampler.face_value(p, values));
-                }
-                ctime.push(f64::NAN);
-            }
-        }
-    }
-    Ok(Imprinted {
-        mesh,
-        displacement: disp,
-        crack_time: ctime,
-        carried,
-        segments: out_segments,
-        segment_times: out_times,
-        snapped,
-        along_edges: along_edges_used,
-        across_shells,
-        skipped,
-        refined,
-        settled,
-    })
+    Ok((out_segments, out_times))
 }
 
 /// The crack ends inserted so far, per shell of the input.
@@ -341,31 +326,6 @@ fn value(d: &[[f64; 3]], i: usize) -> [f64; 3] {
         .copied()
         .filter(|x| x.iter().all(|c| c.is_finite()))
         .unwrap_or([0.0; 3])
-}
-
-/// The crack time between vertices `a` and `b` at `t`; an end without a
-/// time gives the other's.
-/// The crack time at barycentric `bary` of the cracked mesh's face `vs`:
-/// interpolated over the corners that lie on a crack (a time), NaN when
-/// none does.
-fn side_time(times: &[f64], vs: &[VertexId], bary: &[f64]) -> f64 {
-    let (mut sum, mut weight) = (0.0, 0.0);
-    for k in 0..vs.len() {
-        let t = times.get(vs[k].idx()).copied().unwrap_or(f64::NAN);
-        if !t.is_nan() {
-            sum += bary[k] * t;
-            weight += bary[k];
-        }
-    }
-    if weight > 0.0 {
-        sum / weight
-    } else {
-        // Only a corner's own time counts: the first corner with one.
-        vs.iter()
-            .map(|u| times.get(u.idx()).copied().unwrap_or(f64::NAN))
-            .find(|t| !t.is_nan())
-            .unwrap_or(f64::NAN)
-    }
 }
 
 /// The input mesh being cut: where each of its original faces went, and

@@ -1,6 +1,6 @@
 //! Values of the cracked mesh sampled at points of the same surface: the
 //! closest face's interpolated value, or the face of the crack side facing
-//! a direction.
+//! a direction; and so carried over to each vertex of the cut mesh.
 
 use super::value;
 use crate::mesh::halfedge::SimMesh;
@@ -176,5 +176,105 @@ impl<'a> Sampler<'a> {
             0.0
         };
         Some(([va, vb], t))
+    }
+
+    /// `displacement`, `crack_time` and each array of `carry` (per vertex
+    /// of the sampled mesh) at each vertex of the cut `mesh` (`on_crack`
+    /// per vertex: on a crack): a crack vertex's from the crack side on its
+    /// own side, any other vertex's from the closest face.
+    pub(super) fn carry(
+        &self,
+        mesh: &SimMesh,
+        on_crack: &[bool],
+        displacement: &[[f64; 3]],
+        crack_time: &[f64],
+        carry: &[&[[f64; 3]]],
+    ) -> Carried {
+        let mut disp = Vec::with_capacity(mesh.n_vertices());
+        let mut carried: Vec<Vec<[f64; 3]>> = carry
+            .iter()
+            .map(|_| Vec::with_capacity(mesh.n_vertices()))
+            .collect();
+        let mut ctime = Vec::with_capacity(mesh.n_vertices());
+        for v in mesh.vertices() {
+            let p = mesh.position(v);
+            // A copy of a crack vertex takes its values from the cracked
+            // mesh's crack side running the way of the copy's own side leaving
+            // it; failing that, from the face its fan faces.
+            let corners: Option<(Vec<VertexId>, Vec<f64>)> = if on_crack[v.idx()] {
+                mesh.vertex_outgoing(v)
+                    .find(|&h| mesh.twin(h).is_none() && mesh.is_crack_halfedge(h))
+                    .and_then(|h| self.crack_side_along(p, sub(mesh.position(mesh.dest(h)), p)))
+                    .map(|([a, b], t)| (vec![a, b], vec![1.0 - t, t]))
+                    .or_else(|| {
+                        let (_, d) = mesh.fan_middle(v)?;
+                        let (vs, bary) = self.crack_side(p, d)?;
+                        Some((vs.to_vec(), bary.to_vec()))
+                    })
+            } else {
+                None
+            };
+            match corners {
+                Some((vs, w)) => {
+                    let at = |values: &[[f64; 3]]| {
+                        vs.iter().zip(&w).fold([0.0; 3], |s, (u, &x)| {
+                            add(s, scale(value(values, u.idx()), x))
+                        })
+                    };
+                    disp.push(at(displacement));
+                    for (out, values) in carried.iter_mut().zip(carry) {
+                        out.push(at(values));
+                    }
+                    ctime.push(side_time(crack_time, &vs, &w));
+                }
+                None => {
+                    disp.push(self.face_value(p, displacement));
+                    for (out, values) in carried.iter_mut().zip(carry) {
+                        out.push(self.face_value(p, values));
+                    }
+                    ctime.push(f64::NAN);
+                }
+            }
+        }
+        Carried {
+            displacement: disp,
+            crack_time: ctime,
+            carried,
+        }
+    }
+}
+
+/// The cracked mesh's per-vertex values carried over to the cut mesh.
+pub(super) struct Carried {
+    /// Per vertex: the displacement, on the vertex's side of any crack.
+    pub(super) displacement: Vec<[f64; 3]>,
+    /// Per vertex: the crack time (NaN off the cracks).
+    pub(super) crack_time: Vec<f64>,
+    /// Per carried array, per vertex: its value.
+    pub(super) carried: Vec<Vec<[f64; 3]>>,
+}
+
+/// The crack time between vertices `a` and `b` at `t`; an end without a
+/// time gives the other's.
+/// The crack time at barycentric `bary` of the cracked mesh's face `vs`:
+/// interpolated over the corners that lie on a crack (a time), NaN when
+/// none does.
+fn side_time(times: &[f64], vs: &[VertexId], bary: &[f64]) -> f64 {
+    let (mut sum, mut weight) = (0.0, 0.0);
+    for k in 0..vs.len() {
+        let t = times.get(vs[k].idx()).copied().unwrap_or(f64::NAN);
+        if !t.is_nan() {
+            sum += bary[k] * t;
+            weight += bary[k];
+        }
+    }
+    if weight > 0.0 {
+        sum / weight
+    } else {
+        // Only a corner's own time counts: the first corner with one.
+        vs.iter()
+            .map(|u| times.get(u.idx()).copied().unwrap_or(f64::NAN))
+            .find(|t| !t.is_nan())
+            .unwrap_or(f64::NAN)
     }
 }
