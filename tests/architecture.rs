@@ -263,9 +263,8 @@ fn the_command_line_is_small_and_library_files_are_readable() {
     );
 }
 
-/// Most lines of one function of the simulation core (ARCHITECTURE.md:
-/// about 150).
-const MAX_SIM_FUNCTION_LINES: usize = 160;
+/// Most lines of one library function (ARCHITECTURE.md: about 150).
+const MAX_FUNCTION_LINES: usize = 160;
 
 /// `(name, lines)` of every function in `code`: from its `fn` line to the
 /// closing brace at the same indentation.
@@ -299,15 +298,18 @@ fn function_lengths(code: &str) -> Vec<(String, usize)> {
     out
 }
 
+/// Every function of the library and the command line, tests left out.
+/// Until the functions outside `src/sim` were split, this guarded `sim/`
+/// alone (`build_document` had 444 lines, `post::apply` 274).
 #[test]
-fn no_function_of_the_simulation_is_longer_than_about_150_lines() {
+fn no_function_is_longer_than_about_150_lines() {
     assert_eq!(
         function_lengths("fn a() {\n    x;\n}\n    fn b() {\n        y;\n        z;\n    }\n"),
         [("a".to_string(), 3), ("b".to_string(), 4)]
     );
     let src = src_dir();
     let mut files = Vec::new();
-    rs_files(&src.join("sim"), &mut files);
+    rs_files(&src, &mut files);
     let mut long = Vec::new();
     for f in &files {
         let rel = f
@@ -320,12 +322,12 @@ fn no_function_of_the_simulation_is_longer_than_about_150_lines() {
         }
         let text = std::fs::read_to_string(f).expect("readable");
         for (name, n) in function_lengths(&code_of(&text)) {
-            if n > MAX_SIM_FUNCTION_LINES {
+            if n > MAX_FUNCTION_LINES {
                 long.push(format!("{rel}: {name} has {n} lines"));
             }
         }
     }
-    assert!(files.len() > 10, "the simulation's files were not found");
+    assert!(files.len() > 100, "the source files were not found");
     assert!(long.is_empty(), "functions too long:\n{}", long.join("\n"));
 }
 

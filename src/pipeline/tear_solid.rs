@@ -14,10 +14,7 @@ pub(super) type Solid = (Vec<[f64; 3]>, Vec<[u32; 3]>);
 /// # Errors
 /// A surface that is open and encloses no volume closed (a sheet), or
 /// whose holes are not simple loops.
-pub(super) fn solid_of(
-    e: &SimEntry,
-    input: &Path,
-) -> crate::Result<Solid> {
+pub(super) fn solid_of(e: &SimEntry, input: &Path) -> crate::Result<Solid> {
     let mut positions = e.sim.positions().to_vec();
     let mut triangles: Vec<[u32; 3]> = e
         .sim
