@@ -54,6 +54,20 @@ pub fn vector_type(n: usize) -> &'static str {
     }
 }
 
+/// Per-component minimum and maximum of `data`, `components` values per
+/// element (an accessor's `min` and `max`).
+pub fn f32_bounds(data: &[f32], components: usize) -> (Vec<f32>, Vec<f32>) {
+    let mut min = vec![f32::INFINITY; components];
+    let mut max = vec![f32::NEG_INFINITY; components];
+    for v in data.chunks_exact(components) {
+        for k in 0..components {
+            min[k] = min[k].min(v[k]);
+            max[k] = max[k].max(v[k]);
+        }
+    }
+    (min, max)
+}
+
 /// Byte size of one element, with glTF's column padding for small matrices.
 pub fn element_size(component_type: u32, kind: &str) -> Option<usize> {
     let cs = component_size(component_type)?;

@@ -149,14 +149,7 @@ pub(super) fn add_crack_lines(
     }
     let f32_accessor = |scene: &mut Scene, kind: &str, comps: usize, data: Vec<f32>, name: &str| {
         let count = data.len() / comps;
-        let mut min = vec![f32::INFINITY; comps];
-        let mut max = vec![f32::NEG_INFINITY; comps];
-        for c in data.chunks(comps) {
-            for k in 0..comps {
-                min[k] = min[k].min(c[k]);
-                max[k] = max[k].max(c[k]);
-            }
-        }
+        let (min, max) = crate::io::accessor::f32_bounds(&data, comps);
         scene.accessors.push(RawAccessor {
             component_type: 5126,
             kind: kind.into(),

@@ -92,9 +92,7 @@ pub fn tear_meshes(
         if let Some(err) = frame.error {
             return Err(err);
         }
-        if frames.is_some() {
-            handed += frame.next;
-        }
+        handed += frame.next;
         let seconds = t.elapsed().as_secs_f64();
         report.seconds_per_step = seconds / report.steps.max(1) as f64;
         if report.cg_unconverged > 0 {

@@ -7,7 +7,7 @@ use super::refs::{
     as_idx, remap, set_idx, visit_image_refs, visit_texture_refs, visit_variant_material_refs,
 };
 use super::Document;
-use crate::io::accessor::vector_type;
+use crate::io::accessor::{f32_bounds, vector_type};
 use crate::io::gltf_read::{mime_from_extension, sniff_mime};
 use crate::scene::{
     Geometry, ImageSource, Node, Primitive, RawAccessor, RawGeometry, Scene, Transform, TriGeometry,
@@ -60,14 +60,7 @@ impl Bin {
         let count = data.len() / components;
         let mut a = json!({"bufferView": view, "componentType": 5126, "count": count, "type": vector_type(components)});
         if with_bounds {
-            let mut min = vec![f32::INFINITY; components];
-            let mut max = vec![f32::NEG_INFINITY; components];
-            for v in data.chunks_exact(components) {
-                for k in 0..components {
-                    min[k] = min[k].min(v[k]);
-                    max[k] = max[k].max(v[k]);
-                }
-            }
+            let (min, max) = f32_bounds(data, components);
             a["min"] = min.into_iter().map(|x| x as f64).collect::<Vec<_>>().into();
             a["max"] = max.into_iter().map(|x| x as f64).collect::<Vec<_>>().into();
         }

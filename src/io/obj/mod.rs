@@ -134,9 +134,6 @@ struct Prepared {
     sections: Vec<Section>,
     faces: Vec<FaceRec>,
     corners: Vec<Corner>,
-    n_v: usize,
-    n_vt: usize,
-    n_vn: usize,
     colored: usize,
     skipped_elements: usize,
     short_faces: usize,
@@ -162,8 +159,9 @@ fn read_impl(
         .file_stem()
         .map_or_else(|| name.to_string(), |s| s.to_string_lossy().into_owned());
     let mut prep = preprocess(text, &stem).map_err(|m| Error::input(path, m))?;
-    let strip_colors = prep.colored > 0 && prep.colored < prep.n_v;
-    if prep.colored < prep.n_v {
+    let n_v = prep.data.positions.len();
+    let strip_colors = prep.colored > 0 && prep.colored < n_v;
+    if prep.colored < n_v {
         prep.data.colors = Vec::new();
     }
     if prep.faces.is_empty() {
@@ -215,7 +213,7 @@ fn read_impl(
     let objects = object_primitives(&prep, &data, &mut materials, &mut scene);
     add_objects(objects, &prep, &data, &mut scene);
     // Positions no face uses are not carried into the scene: say how many.
-    let unreferenced = unreferenced_vertices(&prep);
+    let unreferenced = unreferenced_vertices(&prep, data.positions.len());
     if unreferenced > 0 {
         scene.warnings.push(format!(
             "{unreferenced} vertices are not used by any face and are left out"
@@ -294,7 +292,7 @@ fn object_primitives(
 ) -> Vec<Vec<PrimBuilder>> {
     let mut objects: Vec<Vec<PrimBuilder>> = vec![Vec::new(); prep.objects.len()];
     let mut prim_of_section: Vec<Option<usize>> = vec![None; prep.sections.len()];
-    let mut scratch = prim::Scratch::new(prep.n_v);
+    let mut scratch = prim::Scratch::new(data.positions.len());
     for face in &prep.faces {
         let prim = match prim_of_section[face.section] {
             Some(p) => p,
@@ -356,9 +354,9 @@ fn add_objects(objects: Vec<Vec<PrimBuilder>>, prep: &Prepared, data: &Data, sce
     }
 }
 
-/// The number of positions no face uses.
-fn unreferenced_vertices(prep: &Prepared) -> usize {
-    let mut referenced = vec![false; prep.n_v];
+/// The number of the file's `n_v` positions no face uses.
+fn unreferenced_vertices(prep: &Prepared, n_v: usize) -> usize {
+    let mut referenced = vec![false; n_v];
     for c in &prep.corners {
         if let Some(r) = referenced.get_mut(c.v as usize) {
             *r = true;
@@ -535,7 +533,6 @@ impl Prepared {
         if n < 3 {
             return Err(format!("line {no}: invalid vertex 'v {rest}' (expected x y z [w | r g b] as finite numbers)"));
         }
-        self.n_v += 1;
         let [x, y, z, a, b, c] = values;
         let mut position = [x, y, z];
         match n {
@@ -550,7 +547,7 @@ impl Prepared {
             _ => {
                 self.colored += 1;
                 // Uncoloured vertices before this one are white.
-                self.data.colors.resize(self.n_v - 1, [1.0; 3]);
+                self.data.colors.resize(self.data.positions.len(), [1.0; 3]);
                 self.data.colors.push([a, b, c]);
             }
         }
@@ -571,7 +568,6 @@ impl Prepared {
         if n == 0 {
             return Err(format!("line {no}: invalid texture coordinate 'vt {rest}' (expected u [v [w]] as finite numbers)"));
         }
-        self.n_vt += 1;
         self.data.texcoords.push(uv);
         Ok(())
     }
@@ -590,7 +586,6 @@ impl Prepared {
                 "line {no}: invalid normal 'vn {rest}' (expected x y z as finite numbers)"
             ));
         }
-        self.n_vn += 1;
         self.data.normals.push(v);
         Ok(())
     }
@@ -609,16 +604,16 @@ impl Prepared {
                 ));
             }
             let corner = Corner {
-                v: resolve_index(v, self.n_v, "vertex", no)?,
+                v: resolve_index(v, self.data.positions.len(), "vertex", no)?,
                 vt: if vt.is_empty() {
                     ABSENT
                 } else {
-                    resolve_index(vt, self.n_vt, "texture coordinate", no)?
+                    resolve_index(vt, self.data.texcoords.len(), "texture coordinate", no)?
                 },
                 vn: if vn.is_empty() {
                     ABSENT
                 } else {
-                    resolve_index(vn, self.n_vn, "normal", no)?
+                    resolve_index(vn, self.data.normals.len(), "normal", no)?
                 },
             };
             self.corners.push(corner);
