@@ -248,7 +248,7 @@ mod tests {
         };
         let (mut st, _) = crate::sim::driver::start(&mesh, &params, None).unwrap();
         let tension = Sym3::outer([1.0, 0.0, 0.0]) + Sym3::outer([0.0, 1.0, 0.0]);
-        st.frozen = Some(vec![tension; mesh.n_vertices()]);
+        st.freeze(vec![tension; mesh.n_vertices()]);
         let at = |x: f64, y: f64| {
             mesh.vertices()
                 .find(|&v| {

@@ -27,8 +27,6 @@ use crate::sim::separation::separations;
 use crate::sim::state::apply_event;
 use crate::sim::state::observe;
 use crate::sim::state::touched_nodes;
-use crate::sim::state::ImplicitScratch;
-use crate::sim::state::RoundCache;
 use crate::sim::state::State;
 use crate::sim::Integrator;
 use crate::sim::Model;
@@ -224,7 +222,7 @@ fn run_once(
                 .into_par_iter()
                 .map(|v| separation_tensor(mesh, &st.els, &st.stress, VertexId(v as u32)))
                 .collect();
-            st.frozen = Some(fz);
+            st.freeze(fz);
         }
         // ---- queue every failing node
         let sep = separations(mesh, &fans, &st, params.toughness);
@@ -276,8 +274,8 @@ fn run_once(
     report.energy[1] = energy(&st.els, &st.stress);
     report.triangles[1] = mesh.n_faces();
     report.nodes[1] = mesh.n_vertices();
-    report.displacement = st.displacement;
-    report.crack_time = st.crack_time;
+    report.displacement = st.displacement.into_values();
+    report.crack_time = st.crack_time.into_values();
     report.diffusion_work = st.diffusion_work;
     Ok(report)
 }
@@ -399,7 +397,7 @@ fn crack_while_failing(
                 fz[v.idx()] = raw - Sym3::m(e) * l;
             }
         }
-        if !apply_event(mesh, st, params, report, &ev) {
+        if !apply_event(mesh, st, report, &ev) {
             continue;
         }
         if let Some(film) = &mut st.film {
@@ -494,43 +492,28 @@ pub(in crate::sim) fn start(
     };
     // Elements in normalised units.
     let clamp = Elements::clamp_threshold(mesh, params.clamp_factor) * unit;
-    let mut st = State {
-        els: Elements {
+    let mut st = State::new(
+        mesh,
+        params,
+        [
+            field.map(|f| f.init.clone()).unwrap_or_default(),
+            field.map(|f| f.evolve.clone()).unwrap_or_default(),
+        ],
+        field
+            .map(|f| f.separation_scale.clone())
+            .unwrap_or_default(),
+        film,
+        Elements {
             elements: Vec::new(),
             clamp,
         },
-        stress: field.map(|f| f.init.clone()).unwrap_or_default(),
-        residual: Vec::new(),
-        frozen: None,
-        fixed: mesh
-            .vertices()
-            .map(|v| {
-                (params.fixed_boundary && mesh.is_boundary_vertex(v))
-                    || State::in_fixed_group(mesh, params, v)
-            })
-            .collect(),
-        shrink_scale: Vec::new(),
-        evolve: field.map(|f| f.evolve.clone()).unwrap_or_default(),
-        sep_scale: field
-            .map(|f| f.separation_scale.clone())
-            .unwrap_or_default(),
-        displacement: Vec::new(),
-        crack_time: Vec::new(),
-        crack_degree: Vec::new(),
         unit,
-        corner: Vec::new(),
-        warm: Vec::new(),
-        diffusion_work: 0,
-        cache: RoundCache::default(),
-        implicit: ImplicitScratch::default(),
-        film,
-        segment_at: Default::default(),
-    };
+    );
     st.els.elements = (0..mesh.n_faces())
         .into_par_iter()
         .map(|f| st.element(mesh, FaceId(f as u32)))
         .collect();
-    st.grow(mesh, params);
+    st.grow(mesh);
     // The rounds' working memory, paged in with the rest of the state (it
     // lives as long as the state; a fresh allocation would otherwise be
     // paged in during the first round).
@@ -596,7 +579,7 @@ pub fn relax_only(
         .map(|e| e.as_ref().map_or(0.0, |e| e.area))
         .collect();
     Ok(Relaxed {
-        stress: st.stress,
+        stress: st.stress.into_values(),
         areas,
         report,
         seconds,

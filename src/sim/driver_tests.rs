@@ -598,27 +598,33 @@ fn a_region_of_every_node_is_the_global_step() {
         shrink_rate: 0.0,
     };
     let before = (
-        st.stress.clone(),
-        st.displacement.clone(),
+        st.stress.to_vec(),
+        st.displacement.to_vec(),
         st.corner.clone(),
     );
     let mut g = Vec::new();
     relax_and_evolve(&fans, &normals, &mobility, &mut st, dt, unloaded, &mut g);
     let global = (
-        st.stress.clone(),
-        st.displacement.clone(),
+        st.stress.to_vec(),
+        st.displacement.to_vec(),
         st.corner.clone(),
     );
-    (st.stress, st.displacement, st.corner) = before.clone();
+    let (stress, displacement, corner) = before.clone();
+    st.stress.replace(stress);
+    st.displacement.replace(displacement);
+    st.corner = corner;
     let all: Vec<VertexId> = mesh.vertices().collect();
     let region = Region::around(&fans, &all, 0);
     let mut g = vec![[0.0; 3]; fans.n_vertices()];
     relax_region(&fans, &normals, &mobility, &mut st, dt, &region, &mut g);
-    assert_eq!(st.stress, global.0);
-    assert_eq!(st.displacement, global.1);
+    assert_eq!(*st.stress, *global.0);
+    assert_eq!(*st.displacement, *global.1);
     assert_eq!(st.corner, global.2);
     // A region of two rings around one node.
-    (st.stress, st.displacement, st.corner) = before.clone();
+    let (stress, displacement, corner) = before.clone();
+    st.stress.replace(stress);
+    st.displacement.replace(displacement);
+    st.corner = corner;
     let small = Region::around(&fans, &[VertexId(55)], 2);
     let nodes = small.inside.iter().filter(|&&i| i).count();
     assert!(nodes > 7 && nodes < 40, "{nodes}");
@@ -710,30 +716,19 @@ fn finishing_runs_open_tips_into_cracks_or_the_border() {
     let r0 = run(&mut open, &params, &mut ()).unwrap();
     let st_tips = |mesh: &SimMesh, r: &SimReport| {
         // Tips as the finisher sees them (residuals do not matter for counting).
-        let st = State {
-            els: Elements {
+        let mut st = State::new(
+            mesh,
+            &SimParams::default(),
+            [Vec::new(), Vec::new()],
+            Vec::new(),
+            None,
+            Elements {
                 elements: Vec::new(),
                 clamp: 0.0,
             },
-            stress: Vec::new(),
-            residual: vec![Sym3::ZERO; mesh.n_vertices()],
-            frozen: None,
-            fixed: Vec::new(),
-            shrink_scale: Vec::new(),
-            evolve: Vec::new(),
-            sep_scale: Vec::new(),
-            displacement: Vec::new(),
-            crack_time: Vec::new(),
-            crack_degree: Vec::new(),
-            unit: r.length_unit,
-            corner: Vec::new(),
-            warm: Vec::new(),
-            diffusion_work: 0,
-            cache: RoundCache::default(),
-            implicit: ImplicitScratch::default(),
-            film: None,
-            segment_at: Default::default(),
-        };
+            r.length_unit,
+        );
+        st.grow(mesh);
         finish_tips(mesh, &st).len()
     };
     let before = st_tips(&open, &r0);

@@ -146,7 +146,7 @@ pub(in crate::sim) fn finish_cracks(
             let left = reach
                 .as_ref()
                 .and_then(|r| r.get(&vertex_root(mesh, v).0).copied());
-            if apply_event(mesh, st, params, report, &ev) {
+            if apply_event(mesh, st, report, &ev) {
                 moved = true;
                 if let (Some(r), Some(left)) = (reach.as_mut(), left) {
                     for &(_, tip) in &ev.segments {

@@ -17,6 +17,7 @@ mod integrate;
 mod load;
 pub mod observer;
 pub mod params;
+mod per_element;
 pub mod queue;
 pub mod relax;
 pub mod report;

@@ -93,7 +93,7 @@ fn eigen_diffusion_spreads_and_conserves_the_eigenvalues() {
     // A peak on one node, a flat positive field elsewhere.
     let mut fz = vec![Sym3::outer([1.0, 0.0, 0.0]) * 1.0; mesh.n_vertices()];
     fz[60] = Sym3::outer([0.0, 1.0, 0.0]) * 10.0;
-    st.frozen = Some(fz);
+    st.freeze(fz);
     let eig = |st: &State| -> Vec<f64> {
         (0..mesh.n_vertices())
             .map(|v| node_separation(&mesh, st, VertexId(v as u32)).max_eigen().0)

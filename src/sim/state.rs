@@ -1,12 +1,15 @@
-//! The run's state that grows with the mesh: per-node and per-face arrays,
-//! the caches of a round, and [`apply_event`], which applies one crack's
-//! mutation events to every array (the transfer rules in one place).
+//! The run's state that grows with the mesh: per-node and per-face arrays
+//! ([`PerNode`], [`PerFace`]: each declared in [`State::new`] with the rule
+//! that gives new elements their values), the caches of a round, and
+//! [`apply_event`], which applies one crack's mutation events to every
+//! array ([`State::arrays`] lists them once).
 
 use crate::geometry::element::Element;
 use crate::math::{hash_unit, v3, Sym3};
 use crate::mesh::{FaceId, SimMesh, VertexId};
 use crate::sim::energy;
 use crate::sim::forces::{face_points, Elements, Fans};
+use crate::sim::per_element::{Born, Grows, PerFace, PerNode};
 use crate::sim::Observer;
 use crate::sim::SimParams;
 use crate::sim::SimReport;
@@ -17,24 +20,24 @@ use std::sync::Arc;
 /// Simulation state that grows with the mesh.
 pub(in crate::sim) struct State {
     pub(in crate::sim) els: Elements,
-    pub(in crate::sim) stress: Vec<Sym3>,
-    pub(in crate::sim) residual: Vec<Sym3>,
-    pub(in crate::sim) fixed: Vec<bool>,
+    pub(in crate::sim) stress: PerFace<Sym3>,
+    pub(in crate::sim) residual: PerNode<Sym3>,
+    pub(in crate::sim) fixed: PerNode<bool>,
     /// Load multiplier per face (seeded noise).
-    pub(in crate::sim) shrink_scale: Vec<f64>,
+    pub(in crate::sim) shrink_scale: PerFace<f64>,
     /// Evolution of the stress field per unit time, per face (children copy
     /// their parent's).
-    pub(in crate::sim) evolve: Vec<Sym3>,
+    pub(in crate::sim) evolve: PerFace<Sym3>,
     /// Factor on each face's contribution to node separation (empty: 1;
     /// children copy their parent's).
-    pub(in crate::sim) sep_scale: Vec<f64>,
+    pub(in crate::sim) sep_scale: PerFace<f64>,
     /// Accumulated virtual displacement per node (for crack width later).
-    pub(in crate::sim) displacement: Vec<[f64; 3]>,
+    pub(in crate::sim) displacement: PerNode<[f64; 3]>,
     /// Time each node first lay on a crack (NaN: never).
-    pub(in crate::sim) crack_time: Vec<f64>,
+    pub(in crate::sim) crack_time: PerNode<f64>,
     /// Cracks meeting at each node, indexed by the node's root (all copies
     /// of a crack node share it): 2 along a crack, 3 at a T.
-    pub(in crate::sim) crack_degree: Vec<u8>,
+    pub(in crate::sim) crack_degree: PerNode<u8>,
     pub(in crate::sim) unit: f64,
     /// Scratch: per-corner element forces of the current step.
     pub(in crate::sim) corner: Vec<[f64; 3]>,
@@ -50,7 +53,7 @@ pub(in crate::sim) struct State {
     /// With eigen-diffusion: every node's separation tensor, taken from
     /// the stress once after the first round and then changed only by
     /// cracking and diffusion (`None`: computed from the stress).
-    pub(in crate::sim) frozen: Option<Vec<Sym3>>,
+    pub(in crate::sim) frozen: Option<PerNode<Sym3>>,
     /// A bonded film's state, when the run has a cell size.
     pub(in crate::sim) film: Option<crate::sim::film::Film>,
     /// Where each recorded crack segment is in the report's `segments`,
@@ -219,80 +222,125 @@ impl State {
     }
 
     pub(in crate::sim) fn in_fixed_group(mesh: &SimMesh, params: &SimParams, v: VertexId) -> bool {
-        !params.fixed_groups.is_empty()
-            && mesh
-                .vertex_faces(v)
-                .any(|f| params.fixed_groups.contains(&mesh.face_group(f)))
+        in_groups(mesh, &params.fixed_groups, v)
     }
 
-    /// Extend per-node and per-face state to new nodes and faces.
-    /// Duplicates inherit their parent's displacement and crack time;
-    /// inserted vertices are settled by the caller.
-    pub(in crate::sim) fn grow(&mut self, mesh: &SimMesh, params: &SimParams) {
-        self.residual.resize(mesh.n_vertices(), Sym3::ZERO);
-        self.crack_degree.resize(mesh.n_vertices(), 0);
-        if let Some(fz) = &mut self.frozen {
-            while fz.len() < mesh.n_vertices() {
-                let v = VertexId(fz.len() as u32);
-                let parent = mesh.vertex_parent(v);
-                let s = if parent != v {
-                    fz.get(parent.idx()).copied()
-                } else {
-                    None
-                };
-                fz.push(s.unwrap_or(Sym3::ZERO));
-            }
-        }
-        while self.displacement.len() < mesh.n_vertices() {
-            let v = VertexId(self.displacement.len() as u32);
-            let parent = mesh.vertex_parent(v);
-            let (d, t) = if parent != v && parent.idx() < self.displacement.len() {
-                (
-                    self.displacement[parent.idx()],
-                    self.crack_time[parent.idx()],
-                )
-            } else {
-                ([0.0; 3], f64::NAN)
-            };
-            self.displacement.push(d);
-            self.crack_time.push(t);
-        }
-        while self.fixed.len() < mesh.n_vertices() {
-            let v = VertexId(self.fixed.len() as u32);
-            // Duplicates inherit fixedness from their parent; inserted
-            // vertices are settled by the caller (it knows the split edge).
-            let parent = mesh.vertex_parent(v);
-            let f = (parent != v && self.fixed.get(parent.idx()).copied().unwrap_or(false))
-                || Self::in_fixed_group(mesh, params, v);
-            self.fixed.push(f);
-        }
-        self.els.elements.resize(mesh.n_faces(), None);
-        self.stress.resize(mesh.n_faces(), Sym3::ZERO);
-        if !self.evolve.is_empty() {
-            self.evolve.resize(mesh.n_faces(), Sym3::ZERO);
-        }
-        if !self.sep_scale.is_empty() {
-            self.sep_scale.resize(mesh.n_faces(), 1.0);
-        }
-        while self.shrink_scale.len() < mesh.n_faces() {
-            let f = FaceId(self.shrink_scale.len() as u32);
-            let u = match &self.film {
-                // A world-space field: the same wherever the triangles are.
-                Some(film) => {
+    /// The per-node and per-face arrays of a run on `mesh`, each with the
+    /// rule that gives new nodes and faces their values: `stress`, `evolve`
+    /// and `sep_scale` as given (the last two may be empty: none), the
+    /// others filled by the first [`State::grow`].
+    pub(in crate::sim) fn new(
+        mesh: &SimMesh,
+        params: &SimParams,
+        faces: [Vec<Sym3>; 2],
+        sep_scale: Vec<f64>,
+        film: Option<crate::sim::film::Film>,
+        els: Elements,
+        unit: f64,
+    ) -> State {
+        let [stress, evolve] = faces;
+        // A world-space field: the same wherever the triangles are.
+        let noise_at = film
+            .as_ref()
+            .map(|film| crate::sim::film::NOISE_SPACING * film.cell);
+        let (seed, noise) = (params.seed, params.noise);
+        let shrink_scale = Born::With(Box::new(move |mesh: &SimMesh, f, _: Option<&f64>| {
+            let f = FaceId(f);
+            let u = match noise_at {
+                Some(spacing) => {
                     let c = face_points(mesh, f)
                         .iter()
                         .fold([0.0; 3], |a, p| v3::add(a, *p));
-                    let spacing = crate::sim::film::NOISE_SPACING * film.cell;
-                    crate::math::value_noise(params.seed, v3::scale(c, 1.0 / (3.0 * spacing)))
+                    crate::math::value_noise(seed, v3::scale(c, 1.0 / (3.0 * spacing)))
                 }
-                None => hash_unit(params.seed, u64::from(mesh.face_source(f))),
+                None => hash_unit(seed, u64::from(mesh.face_source(f))),
             };
-            self.shrink_scale.push(1.0 + params.noise * u);
+            1.0 + noise * u
+        }));
+        // A copy is fixed with its original, any new node in a fixed
+        // group; a node inserted on a fixed border edge is fixed.
+        let groups = params.fixed_groups.clone();
+        let fixed_boundary = params.fixed_boundary;
+        let initially = mesh
+            .vertices()
+            .map(|v| {
+                (fixed_boundary && mesh.is_boundary_vertex(v))
+                    || State::in_fixed_group(mesh, params, v)
+            })
+            .collect();
+        let fixed = PerNode::new(
+            initially,
+            Born::With(Box::new(move |mesh: &SimMesh, v, parent: Option<&bool>| {
+                parent.copied().unwrap_or(false) || in_groups(mesh, &groups, VertexId(v))
+            })),
+        )
+        .on_edges(move |e| (e.border && *e.a && *e.b && fixed_boundary) || *e.current);
+        State {
+            els,
+            stress: PerFace::new(stress, Born::Value(Sym3::ZERO)).copied_on_split(),
+            residual: PerNode::new(Vec::new(), Born::Value(Sym3::ZERO)),
+            frozen: None,
+            fixed,
+            shrink_scale: PerFace::new(Vec::new(), shrink_scale),
+            evolve: PerFace::optional(evolve, Born::Value(Sym3::ZERO)).copied_on_split(),
+            sep_scale: PerFace::optional(sep_scale, Born::Value(1.0)).copied_on_split(),
+            displacement: PerNode::new(Vec::new(), Born::Parent([0.0; 3])).lerp_on_edges(),
+            crack_time: PerNode::new(Vec::new(), Born::Parent(f64::NAN)),
+            crack_degree: PerNode::new(Vec::new(), Born::Value(0)),
+            unit,
+            corner: Vec::new(),
+            warm: Vec::new(),
+            diffusion_work: 0,
+            cache: RoundCache::default(),
+            implicit: ImplicitScratch::default(),
+            film,
+            segment_at: Default::default(),
         }
+    }
+
+    /// Every per-node and per-face array that follows the mesh: the one
+    /// list [`State::grow`] and [`apply_event`] walk.
+    fn arrays(&mut self) -> [&mut dyn Grows; 10] {
+        [
+            &mut self.stress,
+            &mut self.residual,
+            &mut self.frozen,
+            &mut self.fixed,
+            &mut self.shrink_scale,
+            &mut self.evolve,
+            &mut self.sep_scale,
+            &mut self.displacement,
+            &mut self.crack_time,
+            &mut self.crack_degree,
+        ]
+    }
+
+    /// Take the separation tensors of every node for eigen-diffusion
+    /// (see `frozen`); a copy takes its original's, a node inserted on an
+    /// edge is interpolated.
+    pub(in crate::sim) fn freeze(&mut self, tensors: Vec<Sym3>) {
+        self.frozen = Some(PerNode::new(tensors, Born::Parent(Sym3::ZERO)).lerp_on_edges());
+    }
+
+    /// Give the nodes and faces the mesh gained their values, each array
+    /// by its rule; the elements of new faces are left to the caller.
+    pub(in crate::sim) fn grow(&mut self, mesh: &SimMesh) {
+        for a in self.arrays() {
+            a.grow(mesh);
+        }
+        self.els.elements.resize(mesh.n_faces(), None);
         if let Some(film) = &mut self.film {
             film.grow(mesh.n_vertices());
         }
     }
+}
+
+/// Whether `v` lies on a face of one of the fixed `groups`.
+fn in_groups(mesh: &SimMesh, groups: &[u32], v: VertexId) -> bool {
+    !groups.is_empty()
+        && mesh
+            .vertex_faces(v)
+            .any(|f| groups.contains(&mesh.face_group(f)))
 }
 
 /// Book-keeping after `crack_node`: grow the state, fix vertices on fixed
@@ -302,29 +350,12 @@ impl State {
 pub(in crate::sim) fn apply_event(
     mesh: &SimMesh,
     st: &mut State,
-    params: &SimParams,
     report: &mut SimReport,
     ev: &crate::sim::crack::CrackEvent,
 ) -> bool {
-    st.grow(mesh, params);
-    for (&q, &(a, b, border)) in ev.inserted.iter().zip(&ev.inserted_on) {
-        // A vertex on a fixed border edge is fixed.
-        if border && st.fixed[a.idx()] && st.fixed[b.idx()] && params.fixed_boundary {
-            st.fixed[q.idx()] = true;
-        }
-        // Its displacement is interpolated along the edge it split.
-        let (pa, pb, pq) = (mesh.position(a), mesh.position(b), mesh.position(q));
-        let l = v3::norm(v3::sub(pb, pa));
-        let t = if l > 0.0 {
-            (v3::norm(v3::sub(pq, pa)) / l).clamp(0.0, 1.0)
-        } else {
-            0.5
-        };
-        let (da, db) = (st.displacement[a.idx()], st.displacement[b.idx()]);
-        st.displacement[q.idx()] = v3::add(v3::scale(da, 1.0 - t), v3::scale(db, t));
-        if let Some(fz) = &mut st.frozen {
-            fz[q.idx()] = fz[a.idx()] * (1.0 - t) + fz[b.idx()] * t;
-        }
+    st.grow(mesh);
+    for a in st.arrays() {
+        a.settle_inserted(mesh, ev);
     }
     for (&q, &(a, b, border)) in ev.inserted.iter().zip(&ev.inserted_on) {
         if border {
@@ -378,14 +409,10 @@ pub(in crate::sim) fn apply_event(
     }
     // Children inherit their parent's stress; touched faces get new elements.
     let mut touched: Vec<FaceId> = Vec::new();
+    for a in st.arrays() {
+        a.settle_split(ev);
+    }
     for &(parent, child) in &ev.split_faces {
-        st.stress[child.idx()] = st.stress[parent.idx()];
-        if !st.evolve.is_empty() {
-            st.evolve[child.idx()] = st.evolve[parent.idx()];
-        }
-        if !st.sep_scale.is_empty() {
-            st.sep_scale[child.idx()] = st.sep_scale[parent.idx()];
-        }
         touched.push(parent);
         touched.push(child);
     }

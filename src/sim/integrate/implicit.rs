@@ -68,7 +68,7 @@ impl Scheme for Implicit {
         // no product beyond the solver's own.
         let carry = region.is_none() && params.integrator == Integrator::BackwardEuler;
         let mut bufs = std::mem::take(&mut st.implicit);
-        let mut stress = std::mem::take(&mut st.stress);
+        let mut stress = st.stress.take();
         // The force at the current stress, and the force of a unit of
         // load time.
         let wants_load = carry && loading && params.load_time > *loaded;
@@ -150,7 +150,7 @@ impl Scheme for Implicit {
                 fans,
             );
         }
-        st.stress = stress;
+        st.stress.replace(stress);
         st.warm = x;
         st.implicit = bufs;
         // `st.corner` holds the corner forces at the final stress (the last

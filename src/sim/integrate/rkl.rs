@@ -226,8 +226,8 @@ impl Scheme for Rkl {
         let sampled = report.phases.len() % RKL_ESTIMATE_EVERY == 0;
         let start = sampled.then(|| {
             (
-                st.stress.clone(),
-                st.displacement.clone(),
+                st.stress.to_vec(),
+                st.displacement.to_vec(),
                 st.corner.clone(),
                 *loaded,
             )
@@ -260,8 +260,8 @@ impl Scheme for Rkl {
         let stages = run(st, loaded, supers, tau);
         if let Some((stress, displacement, corner, mut half_loaded)) = start {
             let result = (
-                std::mem::replace(&mut st.stress, stress),
-                std::mem::replace(&mut st.displacement, displacement),
+                st.stress.replace(stress),
+                st.displacement.replace(displacement),
                 std::mem::replace(&mut st.corner, corner),
             );
             run(st, &mut half_loaded, 2 * supers, tau / 2.0);
@@ -277,7 +277,10 @@ impl Scheme for Rkl {
             } else {
                 0.0
             });
-            (st.stress, st.displacement, st.corner) = result;
+            let (stress, displacement, corner) = result;
+            st.stress.replace(stress);
+            st.displacement.replace(displacement);
+            st.corner = corner;
         }
         report.time += params.relax_time;
         report.relax_steps += supers * stages;
