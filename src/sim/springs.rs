@@ -13,6 +13,7 @@ use crate::math::hash_unit;
 use crate::math::v3;
 use crate::mesh::{HalfedgeId, SimMesh, VertexId};
 pub use crate::sim::params::{DryingLaw, SpringParams};
+use crate::sim::per_element::{Born, Grows, PerNode};
 use crate::sim::{Observer, SimError, SimParams, SimReport, Snapshot};
 
 mod finish;
@@ -93,12 +94,15 @@ struct Spring {
 /// The state of a spring run (normalised units).
 struct Springs {
     springs: Vec<Spring>,
-    x: Vec<[f64; 3]>,
-    x0: Vec<[f64; 3]>,
-    v: Vec<[f64; 3]>,
-    normals: Vec<[f64; 3]>,
-    fixed: Vec<bool>,
-    crack_time: Vec<f64>,
+    /// Per node (a crack's copy of a node takes the original's values):
+    /// position, rest position, velocity, rest normal, fixedness, and the
+    /// time it first lay on a crack (NaN: never).
+    x: PerNode<[f64; 3]>,
+    x0: PerNode<[f64; 3]>,
+    v: PerNode<[f64; 3]>,
+    normals: PerNode<[f64; 3]>,
+    fixed: PerNode<bool>,
+    crack_time: PerNode<f64>,
     /// Per node: (spring, +1 or -1 for the force's sign at it), in spring order.
     adjacency: Vec<Vec<(u32, f64)>>,
 }
@@ -174,16 +178,29 @@ impl Springs {
                 }
             })
             .collect();
+        let copied = |values, none| PerNode::new(values, Born::Parent(none));
         Springs {
             springs,
-            x: x0.clone(),
-            x0,
-            v: vec![[0.0; 3]; n],
-            normals,
-            fixed,
-            crack_time: vec![f64::NAN; n],
+            x: copied(x0.clone(), [0.0; 3]),
+            x0: copied(x0, [0.0; 3]),
+            v: copied(vec![[0.0; 3]; n], [0.0; 3]),
+            normals: copied(normals, [0.0; 3]),
+            fixed: PerNode::new(fixed, Born::Parent(false)),
+            crack_time: PerNode::new(vec![f64::NAN; n], Born::Parent(f64::NAN)),
             adjacency: Vec::new(),
         }
+    }
+
+    /// Every per-node array, for [`Grows::grow`] after a crack.
+    fn arrays(&mut self) -> [&mut dyn Grows; 6] {
+        [
+            &mut self.x,
+            &mut self.x0,
+            &mut self.v,
+            &mut self.normals,
+            &mut self.fixed,
+            &mut self.crack_time,
+        ]
     }
 
     /// Rebuild the node-to-spring lists (after the mesh changed).
@@ -484,7 +501,7 @@ pub fn run(
             .zip(&st.x0)
             .map(|(x, x0)| v3::scale(v3::sub(*x, *x0), unit))
             .collect();
-    report.crack_time = st.crack_time;
+    report.crack_time = st.crack_time.into_values();
     Ok(report)
 }
 
@@ -688,15 +705,12 @@ fn break_spring(
     };
     let across = [centroid(mesh.face(h)), centroid(mesh.face(twin))];
     let opened = mesh.open_edge(h).map_err(SimError::Mesh)?;
-    for &(new, src) in &opened.new_vertices {
-        debug_assert_eq!(new.idx(), st.x.len());
-        let s = src.idx();
-        st.x.push(st.x[s]);
-        st.x0.push(st.x0[s]);
-        st.v.push(st.v[s]);
-        st.normals.push(st.normals[s]);
-        st.fixed.push(st.fixed[s]);
-        st.crack_time.push(st.crack_time[s]);
+    debug_assert!(opened
+        .new_vertices
+        .iter()
+        .all(|&(new, src)| mesh.vertex_parent(new) == src));
+    for a in st.arrays() {
+        a.grow(mesh);
     }
     st.split_lists(mesh, &opened.new_vertices);
     for u in [a, b] {
@@ -742,12 +756,12 @@ mod tests {
                     broken: false,
                 })
                 .collect(),
-            x0: x.clone(),
-            x,
-            v: vec![[0.0; 3]; n],
-            normals: vec![[0.0, 0.0, 1.0]; n],
-            fixed,
-            crack_time: vec![f64::NAN; n],
+            x0: PerNode::new(x.clone(), Born::Parent([0.0; 3])),
+            x: PerNode::new(x, Born::Parent([0.0; 3])),
+            v: PerNode::new(vec![[0.0; 3]; n], Born::Parent([0.0; 3])),
+            normals: PerNode::new(vec![[0.0, 0.0, 1.0]; n], Born::Parent([0.0; 3])),
+            fixed: PerNode::new(fixed, Born::Parent(false)),
+            crack_time: PerNode::new(vec![f64::NAN; n], Born::Parent(f64::NAN)),
             adjacency: Vec::new(),
         };
         st.rebuild_lists();
