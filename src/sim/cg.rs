@@ -89,6 +89,11 @@ pub struct Vectors<'a, V> {
 /// ap)` writes `A p` into `ap` and returns `p . A p` (summed in fixed chunks);
 /// `precondition(n, r)` is the preconditioner's block at node `n` applied to
 /// `r`. The report's residual is the recurrence's.
+///
+/// A node's preconditioned residual needs only that node's residual, so one
+/// pass over the nodes updates the solution and the residual, sums `r . r`,
+/// applies the preconditioner and sums `r . z` (each sum in the order
+/// [`dot`] takes: the same numbers as separate passes, read once).
 pub fn iterate<V: NodeVector>(
     product: impl FnMut(&[V], &mut [V]) -> f64,
     precondition: impl Fn(usize, V) -> V + Sync,
@@ -108,36 +113,63 @@ pub fn iterate<V: NodeVector>(
                 }
             });
     };
-    iterate_with(product, whole, v, norm_b, tol, max_iter, report);
+    let fused = |alpha: f64, v: &mut Vectors<'_, V>| {
+        let parts: Vec<(f64, f64)> =
+            v.x.par_chunks_mut(CHUNK)
+                .zip(v.r.par_chunks_mut(CHUNK))
+                .zip(v.z.par_chunks_mut(CHUNK))
+                .zip(v.p.par_chunks(CHUNK).zip(v.ap.par_chunks(CHUNK)))
+                .enumerate()
+                .map(|(c, (((x, r), z), (p, ap)))| {
+                    // `rz` starts as `Iterator::sum` does, as in `dot`.
+                    let (mut rr, mut rz) = (0.0, -0.0);
+                    for i in 0..x.len() {
+                        x[i] = x[i].add_scaled(alpha, p[i]);
+                        r[i] = r[i].sub_scaled(alpha, ap[i]);
+                        rr += r[i].dot(r[i]);
+                        z[i] = precondition(c * CHUNK + i, r[i]);
+                        rz += r[i].dot(z[i]);
+                    }
+                    (rr, rz)
+                })
+                .collect();
+        let rr: f64 = parts.iter().map(|p| p.0).sum();
+        let rz = parts.iter().fold(0.0, |a, p| a + p.1);
+        (rr, Some(rz))
+    };
+    run(product, whole, fused, v, norm_b, tol, max_iter, report);
 }
 
 /// As [`iterate`], with a preconditioner that works on the whole vector:
 /// `precondition(r, z)` writes `M^-1 r` into `z` (a multigrid cycle, say).
 pub fn iterate_with<V: NodeVector>(
-    mut product: impl FnMut(&[V], &mut [V]) -> f64,
-    mut precondition: impl FnMut(&[V], &mut [V]),
+    product: impl FnMut(&[V], &mut [V]) -> f64,
+    precondition: impl FnMut(&[V], &mut [V]),
     v: Vectors<'_, V>,
     norm_b: f64,
     tol: f64,
     max_iter: usize,
     report: &mut CgReport,
 ) {
-    let Vectors { x, r, z, p, ap } = v;
-    precondition(r, z);
-    p.copy_from_slice(z);
-    let mut rz = dot(r, z);
-    for it in 0..max_iter {
-        let pap = product(p, ap);
-        if !(pap > 0.0 && pap.is_finite()) {
-            report.iterations = it;
-            break;
-        }
-        let alpha = rz / pap;
-        // x += alpha p, r -= alpha ap; r . r.
-        let parts: Vec<f64> = x
-            .par_chunks_mut(CHUNK)
-            .zip(r.par_chunks_mut(CHUNK))
-            .zip(p.par_chunks(CHUNK).zip(ap.par_chunks(CHUNK)))
+    let update = |alpha: f64, v: &mut Vectors<'_, V>| (update(alpha, v), None);
+    run(
+        product,
+        precondition,
+        update,
+        v,
+        norm_b,
+        tol,
+        max_iter,
+        report,
+    );
+}
+
+/// `x += alpha p`, `r -= alpha ap`; returns `r . r` (summed in fixed chunks).
+fn update<V: NodeVector>(alpha: f64, v: &mut Vectors<'_, V>) -> f64 {
+    let parts: Vec<f64> =
+        v.x.par_chunks_mut(CHUNK)
+            .zip(v.r.par_chunks_mut(CHUNK))
+            .zip(v.p.par_chunks(CHUNK).zip(v.ap.par_chunks(CHUNK)))
             .map(|((x, r), (p, ap))| {
                 let mut rr = 0.0;
                 for i in 0..x.len() {
@@ -148,7 +180,34 @@ pub fn iterate_with<V: NodeVector>(
                 rr
             })
             .collect();
-        let rr: f64 = parts.iter().sum();
+    parts.iter().sum()
+}
+
+/// The iteration: `step(alpha, v)` updates `x` and `r` and returns `r . r`,
+/// and `r . z` when it has also preconditioned the new residual into `z`
+/// (else `precondition` and [`dot`] follow, if the iteration goes on).
+#[allow(clippy::too_many_arguments)]
+fn run<V: NodeVector>(
+    mut product: impl FnMut(&[V], &mut [V]) -> f64,
+    mut precondition: impl FnMut(&[V], &mut [V]),
+    mut step: impl FnMut(f64, &mut Vectors<'_, V>) -> (f64, Option<f64>),
+    mut v: Vectors<'_, V>,
+    norm_b: f64,
+    tol: f64,
+    max_iter: usize,
+    report: &mut CgReport,
+) {
+    precondition(v.r, v.z);
+    v.p.copy_from_slice(v.z);
+    let mut rz = dot(v.r, v.z);
+    for it in 0..max_iter {
+        let pap = product(v.p, v.ap);
+        if !(pap > 0.0 && pap.is_finite()) {
+            report.iterations = it;
+            break;
+        }
+        let alpha = rz / pap;
+        let (rr, rz_next) = step(alpha, &mut v);
         let rel = rr.sqrt() / norm_b;
         report.iterations = it + 1;
         report.relative_residual = rel;
@@ -156,12 +215,14 @@ pub fn iterate_with<V: NodeVector>(
             report.converged = true;
             break;
         }
-        precondition(r, z);
-        let rz_new = dot(r, z);
+        let rz_new = rz_next.unwrap_or_else(|| {
+            precondition(v.r, v.z);
+            dot(v.r, v.z)
+        });
         let beta = rz_new / rz;
         rz = rz_new;
-        p.par_iter_mut()
-            .zip(z.par_iter())
+        v.p.par_iter_mut()
+            .zip(v.z.par_iter())
             .for_each(|(p, z)| *p = z.add_scaled(beta, *p));
     }
 }
