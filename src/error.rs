@@ -10,6 +10,11 @@ use crate::sim::SimError;
 use crate::stress::texture::TextureError;
 use std::path::PathBuf;
 
+mod config;
+pub use config::{
+    ConfigError, EntryError, FramesError, MaskImageError, MaskMaterialError, SetError,
+};
+
 /// Everything that can go wrong in the library.
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
@@ -59,6 +64,10 @@ pub enum Error {
     /// The time-lapse frames could not be made or written.
     #[error("{0}")]
     Frames(String),
+    /// The time-lapse frames asked for cannot be made (exit code 2 on the
+    /// command line).
+    #[error(transparent)]
+    FramesRequest(#[from] FramesError),
     /// The asset has nothing to crack.
     #[error("{}: nothing to crack: {why}", path.display())]
     NothingToCrack {
@@ -97,13 +106,13 @@ impl Error {
 }
 
 /// A pipeline error; the message names the file (or preset) and the key.
-#[derive(Debug, thiserror::Error, PartialEq)]
-#[error("{source_name}: {message}")]
+#[derive(Debug, thiserror::Error)]
+#[error("{source_name}: {error}")]
 pub struct PipelineError {
     /// File path or `preset NAME`.
     pub source_name: String,
     /// What is wrong, naming the key.
-    pub message: String,
+    pub error: ConfigError,
 }
 
 /// Result with the library's error.

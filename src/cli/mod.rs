@@ -233,7 +233,10 @@ pub fn exit_code(e: &anyhow::Error) -> u8 {
         || matches!(
             e.downcast_ref::<crackle::Error>(),
             Some(
-                crackle::Error::Config(_) | crackle::Error::Usage(_) | crackle::Error::Pipeline(_)
+                crackle::Error::Config(_)
+                    | crackle::Error::Usage(_)
+                    | crackle::Error::Pipeline(_)
+                    | crackle::Error::FramesRequest(_)
             )
         )
     {

@@ -73,7 +73,7 @@ pub fn bake_mesh(
             cell,
             post,
         )
-        .map_err(&fail)?;
+        .map_err(|e| fail(e.to_string()))?;
         details.push(d);
     }
     Ok(MeshBake { materials: details })
@@ -133,6 +133,32 @@ fn has_slot(json: &Map<String, Value>, slot: &str) -> bool {
     }
 }
 
+/// Why the crack maps of one material's primitives cannot be baked.
+#[derive(Debug, thiserror::Error)]
+enum BakeError {
+    /// The mesh needs an atlas and `post.bake_atlas` is `never`.
+    #[error("cannot bake crack maps: {why}, and post.bake_atlas = \"never\" (give the mesh UVs or allow an automatic atlas)")]
+    AtlasNever {
+        /// Why an atlas is needed (no UVs, overlapping UVs).
+        why: String,
+    },
+    /// Every UV set is taken.
+    #[error("every TEXCOORD_0..7 set is taken; no room for an automatic atlas")]
+    NoFreeSet,
+    /// The atlas does not fit.
+    #[error(transparent)]
+    Atlas(#[from] atlas::AtlasError),
+    /// A material texture cannot be used.
+    #[error(transparent)]
+    Texture(#[from] TextureError),
+    /// A map does not encode.
+    #[error(transparent)]
+    Encode(#[from] bake::EncodeError),
+    /// The material's `pbrMetallicRoughness` is not an object.
+    #[error("the material's pbrMetallicRoughness is not an object")]
+    PbrNotObject,
+}
+
 /// One material's primitives of a mesh.
 fn bake_group(
     scene: &mut Scene,
@@ -142,7 +168,7 @@ fn bake_group(
     (segments, widths): (&[[[f64; 3]; 2]], &[f64]),
     cell: Option<f64>,
     post: &Post,
-) -> Result<MaterialBake, String> {
+) -> Result<MaterialBake, BakeError> {
     let dilate = post.bake_dilate;
     // The atlas is laid out (and overlap measured) for a 2048 map when the
     // size follows the asset; the size is then taken from its UV area.
@@ -174,8 +200,7 @@ fn bake_group(
     // its own attributes.
     let (drawn, reframe) = as_drawn(scene, mesh_index, prims, &mat_json, set);
     log::debug!("bake: tangents done at {:.3} s", t0.elapsed().as_secs_f64());
-    let own = material_layers(scene, material, &mat_json, post.memory_budget)
-        .map_err(|e| e.to_string())?;
+    let own = material_layers(scene, material, &mat_json, post.memory_budget)?;
     let sets: Vec<u32> = [
         Some(set),
         own.base.as_ref().map(|l| l.tex_coord),
@@ -335,13 +360,17 @@ fn use_variant(
 /// The maps encoded (PNG, or lossless WebP when `webp`): base colour (RGB
 /// when every texel is opaque or empty, else RGBA), normal and occlusion,
 /// the three at once.
-fn encode_maps(maps: &bake::Maps, size: u32, webp: bool) -> Result<[Vec<u8>; 3], String> {
+fn encode_maps(
+    maps: &bake::Maps,
+    size: u32,
+    webp: bool,
+) -> Result<[Vec<u8>; 3], bake::EncodeError> {
     let opaque = maps.base.iter().all(|p| p[3] == 255 || p == &[0, 0, 0, 0]);
     let encode = |channels: usize, data: &[u8]| {
         if webp {
             bake::encode_webp(size, channels, data)
         } else {
-            bake::encode_png(size, channels, data).map_err(|e| e.to_string())
+            Ok(bake::encode_png(size, channels, data)?)
         }
     };
     let base = || {
@@ -371,7 +400,7 @@ fn add_variant(
     set: u32,
     pngs: [Vec<u8>; 3],
     webp: bool,
-) -> Result<usize, String> {
+) -> Result<usize, BakeError> {
     let [base_png, normal_png, occl_png] = pngs;
     let tex_base = add_texture(scene, &format!("{stem}_basecolor"), base_png, webp);
     let tex_normal = add_texture(scene, &format!("{stem}_normal"), normal_png, webp);
@@ -382,7 +411,7 @@ fn add_variant(
         .entry("pbrMetallicRoughness")
         .or_insert_with(|| json!({}))
         .as_object_mut()
-        .ok_or("the material's pbrMetallicRoughness is not an object")?;
+        .ok_or(BakeError::PbrNotObject)?;
     pbr.insert("baseColorFactor".into(), json!([1.0, 1.0, 1.0, 1.0]));
     pbr.insert(
         "baseColorTexture".into(),
@@ -562,11 +591,11 @@ fn make_atlas(
     prims: &[usize],
     post: &Post,
     (why, overlap): (&str, Option<f64>),
-) -> Result<(u32, AtlasReport), String> {
+) -> Result<(u32, AtlasReport), BakeError> {
     if post.bake_atlas == "never" {
-        return Err(format!(
-            "cannot bake crack maps: {why}, and post.bake_atlas = \"never\" (give the mesh UVs or allow an automatic atlas)"
-        ));
+        return Err(BakeError::AtlasNever {
+            why: why.to_string(),
+        });
     }
     let any_has = |scene: &Scene, k: u32| {
         prims.iter().any(|&p| {
@@ -577,7 +606,7 @@ fn make_atlas(
     };
     let set = (0..8u32)
         .find(|&k| !any_has(scene, k))
-        .ok_or("every TEXCOORD_0..7 set is taken; no room for an automatic atlas")?;
+        .ok_or(BakeError::NoFreeSet)?;
     let size = post.bake_size;
     let (positions, tris) = gather_positions(scene, mesh_index, prims);
     let padding = (ATLAS_PADDING_2048 * size / 2048).max(1);
@@ -604,7 +633,7 @@ fn make_atlas(
     };
     let a = match repacked {
         Some(a) => a,
-        None => atlas::atlas(&positions, &tris, size, padding).map_err(|e| e.to_string())?,
+        None => atlas::atlas(&positions, &tris, size, padding)?,
     };
     let mut corner = 0;
     let mut split = 0;

@@ -22,7 +22,9 @@
 //! checked before any work starts; mask images are decoded by
 //! [`Pipeline::load_images`] before the input is read.
 
-pub use crate::error::PipelineError;
+pub use crate::error::{
+    ConfigError, EntryError, MaskImageError, MaskMaterialError, PipelineError, SetError,
+};
 pub use crate::post::Post;
 use crate::scene::Scene;
 use crate::sim::SimParams;
@@ -69,27 +71,37 @@ pub struct MaskSpec {
 }
 
 impl MaskSpec {
-    fn check(&self) -> Result<(), String> {
+    fn check(&self) -> Result<(), EntryError> {
         match (&self.image, &self.material) {
-            (Some(_), Some(_)) => return Err("give 'image' or 'material', not both".into()),
-            (None, None) => return Err("missing key 'image' (or 'material')".into()),
+            (Some(_), Some(_)) => {
+                return Err(EntryError::Both {
+                    first: "image",
+                    second: "material",
+                })
+            }
+            (None, None) => {
+                return Err(EntryError::Missing {
+                    key: "image",
+                    alternative: "material",
+                })
+            }
             (Some(_), None) if self.slot.is_some() => {
-                return Err("key 'slot' applies to a material mask, not an image".into())
+                return Err(EntryError::AppliesTo {
+                    key: "slot",
+                    applies: "a material mask, not an image",
+                })
             }
             (None, Some(_)) if self.tex_coord.is_some() => {
-                return Err(
-                    "key 'tex_coord' applies to an image mask (a material's texture names its own)"
-                        .into(),
-                )
+                return Err(EntryError::AppliesTo {
+                    key: "tex_coord",
+                    applies: "an image mask (a material's texture names its own)",
+                })
             }
             _ => {}
         }
         if let Some(slot) = &self.slot {
             if !SLOTS.contains(&slot.as_str()) {
-                return Err(format!(
-                    "slot: unknown texture slot '{slot}' (valid slots: {})",
-                    SLOTS.join(", ")
-                ));
+                return Err(EntryError::UnknownSlot { slot: slot.clone() });
             }
         }
         Ok(())
@@ -344,19 +356,22 @@ impl Pipeline {
         source_name: &str,
         sets: &[String],
     ) -> Result<Pipeline, PipelineError> {
-        let err = |message: String| PipelineError {
+        let err = |error: ConfigError| PipelineError {
             source_name: source_name.to_string(),
-            message,
+            error,
         };
-        let mut value: toml::Table = text
-            .parse()
-            .map_err(|e: toml::de::Error| err(e.to_string().trim().to_string()))?;
+        let mut value: toml::Table = text.parse().map_err(|e| err(ConfigError::Syntax(e)))?;
         for s in sets {
-            apply_set(&mut value, s).map_err(|m| err(format!("--set {s}: {m}")))?;
+            apply_set(&mut value, s).map_err(|error| {
+                err(ConfigError::Set {
+                    set: s.clone(),
+                    error,
+                })
+            })?;
         }
         let mut p: Pipeline = toml::Value::Table(value)
             .try_into()
-            .map_err(|e: toml::de::Error| err(e.to_string().trim().to_string()))?;
+            .map_err(|e| err(ConfigError::Syntax(e)))?;
         p.check().map_err(err)?;
         p.source_name = source_name.to_string();
         Ok(p)
@@ -370,14 +385,9 @@ impl Pipeline {
         let Some((_, text)) = PRESETS.iter().find(|(n, _)| *n == name) else {
             return Err(PipelineError {
                 source_name: format!("preset {name}"),
-                message: format!(
-                    "no such preset; the presets are: {}",
-                    PRESETS
-                        .iter()
-                        .map(|(n, _)| *n)
-                        .collect::<Vec<_>>()
-                        .join(", ")
-                ),
+                error: ConfigError::NoPreset {
+                    presets: PRESETS.iter().map(|(n, _)| n.to_string()).collect(),
+                },
             });
         };
         Pipeline::parse(text, &format!("preset {name}"), sets)
@@ -388,27 +398,27 @@ impl Pipeline {
     /// # Errors
     /// The first bad value, naming the pipeline and the key.
     pub fn check_all(&self) -> Result<(), PipelineError> {
-        self.check().map_err(|message| PipelineError {
+        self.check().map_err(|error| PipelineError {
             source_name: self.source_name.clone(),
-            message,
+            error,
         })
     }
 
     /// Every value checked, naming the key.
-    fn check(&self) -> Result<(), String> {
-        self.params(&[]).validate().map_err(|e| e.0)?;
-        self.post.check().map_err(|e| e.0)?;
+    fn check(&self) -> Result<(), ConfigError> {
+        self.params(&[]).validate()?;
+        self.post.check()?;
         let unit_box = Placement::local(Bounds {
             min: [0.0; 3],
             max: [1.0; 3],
         });
         for (i, e) in self.stress.iter().enumerate() {
             e.term(&unit_box, None)
-                .and_then(|t| t.validate().map_err(|x| x.to_string()))
-                .map_err(|m| format!("stress[{i}] ({}): {m}", e.kind))?;
+                .and_then(|t| Ok(t.validate()?))
+                .map_err(|error| e.error(i, error))?;
             if let Some(m) = &e.mask {
                 m.check()
-                    .map_err(|m| format!("stress[{i}] ({}): mask: {m}", e.kind))?;
+                    .map_err(|m| e.error(i, EntryError::Mask(Box::new(m))))?;
             }
         }
         Ok(())
@@ -455,9 +465,9 @@ impl Pipeline {
                 masks.push(None);
                 continue;
             };
-            let err = |m: String| PipelineError {
+            let err = |m: MaskImageError| PipelineError {
                 source_name: self.source_name.clone(),
-                message: format!("stress[{i}] ({}): mask.image: {m}", e.kind),
+                error: e.error(i, EntryError::MaskImage(m)),
             };
             let grey = if let Some(name) = image.strip_prefix("builtin:") {
                 let (_, bytes) =
@@ -465,16 +475,15 @@ impl Pipeline {
                         .iter()
                         .find(|(n, _)| *n == name)
                         .ok_or_else(|| {
-                            err(format!(
-                                "no built-in image '{name}'; there are: {}",
-                                BUILTIN_IMAGES
+                            err(MaskImageError::NoBuiltin {
+                                name: name.to_string(),
+                                builtins: BUILTIN_IMAGES
                                     .iter()
                                     .map(|(n, _)| format!("builtin:{n}"))
-                                    .collect::<Vec<_>>()
-                                    .join(", ")
-                            ))
+                                    .collect(),
+                            })
                         })?;
-                GreyImage::decode(bytes, image).map_err(|e| err(e.to_string()))?
+                GreyImage::decode(bytes, image).map_err(|e| err(e.into()))?
             } else {
                 let path = Path::new(image);
                 let path = match base_dir {
@@ -482,12 +491,12 @@ impl Pipeline {
                     Some(_) => path.to_path_buf(),
                     None if path.is_absolute() => path.to_path_buf(),
                     None => {
-                        return Err(err(format!(
-                            "'{image}' is relative, and a preset has no folder; give an absolute path or a builtin: image"
-                        )))
+                        return Err(err(MaskImageError::RelativeInPreset {
+                            image: image.clone(),
+                        }))
                     }
                 };
-                crate::io::image::open_grey_within(&path, budget).map_err(|e| err(e.to_string()))?
+                crate::io::image::open_grey_within(&path, budget).map_err(|e| err(e.into()))?
             };
             let mut mask = Mask::from_image(grey);
             mask.invert = spec.invert;
@@ -522,37 +531,36 @@ impl Pipeline {
         budget: u64,
     ) -> Result<Masks, PipelineError> {
         self.masks_in(scene, asset_dir, budget)
-            .map_err(|message| PipelineError {
+            .map_err(|error| PipelineError {
                 source_name: self.source_name.clone(),
-                message,
+                error,
             })
     }
 
-    fn masks_in(&self, scene: &Scene, asset_dir: &Path, budget: u64) -> Result<Masks, String> {
+    fn masks_in(&self, scene: &Scene, asset_dir: &Path, budget: u64) -> Result<Masks, ConfigError> {
         let mut out = Vec::with_capacity(self.stress.len());
         for (i, e) in self.stress.iter().enumerate() {
-            let label = format!("stress[{i}] ({}): mask", e.kind);
             let Some(spec) = &e.mask else {
                 out.push(None);
                 continue;
             };
             if spec.image.is_some() {
-                let m = self.image_masks.get(i).cloned().flatten().ok_or_else(|| {
-                    format!("{label}.image: the image was not loaded (call load_images first)")
-                })?;
+                let m =
+                    self.image_masks.get(i).cloned().flatten().ok_or_else(|| {
+                        e.error(i, EntryError::MaskImage(MaskImageError::NotLoaded))
+                    })?;
                 out.push(Some(m));
                 continue;
             }
             let name = spec.material.as_deref().unwrap_or_default();
             let Some(mi) = scene.materials.iter().position(|m| m.name() == Some(name)) else {
-                let names: Vec<&str> = scene.materials.iter().filter_map(|m| m.name()).collect();
-                return Err(format!(
-                    "{label}.material: the input has no material named '{name}' (materials: {})",
-                    if names.is_empty() {
-                        "none with a name".to_string()
-                    } else {
-                        names.join(", ")
-                    }
+                let names = scene.materials.iter().filter_map(|m| m.name());
+                return Err(e.error(
+                    i,
+                    EntryError::MaskMaterial(MaskMaterialError::NoMaterial {
+                        name: name.to_string(),
+                        names: names.map(str::to_string).collect(),
+                    }),
                 ));
             };
             let slot = spec.slot.as_deref().unwrap_or("baseColorTexture");
@@ -563,7 +571,7 @@ impl Pipeline {
                 spec.invert,
                 &crate::io::image::Files::inside(asset_dir).within(budget),
             )
-            .map_err(|e| format!("{label}.material: {e}"))?;
+            .map_err(|t| e.error(i, EntryError::MaskMaterial(t.into())))?;
             m.confine = spec.confine;
             out.push(Some(Arc::new(m)));
         }
@@ -610,14 +618,14 @@ impl Pipeline {
             .map(|(i, e)| {
                 let mask = masks.get(i).cloned().flatten();
                 if e.mask.is_some() && mask.is_none() {
-                    return Err(format!("stress[{i}] ({}): mask not loaded", e.kind));
+                    return Err(e.error(i, EntryError::MaskNotLoaded));
                 }
-                e.term(place, mask)
+                e.term(place, mask).map_err(|error| e.error(i, error))
             })
-            .collect::<Result<Vec<Term>, String>>()
-            .map_err(|message| PipelineError {
+            .collect::<Result<Vec<Term>, ConfigError>>()
+            .map_err(|error| PipelineError {
                 source_name: self.source_name.clone(),
-                message,
+                error,
             })
     }
 }
@@ -632,21 +640,19 @@ const ALTERNATIVES: [(&str, &str); 4] = [
     ("direction", "mesh_axis"),
 ];
 
-fn apply_set(root: &mut toml::Table, set: &str) -> Result<(), String> {
-    let (key, raw) = set
-        .split_once('=')
-        .ok_or_else(|| "expected key=value".to_string())?;
+fn apply_set(root: &mut toml::Table, set: &str) -> Result<(), SetError> {
+    let (key, raw) = set.split_once('=').ok_or(SetError::NoValue)?;
     let key = key.trim();
     let value: toml::Value = {
         let doc: toml::Table = format!("v = {}", raw.trim())
             .parse()
             .or_else(|_| format!("v = \"{}\"", raw.trim()).parse())
-            .map_err(|e: toml::de::Error| format!("bad value: {e}"))?;
-        doc.get("v").cloned().ok_or("bad value")?
+            .map_err(SetError::BadValue)?;
+        doc.get("v").cloned().ok_or(SetError::NoParsedValue)?
     };
     let parts: Vec<&str> = key.split('.').collect();
     if parts.iter().any(|p| p.is_empty()) {
-        return Err(format!("bad key '{key}'"));
+        return Err(SetError::BadKey { key: key.into() });
     }
     let mut cur: &mut toml::Value = &mut *root
         .entry(parts[0].to_string())
@@ -674,21 +680,24 @@ fn apply_set(root: &mut toml::Table, set: &str) -> Result<(), String> {
                     return Ok(());
                 }
                 if part.parse::<usize>().is_ok() && !t.contains_key(*part) {
-                    return Err(format!(
-                        "'{}' has no entry {part} (the pipeline has none; its entries come from --preset or --pipeline)",
-                        parts[..i].join(".")
-                    ));
+                    return Err(SetError::NoEntry {
+                        table: parts[..i].join("."),
+                        entry: part.to_string(),
+                    });
                 }
                 t.entry(part.to_string())
                     .or_insert_with(|| toml::Value::Table(Default::default()))
             }
             toml::Value::Array(a) => {
-                let n: usize = part
-                    .parse()
-                    .map_err(|_| format!("'{part}' in '{key}' must be an index"))?;
+                let n: usize = part.parse().map_err(|_| SetError::NotIndex {
+                    part: part.to_string(),
+                    key: key.into(),
+                })?;
                 let len = a.len();
-                let slot = a.get_mut(n).ok_or_else(|| {
-                    format!("index {n} in '{key}' is out of range (there are {len})")
+                let slot = a.get_mut(n).ok_or_else(|| SetError::IndexOutOfRange {
+                    index: n,
+                    key: key.into(),
+                    len,
                 })?;
                 if last {
                     *slot = value;
@@ -696,7 +705,7 @@ fn apply_set(root: &mut toml::Table, set: &str) -> Result<(), String> {
                 }
                 slot
             }
-            _ => return Err(format!("'{key}' goes inside a value that is not a table")),
+            _ => return Err(SetError::NotTable { key: key.into() }),
         };
     }
     // A single-part key: a top-level value.
@@ -807,21 +816,18 @@ mod tests {
             min: [0.0; 3],
             max: [4.0, 4.0, 2.0],
         };
-        let rays = |extra: &str| -> Result<u32, String> {
-            let p = Pipeline::parse(&format!("{base}{extra}"), "x.toml", &[])
-                .map_err(|e| e.to_string())?;
-            match p.terms(&Placement::local(b), &[]) {
-                Ok(t) => match &t[0].kind {
-                    TermKind::Impact { radial_cracks, .. } => Ok(*radial_cracks),
-                    k => panic!("{k:?}"),
-                },
-                Err(e) => Err(e.to_string()),
+        let rays = |extra: &str| -> Result<u32, PipelineError> {
+            let p = Pipeline::parse(&format!("{base}{extra}"), "x.toml", &[])?;
+            let t = p.terms(&Placement::local(b), &[])?;
+            match &t[0].kind {
+                TermKind::Impact { radial_cracks, .. } => Ok(*radial_cracks),
+                k => panic!("{k:?}"),
             }
         };
-        assert_eq!(rays(""), Ok(0));
-        assert_eq!(rays("speed = 4.0\n"), Ok(8));
-        assert_eq!(rays("speed = 16.0\n"), Ok(16));
-        assert_eq!(rays("radial_cracks = 5\n"), Ok(5));
+        assert_eq!(rays("").ok(), Some(0));
+        assert_eq!(rays("speed = 4.0\n").ok(), Some(8));
+        assert_eq!(rays("speed = 16.0\n").ok(), Some(16));
+        assert_eq!(rays("radial_cracks = 5\n").ok(), Some(5));
         for (extra, says) in [
             ("speed = 4.0\nradial_cracks = 5\n", "not both"),
             ("speed = -1.0\n", "speed must be"),
@@ -833,7 +839,7 @@ mod tests {
                 "concentric_factor",
             ),
         ] {
-            let e = rays(extra).unwrap_err();
+            let e = rays(extra).unwrap_err().to_string();
             assert!(e.contains(says), "{extra}: {e}");
         }
     }

@@ -16,6 +16,7 @@
 
 use super::Post;
 use crate::bridge::SimEntry;
+pub use crate::error::FramesError;
 use crate::mesh::SimMesh;
 use crate::scene::Scene;
 use crate::sim::{Observer, SimParams, SimReport, Snapshot};
@@ -88,24 +89,20 @@ impl Frames {
     /// From the two command-line values `N DIR`.
     ///
     /// # Errors
-    /// [`crate::Error::Usage`] naming the bad value.
+    /// [`crate::Error::FramesRequest`] naming the bad value.
     pub fn parse(values: &[String]) -> crate::Result<Self> {
-        Self::parse_values(values).map_err(crate::Error::Usage)
-    }
-
-    fn parse_values(values: &[String]) -> Result<Self, String> {
         let [n, dir] = values else {
-            return Err("--frames takes two values: N DIR".into());
+            return Err(FramesError::Values.into());
         };
         let count: usize = n
             .parse()
-            .map_err(|_| format!("--frames N: '{n}' is not a whole number"))?;
+            .map_err(|_| FramesError::NotNumber { value: n.clone() })?;
         if !(2..=10_000).contains(&count) {
-            return Err(format!("--frames N must be in 2..=10000, got {count}"));
+            return Err(FramesError::Count { count }.into());
         }
         let dir = PathBuf::from(dir);
         if dir.exists() && !dir.is_dir() {
-            return Err(format!("--frames DIR: {} is not a folder", dir.display()));
+            return Err(FramesError::NotFolder { dir }.into());
         }
         Ok(Frames { count, dir })
     }

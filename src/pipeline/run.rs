@@ -350,7 +350,7 @@ pub fn prepare(scene: &Scene, config: &Config, observer: &mut dyn Observer) -> R
             .unwrap_or(Path::new("."));
         let masks = pipe
             .masks_for_within(scene, asset_dir, config.read.max_memory)
-            .map_err(|e| Error::Usage(format!("{}: {}", input.display(), e.message)))?;
+            .map_err(|e| Error::Usage(format!("{}: {}", input.display(), e.error)))?;
         stages.push(Stage::new("texture", t.elapsed().as_secs_f64()));
         masks
     } else {
@@ -795,7 +795,7 @@ pub fn stress_field(
     };
     let terms = pipe
         .terms(&place, masks)
-        .map_err(|e| Error::Usage(format!("stress: {}", e.message)))?;
+        .map_err(|e| Error::Usage(format!("stress: {}", e.error)))?;
     let field = StressField::build_with(&e.sim, &terms, seed, curvature)
         .map_err(|err| Error::mesh(input, &e.label, err))?;
     for i in &field.projected_masks {

@@ -2,12 +2,21 @@
 //! mesh: which keys its kind takes, points and axes from the mesh's
 //! bounding box, every value checked.
 
-use super::{Bounds, Placement, StressEntry};
+use super::{Bounds, ConfigError, EntryError, Placement, StressEntry};
 use crate::stress::texture::Mask;
 use crate::stress::{CurvatureScale, Term, TermKind};
 use std::sync::Arc;
 
 impl StressEntry {
+    /// `error` as the error of this entry, the pipeline's `index`th.
+    pub(super) fn error(&self, index: usize, error: EntryError) -> ConfigError {
+        ConfigError::Entry {
+            index,
+            kind: self.kind.clone(),
+            error,
+        }
+    }
+
     /// The kind-specific keys this entry gives.
     pub(super) fn present(&self) -> Vec<&'static str> {
         [
@@ -35,7 +44,7 @@ impl StressEntry {
     }
 
     /// The unit vector of `mesh_axis` in the mesh's frame.
-    pub(super) fn mesh_axis(&self, b: &Bounds) -> Result<[f64; 3], String> {
+    pub(super) fn mesh_axis(&self, b: &Bounds) -> Result<[f64; 3], EntryError> {
         let name = self.mesh_axis.as_deref().unwrap_or_default();
         let k = match name {
             "x" => 0,
@@ -49,9 +58,11 @@ impl StressEntry {
                 })
                 .unwrap_or(0),
             other => {
-                return Err(format!(
-                    "mesh_axis must be x, y, z or longest, got '{other}'"
-                ))
+                return Err(EntryError::Range {
+                    key: "mesh_axis",
+                    expected: "x, y, z or longest",
+                    got: format!("'{other}'"),
+                })
             }
         };
         let mut a = [0.0; 3];
@@ -60,10 +71,14 @@ impl StressEntry {
     }
 
     /// The term this entry describes on a mesh placed at `place`.
-    pub(super) fn term(&self, place: &Placement, mask: Option<Arc<Mask>>) -> Result<Term, String> {
+    pub(super) fn term(
+        &self,
+        place: &Placement,
+        mask: Option<Arc<Mask>>,
+    ) -> Result<Term, EntryError> {
         let allowed = allowed_keys(&self.kind)?;
         if let Some(k) = self.present().into_iter().find(|k| !allowed.contains(k)) {
-            return Err(format!("key '{k}' does not apply to this kind"));
+            return Err(EntryError::NotForKind { key: k });
         }
         let kind = match self.kind.as_str() {
             "uniform" => TermKind::Uniform,
@@ -121,16 +136,19 @@ impl StressEntry {
 
     /// A curvature entry's kind: the field's scale when `separation` is
     /// given.
-    fn curvature_kind(&self) -> Result<TermKind, String> {
+    fn curvature_kind(&self) -> Result<TermKind, EntryError> {
         if self.separation.is_none() {
             if let Some(k) = ["strength", "max_factor"]
                 .into_iter()
                 .find(|k| self.present().contains(k))
             {
-                return Err(format!("key '{k}' needs 'separation'"));
+                return Err(EntryError::Needs {
+                    key: k,
+                    needs: "separation",
+                });
             }
             if self.init == 0.0 && self.evolve == 0.0 {
-                return Err("a curvature entry needs 'init', 'evolve' or 'separation'".into());
+                return Err(EntryError::NoCurvatureLoad);
             }
         }
         Ok(TermKind::Curvature {
@@ -144,11 +162,14 @@ impl StressEntry {
 
     /// An impact entry's kind: its hit points (none: the default hit),
     /// radius and number of radial cracks, checked.
-    fn impact_kind(&self, place: &Placement) -> Result<TermKind, String> {
+    fn impact_kind(&self, place: &Placement) -> Result<TermKind, EntryError> {
         // Neither: the hit lands where the asset faces the viewer
         // (`stress::field::default_hit`).
         if self.points.is_some() && self.points_relative.is_some() {
-            return Err("give 'points' or 'points_relative', not both".into());
+            return Err(EntryError::Both {
+                first: "points",
+                second: "points_relative",
+            });
         }
         if let Some((key, [])) = [
             ("points", &self.points),
@@ -157,9 +178,7 @@ impl StressEntry {
         .into_iter()
         .find_map(|(k, p)| p.as_ref().map(|p| (k, p.as_slice())))
         {
-            return Err(format!(
-                "'{key}' is empty: give at least one point, or leave it out for the default hit"
-            ));
+            return Err(EntryError::NoPoints { key });
         }
         one_of(
             self.radius.is_some(),
@@ -184,29 +203,43 @@ impl StressEntry {
                 } else {
                     "radius_relative"
                 };
-                return Err(format!("{key} must be > 0, got {r}"));
+                return Err(EntryError::Range {
+                    key,
+                    expected: "> 0",
+                    got: r.to_string(),
+                });
             }
         }
         let radial_cracks = match (self.speed, self.radial_cracks) {
-            (Some(_), Some(_)) => return Err("give 'speed' or 'radial_cracks', not both".into()),
+            (Some(_), Some(_)) => {
+                return Err(EntryError::Both {
+                    first: "speed",
+                    second: "radial_cracks",
+                })
+            }
             (Some(v), None) if !(v.is_finite() && v > 0.0 && v <= 1e4) => {
-                return Err(format!("speed must be in (0, 10000] m/s, got {v}"))
+                return Err(EntryError::Range {
+                    key: "speed",
+                    expected: "in (0, 10000] m/s",
+                    got: v.to_string(),
+                })
             }
             (Some(v), None) => crate::stress::impact::rays_for_speed(v),
             (None, Some(n))
                 if !(crate::stress::impact::MIN_RAYS..=crate::stress::impact::MAX_RAYS)
                     .contains(&n) =>
             {
-                return Err(format!("radial_cracks must be 3 to 64, got {n}"))
+                return Err(EntryError::Range {
+                    key: "radial_cracks",
+                    expected: "3 to 64",
+                    got: n.to_string(),
+                })
             }
             (None, Some(n)) => n,
             (None, None) => 0,
         };
         if radial_cracks > 0 && self.concentric_factor.is_some() {
-            return Err(
-                "'concentric_factor' is the paper's disc's: not with 'speed' or 'radial_cracks'"
-                    .into(),
-            );
+            return Err(EntryError::ConcentricFactorWithRays);
         }
         Ok(TermKind::Impact {
             points,
@@ -219,7 +252,7 @@ impl StressEntry {
 }
 
 /// The keys a stress entry of `kind` may have beside the common ones.
-fn allowed_keys(kind: &str) -> Result<&'static [&'static str], String> {
+fn allowed_keys(kind: &str) -> Result<&'static [&'static str], EntryError> {
     Ok(match kind {
         "uniform" | "noise" => &[],
         "curvature" => &["separation", "strength", "max_factor"],
@@ -236,18 +269,24 @@ fn allowed_keys(kind: &str) -> Result<&'static [&'static str], String> {
             "in_turn",
         ],
         other => {
-            return Err(format!(
-                "unknown kind '{other}'; the kinds are uniform, directional, concentric, impact, noise, curvature"
-            ))
+            return Err(EntryError::UnknownKind {
+                kind: other.to_string(),
+            })
         }
     })
 }
 
 /// Exactly one of two keys `an` and `bn` (present: `a`, `b`).
-fn one_of(a: bool, b: bool, an: &str, bn: &str) -> Result<(), String> {
+fn one_of(a: bool, b: bool, an: &'static str, bn: &'static str) -> Result<(), EntryError> {
     match (a, b) {
-        (true, true) => Err(format!("give '{an}' or '{bn}', not both")),
-        (false, false) => Err(format!("missing key '{an}' (or '{bn}')")),
+        (true, true) => Err(EntryError::Both {
+            first: an,
+            second: bn,
+        }),
+        (false, false) => Err(EntryError::Missing {
+            key: an,
+            alternative: bn,
+        }),
         _ => Ok(()),
     }
 }

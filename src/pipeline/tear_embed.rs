@@ -11,7 +11,7 @@
 use crate::bridge::SimEntry;
 use crate::mesh::spatial::Faces;
 use crate::mesh::spatial::{bbox, dist2, Grid};
-use crate::mesh::{FaceId, SimMesh};
+use crate::mesh::{FaceId, MeshError, SimMesh};
 use crate::sim::ductile::surface::TornSurface;
 use crate::sim::ductile::Ductile;
 use std::collections::HashMap;
@@ -131,13 +131,34 @@ pub(super) fn border_edges(s: &TornSurface) -> Vec<(u32, u32)> {
         .collect()
 }
 
+/// Why the tear cannot be cut into the input's own triangles (the torn
+/// surface is then the grid's).
+#[derive(Debug, thiserror::Error)]
+pub(super) enum EmbedError {
+    /// No input triangle lies near the tear's border.
+    #[error("the input has no triangle near the tear")]
+    NoTriangleNear,
+    /// The border cannot be imprinted.
+    #[error("the tear's border cannot be cut into the input: {0}")]
+    Cut(MeshError),
+    /// An input vertex outside the grid the solid was embedded in.
+    #[error("input vertex {vertex} lies outside the solid's grid")]
+    OutsideGrid {
+        /// The vertex.
+        vertex: u32,
+    },
+    /// The moved positions do not fit the cut mesh.
+    #[error(transparent)]
+    Move(MeshError),
+}
+
 /// The input of `e` cut along the tear of `d` (surface `s`) and moved by
 /// its deformation.
 ///
 /// # Errors
 /// A message when the tear's border cannot be cut into the input or a
 /// vertex of the input lies outside the solid's grid.
-pub(super) fn embed(e: &SimEntry, d: &Ductile, s: &TornSurface) -> Result<Embedded, String> {
+pub(super) fn embed(e: &SimEntry, d: &Ductile, s: &TornSurface) -> Result<Embedded, EmbedError> {
     let base = &e.sim;
     let input = Faces::of_mesh(base);
     // The border's vertices on the input at rest.
@@ -147,9 +168,7 @@ pub(super) fn embed(e: &SimEntry, d: &Ductile, s: &TornSurface) -> Result<Embedd
         for v in [a, b] {
             if let std::collections::hash_map::Entry::Vacant(slot) = on_input.entry(v) {
                 let r = d.to_scene(s.rest[v as usize]);
-                let (_, _, q) = input
-                    .closest(r)
-                    .ok_or("the input has no triangle near the tear")?;
+                let (_, _, q) = input.closest(r).ok_or(EmbedError::NoTriangleNear)?;
                 slot.insert(q);
             }
         }
@@ -173,7 +192,7 @@ pub(super) fn embed(e: &SimEntry, d: &Ductile, s: &TornSurface) -> Result<Embedd
             &vec![f64::NAN; n],
             &[],
         )
-        .map_err(|err| format!("the tear's border cannot be cut into the input: {err}"))?;
+        .map_err(EmbedError::Cut)?;
         (im.mesh, im.skipped)
     };
     let loc = Locator::new(d);
@@ -200,7 +219,7 @@ pub(super) fn embed(e: &SimEntry, d: &Ductile, s: &TornSurface) -> Result<Embedd
         let own = vertex_piece[v.idx()].and_then(|k| nearest.tet(k, at));
         let t = own
             .or_else(|| loc.locate(metres(at)))
-            .ok_or_else(|| format!("input vertex {} lies outside the solid's grid", v.0))?;
+            .ok_or(EmbedError::OutsideGrid { vertex: v.0 })?;
         tet_of.push(t);
         moved.push(d.to_scene(d.deform(t, metres(at))));
     }
@@ -242,7 +261,7 @@ pub(super) fn embed(e: &SimEntry, d: &Ductile, s: &TornSurface) -> Result<Embedd
     }
     // Normals and tangents turned by each vertex's deformation.
     turn_attributes(&mut cut, d, &tet_of);
-    cut.set_positions(&moved).map_err(|err| err.to_string())?;
+    cut.set_positions(&moved).map_err(EmbedError::Move)?;
     Ok(Embedded {
         cut,
         piece,

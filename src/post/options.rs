@@ -260,8 +260,56 @@ pub const U_ROWS: usize = 4;
 /// An invalid post-processing option; the message names the key and its
 /// value.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
-#[error("{0}")]
-pub struct OptionsError(pub String);
+#[non_exhaustive]
+pub enum OptionsError {
+    /// A value outside its range: `{key} must be {expected}, got {got}`.
+    #[error("{key} must be {expected}, got {got}")]
+    Range {
+        /// The key (e.g. `post.width`).
+        key: String,
+        /// What it must be.
+        expected: String,
+        /// The value given.
+        got: String,
+    },
+    /// A stage that needs another key, or keys that do not go together;
+    /// the message is the key followed by the reason.
+    #[error("{key} {reason}")]
+    Invalid {
+        /// The key.
+        key: String,
+        /// Why (e.g. `needs post.width > 0 ...`).
+        reason: String,
+    },
+    /// Two keys that exclude each other were both given.
+    #[error("{first} and {second}: give one, not both")]
+    Both {
+        /// The first key.
+        first: String,
+        /// The second key.
+        second: String,
+    },
+}
+
+impl OptionsError {
+    fn range(
+        key: impl Into<String>,
+        expected: impl Into<String>,
+        got: impl std::fmt::Display,
+    ) -> Self {
+        OptionsError::Range {
+            key: key.into(),
+            expected: expected.into(),
+            got: got.to_string(),
+        }
+    }
+    fn invalid(key: &str, reason: &str) -> Self {
+        OptionsError::Invalid {
+            key: key.into(),
+            reason: reason.into(),
+        }
+    }
+}
 
 impl Post {
     /// Whether a stage moves the surface or cuts it into pieces (gaps,
@@ -334,15 +382,11 @@ impl Post {
 
     /// Every value checked, naming the key.
     pub fn check(&self) -> Result<(), OptionsError> {
-        self.check_values().map_err(OptionsError)
-    }
-
-    fn check_values(&self) -> Result<(), String> {
         let nonneg = |k: &str, x: f64| {
             if x.is_finite() && x >= 0.0 {
                 Ok(())
             } else {
-                Err(format!("post.{k} must be a number >= 0, got {x}"))
+                Err(OptionsError::range(format!("post.{k}"), "a number >= 0", x))
             }
         };
         nonneg("finish_reach", self.finish_reach)?;
@@ -353,18 +397,23 @@ impl Post {
         nonneg("wall_depth", self.wall_depth)?;
         nonneg("wall_depth_relative", self.wall_depth_relative)?;
         if !(0.0..=1.0).contains(&self.curl_falloff) {
-            return Err(format!(
-                "post.curl_falloff must be in [0, 1], got {}",
-                self.curl_falloff
+            return Err(OptionsError::range(
+                "post.curl_falloff",
+                "in [0, 1]",
+                self.curl_falloff,
             ));
         }
         if self.walls && self.wall_depth == 0.0 && self.wall_depth_relative == 0.0 {
-            return Err("post.walls needs wall_depth or wall_depth_relative > 0".into());
+            return Err(OptionsError::invalid(
+                "post.walls",
+                "needs wall_depth or wall_depth_relative > 0",
+            ));
         }
         if self.walls && self.width == 0.0 {
-            return Err(
-                "post.walls needs post.width > 0 (without width there is no gap to fill)".into(),
-            );
+            return Err(OptionsError::invalid(
+                "post.walls",
+                "needs post.width > 0 (without width there is no gap to fill)",
+            ));
         }
         nonneg("bake_width", self.bake_width)?;
         nonneg("bake_width_relative", self.bake_width_relative)?;
@@ -374,7 +423,7 @@ impl Post {
             if (0.0..=1.0).contains(&x) {
                 Ok(())
             } else {
-                Err(format!("post.{k} must be in [0, 1], got {x}"))
+                Err(OptionsError::range(format!("post.{k}"), "in [0, 1]", x))
             }
         };
         unit("bake_occlusion", self.bake_occlusion)?;
@@ -384,39 +433,45 @@ impl Post {
             unit(&format!("crack_color[{i}]"), *c)?;
         }
         if self.bake_size != 0 && !(16..=8192).contains(&self.bake_size) {
-            return Err(format!(
-                "post.bake_size must be 0 (sized to the asset) or between 16 and 8192 texels, got {}",
-                self.bake_size
+            return Err(OptionsError::range(
+                "post.bake_size",
+                "0 (sized to the asset) or between 16 and 8192 texels",
+                self.bake_size,
             ));
         }
         if self.bake_texcoord > 7 {
-            return Err(format!(
-                "post.bake_texcoord must be a UV set 0..7, got {}",
-                self.bake_texcoord
+            return Err(OptionsError::range(
+                "post.bake_texcoord",
+                "a UV set 0..7",
+                self.bake_texcoord,
             ));
         }
         if !["png", "webp"].contains(&self.bake_format.as_str()) {
-            return Err(format!(
-                "post.bake_format must be \"png\" or \"webp\", got \"{}\"",
-                self.bake_format
+            return Err(OptionsError::range(
+                "post.bake_format",
+                "\"png\" or \"webp\"",
+                format!("\"{}\"", self.bake_format),
             ));
         }
         if !["auto", "always", "never"].contains(&self.bake_atlas.as_str()) {
-            return Err(format!(
-                "post.bake_atlas must be \"auto\", \"always\" or \"never\", got \"{}\"",
-                self.bake_atlas
+            return Err(OptionsError::range(
+                "post.bake_atlas",
+                "\"auto\", \"always\" or \"never\"",
+                format!("\"{}\"", self.bake_atlas),
             ));
         }
         if !(0.0..=180.0).contains(&self.smooth_angle) {
-            return Err(format!(
-                "post.smooth_angle must be 0 to 180 degrees, got {}",
-                self.smooth_angle
+            return Err(OptionsError::range(
+                "post.smooth_angle",
+                "0 to 180 degrees",
+                self.smooth_angle,
             ));
         }
         if self.bake_dilate > 64 {
-            return Err(format!(
-                "post.bake_dilate must be at most 64 texels, got {}",
-                self.bake_dilate
+            return Err(OptionsError::range(
+                "post.bake_dilate",
+                "at most 64 texels",
+                self.bake_dilate,
             ));
         }
         if self.bake
@@ -424,38 +479,48 @@ impl Post {
             && self.bake_width_relative == 0.0
             && self.bake_width_cells == 0.0
         {
-            return Err(
-                "post.bake needs bake_width, bake_width_relative or bake_width_cells > 0".into(),
-            );
+            return Err(OptionsError::invalid(
+                "post.bake",
+                "needs bake_width, bake_width_relative or bake_width_cells > 0",
+            ));
         }
         nonneg("groove", self.groove)?;
         nonneg("groove_relative", self.groove_relative)?;
         nonneg("groove_depth", self.groove_depth)?;
         if self.groove > 0.0 && self.groove_relative > 0.0 {
-            return Err("post.groove and post.groove_relative: give one, not both".into());
+            return Err(OptionsError::Both {
+                first: "post.groove".into(),
+                second: "post.groove_relative".into(),
+            });
         }
         if self.grooves() && (self.width > 0.0 || self.walls || self.curl > 0.0) {
-            return Err(
-                "post.groove cuts the cracks as channels of its own width: use it without post.width, post.walls and post.curl".into(),
-            );
+            return Err(OptionsError::invalid("post.groove", "cuts the cracks as channels of its own width: use it without post.width, post.walls and post.curl"));
         }
         if !["input", "simulation"].contains(&self.output.as_str()) {
-            return Err(format!(
-                "post.output must be \"input\" (the artist's mesh) or \"simulation\" (the simulation surface), got \"{}\"",
-                self.output
+            return Err(OptionsError::range(
+                "post.output",
+                "\"input\" (the artist's mesh) or \"simulation\" (the simulation surface)",
+                format!("\"{}\"", self.output),
             ));
         }
         if !["v", "u"].contains(&self.groove_profile.as_str()) {
-            return Err(format!(
-                "post.groove_profile must be \"v\" or \"u\", got \"{}\"",
-                self.groove_profile
+            return Err(OptionsError::range(
+                "post.groove_profile",
+                "\"v\" or \"u\"",
+                format!("\"{}\"", self.groove_profile),
             ));
         }
         if self.groove_material.is_empty() {
-            return Err("post.groove_material must not be empty".into());
+            return Err(OptionsError::invalid(
+                "post.groove_material",
+                "must not be empty",
+            ));
         }
         if self.wall_material.is_empty() {
-            return Err("post.wall_material must not be empty".into());
+            return Err(OptionsError::invalid(
+                "post.wall_material",
+                "must not be empty",
+            ));
         }
         Ok(())
     }

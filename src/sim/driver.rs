@@ -450,7 +450,7 @@ pub(in crate::sim) fn start(
     params: &SimParams,
     field: Option<&StressField>,
 ) -> Result<(State, SimReport), SimError> {
-    params.validate().map_err(|e| SimError::Param(e.0))?;
+    params.validate()?;
     if let Some(f) = field {
         if f.init.len() != mesh.n_faces()
             || f.evolve.len() != mesh.n_faces()

@@ -161,6 +161,6 @@ fn both_cell_sizes_are_refused() {
         cell_size_relative: Some(0.1),
         ..SimParams::default()
     };
-    let e = p.validate().unwrap_err().0;
+    let e = p.validate().unwrap_err().to_string();
     assert!(e.contains("cell_size") && e.contains("not both"), "{e}");
 }

@@ -345,103 +345,105 @@ impl SimParams {
 
     /// Check every value, naming the parameter that is wrong.
     pub fn validate(&self) -> Result<(), super::ParamError> {
-        self.check_values().map_err(super::ParamError)
-    }
-
-    fn check_values(&self) -> Result<(), String> {
+        use super::ParamError;
         let finite_pos = |name: &str, x: f64| {
             if x.is_finite() && x > 0.0 {
                 Ok(())
             } else {
-                Err(format!("{name} must be a positive number, got {x}"))
+                Err(ParamError::range(name, "a positive number", x))
             }
         };
         if self.model == Model::Ductile {
             self.ductile.validate()?;
         }
         if self.model == Model::Springs {
-            self.springs.validate().map_err(|e| e.0)?;
+            self.springs.validate()?;
         }
         if !(1..=50).contains(&self.cycles) {
-            return Err(format!("cycles must be in 1..=50, got {}", self.cycles));
+            return Err(ParamError::range("cycles", "in 1..=50", self.cycles));
         }
         if self.cycles > 1 && !self.is_film() {
-            return Err(
-                "cycles above 1 re-open the cracks of a film: they need model = \"quasistatic\" with a cell size (simulation.cell_size or cell_size_relative) and relaxation = \"tensor\"".into(),
-            );
+            return Err(ParamError::invalid(
+                "cycles",
+                "above 1 re-open the cracks of a film: they need model = \"quasistatic\" with a cell size (simulation.cell_size or cell_size_relative) and relaxation = \"tensor\"",
+            ));
         }
         if !(self.margin.is_finite() && (0.0..=4.0).contains(&self.margin)) {
-            return Err(format!(
-                "margin must be in [0, 4] cell sizes, got {}",
-                self.margin
+            return Err(ParamError::range(
+                "margin",
+                "in [0, 4] cell sizes",
+                self.margin,
             ));
         }
         if !(0.0..=1.0).contains(&self.diffusion_fraction) {
-            return Err(format!(
-                "diffusion_fraction must be in [0, 1], got {}",
-                self.diffusion_fraction
+            return Err(ParamError::range(
+                "diffusion_fraction",
+                "in [0, 1]",
+                self.diffusion_fraction,
             ));
         }
         finite_pos("toughness", self.toughness)?;
         finite_pos("relax_time", self.relax_time)?;
         finite_pos("clamp_factor", self.clamp_factor)?;
         if !(self.tolerance.is_finite() && self.tolerance > 0.0 && self.tolerance < 1.0) {
-            return Err(format!(
-                "tolerance must be in (0, 1), got {}",
-                self.tolerance
-            ));
+            return Err(ParamError::range("tolerance", "in (0, 1)", self.tolerance));
         }
         if self.integrator == Integrator::PaperEuler && self.relax_dt <= 0.0 {
-            return Err("integrator paper-euler needs relax_dt > 0 (its fixed step)".into());
+            return Err(ParamError::invalid(
+                "integrator",
+                "paper-euler needs relax_dt > 0 (its fixed step)",
+            ));
         }
         if !(0.0..=1.0).contains(&self.alpha) {
-            return Err(format!(
-                "alpha must be in [0, 1] (above 1 the residual propagation is unstable), got {}",
-                self.alpha
+            return Err(ParamError::range(
+                "alpha",
+                "in [0, 1] (above 1 the residual propagation is unstable)",
+                self.alpha,
             ));
         }
         if !(self.shrink_rate.is_finite() && self.shrink_rate >= 0.0) {
-            return Err(format!(
-                "shrink_rate must be >= 0, got {}",
-                self.shrink_rate
-            ));
+            return Err(ParamError::range("shrink_rate", ">= 0", self.shrink_rate));
         }
         if !(self.relax_dt.is_finite() && self.relax_dt >= 0.0) {
-            return Err(format!(
-                "relax_dt must be >= 0 (0: the stable step), got {}",
-                self.relax_dt
+            return Err(ParamError::range(
+                "relax_dt",
+                ">= 0 (0: the stable step)",
+                self.relax_dt,
             ));
         }
         if !(self.load_time.is_finite() && self.load_time >= 0.0) {
-            return Err(format!("load_time must be >= 0, got {}", self.load_time));
+            return Err(ParamError::range("load_time", ">= 0", self.load_time));
         }
         if !(0.0..=1.0).contains(&self.noise) {
-            return Err(format!("noise must be in [0, 1], got {}", self.noise));
+            return Err(ParamError::range("noise", "in [0, 1]", self.noise));
         }
         match (self.cell_size, self.cell_size_relative) {
             (Some(_), Some(_)) => {
-                return Err(
-                    "give simulation.cell_size or simulation.cell_size_relative, not both".into(),
-                )
+                return Err(ParamError::Both {
+                    first: "simulation.cell_size".into(),
+                    second: "simulation.cell_size_relative".into(),
+                })
             }
             (Some(c), None) => finite_pos("cell_size", c)?,
             (None, Some(r)) => {
                 finite_pos("cell_size_relative", r)?;
                 if r > 1.0 {
-                    return Err(format!(
-                        "cell_size_relative is a fraction of the bounding-box diagonal, at most 1; got {r}"
+                    return Err(ParamError::invalid(
+                        "cell_size_relative",
+                        format!("is a fraction of the bounding-box diagonal, at most 1; got {r}"),
                     ));
                 }
             }
             (None, None) => {}
         }
         if self.max_triangles == 0 {
-            return Err("max_triangles must be at least 1".into());
+            return Err(ParamError::invalid("max_triangles", "must be at least 1"));
         }
         if !(self.residual_constant.is_finite() && self.residual_constant >= 0.0) {
-            return Err(format!(
-                "residual_constant must be >= 0, got {}",
-                self.residual_constant
+            return Err(ParamError::range(
+                "residual_constant",
+                ">= 0",
+                self.residual_constant,
             ));
         }
         Ok(())
@@ -536,6 +538,6 @@ impl std::str::FromStr for Integrator {
         Integrator::deserialize(
             serde::de::value::StrDeserializer::<serde::de::value::Error>::new(s),
         )
-        .map_err(|e| super::ParamError(e.to_string()))
+        .map_err(|e| super::ParamError::UnknownName(e.to_string()))
     }
 }

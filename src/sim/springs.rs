@@ -14,33 +14,28 @@ use crate::math::v3;
 use crate::mesh::{HalfedgeId, SimMesh, VertexId};
 pub use crate::sim::params::{DryingLaw, SpringParams};
 use crate::sim::per_element::{Born, Grows, PerNode};
-use crate::sim::{Observer, SimError, SimParams, SimReport, Snapshot};
+use crate::sim::{Observer, ParamError, SimError, SimParams, SimReport, Snapshot};
 
 mod finish;
 
 impl SpringParams {
     /// Check every value, naming the key.
-    pub fn validate(&self) -> Result<(), crate::sim::ParamError> {
-        self.check_values().map_err(crate::sim::ParamError)
-    }
-
-    fn check_values(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), ParamError> {
         let range = |name: &str, r: [f64; 2], lo_ok: f64| {
             if r.iter().all(|x| x.is_finite()) && r[0] >= lo_ok && r[0] <= r[1] {
                 Ok(())
             } else {
-                Err(format!(
-                    "springs.{name} must be [low, high] with {lo_ok} <= low <= high, got {r:?}"
+                Err(ParamError::range(
+                    format!("springs.{name}"),
+                    format!("[low, high] with {lo_ok} <= low <= high"),
+                    format!("{r:?}"),
                 ))
             }
         };
         range("stiffness", self.stiffness, f64::MIN_POSITIVE)?;
         range("break_strain", self.break_strain, 0.0)?;
         if !(self.alpha > 0.0 && self.alpha <= 1.0) {
-            return Err(format!(
-                "springs.alpha must be in (0, 1], got {}",
-                self.alpha
-            ));
+            return Err(ParamError::range("springs.alpha", "in (0, 1]", self.alpha));
         }
         for (name, x) in [
             ("rate", self.rate),
@@ -49,17 +44,14 @@ impl SpringParams {
             ("bond", self.bond),
         ] {
             if !(x.is_finite() && x >= 0.0) {
-                return Err(format!("springs.{name} must be >= 0, got {x}"));
+                return Err(ParamError::range(format!("springs.{name}"), ">= 0", x));
             }
         }
         if !(self.mass.is_finite() && self.mass > 0.0) {
-            return Err(format!("springs.mass must be > 0, got {}", self.mass));
+            return Err(ParamError::range("springs.mass", "> 0", self.mass));
         }
         if !(self.max_time.is_finite() && self.max_time > 0.0) {
-            return Err(format!(
-                "springs.max_time must be > 0, got {}",
-                self.max_time
-            ));
+            return Err(ParamError::range("springs.max_time", "> 0", self.max_time));
         }
         Ok(())
     }
@@ -367,7 +359,7 @@ pub fn run(
     observer: &mut dyn Observer,
 ) -> Result<SimReport, SimError> {
     let sp = &params.springs;
-    params.validate().map_err(|e| SimError::Param(e.0))?;
+    params.validate()?;
     let unit = mesh.mean_edge_length();
     if !(unit > 0.0 && unit.is_finite()) {
         return Err(SimError::Param(

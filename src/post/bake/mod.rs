@@ -358,12 +358,13 @@ pub fn encode_png(size: u32, channels: usize, data: &[u8]) -> Result<Vec<u8>, pn
 /// # Errors
 /// When `data` does not hold `size * size * channels` bytes, or the encoder
 /// fails.
-pub fn encode_webp(size: u32, channels: usize, data: &[u8]) -> Result<Vec<u8>, String> {
+pub fn encode_webp(size: u32, channels: usize, data: &[u8]) -> Result<Vec<u8>, EncodeError> {
     if data.len() != (size as usize).pow(2) * channels || ![1, 3, 4].contains(&channels) {
-        return Err(format!(
-            "{} bytes are not {size} x {size} pixels of {channels} channels",
-            data.len()
-        ));
+        return Err(EncodeError::Size {
+            bytes: data.len(),
+            size,
+            channels,
+        });
     }
     let grey: Vec<u8>;
     let encoder = match channels {
@@ -374,7 +375,7 @@ pub fn encode_webp(size: u32, channels: usize, data: &[u8]) -> Result<Vec<u8>, S
         3 => webp::Encoder::from_rgb(data, size, size),
         _ => webp::Encoder::from_rgba(data, size, size),
     };
-    let mut config = webp::WebPConfig::new().map_err(|()| "WebP has no default settings")?;
+    let mut config = webp::WebPConfig::new().map_err(|()| EncodeError::WebpSettings)?;
     config.lossless = 1;
     config.quality = 75.0;
     // Pixels under full transparency kept as they are (a lossless copy).
@@ -382,7 +383,32 @@ pub fn encode_webp(size: u32, channels: usize, data: &[u8]) -> Result<Vec<u8>, S
     encoder
         .encode_advanced(&config)
         .map(|m| m.to_vec())
-        .map_err(|e| format!("WebP does not encode: {e:?}"))
+        .map_err(EncodeError::Webp)
+}
+
+/// Why a baked map cannot be encoded.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum EncodeError {
+    /// The data is not `size` x `size` pixels of 1, 3 or 4 channels.
+    #[error("{bytes} bytes are not {size} x {size} pixels of {channels} channels")]
+    Size {
+        /// Bytes given.
+        bytes: usize,
+        /// The map's side.
+        size: u32,
+        /// Channels asked for.
+        channels: usize,
+    },
+    /// The WebP encoder has no default settings.
+    #[error("WebP has no default settings")]
+    WebpSettings,
+    /// The WebP encoder failed.
+    #[error("WebP does not encode: {0:?}")]
+    Webp(webp::WebPEncodingError),
+    /// The PNG encoder failed.
+    #[error(transparent)]
+    Png(#[from] png::EncodingError),
 }
 
 /// An image's pixels as indices into a palette, when it has at most 256

@@ -25,7 +25,8 @@ mod redistance;
 mod solve;
 pub mod surface;
 
-pub use params::{DuctileParams, Pull, PullMode};
+use crate::sim::ParamError;
+pub use params::{DuctileParams, GripError, Pull, PullMode};
 
 use fem::{Element, Lame, Rest};
 use grid::{inside_fraction, EmbedError, Grid};
@@ -211,8 +212,11 @@ pub const MAX_CELLS_ALONG: usize = 400;
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum DuctileError {
     /// A parameter is out of range.
-    #[error("{0}")]
-    Param(String),
+    #[error(transparent)]
+    Param(#[from] ParamError),
+    /// The fixed groups cannot grip the object.
+    #[error(transparent)]
+    Grips(#[from] GripError),
     /// The surface cannot be embedded.
     #[error(transparent)]
     Embed(#[from] EmbedError),
@@ -246,7 +250,7 @@ impl Ductile {
         grips: &[bool],
         params: &DuctileParams,
     ) -> Result<Ductile, DuctileError> {
-        params.validate().map_err(DuctileError::Param)?;
+        params.validate()?;
         let (lo, hi) = grid::bounds(positions);
         let longest = (0..3).map(|k| hi[k] - lo[k]).fold(0.0, f64::max);
         if !(longest.is_finite() && longest > 0.0) {
@@ -261,10 +265,13 @@ impl Ductile {
         let (mlo, mhi) = grid::bounds(&metres);
         let cells = params.cells_along_longest(longest);
         if cells > MAX_CELLS_ALONG {
-            return Err(DuctileError::Param(format!(
-                "ductile.cell_size {} gives {cells} cubes along the object's longest side ({longest} scene units); at most {MAX_CELLS_ALONG} (as ductile.grid): a cell size of at least {:.3e}",
-                params.cell_size,
-                longest / MAX_CELLS_ALONG as f64
+            return Err(DuctileError::Param(ParamError::invalid(
+                "ductile.cell_size",
+                format!(
+                    "{} gives {cells} cubes along the object's longest side ({longest} scene units); at most {MAX_CELLS_ALONG} (as ductile.grid): a cell size of at least {:.3e}",
+                    params.cell_size,
+                    longest / MAX_CELLS_ALONG as f64
+                ),
             )));
         }
         let grid = Grid::around(mlo, mhi, cells);
@@ -301,8 +308,7 @@ impl Ductile {
                 (&metres, triangles),
                 grips,
                 grid.h,
-            )
-            .map_err(DuctileError::Param)?
+            )?
         } else {
             params.pull.slabs(&rest_x, &phi, &node_tets)
         };

@@ -1,5 +1,22 @@
 //! Parameters of `model = "ductile"` (`[simulation.ductile]`).
 
+use crate::sim::ParamError;
+
+/// Why the fixed groups cannot be the pull's grips.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum GripError {
+    /// The fixed groups select no face.
+    #[error("the fixed groups have no faces to pull by")]
+    NoFaces,
+    /// Every grip face lies on one side of the object's centre.
+    #[error("the fixed groups all lie on one side of the object along {axis} (the pull moves the grips below its centre one way and those above the other): name groups on both ends")]
+    OneSide {
+        /// The pull's axis (`x`, `y` or `z`).
+        axis: &'static str,
+    },
+}
+
 /// How the pull moves its slabs.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Deserialize, serde::Serialize)]
 #[serde(rename_all = "kebab-case")]
@@ -124,7 +141,7 @@ pub fn grip_sides(
     surface: (&[[f64; 3]], &[[u32; 3]]),
     grips: &[bool],
     band: f64,
-) -> Result<(Vec<i8>, usize, f64), String> {
+) -> Result<(Vec<i8>, usize, f64), GripError> {
     use crate::mesh::spatial::{bbox, closest_on_triangle, dist2, Grid};
     let (positions, triangles) = surface;
     let (lo, hi) = material_bounds(x, phi);
@@ -137,7 +154,7 @@ pub fn grip_sides(
         .map(|(t, _)| t.map(|i| positions[i as usize]))
         .collect();
     if faces.is_empty() {
-        return Err("the fixed groups have no faces to pull by".into());
+        return Err(GripError::NoFaces);
     }
     let side_of = |t: &[[f64; 3]; 3]| {
         if (t[0][a] + t[1][a] + t[2][a]) / 3.0 < centre {
@@ -148,10 +165,9 @@ pub fn grip_sides(
     };
     let sides_present = [-1i8, 1].map(|s| faces.iter().any(|t| side_of(t) == s));
     if !(sides_present[0] && sides_present[1]) {
-        return Err(format!(
-            "the fixed groups all lie on one side of the object along {} (the pull moves the grips below its centre one way and those above the other): name groups on both ends",
-            ["x", "y", "z"][a]
-        ));
+        return Err(GripError::OneSide {
+            axis: ["x", "y", "z"][a],
+        });
     }
     let grid = Grid::new(faces.iter().map(|t| bbox(t)), band);
     let sides = x
@@ -296,27 +312,35 @@ impl DuctileParams {
     /// Check every value, naming the one that is wrong.
     ///
     /// # Errors
-    /// A message naming the parameter.
-    pub fn validate(&self) -> Result<(), String> {
+    /// A [`ParamError`] naming the parameter.
+    pub fn validate(&self) -> Result<(), ParamError> {
         let pos = |name: &str, x: f64| {
             if x.is_finite() && x > 0.0 {
                 Ok(())
             } else {
-                Err(format!("ductile.{name} must be a positive number, got {x}"))
+                Err(ParamError::range(
+                    format!("ductile.{name}"),
+                    "a positive number",
+                    x,
+                ))
             }
         };
         let non_neg = |name: &str, x: f64| {
             if x.is_finite() && x >= 0.0 {
                 Ok(())
             } else {
-                Err(format!("ductile.{name} must be zero or positive, got {x}"))
+                Err(ParamError::range(
+                    format!("ductile.{name}"),
+                    "zero or positive",
+                    x,
+                ))
             }
         };
         if !(2..=super::MAX_CELLS_ALONG).contains(&self.grid) {
-            return Err(format!(
-                "ductile.grid must be in 2..={}, got {}",
-                super::MAX_CELLS_ALONG,
-                self.grid
+            return Err(ParamError::range(
+                "ductile.grid",
+                format!("in 2..={}", super::MAX_CELLS_ALONG),
+                self.grid,
             ));
         }
         // Upper bounds keep every product of the material's numbers (energy
@@ -328,8 +352,10 @@ impl DuctileParams {
             if x.is_finite() && x >= lo && x <= hi {
                 Ok(())
             } else {
-                Err(format!(
-                    "ductile.{name} must be in [{lo:e}, {hi:e}] {unit}, got {x}"
+                Err(ParamError::range(
+                    format!("ductile.{name}"),
+                    format!("in [{lo:e}, {hi:e}] {unit}"),
+                    x,
                 ))
             }
         };
@@ -337,9 +363,10 @@ impl DuctileParams {
         within("size", self.size, 1e-6, 1e6, "m")?;
         within("young", self.young, 1e-3, 1e13, "Pa")?;
         if !(self.poisson.is_finite() && (0.0..0.5).contains(&self.poisson)) {
-            return Err(format!(
-                "ductile.poisson must be in [0, 0.5), got {}",
-                self.poisson
+            return Err(ParamError::range(
+                "ductile.poisson",
+                "in [0, 0.5)",
+                self.poisson,
             ));
         }
         within("density", self.density, 0.1, 1e5, "kg/m^3")?;
@@ -353,28 +380,37 @@ impl DuctileParams {
         pos("tear_cells", self.tear_cells)?;
         within("nonlocal", self.nonlocal, 0.0, 1e3, "m")?;
         if !(self.tolerance > 0.0 && self.tolerance < 1.0) {
-            return Err(format!(
-                "ductile.tolerance must be in (0, 1), got {}",
-                self.tolerance
+            return Err(ParamError::range(
+                "ductile.tolerance",
+                "in (0, 1)",
+                self.tolerance,
             ));
         }
         if self.max_cg == 0 || self.max_steps == 0 {
-            return Err("ductile.max_cg and ductile.max_steps must be at least 1".into());
+            return Err(ParamError::invalid(
+                "ductile.max_cg and ductile.max_steps",
+                "must be at least 1",
+            ));
         }
         if self.tear_material.is_empty() {
-            return Err("ductile.tear_material must not be empty".into());
+            return Err(ParamError::invalid(
+                "ductile.tear_material",
+                "must not be empty",
+            ));
         }
         let p = &self.pull;
         if !["x", "y", "z", "long"].contains(&p.axis.as_str()) {
-            return Err(format!(
-                "ductile.pull.axis must be \"x\", \"y\", \"z\" or \"long\", got {:?}",
-                p.axis
+            return Err(ParamError::range(
+                "ductile.pull.axis",
+                "\"x\", \"y\", \"z\" or \"long\"",
+                format!("{:?}", p.axis),
             ));
         }
         if !(p.slab > 0.0 && p.slab < 0.5) {
-            return Err(format!(
-                "ductile.pull.slab must be in (0, 0.5), got {}",
-                p.slab
+            return Err(ParamError::range(
+                "ductile.pull.slab",
+                "in (0, 0.5)",
+                p.slab,
             ));
         }
         non_neg("pull.speed", p.speed)?;
