@@ -4,6 +4,7 @@
 use super::inputs::{scan_references, slash_path, source_rel};
 use super::state::{action_fingerprint, asset_key, State};
 use super::{Action, Asset, Options, Outcome, Plan, Produced, Status, STATE_FILE};
+use crate::io::IoError;
 use crate::pipeline::{crack_file, Config};
 use crate::{Error, Result};
 use std::path::{Path, PathBuf};
@@ -288,7 +289,8 @@ fn run_asset(
             // is a real folder: a link there would put the output (and its
             // side files) anywhere.
             let dir = asset.output.parent().unwrap_or(Path::new("."));
-            let held = crate::io::write::make_dirs_below(&options.out, dir)?;
+            let held =
+                crate::io::write::make_dirs_below(&options.out, dir).map_err(|e| e.to_string())?;
             let output = match asset.output.file_name() {
                 Some(name) => held.path().join(name),
                 None => asset.output.clone(),
@@ -382,7 +384,7 @@ fn copy_asset(asset: &Asset, out_root: &Path) -> Result<Done> {
             let real = real_file_inside(in_dir, from, name)
                 .map_err(|e| Error::Batch(format!("{}: {e}", asset.input.display())))?;
             let dir = to.parent().unwrap_or(Path::new("."));
-            let held = crate::io::write::make_dirs_below(out_root, dir).map_err(Error::Batch)?;
+            let held = crate::io::write::make_dirs_below(out_root, dir).map_err(IoError::from)?;
             let src = crate::io::paths::open_no_follow(&real)
                 .map_err(|e| Error::Batch(format!("{}: cannot read: {e}", from.display())))?;
             let at = match to.file_name() {

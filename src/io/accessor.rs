@@ -9,13 +9,167 @@ use serde_json::Value;
 
 /// An accessor that cannot be decoded; the message names it and why.
 #[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
-#[error("{0}")]
-pub struct AccessorError(pub String);
+#[non_exhaustive]
+pub enum AccessorError {
+    /// No accessor by that index.
+    #[error("accessor {0} does not exist")]
+    NoAccessor(usize),
+    /// No buffer view by that index.
+    #[error("bufferView {0} does not exist")]
+    NoView(usize),
+    /// A field that must be a non-negative integer is not.
+    #[error("'{key}' must be a non-negative integer")]
+    NotInteger {
+        /// The field.
+        key: &'static str,
+    },
+    /// The accessor is malformed or cannot be decoded.
+    #[error("accessor {index}: {fault}")]
+    Accessor {
+        /// The accessor.
+        index: usize,
+        /// What is wrong.
+        fault: AccessorFault,
+    },
+    /// A buffer view the accessor reads is malformed.
+    #[error("bufferView {view}: {fault}")]
+    View {
+        /// The buffer view.
+        view: usize,
+        /// What is wrong.
+        fault: ViewFault,
+    },
+}
 
-impl From<AccessorError> for String {
-    fn from(e: AccessorError) -> String {
-        e.0
-    }
+/// What is wrong with one accessor.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[non_exhaustive]
+pub enum AccessorFault {
+    /// Decoding it would go over the document's budget.
+    #[error("decoding its {bytes} bytes would take the file's decoded data past {limit} bytes ({DECODE_FACTOR} times its real size, at least {DECODE_FLOOR}, at most --max-memory); refused")]
+    Budget {
+        /// Bytes its decoding takes.
+        bytes: usize,
+        /// The document's whole budget.
+        limit: u64,
+    },
+    /// A required field is missing (`componentType`, `type`, `count`).
+    #[error("missing {0}")]
+    Missing(&'static str),
+    /// `type` is not SCALAR, VEC2..4 or MAT2..4.
+    #[error("invalid type '{0}'")]
+    Type(String),
+    /// `componentType` is not a glTF component type.
+    #[error("invalid componentType {0}")]
+    ComponentType(u32),
+    /// `count` is 0.
+    #[error("count must be at least 1")]
+    ZeroCount,
+    /// `count` times the element size overflows.
+    #[error("count {0} overflows")]
+    Overflow(usize),
+    /// The view's stride is under the element size.
+    #[error("byteStride {stride} is smaller than the element size {size}")]
+    StrideTooSmall {
+        /// The stride.
+        stride: usize,
+        /// The element size.
+        size: usize,
+    },
+    /// The elements do not fit in the view.
+    #[error("{count} elements of {size} bytes (stride {stride}, offset {offset}) do not fit in bufferView {view} ({bytes} bytes)")]
+    DoesNotFit {
+        /// Elements.
+        count: usize,
+        /// Element size.
+        size: usize,
+        /// Stride.
+        stride: usize,
+        /// Offset in the view.
+        offset: usize,
+        /// The view.
+        view: usize,
+        /// The view's length.
+        bytes: usize,
+    },
+    /// An accessor without a view (all zeros) over the limit.
+    #[error("{count} elements without a bufferView would need {bytes} bytes; refused")]
+    ZerosTooLarge {
+        /// Elements.
+        count: usize,
+        /// Bytes they would take.
+        bytes: usize,
+    },
+    /// A sparse field is missing (`count`, `indices`, `values.bufferView`...).
+    #[error("sparse.{0} missing")]
+    SparseMissing(&'static str),
+    /// `sparse.count` out of range.
+    #[error("sparse.count {sparse} must be in 1..={count}")]
+    SparseCount {
+        /// `sparse.count`.
+        sparse: usize,
+        /// The accessor's count.
+        count: usize,
+    },
+    /// `sparse.indices.componentType` is not an unsigned integer type.
+    #[error("sparse.indices componentType {0} is invalid")]
+    SparseIndexType(u32),
+    /// The sparse indices do not fit in their view.
+    #[error("sparse indices do not fit in bufferView {0}")]
+    SparseIndicesFit(usize),
+    /// The sparse values do not fit in their view.
+    #[error("sparse values do not fit in bufferView {0}")]
+    SparseValuesFit(usize),
+    /// A sparse index beyond the accessor.
+    #[error("sparse index {index} out of range ({count} elements)")]
+    SparseIndex {
+        /// The index.
+        index: usize,
+        /// The accessor's count.
+        count: usize,
+    },
+    /// Sparse indices out of order.
+    #[error("sparse indices are not strictly increasing")]
+    SparseOrder,
+    /// A matrix where a vector was expected.
+    #[error("matrix accessor where a vector was expected")]
+    Matrix,
+    /// Indices that are not unnormalised scalars.
+    #[error("indices must be SCALAR and not normalized")]
+    IndicesKind,
+    /// Indices of a signed or float component type.
+    #[error("index componentType {0} is not an unsigned integer type")]
+    IndexType(u32),
+}
+
+/// What is wrong with a buffer view an accessor reads.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[non_exhaustive]
+pub enum ViewFault {
+    /// A required field is missing (`buffer`, `byteLength`).
+    #[error("missing {0}")]
+    Missing(&'static str),
+    /// An invalid stride.
+    #[error("byteStride {0} is invalid (must be a multiple of 4 in 4..=252)")]
+    Stride(usize),
+    /// The buffer does not exist.
+    #[error("buffer {0} does not exist")]
+    NoBuffer(usize),
+    /// The buffer was not loaded.
+    #[error("buffer {0} has no data")]
+    NoData(usize),
+    /// The view's range is beyond the buffer.
+    #[error("range {offset}+{length} exceeds buffer {buffer} ({bytes} bytes)")]
+    Range {
+        /// The view's offset.
+        offset: usize,
+        /// The view's length.
+        length: usize,
+        /// The buffer.
+        buffer: usize,
+        /// The buffer's length.
+        bytes: usize,
+    },
 }
 
 /// Most bytes a zero-initialised accessor (no bufferView) may claim: 256 MiB.
@@ -127,15 +281,20 @@ pub const DECODE_FACTOR: u64 = 64;
 /// Every document may decode at least this much: 1 GiB.
 pub const DECODE_FLOOR: u64 = 1 << 30;
 
-fn get_usize(v: &Value, key: &str) -> Result<Option<usize>, String> {
+fn get_usize(v: &Value, key: &'static str) -> Result<Option<usize>, AccessorError> {
     match v.get(key) {
         None => Ok(None),
         Some(x) => x
             .as_u64()
             .and_then(|n| usize::try_from(n).ok())
             .map(Some)
-            .ok_or_else(|| format!("'{key}' must be a non-negative integer")),
+            .ok_or(AccessorError::NotInteger { key }),
     }
+}
+
+/// Fault `fault` of accessor `index`.
+fn fault(index: usize, fault: AccessorFault) -> AccessorError {
+    AccessorError::Accessor { index, fault }
 }
 
 impl<'a> AccessorReader<'a> {
@@ -156,48 +315,45 @@ impl<'a> AccessorReader<'a> {
     }
 
     /// Take `bytes` from the budget before allocating them.
-    fn charge(&self, index: usize, bytes: usize) -> Result<(), String> {
+    fn charge(&self, index: usize, bytes: usize) -> Result<(), AccessorError> {
         let left = self.budget.get();
         if bytes as u64 > left {
-            return Err(format!(
-                "accessor {index}: decoding its {bytes} bytes would take the file's decoded data past {} bytes ({DECODE_FACTOR} times its real size, at least {DECODE_FLOOR}, at most --max-memory); refused",
-                self.limit
+            return Err(fault(
+                index,
+                AccessorFault::Budget {
+                    bytes,
+                    limit: self.limit,
+                },
             ));
         }
         self.budget.set(left - bytes as u64);
         Ok(())
     }
 
-    fn accessor_json(&self, index: usize) -> Result<&'a Value, String> {
+    fn accessor_json(&self, index: usize) -> Result<&'a Value, AccessorError> {
         self.root
             .get("accessors")
             .and_then(|a| a.get(index))
-            .ok_or_else(|| format!("accessor {index} does not exist"))
+            .ok_or(AccessorError::NoAccessor(index))
     }
 
     /// Describe accessor `index`, checking its fields.
     pub fn info(&self, index: usize) -> Result<AccessorInfo, AccessorError> {
-        self.info_msg(index).map_err(AccessorError)
-    }
-
-    fn info_msg(&self, index: usize) -> Result<AccessorInfo, String> {
         let a = self.accessor_json(index)?;
-        let ct = get_usize(a, "componentType")?
-            .ok_or_else(|| format!("accessor {index}: missing componentType"))?
-            as u32;
+        let missing = |key| fault(index, AccessorFault::Missing(key));
+        let ct = get_usize(a, "componentType")?.ok_or_else(|| missing("componentType"))? as u32;
         let kind = a
             .get("type")
             .and_then(Value::as_str)
-            .ok_or_else(|| format!("accessor {index}: missing type"))?
+            .ok_or_else(|| missing("type"))?
             .to_string();
         let components = type_components(&kind)
-            .ok_or_else(|| format!("accessor {index}: invalid type '{kind}'"))?;
+            .ok_or_else(|| fault(index, AccessorFault::Type(kind.clone())))?;
         let element_size = element_size(ct, &kind)
-            .ok_or_else(|| format!("accessor {index}: invalid componentType {ct}"))?;
-        let count =
-            get_usize(a, "count")?.ok_or_else(|| format!("accessor {index}: missing count"))?;
+            .ok_or_else(|| fault(index, AccessorFault::ComponentType(ct)))?;
+        let count = get_usize(a, "count")?.ok_or_else(|| missing("count"))?;
         if count == 0 {
-            return Err(format!("accessor {index}: count must be at least 1"));
+            return Err(fault(index, AccessorFault::ZeroCount));
         }
         let normalized = a
             .get("normalized")
@@ -214,54 +370,52 @@ impl<'a> AccessorReader<'a> {
     }
 
     /// The bytes of buffer view `view`, and its stride (None when tightly packed).
-    fn view(&self, view: usize) -> Result<(&'a [u8], Option<usize>), String> {
+    fn view(&self, view: usize) -> Result<(&'a [u8], Option<usize>), AccessorError> {
         let v = self
             .root
             .get("bufferViews")
             .and_then(|a| a.get(view))
-            .ok_or_else(|| format!("bufferView {view} does not exist"))?;
-        let buffer =
-            get_usize(v, "buffer")?.ok_or_else(|| format!("bufferView {view}: missing buffer"))?;
+            .ok_or(AccessorError::NoView(view))?;
+        let err = |fault| AccessorError::View { view, fault };
+        let buffer = get_usize(v, "buffer")?.ok_or_else(|| err(ViewFault::Missing("buffer")))?;
         let offset = get_usize(v, "byteOffset")?.unwrap_or(0);
-        let length = get_usize(v, "byteLength")?
-            .ok_or_else(|| format!("bufferView {view}: missing byteLength"))?;
+        let length =
+            get_usize(v, "byteLength")?.ok_or_else(|| err(ViewFault::Missing("byteLength")))?;
         let stride = get_usize(v, "byteStride")?;
         if let Some(s) = stride {
             if !(4..=252).contains(&s) || s % 4 != 0 {
-                return Err(format!("bufferView {view}: byteStride {s} is invalid (must be a multiple of 4 in 4..=252)"));
+                return Err(err(ViewFault::Stride(s)));
             }
         }
         let data = self
             .buffers
             .get(buffer)
-            .ok_or_else(|| format!("bufferView {view}: buffer {buffer} does not exist"))?
+            .ok_or_else(|| err(ViewFault::NoBuffer(buffer)))?
             .as_deref()
-            .ok_or_else(|| format!("bufferView {view}: buffer {buffer} has no data"))?;
+            .ok_or_else(|| err(ViewFault::NoData(buffer)))?;
         let end = offset
             .checked_add(length)
             .filter(|&e| e <= data.len())
             .ok_or_else(|| {
-                format!(
-                    "bufferView {view}: range {offset}+{length} exceeds buffer {buffer} ({} bytes)",
-                    data.len()
-                )
+                err(ViewFault::Range {
+                    offset,
+                    length,
+                    buffer,
+                    bytes: data.len(),
+                })
             })?;
         Ok((&data[offset..end], stride))
     }
 
     /// Tightly packed element bytes of accessor `index` (sparse substitution applied).
     pub fn read_packed(&self, index: usize) -> Result<(AccessorInfo, Vec<u8>), AccessorError> {
-        self.read_packed_msg(index).map_err(AccessorError)
-    }
-
-    fn read_packed_msg(&self, index: usize) -> Result<(AccessorInfo, Vec<u8>), String> {
-        let info = self.info_msg(index)?;
+        let info = self.info(index)?;
         let a = self.accessor_json(index)?;
         let es = info.element_size;
         let total = info
             .count
             .checked_mul(es)
-            .ok_or_else(|| format!("accessor {index}: count {} overflows", info.count))?;
+            .ok_or_else(|| fault(index, AccessorFault::Overflow(info.count)))?;
         self.charge(index, total)?;
         let mut out;
         match get_usize(a, "bufferView")? {
@@ -270,7 +424,10 @@ impl<'a> AccessorReader<'a> {
                 let offset = get_usize(a, "byteOffset")?.unwrap_or(0);
                 let stride = stride.unwrap_or(es);
                 if stride < es {
-                    return Err(format!("accessor {index}: byteStride {stride} is smaller than the element size {es}"));
+                    return Err(fault(
+                        index,
+                        AccessorFault::StrideTooSmall { stride, size: es },
+                    ));
                 }
                 // Last byte needed: offset + stride*(count-1) + es
                 let need = stride
@@ -280,10 +437,16 @@ impl<'a> AccessorReader<'a> {
                 match need {
                     Some(n) if n <= bytes.len() => {}
                     _ => {
-                        return Err(format!(
-                            "accessor {index}: {} elements of {es} bytes (stride {stride}, offset {offset}) do not fit in bufferView {view} ({} bytes)",
-                            info.count,
-                            bytes.len()
+                        return Err(fault(
+                            index,
+                            AccessorFault::DoesNotFit {
+                                count: info.count,
+                                size: es,
+                                stride,
+                                offset,
+                                view,
+                                bytes: bytes.len(),
+                            },
                         ))
                     }
                 }
@@ -302,9 +465,12 @@ impl<'a> AccessorReader<'a> {
                     // Legal but unusual: all zeros. Bound it.
                 }
                 if total as u64 > MAX_ZERO_ACCESSOR_BYTES {
-                    return Err(format!(
-                        "accessor {index}: {} elements without a bufferView would need {total} bytes; refused",
-                        info.count
+                    return Err(fault(
+                        index,
+                        AccessorFault::ZerosTooLarge {
+                            count: info.count,
+                            bytes: total,
+                        },
                     ));
                 }
                 out = vec![0u8; total];
@@ -322,52 +488,39 @@ impl<'a> AccessorReader<'a> {
         info: &AccessorInfo,
         sparse: &Value,
         out: &mut [u8],
-    ) -> Result<(), String> {
-        let n = get_usize(sparse, "count")?
-            .ok_or_else(|| format!("accessor {index}: sparse.count missing"))?;
+    ) -> Result<(), AccessorError> {
+        let err = |f| fault(index, f);
+        let missing = |key| err(AccessorFault::SparseMissing(key));
+        let n = get_usize(sparse, "count")?.ok_or_else(|| missing("count"))?;
         if n == 0 || n > info.count {
-            return Err(format!(
-                "accessor {index}: sparse.count {n} must be in 1..={}",
-                info.count
-            ));
+            return Err(err(AccessorFault::SparseCount {
+                sparse: n,
+                count: info.count,
+            }));
         }
-        let idx = sparse
-            .get("indices")
-            .ok_or_else(|| format!("accessor {index}: sparse.indices missing"))?;
-        let vals = sparse
-            .get("values")
-            .ok_or_else(|| format!("accessor {index}: sparse.values missing"))?;
+        let idx = sparse.get("indices").ok_or_else(|| missing("indices"))?;
+        let vals = sparse.get("values").ok_or_else(|| missing("values"))?;
         let ict = get_usize(idx, "componentType")?.unwrap_or(0) as u32;
         let ics = match ict {
             5121 => 1,
             5123 => 2,
             5125 => 4,
-            _ => {
-                return Err(format!(
-                    "accessor {index}: sparse.indices componentType {ict} is invalid"
-                ))
-            }
+            _ => return Err(err(AccessorFault::SparseIndexType(ict))),
         };
-        let iview = get_usize(idx, "bufferView")?
-            .ok_or_else(|| format!("accessor {index}: sparse.indices.bufferView missing"))?;
+        let iview = get_usize(idx, "bufferView")?.ok_or_else(|| missing("indices.bufferView"))?;
         let ioff = get_usize(idx, "byteOffset")?.unwrap_or(0);
         let (ibytes, _) = self.view(iview)?;
         let ineed = n.checked_mul(ics).and_then(|x| x.checked_add(ioff));
         if ineed.is_none_or(|x| x > ibytes.len()) {
-            return Err(format!(
-                "accessor {index}: sparse indices do not fit in bufferView {iview}"
-            ));
+            return Err(err(AccessorFault::SparseIndicesFit(iview)));
         }
-        let vview = get_usize(vals, "bufferView")?
-            .ok_or_else(|| format!("accessor {index}: sparse.values.bufferView missing"))?;
+        let vview = get_usize(vals, "bufferView")?.ok_or_else(|| missing("values.bufferView"))?;
         let voff = get_usize(vals, "byteOffset")?.unwrap_or(0);
         let (vbytes, _) = self.view(vview)?;
         let es = info.element_size;
         let vneed = n.checked_mul(es).and_then(|x| x.checked_add(voff));
         if vneed.is_none_or(|x| x > vbytes.len()) {
-            return Err(format!(
-                "accessor {index}: sparse values do not fit in bufferView {vview}"
-            ));
+            return Err(err(AccessorFault::SparseValuesFit(vview)));
         }
         let mut prev: Option<usize> = None;
         for k in 0..n {
@@ -379,15 +532,13 @@ impl<'a> AccessorReader<'a> {
                     as usize,
             };
             if target >= info.count {
-                return Err(format!(
-                    "accessor {index}: sparse index {target} out of range ({} elements)",
-                    info.count
-                ));
+                return Err(err(AccessorFault::SparseIndex {
+                    index: target,
+                    count: info.count,
+                }));
             }
             if prev.is_some_and(|q| target <= q) {
-                return Err(format!(
-                    "accessor {index}: sparse indices are not strictly increasing"
-                ));
+                return Err(err(AccessorFault::SparseOrder));
             }
             prev = Some(target);
             let src = voff + k * es;
@@ -399,15 +550,9 @@ impl<'a> AccessorReader<'a> {
     /// Accessor `index` as `f32` components (normalized integers are mapped to
     /// `[0,1]` or `[-1,1]`, other integers converted). Matrices are refused.
     pub fn read_f32(&self, index: usize) -> Result<(AccessorInfo, Vec<f32>), AccessorError> {
-        self.read_f32_msg(index).map_err(AccessorError)
-    }
-
-    fn read_f32_msg(&self, index: usize) -> Result<(AccessorInfo, Vec<f32>), String> {
-        let (info, bytes) = self.read_packed_msg(index)?;
+        let (info, bytes) = self.read_packed(index)?;
         if info.kind.starts_with("MAT") {
-            return Err(format!(
-                "accessor {index}: matrix accessor where a vector was expected"
-            ));
+            return Err(fault(index, AccessorFault::Matrix));
         }
         let n = info.count * info.components;
         self.charge(index, 4 * n)?;
@@ -456,23 +601,17 @@ impl<'a> AccessorReader<'a> {
                     v
                 }
             })),
-            ct => return Err(format!("accessor {index}: invalid componentType {ct}")),
+            ct => return Err(fault(index, AccessorFault::ComponentType(ct))),
         }
         Ok((info, out))
     }
 
     /// An index accessor as `u32` values (SCALAR, unsigned byte/short/int, not normalized).
     pub fn read_indices(&self, index: usize) -> Result<Vec<u32>, AccessorError> {
-        self.read_indices_msg(index).map_err(AccessorError)
-    }
-
-    fn read_indices_msg(&self, index: usize) -> Result<Vec<u32>, String> {
-        let (info, bytes) = self.read_packed_msg(index)?;
+        let (info, bytes) = self.read_packed(index)?;
         self.charge(index, 4 * info.count)?;
         if info.kind != "SCALAR" || info.normalized {
-            return Err(format!(
-                "accessor {index}: indices must be SCALAR and not normalized"
-            ));
+            return Err(fault(index, AccessorFault::IndicesKind));
         }
         Ok(match info.component_type {
             5121 => bytes.iter().map(|&b| b as u32).collect(),
@@ -484,11 +623,7 @@ impl<'a> AccessorReader<'a> {
                 .chunks_exact(4)
                 .map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]]))
                 .collect(),
-            ct => {
-                return Err(format!(
-                    "accessor {index}: index componentType {ct} is not an unsigned integer type"
-                ))
-            }
+            ct => return Err(fault(index, AccessorFault::IndexType(ct))),
         })
     }
 }
@@ -586,8 +721,8 @@ mod tests {
         let r = AccessorReader::new(&root, &bufs);
         let (_, v) = r.read_f32(0).unwrap();
         assert_eq!(v, vec![0.0, 10.0, 1.0, 11.0, -1.0, -2.0]);
-        let e = r.read_f32(1).unwrap_err();
-        assert!(e.0.contains("do not fit"), "{e}");
+        let e = r.read_f32(1).unwrap_err().to_string();
+        assert!(e.contains("do not fit"), "{e}");
     }
 
     #[test]

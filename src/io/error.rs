@@ -23,6 +23,25 @@ pub enum IoError {
         /// What is wrong, naming the element.
         message: String,
     },
+    /// A glTF or GLB document cannot be read.
+    #[error("{path}: {error}")]
+    Gltf {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong, naming the element.
+        error: super::gltf_read::GltfError,
+    },
+    /// An OBJ file cannot be read.
+    #[error("{path}: {error}")]
+    Obj {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong, naming the line.
+        error: super::obj::ObjError,
+    },
+    /// A folder below the output folder cannot be made or used.
+    #[error(transparent)]
+    Folder(#[from] super::write::DirError),
     /// Output could not be produced.
     #[error("{path}: cannot write: {message}")]
     Output {

@@ -88,23 +88,37 @@ pub fn model_what(max_memory: u64) -> &'static str {
     }
 }
 
-/// `count` primitives within `max_memory` at [`PRIMITIVE_BYTES`] each, or a
-/// message with the numbers (checked before the primitives are built).
+/// `count` primitives within `max_memory` at [`PRIMITIVE_BYTES`] each, or an
+/// error with the numbers (checked before the primitives are built).
 pub fn check_primitive_count(
     count: usize,
-    what: &str,
+    what: &'static str,
     max_memory: u64,
-) -> std::result::Result<(), String> {
+) -> std::result::Result<(), PrimitiveBudgetError> {
     let need = (count as u64).saturating_mul(PRIMITIVE_BYTES);
     if need > max_memory {
-        return Err(format!(
-            "{count} {what} need about {} MiB ({} KiB each), more than the memory budget of {} MiB (--max-memory); merge objects or raise --max-memory",
-            need >> 20,
-            PRIMITIVE_BYTES >> 10,
-            max_memory >> 20
-        ));
+        return Err(PrimitiveBudgetError {
+            count,
+            what,
+            need,
+            max_memory,
+        });
     }
     Ok(())
+}
+
+/// More primitives than the memory budget allows.
+#[derive(Debug, thiserror::Error)]
+#[error("{count} {what} need about {} MiB ({} KiB each), more than the memory budget of {} MiB (--max-memory); merge objects or raise --max-memory", need >> 20, PRIMITIVE_BYTES >> 10, max_memory >> 20)]
+pub struct PrimitiveBudgetError {
+    /// How many primitives.
+    pub count: usize,
+    /// What they are (`mesh primitives`, `objects (...)`).
+    pub what: &'static str,
+    /// Bytes they need.
+    pub need: u64,
+    /// The budget.
+    pub max_memory: u64,
 }
 
 /// Read an asset (OBJ, glTF or GLB, by extension).

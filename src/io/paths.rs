@@ -6,9 +6,83 @@ use std::path::{Component, Path, PathBuf};
 
 /// A file reference that is refused or cannot be followed; the message
 /// names the reference and why ("not found" for a missing file).
-#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
-#[error("{0}")]
-pub struct PathError(pub String);
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum PathError {
+    /// A malformed `%XX` escape.
+    #[error("invalid percent-escape in reference '{reference}'")]
+    BadEscape {
+        /// The reference as written.
+        reference: String,
+    },
+    /// An empty reference.
+    #[error("empty file reference")]
+    Empty,
+    /// A path from the root (`/x`).
+    #[error("absolute path '{reference}' is not followed (only files inside the asset's folder are read)")]
+    Absolute {
+        /// The reference as written.
+        reference: String,
+    },
+    /// A URI scheme (`http:`) or a drive letter (`C:`).
+    #[error("reference '{reference}' is a URI or absolute path and is not followed (only relative paths inside the asset's folder are read)")]
+    Uri {
+        /// The reference as written.
+        reference: String,
+    },
+    /// A `..` component.
+    #[error("reference '{reference}' leaves the asset's folder ('..' is not followed)")]
+    LeavesFolder {
+        /// The reference as written.
+        reference: String,
+    },
+    /// A root or prefix component found while resolving.
+    #[error("absolute path '{reference}' is not followed")]
+    RootComponent {
+        /// The reference as written.
+        reference: String,
+    },
+    /// The asset's folder cannot be resolved.
+    #[error("the asset's folder '{}' cannot be read: {source}", folder.display())]
+    Folder {
+        /// The folder.
+        folder: PathBuf,
+        /// The OS error.
+        source: std::io::Error,
+    },
+    /// Nothing by that name.
+    #[error("'{reference}' not found")]
+    NotFound {
+        /// The reference as written.
+        reference: String,
+    },
+    /// The file cannot be resolved or read.
+    #[error("'{reference}' cannot be read: {source}")]
+    Unreadable {
+        /// The reference as written.
+        reference: String,
+        /// The OS error.
+        source: std::io::Error,
+    },
+    /// A symbolic link to a file outside the asset's folder.
+    #[error("'{reference}' is a symbolic link to '{}', outside the asset's folder '{}' (only files inside it are read)", real.display(), folder.display())]
+    LinkOutside {
+        /// The reference as written.
+        reference: String,
+        /// Where the link leads.
+        real: PathBuf,
+        /// The asset's real folder.
+        folder: PathBuf,
+    },
+    /// A folder, FIFO, socket or device.
+    #[error("'{reference}' is {what}, not a regular file")]
+    NotRegular {
+        /// The reference as written.
+        reference: String,
+        /// What it is (`a folder`, `a device`...).
+        what: &'static str,
+    },
+}
 
 /// Largest model file (OBJ, glTF, GLB) or external glTF buffer read: 4 GiB.
 pub const MAX_MODEL_BYTES: u64 = 4 << 30;
@@ -40,12 +114,8 @@ pub const MAX_IMAGE_BYTES: u64 = 1 << 30;
 /// name the reference; a missing file gives an error whose text contains
 /// "not found".
 pub fn resolve_file_inside(base_dir: &Path, reference: &str) -> Result<PathBuf, PathError> {
-    resolve_file_inside_msg(base_dir, reference).map_err(PathError)
-}
-
-fn resolve_file_inside_msg(base_dir: &Path, reference: &str) -> Result<PathBuf, String> {
-    let path = resolve_inside_msg(base_dir, reference)?;
-    real_file_inside_msg(base_dir, &path, reference)
+    let path = resolve_inside(base_dir, reference)?;
+    real_file_inside(base_dir, &path, reference)
 }
 
 /// Where a reference leads: the real path of a regular file inside the
@@ -61,15 +131,11 @@ pub enum Located {
 /// [`resolve_file_inside`], telling a missing file (often only a warning)
 /// apart from one that is refused.
 pub fn locate_inside(base_dir: &Path, reference: &str) -> Result<Located, PathError> {
-    locate_inside_msg(base_dir, reference).map_err(PathError)
-}
-
-fn locate_inside_msg(base_dir: &Path, reference: &str) -> Result<Located, String> {
-    let path = resolve_inside_msg(base_dir, reference)?;
+    let path = resolve_inside(base_dir, reference)?;
     if std::fs::symlink_metadata(&path).is_err() {
         return Ok(Located::Missing(path));
     }
-    real_file_inside_msg(base_dir, &path, reference).map(Located::Found)
+    real_file_inside(base_dir, &path, reference).map(Located::Found)
 }
 
 /// The real path of `path` (a file under `base_dir` by its text), checked
@@ -79,39 +145,47 @@ pub fn real_file_inside(
     path: &Path,
     reference: &str,
 ) -> Result<PathBuf, PathError> {
-    real_file_inside_msg(base_dir, path, reference).map_err(PathError)
-}
-
-fn real_file_inside_msg(base_dir: &Path, path: &Path, reference: &str) -> Result<PathBuf, String> {
+    let reference = || reference.to_string();
     let base = if base_dir.as_os_str().is_empty() {
         Path::new(".")
     } else {
         base_dir
     };
-    let real_base = base.canonicalize().map_err(|e| {
-        format!(
-            "the asset's folder '{}' cannot be read: {e}",
-            base.display()
-        )
+    let real_base = base.canonicalize().map_err(|source| PathError::Folder {
+        folder: base.to_path_buf(),
+        source,
     })?;
     let real = match path.canonicalize() {
         Ok(r) => r,
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
-            return Err(format!("'{reference}' not found"))
+            return Err(PathError::NotFound {
+                reference: reference(),
+            })
         }
-        Err(e) => return Err(format!("'{reference}' cannot be read: {e}")),
+        Err(source) => {
+            return Err(PathError::Unreadable {
+                reference: reference(),
+                source,
+            })
+        }
     };
     if !real.starts_with(&real_base) {
-        return Err(format!(
-            "'{reference}' is a symbolic link to '{}', outside the asset's folder '{}' (only files inside it are read)",
-            real.display(),
-            real_base.display()
-        ));
+        return Err(PathError::LinkOutside {
+            reference: reference(),
+            real,
+            folder: real_base,
+        });
     }
     match regular_file(&real) {
         Ok(Ok(_)) => Ok(real),
-        Ok(Err(what)) => Err(format!("'{reference}' is {what}, not a regular file")),
-        Err(e) => Err(format!("'{reference}' cannot be read: {e}")),
+        Ok(Err(what)) => Err(PathError::NotRegular {
+            reference: reference(),
+            what,
+        }),
+        Err(source) => Err(PathError::Unreadable {
+            reference: reference(),
+            source,
+        }),
     }
 }
 
@@ -266,24 +340,21 @@ pub fn stream_capped(
 /// plain relative path, and any `..` component are refused with a message, so
 /// an asset never makes the tool read outside its own folder.
 pub fn resolve_inside(base_dir: &Path, reference: &str) -> Result<PathBuf, PathError> {
-    resolve_inside_msg(base_dir, reference).map_err(PathError)
-}
-
-fn resolve_inside_msg(base_dir: &Path, reference: &str) -> Result<PathBuf, String> {
-    let decoded = percent_decode(reference)
-        .ok_or_else(|| format!("invalid percent-escape in reference '{reference}'"))?;
+    let r = || reference.to_string();
+    let decoded =
+        percent_decode(reference).ok_or_else(|| PathError::BadEscape { reference: r() })?;
     let normalized = decoded.replace('\\', "/");
     if normalized.is_empty() {
-        return Err("empty file reference".into());
+        return Err(PathError::Empty);
     }
     if normalized.starts_with('/') {
-        return Err(format!("absolute path '{reference}' is not followed (only files inside the asset's folder are read)"));
+        return Err(PathError::Absolute { reference: r() });
     }
     // A scheme (http:, file:) or a drive letter (C:)
     if let Some(colon) = normalized.find(':') {
         let before = &normalized[..colon];
         if !before.contains('/') {
-            return Err(format!("reference '{reference}' is a URI or absolute path and is not followed (only relative paths inside the asset's folder are read)"));
+            return Err(PathError::Uri { reference: r() });
         }
     }
     let mut out = base_dir.to_path_buf();
@@ -291,13 +362,9 @@ fn resolve_inside_msg(base_dir: &Path, reference: &str) -> Result<PathBuf, Strin
         match comp {
             Component::Normal(c) => out.push(c),
             Component::CurDir => {}
-            Component::ParentDir => {
-                return Err(format!(
-                    "reference '{reference}' leaves the asset's folder ('..' is not followed)"
-                ))
-            }
+            Component::ParentDir => return Err(PathError::LeavesFolder { reference: r() }),
             Component::RootDir | Component::Prefix(_) => {
-                return Err(format!("absolute path '{reference}' is not followed"))
+                return Err(PathError::RootComponent { reference: r() })
             }
         }
     }

@@ -151,35 +151,30 @@ impl HeldDir {
 /// symbolic link (which would put what is written there anywhere). Each
 /// folder is opened from the one above it without following a link, and
 /// the last is held open ([`HeldDir`]). Errors name the folder.
-pub fn make_dirs_below(root: &Path, dir: &Path) -> Result<HeldDir, String> {
-    std::fs::create_dir_all(root)
-        .map_err(|e| format!("{}: cannot create the folder: {e}", root.display()))?;
-    let rest = dir.strip_prefix(root).map_err(|_| {
-        format!(
-            "{}: not inside the output folder {}",
-            dir.display(),
-            root.display()
-        )
+pub fn make_dirs_below(root: &Path, dir: &Path) -> Result<HeldDir, DirError> {
+    std::fs::create_dir_all(root).map_err(|source| DirError::Create {
+        dir: root.to_path_buf(),
+        source,
+    })?;
+    let rest = dir.strip_prefix(root).map_err(|_| DirError::NotInside {
+        dir: dir.to_path_buf(),
+        root: root.to_path_buf(),
     })?;
     let mut at = root.to_path_buf();
     let mut parts = Vec::new();
     for c in rest.components() {
         let Component::Normal(part) = c else {
-            return Err(format!(
-                "{}: not a plain folder below {}",
-                dir.display(),
-                root.display()
-            ));
+            return Err(DirError::NotPlain {
+                dir: dir.to_path_buf(),
+                root: root.to_path_buf(),
+            });
         };
         at.push(part);
         parts.push(part);
     }
-    let link = |at: &Path| {
-        format!(
-            "{}: a symbolic link inside the output folder {} (not written through)",
-            at.display(),
-            root.display()
-        )
+    let link = |at: &Path| DirError::Link {
+        at: at.to_path_buf(),
+        root: root.to_path_buf(),
     };
     #[cfg(target_os = "linux")]
     {
@@ -197,35 +192,111 @@ pub fn make_dirs_below(root: &Path, dir: &Path) -> Result<HeldDir, String> {
         // Without /proc the checked path is used (checked again below).
     }
     let mut at = root.to_path_buf();
+    let not_folder = |at: &Path| DirError::NotFolder {
+        at: at.to_path_buf(),
+    };
+    let read = |at: &Path| {
+        let at = at.to_path_buf();
+        move |source| DirError::Read { at, source }
+    };
     for part in parts {
         at.push(part);
         match std::fs::symlink_metadata(&at) {
             Ok(m) if m.file_type().is_symlink() => return Err(link(&at)),
             Ok(m) if m.is_dir() => {}
-            Ok(_) => return Err(format!("{}: not a folder", at.display())),
+            Ok(_) => return Err(not_folder(&at)),
             Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
                 match std::fs::create_dir(&at) {
                     Ok(()) => {}
                     // Made meanwhile by another job: checked on the next
                     // pass of the loop's test below.
                     Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {}
-                    Err(e) => {
-                        return Err(format!("{}: cannot create the folder: {e}", at.display()))
+                    Err(source) => {
+                        return Err(DirError::Create {
+                            dir: at.clone(),
+                            source,
+                        })
                     }
                 }
-                let m = std::fs::symlink_metadata(&at)
-                    .map_err(|e| format!("{}: cannot read: {e}", at.display()))?;
+                let m = std::fs::symlink_metadata(&at).map_err(read(&at))?;
                 if !m.is_dir() || m.file_type().is_symlink() {
-                    return Err(format!("{}: not a folder", at.display()));
+                    return Err(not_folder(&at));
                 }
             }
-            Err(e) => return Err(format!("{}: cannot read: {e}", at.display())),
+            Err(e) => return Err(read(&at)(e)),
         }
     }
     Ok(HeldDir {
         shown: at,
         held: None,
     })
+}
+
+/// Why a folder below the output folder cannot be made or used; every
+/// message names the folder.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum DirError {
+    /// The folder cannot be created.
+    #[error("{}: cannot create the folder: {source}", dir.display())]
+    Create {
+        /// The folder.
+        dir: PathBuf,
+        /// The OS error.
+        source: std::io::Error,
+    },
+    /// The folder is not below the output folder.
+    #[error("{}: not inside the output folder {}", dir.display(), root.display())]
+    NotInside {
+        /// The folder.
+        dir: PathBuf,
+        /// The output folder.
+        root: PathBuf,
+    },
+    /// The path below the output folder has `..` or a root.
+    #[error("{}: not a plain folder below {}", dir.display(), root.display())]
+    NotPlain {
+        /// The folder.
+        dir: PathBuf,
+        /// The output folder.
+        root: PathBuf,
+    },
+    /// A symbolic link on the way down.
+    #[error("{}: a symbolic link inside the output folder {} (not written through)", at.display(), root.display())]
+    Link {
+        /// The link.
+        at: PathBuf,
+        /// The output folder.
+        root: PathBuf,
+    },
+    /// A file where a folder goes.
+    #[error("{}: not a folder", at.display())]
+    NotFolder {
+        /// The path.
+        at: PathBuf,
+    },
+    /// A folder that cannot be examined.
+    #[error("{}: cannot read: {source}", at.display())]
+    Read {
+        /// The folder.
+        at: PathBuf,
+        /// The OS error.
+        source: std::io::Error,
+    },
+    /// A folder that cannot be opened.
+    #[error("{}: cannot open the folder: {source}", at.display())]
+    Open {
+        /// The folder.
+        at: PathBuf,
+        /// The OS error.
+        source: std::io::Error,
+    },
+    /// A folder name with a NUL byte.
+    #[error("{}: a folder name with a NUL byte", at.display())]
+    NulName {
+        /// The path.
+        at: PathBuf,
+    },
 }
 
 /// Descending folder by folder through descriptors (`mkdirat`, then
@@ -238,6 +309,8 @@ mod held {
     use std::os::fd::{AsRawFd as _, FromRawFd as _};
     use std::os::unix::ffi::OsStrExt as _;
     use std::path::{Path, PathBuf};
+
+    use super::DirError;
 
     fn open_dir_at(dir: &File, name: &CString) -> std::io::Result<File> {
         // SAFETY: `openat` on a descriptor `dir` owns and a NUL-terminated
@@ -273,30 +346,36 @@ mod held {
     pub(super) fn open_below(
         root: &Path,
         parts: &[&OsStr],
-        link: impl Fn(&Path) -> String,
-    ) -> Result<File, String> {
-        let mut dir = File::open(root)
-            .map_err(|e| format!("{}: cannot open the folder: {e}", root.display()))?;
+        link: impl Fn(&Path) -> DirError,
+    ) -> Result<File, DirError> {
+        let open = |at: &Path| {
+            let at = at.to_path_buf();
+            move |source| DirError::Open { at, source }
+        };
+        let mut dir = File::open(root).map_err(open(root))?;
         let mut at: PathBuf = root.to_path_buf();
         for part in parts {
             at.push(part);
-            let name = CString::new(part.as_bytes())
-                .map_err(|_| format!("{}: a folder name with a NUL byte", at.display()))?;
+            let name =
+                CString::new(part.as_bytes()).map_err(|_| DirError::NulName { at: at.clone() })?;
             // SAFETY: `mkdirat` on a descriptor `dir` owns and a
             // NUL-terminated name.
             if unsafe { libc::mkdirat(dir.as_raw_fd(), name.as_ptr(), 0o777) } != 0 {
                 let e = std::io::Error::last_os_error();
                 if e.kind() != std::io::ErrorKind::AlreadyExists {
-                    return Err(format!("{}: cannot create the folder: {e}", at.display()));
+                    return Err(DirError::Create {
+                        dir: at.clone(),
+                        source: e,
+                    });
                 }
             }
             dir = match open_dir_at(&dir, &name) {
                 Ok(d) => d,
                 Err(_) if is_link_at(&dir, &name) => return Err(link(&at)),
                 Err(e) if e.raw_os_error() == Some(libc::ENOTDIR) => {
-                    return Err(format!("{}: not a folder", at.display()))
+                    return Err(DirError::NotFolder { at: at.clone() })
                 }
-                Err(e) => return Err(format!("{}: cannot open the folder: {e}", at.display())),
+                Err(e) => return Err(open(&at)(e)),
             };
         }
         Ok(dir)
@@ -416,7 +495,9 @@ mod tests {
         make_dirs_below(&root, &root.join("a/b")).unwrap();
         assert!(root.join("a/b").is_dir());
         std::os::unix::fs::symlink(&elsewhere, root.join("a/link")).unwrap();
-        let err = make_dirs_below(&root, &root.join("a/link/c")).unwrap_err();
+        let err = make_dirs_below(&root, &root.join("a/link/c"))
+            .unwrap_err()
+            .to_string();
         assert!(err.contains("symbolic link"), "{err}");
         assert!(!elsewhere.join("c").exists());
         assert!(make_dirs_below(&root, &dir.path().join("x")).is_err());
@@ -447,7 +528,9 @@ mod tests {
             format!("{}: cannot write", root.join("a/b/x.glb").display())
         );
         // And a link met on the way down is refused as before.
-        let err = make_dirs_below(&root, &root.join("a/b")).unwrap_err();
+        let err = make_dirs_below(&root, &root.join("a/b"))
+            .unwrap_err()
+            .to_string();
         assert!(err.contains("symbolic link"), "{err}");
     }
 }

@@ -237,6 +237,27 @@ fn cut_segments(
     Ok(skipped)
 }
 
+/// Why one crack segment cannot be walked across the input's faces.
+#[derive(Debug, thiserror::Error)]
+enum WalkError {
+    #[error("the walk did not reach its end")]
+    NotReached,
+    #[error("the walk strayed away from its end")]
+    Strayed,
+    #[error("the walk came back to a vertex")]
+    CameBack,
+    #[error("its ends are not joined by the input's edges nearby")]
+    NotJoined,
+    #[error("the walk from vertex {vertex} found no edge to cross")]
+    NoEdgeToCross { vertex: VertexId },
+    #[error("vertex {vertex} has no face to walk through")]
+    NoFace { vertex: VertexId },
+    #[error("no face of vertex {vertex} faces the crack's end")]
+    NoFaceFacing { vertex: VertexId },
+    #[error(transparent)]
+    Split(#[from] MeshError),
+}
+
 /// The opened edges as segments at rest, and their times.
 type Opened = (Vec<[[f64; 3]; 2]>, Vec<f64>);
 
@@ -553,7 +574,7 @@ impl Cutter {
     /// the input that touch or pass through each other (panels modelled
     /// apart), each end is cut straight towards the other as far as it
     /// comes closer.
-    fn walk(&mut self, va: VertexId, vb: VertexId, time: f64) -> Result<(), String> {
+    fn walk(&mut self, va: VertexId, vb: VertexId, time: f64) -> Result<(), WalkError> {
         let path = match self.straight(va, vb) {
             Ok(path) => path,
             Err(_) => match self.along_edges(va, vb) {
@@ -582,7 +603,7 @@ impl Cutter {
 
     /// The vertices of a straight walk from `va` to `vb`, crossed edges
     /// split. Fails when the walk comes back to a vertex or strays.
-    fn straight(&mut self, va: VertexId, vb: VertexId) -> Result<Vec<VertexId>, String> {
+    fn straight(&mut self, va: VertexId, vb: VertexId) -> Result<Vec<VertexId>, WalkError> {
         let target = self.mesh.position(vb);
         let start = norm(sub(target, self.mesh.position(va)));
         let mut path = vec![va];
@@ -593,14 +614,14 @@ impl Cutter {
                 break;
             }
             if path.len() > 10_000 {
-                return Err("the walk did not reach its end".into());
+                return Err(WalkError::NotReached);
             }
             let next = self.step(v, target)?;
             if norm(sub(target, self.mesh.position(next))) > 1.5 * start + 1e-12 {
-                return Err("the walk strayed away from its end".into());
+                return Err(WalkError::Strayed);
             }
             if path.contains(&next) {
-                return Err("the walk came back to a vertex".into());
+                return Err(WalkError::CameBack);
             }
             path.push(next);
             v = next;
@@ -633,7 +654,7 @@ impl Cutter {
     /// The shortest path from `va` to `vb` along the mesh's edges (A*
     /// with the straight distance), searching at most [`MAX_SEARCH`]
     /// vertices.
-    fn along_edges(&self, va: VertexId, vb: VertexId) -> Result<Vec<VertexId>, String> {
+    fn along_edges(&self, va: VertexId, vb: VertexId) -> Result<Vec<VertexId>, WalkError> {
         use std::cmp::Reverse;
         use std::collections::{BinaryHeap, HashMap};
         let target = self.mesh.position(vb);
@@ -672,7 +693,7 @@ impl Cutter {
                 }
             }
         }
-        Err("its ends are not joined by the input's edges nearby".into())
+        Err(WalkError::NotJoined)
     }
 
     fn mark(&mut self, a: VertexId, b: VertexId, time: f64) {
@@ -688,7 +709,7 @@ impl Cutter {
     /// One step of a walk from `v` towards `target`: the next vertex,
     /// where the straight way out of `v`'s fan crosses the opposite edge
     /// of the face it leaves through.
-    fn step(&mut self, v: VertexId, target: [f64; 3]) -> Result<VertexId, String> {
+    fn step(&mut self, v: VertexId, target: [f64; 3]) -> Result<VertexId, WalkError> {
         for attempt in 0..=MAX_STEP_FLIPS {
             let (g, t) = self.exit(v, target)?;
             let (a, b) = (self.mesh.origin(g), self.mesh.dest(g));
@@ -711,15 +732,15 @@ impl Cutter {
             if close && attempt < MAX_STEP_FLIPS && self.flip_beside(g) {
                 continue;
             }
-            return self.split(g, t).map_err(|e| e.to_string());
+            return Ok(self.split(g, t)?);
         }
-        Err(format!("the walk from vertex {v} found no edge to cross"))
+        Err(WalkError::NoEdgeToCross { vertex: v })
     }
 
     /// The edge a straight walk from `v` towards `target` leaves `v`'s fan
     /// through (the halfedge from `a` to `b`, in a face of `v`) and where it
     /// crosses it (`t` from `a`).
-    fn exit(&self, v: VertexId, target: [f64; 3]) -> Result<(HalfedgeId, f64), String> {
+    fn exit(&self, v: VertexId, target: [f64; 3]) -> Result<(HalfedgeId, f64), WalkError> {
         let pv = self.mesh.position(v);
         let d = sub(target, pv);
         let mut best: Option<(f64, HalfedgeId)> = None;
@@ -747,10 +768,10 @@ impl Cutter {
             }
         }
         let Some((score, h)) = best else {
-            return Err(format!("vertex {v} has no face to walk through"));
+            return Err(WalkError::NoFace { vertex: v });
         };
         if score < -0.05 {
-            return Err(format!("no face of vertex {v} faces the crack's end"));
+            return Err(WalkError::NoFaceFacing { vertex: v });
         }
         // The opposite edge, from a to b.
         let g = self.mesh.next(h);

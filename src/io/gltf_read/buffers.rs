@@ -9,7 +9,7 @@ use std::path::Path;
 
 /// POSITION accessor indices must exist before the `gltf` crate's schema check
 /// looks them up (it indexes without checking).
-pub(super) fn precheck_positions(root: &Value) -> std::result::Result<(), String> {
+pub(super) fn precheck_positions(root: &Value) -> std::result::Result<(), GltfError> {
     let n_acc = arr(root, "accessors").len();
     for (mi, m) in arr(root, "meshes").iter().enumerate() {
         for (pi, p) in arr(m, "primitives").iter().enumerate() {
@@ -18,9 +18,12 @@ pub(super) fn precheck_positions(root: &Value) -> std::result::Result<(), String
                 match pos.as_u64() {
                     Some(i) if (i as usize) < n_acc => {}
                     _ => {
-                        return Err(format!(
-                            "mesh {mi} primitive {pi}: POSITION accessor {pos} does not exist ({n_acc} accessors)"
-                        ))
+                        return Err(GltfError::NoPositionAccessor {
+                            mesh: mi,
+                            primitive: pi,
+                            accessor: pos.to_string(),
+                            accessors: n_acc,
+                        })
                     }
                 }
             }
@@ -31,10 +34,10 @@ pub(super) fn precheck_positions(root: &Value) -> std::result::Result<(), String
 
 /// Structural validation by the `gltf` crate's schema (indices in range,
 /// required fields), ignoring its refusal of extensions we handle ourselves.
-pub(super) fn validate_schema(json: &[u8]) -> std::result::Result<(), String> {
+pub(super) fn validate_schema(json: &[u8]) -> std::result::Result<(), GltfError> {
     use gltf::json::validation::{Error as VErr, Validate};
     let root: gltf::json::Root =
-        gltf::json::deserialize::from_slice(json).map_err(|e| format!("invalid glTF JSON: {e}"))?;
+        gltf::json::deserialize::from_slice(json).map_err(GltfError::SchemaJson)?;
     let mut errors = Vec::new();
     root.validate(&root, gltf::json::Path::new, &mut |path, e| {
         if e != VErr::Unsupported {
@@ -44,31 +47,27 @@ pub(super) fn validate_schema(json: &[u8]) -> std::result::Result<(), String> {
     if errors.is_empty() {
         Ok(())
     } else {
-        let n = errors.len();
+        let count = errors.len();
         errors.truncate(5);
-        Err(format!(
-            "invalid glTF ({n} error{}): {}",
-            if n > 1 { "s" } else { "" },
-            errors.join("; ")
-        ))
+        Err(GltfError::Schema { count, errors })
     }
 }
 
-pub(super) fn decode_data_uri(uri: &str) -> Option<std::result::Result<DataUri, String>> {
+pub(super) fn decode_data_uri(uri: &str) -> Option<std::result::Result<DataUri, DataUriError>> {
     let rest = uri.strip_prefix("data:")?;
     Some((|| {
-        let (meta, data) = rest.split_once(',').ok_or("malformed data URI")?;
+        let (meta, data) = rest.split_once(',').ok_or(DataUriError::Malformed)?;
         let mime = meta
             .split(';')
             .next()
             .filter(|m| !m.is_empty())
             .map(str::to_string);
         if !meta.ends_with(";base64") {
-            return Err("data URI is not base64".to_string());
+            return Err(DataUriError::NotBase64);
         }
         let bytes = base64::engine::general_purpose::STANDARD
             .decode(data.trim())
-            .map_err(|e| format!("invalid base64 in data URI: {e}"))?;
+            .map_err(DataUriError::Base64)?;
         Ok((mime, bytes))
     })())
 }
@@ -82,7 +81,7 @@ pub(super) fn load_buffers(
     mut bin: Option<Vec<u8>>,
     base_dir: &Path,
     max_memory: u64,
-) -> std::result::Result<Vec<Option<Vec<u8>>>, String> {
+) -> std::result::Result<Vec<Option<Vec<u8>>>, GltfError> {
     let bufs = arr(root, "buffers");
     let mut used = vec![false; bufs.len()];
     if let Some(views) = root.get("bufferViews").and_then(Value::as_array) {
@@ -98,6 +97,7 @@ pub(super) fn load_buffers(
     // Bytes held by the buffers loaded so far.
     let mut held: u64 = 0;
     for (i, b) in bufs.iter().enumerate() {
+        let fail = |fault| GltfError::Buffer { buffer: i, fault };
         if !used[i] {
             out.push(None);
             continue;
@@ -105,39 +105,32 @@ pub(super) fn load_buffers(
         let declared = b
             .get("byteLength")
             .and_then(Value::as_u64)
-            .ok_or(format!("buffer {i}: missing byteLength"))?;
+            .ok_or(fail(BufferFault::NoLength))?;
         let external = b
             .get("uri")
             .and_then(Value::as_str)
             .is_some_and(|u| !u.starts_with("data:"));
         if external && declared > MAX_MODEL_BYTES {
-            return Err(format!(
-                "buffer {i}: byteLength {declared} is over the {} GiB limit of a buffer file",
-                MAX_MODEL_BYTES >> 30
-            ));
+            return Err(fail(BufferFault::TooLarge { declared }));
         }
         if external && held.saturating_add(declared) > max_memory {
-            return Err(format!(
-                "buffer {i}: byteLength {declared} (with the buffers before it {} bytes) is over \
-                 the memory budget of {max_memory} bytes (--max-memory)",
-                held.saturating_add(declared)
-            ));
+            return Err(fail(BufferFault::OverBudget {
+                declared,
+                total: held.saturating_add(declared),
+                max_memory,
+            }));
         }
         let data = match b.get("uri").and_then(Value::as_str) {
             None => {
                 if i != 0 {
-                    return Err(format!(
-                        "buffer {i} has no uri (only buffer 0 may refer to the GLB binary chunk)"
-                    ));
+                    return Err(GltfError::BufferNoUri(i));
                 }
-                let data = bin.take().ok_or(format!(
-                    "buffer {i} has no uri and the file has no GLB binary chunk"
-                ))?;
+                let data = bin.take().ok_or(GltfError::NoChunk(i))?;
                 if (data.len() as u64) < declared {
-                    return Err(format!(
-                        "buffer {i}: GLB binary chunk holds {} bytes but byteLength declares {declared}",
-                        data.len()
-                    ));
+                    return Err(fail(BufferFault::ShortChunk {
+                        holds: data.len(),
+                        declared,
+                    }));
                 }
                 data
             }
@@ -145,38 +138,46 @@ pub(super) fn load_buffers(
                 if let Some(r) = decode_data_uri(uri) {
                     // Check the declared size against the encoded size before decoding.
                     if (uri.len() as u64) < declared.saturating_mul(4) / 3 {
-                        return Err(format!("buffer {i}: data URI is shorter than the declared byteLength {declared}"));
+                        return Err(fail(BufferFault::ShortUri { declared }));
                     }
-                    let (_, data) = r.map_err(|e| format!("buffer {i}: {e}"))?;
+                    let (_, data) = r.map_err(|e| fail(BufferFault::DataUri(e)))?;
                     if (data.len() as u64) < declared {
-                        return Err(format!(
-                            "buffer {i}: data URI holds {} bytes, byteLength declares {declared}",
-                            data.len()
-                        ));
+                        return Err(fail(BufferFault::ShortData {
+                            holds: data.len(),
+                            declared,
+                        }));
                     }
                     data
                 } else {
                     let file = resolve_file_inside(base_dir, uri)
-                        .map_err(|e| format!("buffer {i}: {e}"))?;
+                        .map_err(|e| fail(BufferFault::Reference(e)))?;
+                    let open = |source| {
+                        fail(BufferFault::Open {
+                            file: file.clone(),
+                            source,
+                        })
+                    };
                     // Opened without following a link: one swapped in after
                     // the path was checked is refused, not read.
-                    let opened = crate::io::paths::open_no_follow(&file).map_err(|e| {
-                        format!("buffer {i}: cannot open '{}': {e}", file.display())
-                    })?;
-                    let meta = opened.metadata().map_err(|e| {
-                        format!("buffer {i}: cannot open '{}': {e}", file.display())
-                    })?;
+                    let opened = crate::io::paths::open_no_follow(&file).map_err(open)?;
+                    let meta = opened.metadata().map_err(open)?;
                     if meta.len() < declared {
-                        return Err(format!(
-                            "buffer {i}: '{}' has {} bytes but byteLength declares {declared}",
-                            file.display(),
-                            meta.len()
-                        ));
+                        return Err(fail(BufferFault::ShortFile {
+                            file: file.clone(),
+                            len: meta.len(),
+                            declared,
+                        }));
                     }
                     let mut data = Vec::with_capacity(declared as usize);
-                    opened.take(declared).read_to_end(&mut data).map_err(|e| {
-                        format!("buffer {i}: cannot read '{}': {e}", file.display())
-                    })?;
+                    opened
+                        .take(declared)
+                        .read_to_end(&mut data)
+                        .map_err(|source| {
+                            fail(BufferFault::ReadFile {
+                                file: file.clone(),
+                                source,
+                            })
+                        })?;
                     data
                 }
             }

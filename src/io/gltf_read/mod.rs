@@ -20,7 +20,9 @@ use std::collections::{BTreeMap, HashMap};
 use std::path::Path;
 
 mod buffers;
+mod error;
 use buffers::*;
+pub use error::{BufferFault, DataUriError, Element, GlbError, GltfError, HierarchyError};
 
 /// Extensions that, when required, this reader can still honour: quantized
 /// attributes are decoded to floats; the others are material or texture data
@@ -66,17 +68,15 @@ pub fn read_gltf_with(path: &Path, options: &crate::io::ReadOptions) -> Result<S
 ///
 /// # Errors
 /// A message when the header or a chunk is malformed.
-pub fn split_glb(bytes: &[u8]) -> std::result::Result<gltf::binary::Glb<'_>, String> {
+pub fn split_glb(bytes: &[u8]) -> std::result::Result<gltf::binary::Glb<'_>, GlbError> {
     let length = bytes
         .get(8..12)
         .map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]))
-        .ok_or("shorter than its 12-byte header")?;
+        .ok_or(GlbError::Short)?;
     if length < 12 {
-        return Err(format!(
-            "the header gives a length of {length} bytes, less than the header itself"
-        ));
+        return Err(GlbError::Length(length));
     }
-    gltf::binary::Glb::from_slice(bytes).map_err(|e| e.to_string())
+    gltf::binary::Glb::from_slice(bytes).map_err(GlbError::Chunks)
 }
 
 /// Read a glTF or GLB document held in memory; external files are resolved
@@ -95,52 +95,53 @@ pub fn read_gltf_bytes_with(
     path: &Path,
     options: &crate::io::ReadOptions,
 ) -> Result<Scene> {
-    let err = |m: String| Error::input(path, m);
+    read_document(bytes, base_dir, options).map_err(|error| Error::Gltf {
+        path: path.to_path_buf(),
+        error,
+    })
+}
+
+fn read_document(
+    bytes: &[u8],
+    base_dir: &Path,
+    options: &crate::io::ReadOptions,
+) -> std::result::Result<Scene, GltfError> {
     let (json_bytes, bin): (Vec<u8>, Option<Vec<u8>>) = if bytes.starts_with(b"glTF") {
-        let glb = split_glb(bytes).map_err(|e| err(format!("invalid GLB container: {e}")))?;
+        let glb = split_glb(bytes)?;
         (glb.json.into_owned(), glb.bin.map(|b| b.into_owned()))
     } else {
         (bytes.to_vec(), None)
     };
-    let root: Value =
-        serde_json::from_slice(&json_bytes).map_err(|e| err(format!("invalid JSON: {e}")))?;
+    let root: Value = serde_json::from_slice(&json_bytes).map_err(GltfError::Json)?;
     if !root.is_object() {
-        return Err(err("the glTF JSON is not an object".into()));
+        return Err(GltfError::NotObject);
     }
     let version = root.pointer("/asset/version").and_then(Value::as_str);
     match version {
         Some(v) if v.starts_with("2.") => {}
-        Some(v) => {
-            return Err(err(format!(
-                "unsupported glTF version '{v}' (only 2.x is read)"
-            )))
-        }
-        None => return Err(err("missing asset.version (not a glTF 2.0 file)".into())),
+        Some(v) => return Err(GltfError::Version(v.to_string())),
+        None => return Err(GltfError::NoVersion),
     }
     // Extensions the tool cannot decode: refuse by name.
     if let Some(req) = root.get("extensionsRequired").and_then(Value::as_array) {
-        let bad: Vec<&str> = req
+        let bad: Vec<String> = req
             .iter()
             .filter_map(Value::as_str)
             .filter(|n| !required_extension_supported(n))
+            .map(str::to_string)
             .collect();
         if !bad.is_empty() {
-            return Err(err(format!(
-                "requires extension{} {} which crackle cannot decode",
-                if bad.len() > 1 { "s" } else { "" },
-                bad.join(", ")
-            )));
+            return Err(GltfError::Extensions(bad));
         }
     }
     let primitives: usize = arr(&root, "meshes")
         .iter()
         .map(|m| arr(m, "primitives").len())
         .sum();
-    crate::io::check_primitive_count(primitives, "mesh primitives", options.max_memory)
-        .map_err(err)?;
-    precheck_positions(&root).map_err(err)?;
-    validate_schema(&json_bytes).map_err(err)?;
-    let buffers = load_buffers(&root, bin, base_dir, options.max_memory).map_err(err)?;
+    crate::io::check_primitive_count(primitives, "mesh primitives", options.max_memory)?;
+    precheck_positions(&root)?;
+    validate_schema(&json_bytes)?;
+    let buffers = load_buffers(&root, bin, base_dir, options.max_memory)?;
     let real_bytes = json_bytes.len() as u64
         + buffers
             .iter()
@@ -156,7 +157,7 @@ pub fn read_gltf_bytes_with(
         raw_map: HashMap::new(),
         scene: Scene::default(),
     };
-    reader.read().map_err(err)?;
+    reader.read()?;
     let mut scene = reader.scene;
     // External buffer files (their paths were checked by `load_buffers`).
     for b in arr(&root, "buffers") {
@@ -197,20 +198,23 @@ fn idx(v: &Value, key: &str) -> Option<usize> {
     v.get(key).and_then(Value::as_u64).map(|x| x as usize)
 }
 
-fn f64s<const N: usize>(v: &Value, key: &str) -> std::result::Result<Option<[f64; N]>, String> {
+fn f64s<const N: usize>(
+    v: &Value,
+    key: &'static str,
+) -> std::result::Result<Option<[f64; N]>, GltfError> {
     match v.get(key) {
         None => Ok(None),
         Some(a) => {
             let a = a
                 .as_array()
                 .filter(|a| a.len() == N)
-                .ok_or(format!("'{key}' must have {N} numbers"))?;
+                .ok_or(GltfError::Numbers { key, len: N })?;
             let mut out = [0.0; N];
             for (o, x) in out.iter_mut().zip(a) {
                 *o = x
                     .as_f64()
                     .filter(|x| x.is_finite())
-                    .ok_or(format!("'{key}' must hold finite numbers"))?;
+                    .ok_or(GltfError::NotFinite(key))?;
             }
             Ok(Some(out))
         }
@@ -230,7 +234,7 @@ fn rest_of(v: &Value, modelled: &[&str]) -> Map<String, Value> {
 }
 
 impl SceneReader<'_> {
-    fn read(&mut self) -> std::result::Result<(), String> {
+    fn read(&mut self) -> std::result::Result<(), GltfError> {
         let root = self.root;
         self.scene.copyright = root
             .pointer("/asset/copyright")
@@ -263,17 +267,16 @@ impl SceneReader<'_> {
         }
         // Nodes
         for (i, n) in arr(root, "nodes").iter().enumerate() {
-            let transform =
-                if let Some(m) = f64s::<16>(n, "matrix").map_err(|e| format!("node {i}: {e}"))? {
-                    Transform::Matrix(m)
-                } else {
-                    Transform::Trs {
-                        translation: f64s::<3>(n, "translation")
-                            .map_err(|e| format!("node {i}: {e}"))?,
-                        rotation: f64s::<4>(n, "rotation").map_err(|e| format!("node {i}: {e}"))?,
-                        scale: f64s::<3>(n, "scale").map_err(|e| format!("node {i}: {e}"))?,
-                    }
-                };
+            let at = |e: GltfError| e.at(Element::Node(i));
+            let transform = if let Some(m) = f64s::<16>(n, "matrix").map_err(at)? {
+                Transform::Matrix(m)
+            } else {
+                Transform::Trs {
+                    translation: f64s::<3>(n, "translation").map_err(at)?,
+                    rotation: f64s::<4>(n, "rotation").map_err(at)?,
+                    scale: f64s::<3>(n, "scale").map_err(at)?,
+                }
+            };
             self.scene.nodes.push(Node {
                 name: n.get("name").and_then(Value::as_str).map(str::to_string),
                 transform,
@@ -324,7 +327,7 @@ impl SceneReader<'_> {
         for (si, s) in arr(root, "skins").iter().enumerate() {
             let mut s = s.clone();
             if let Some(a) = idx(&s, "inverseBindMatrices") {
-                let r = self.raw(a).map_err(|e| format!("skin {si}: {e}"))?;
+                let r = self.raw(a).map_err(|e| e.at(Element::Skin(si)))?;
                 s["inverseBindMatrices"] = r.into();
             }
             self.scene.skins.push(s);
@@ -335,7 +338,7 @@ impl SceneReader<'_> {
                 for s in samplers {
                     for key in ["input", "output"] {
                         if let Some(x) = idx(s, key) {
-                            let r = self.raw(x).map_err(|e| format!("animation {ai}: {e}"))?;
+                            let r = self.raw(x).map_err(|e| e.at(Element::Animation(ai)))?;
                             s[key] = r.into();
                         }
                     }
@@ -367,7 +370,8 @@ impl SceneReader<'_> {
         Ok(())
     }
 
-    fn read_image(&mut self, i: usize, img: &Value) -> std::result::Result<Image, String> {
+    fn read_image(&mut self, i: usize, img: &Value) -> std::result::Result<Image, GltfError> {
+        let at = |e: GltfError| e.at(Element::Image(i));
         let name = img.get("name").and_then(Value::as_str).map(str::to_string);
         let mut mime_type = img
             .get("mimeType")
@@ -376,14 +380,13 @@ impl SceneReader<'_> {
         let rest = rest_of(img, &["name", "mimeType", "uri", "bufferView"]);
         let (source, file_name) = if let Some(uri) = img.get("uri").and_then(Value::as_str) {
             if let Some(r) = decode_data_uri(uri) {
-                let (mime, bytes) = r.map_err(|e| format!("image {i}: {e}"))?;
+                let (mime, bytes) = r.map_err(|e| at(e.into()))?;
                 if mime_type.is_none() {
                     mime_type = mime;
                 }
                 (ImageSource::Bytes(bytes), None)
             } else {
-                let file = resolve_file_inside(self.base_dir, uri)
-                    .map_err(|e| format!("image {i}: {e}"))?;
+                let file = resolve_file_inside(self.base_dir, uri).map_err(|e| at(e.into()))?;
                 let fname = file
                     .file_name()
                     .and_then(|f| f.to_str())
@@ -395,7 +398,12 @@ impl SceneReader<'_> {
                     crate::io::paths::MAX_IMAGE_BYTES,
                     "image",
                 )
-                .map_err(|e| format!("image {i} ('{uri}'): {e}"))?;
+                .map_err(|e| {
+                    GltfError::Read(e).at(Element::ImageFile {
+                        index: i,
+                        uri: uri.to_string(),
+                    })
+                })?;
                 if mime_type.is_none() {
                     mime_type = mime_from_extension(&file).map(str::to_string);
                 }
@@ -403,12 +411,10 @@ impl SceneReader<'_> {
                 (ImageSource::Bytes(bytes), fname)
             }
         } else if let Some(view) = idx(img, "bufferView") {
-            let bytes = self
-                .view_bytes(view)
-                .map_err(|e| format!("image {i}: {e}"))?;
+            let bytes = self.view_bytes(view).map_err(at)?;
             (ImageSource::Bytes(bytes), None)
         } else {
-            return Err(format!("image {i} has neither uri nor bufferView"));
+            return Err(GltfError::NoImageSource(i));
         };
         if mime_type.is_none() {
             mime_type = match &source {
@@ -433,27 +439,27 @@ impl SceneReader<'_> {
         })
     }
 
-    fn view_bytes(&self, view: usize) -> std::result::Result<Vec<u8>, String> {
+    fn view_bytes(&self, view: usize) -> std::result::Result<Vec<u8>, GltfError> {
         let v = self
             .root
             .pointer(&format!("/bufferViews/{view}"))
-            .ok_or(format!("bufferView {view} does not exist"))?;
-        let b = idx(v, "buffer").ok_or("bufferView without buffer")?;
+            .ok_or(GltfError::NoView(view))?;
+        let b = idx(v, "buffer").ok_or(GltfError::ViewMissing("buffer"))?;
         let off = idx(v, "byteOffset").unwrap_or(0);
-        let len = idx(v, "byteLength").ok_or("bufferView without byteLength")?;
+        let len = idx(v, "byteLength").ok_or(GltfError::ViewMissing("byteLength"))?;
         let data = self
             .buffers
             .get(b)
             .and_then(|x| x.as_deref())
-            .ok_or(format!("buffer {b} not loaded"))?;
+            .ok_or(GltfError::BufferNotLoaded(b))?;
         off.checked_add(len)
             .filter(|&e| e <= data.len())
             .map(|e| data[off..e].to_vec())
-            .ok_or(format!("bufferView {view} exceeds buffer {b}"))
+            .ok_or(GltfError::ViewOutside { view, buffer: b })
     }
 
     /// Copy input accessor `a` verbatim into the scene (once).
-    fn raw(&mut self, a: usize) -> std::result::Result<usize, String> {
+    fn raw(&mut self, a: usize) -> std::result::Result<usize, GltfError> {
         if let Some(&r) = self.raw_map.get(&a) {
             return Ok(r);
         }
@@ -483,7 +489,7 @@ impl SceneReader<'_> {
         mi: usize,
         m: &Value,
         skinned: bool,
-    ) -> std::result::Result<Mesh, String> {
+    ) -> std::result::Result<Mesh, GltfError> {
         let mesh_name = m.get("name").and_then(Value::as_str).map(str::to_string);
         let label = match &mesh_name {
             Some(n) => format!("mesh {mi} '{n}'"),
@@ -491,9 +497,13 @@ impl SceneReader<'_> {
         };
         let mut primitives = Vec::new();
         for (pi, p) in arr(m, "primitives").iter().enumerate() {
-            let prim = self
-                .read_primitive(p, skinned)
-                .map_err(|e| format!("{label} primitive {pi}: {e}"))?;
+            let prim = self.read_primitive(p, skinned).map_err(|e| {
+                e.at(Element::Primitive {
+                    mesh: mi,
+                    name: mesh_name.clone(),
+                    primitive: pi,
+                })
+            })?;
             if let Geometry::Raw(raw) = &prim.geometry {
                 let why = if skinned || raw.attributes.keys().any(|k| k.starts_with("JOINTS_")) {
                     "skinned"
@@ -525,7 +535,7 @@ impl SceneReader<'_> {
         &mut self,
         p: &Value,
         skinned: bool,
-    ) -> std::result::Result<Primitive, String> {
+    ) -> std::result::Result<Primitive, GltfError> {
         let prim_mode = p.get("mode").and_then(Value::as_u64).unwrap_or(4) as u32;
         let attrs: BTreeMap<String, usize> = p
             .get("attributes")
@@ -582,22 +592,25 @@ impl SceneReader<'_> {
         }
         // Crackable triangles: decode.
         let pos_acc = attrs["POSITION"];
-        let (info, pos) = self
-            .acc
-            .read_f32(pos_acc)
-            .map_err(|e| format!("POSITION: {e}"))?;
+        let attribute = |sem: &str| {
+            let sem = sem.to_string();
+            move |e: crate::io::accessor::AccessorError| {
+                GltfError::from(e).at(Element::Attribute(sem))
+            }
+        };
+        let (info, pos) = self.acc.read_f32(pos_acc).map_err(attribute("POSITION"))?;
         if info.components != 3 {
-            return Err(format!(
-                "POSITION accessor {pos_acc} is {}, not VEC3",
-                info.kind
-            ));
+            return Err(GltfError::NotVec3 {
+                accessor: pos_acc,
+                kind: info.kind,
+            });
         }
         let n = info.count;
         if let Some(k) = pos.iter().position(|x| !x.is_finite()) {
-            return Err(format!(
-                "POSITION accessor {pos_acc}: vertex {} is not finite",
-                k / 3
-            ));
+            return Err(GltfError::PositionNotFinite {
+                accessor: pos_acc,
+                vertex: k / 3,
+            });
         }
         let positions: Vec<[f32; 3]> = pos.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
         let mut attributes = Vec::new();
@@ -605,12 +618,14 @@ impl SceneReader<'_> {
             if sem == "POSITION" {
                 continue;
             }
-            let (ai, data) = self.acc.read_f32(a).map_err(|e| format!("{sem}: {e}"))?;
+            let (ai, data) = self.acc.read_f32(a).map_err(attribute(sem))?;
             if ai.count != n {
-                return Err(format!(
-                    "{sem} accessor {a} has {} elements but POSITION has {n}",
-                    ai.count
-                ));
+                return Err(GltfError::Count {
+                    attribute: sem.clone(),
+                    accessor: a,
+                    count: ai.count,
+                    positions: n,
+                });
             }
             attributes.push(VertexAttribute {
                 semantic: sem.clone(),
@@ -623,11 +638,13 @@ impl SceneReader<'_> {
                 let v = self
                     .acc
                     .read_indices(i)
-                    .map_err(|e| format!("indices: {e}"))?;
-                if let Some(bad) = v.iter().find(|&&x| x as usize >= n) {
-                    return Err(format!(
-                        "indices accessor {i}: index {bad} out of range ({n} vertices)"
-                    ));
+                    .map_err(|e| GltfError::from(e).at(Element::Indices))?;
+                if let Some(&bad) = v.iter().find(|&&x| x as usize >= n) {
+                    return Err(GltfError::Index {
+                        accessor: i,
+                        index: bad,
+                        vertices: n,
+                    });
                 }
                 v
             }
@@ -637,19 +654,23 @@ impl SceneReader<'_> {
         for (ti, t) in arr(p, "targets").iter().enumerate() {
             let mut tattrs = Vec::new();
             for (sem, a) in t.as_object().into_iter().flatten() {
-                let a = a
-                    .as_u64()
-                    .ok_or(format!("morph target {ti}: {sem} is not an accessor index"))?
-                    as usize;
-                let (ai, data) = self
-                    .acc
-                    .read_f32(a)
-                    .map_err(|e| format!("morph target {ti} {sem}: {e}"))?;
+                let a = a.as_u64().ok_or_else(|| GltfError::TargetNotIndex {
+                    target: ti,
+                    attribute: sem.clone(),
+                })? as usize;
+                let (ai, data) = self.acc.read_f32(a).map_err(|e| {
+                    GltfError::from(e).at(Element::Target {
+                        target: ti,
+                        attribute: sem.clone(),
+                    })
+                })?;
                 if ai.count != n {
-                    return Err(format!(
-                        "morph target {ti} {sem} has {} elements but POSITION has {n}",
-                        ai.count
-                    ));
+                    return Err(GltfError::TargetCount {
+                        target: ti,
+                        attribute: sem.clone(),
+                        count: ai.count,
+                        positions: n,
+                    });
                 }
                 tattrs.push(VertexAttribute {
                     semantic: sem.clone(),
@@ -682,22 +703,22 @@ impl SceneReader<'_> {
 }
 
 /// Reject cycles and nodes with several parents: they make the hierarchy invalid.
-fn check_hierarchy(nodes: &[Node]) -> std::result::Result<(), String> {
+fn check_hierarchy(nodes: &[Node]) -> std::result::Result<(), HierarchyError> {
     check_hierarchy_counted(nodes).map(|_| ())
 }
 
 /// [`check_hierarchy`], returning the number of node visits (for the tests'
 /// bound on the work).
-fn check_hierarchy_counted(nodes: &[Node]) -> std::result::Result<usize, String> {
+fn check_hierarchy_counted(nodes: &[Node]) -> std::result::Result<usize, HierarchyError> {
     let mut visits = 0;
     let mut parent: Vec<Option<usize>> = vec![None; nodes.len()];
     for (i, n) in nodes.iter().enumerate() {
         for &c in &n.children {
             if c >= nodes.len() {
-                return Err(format!("node {i}: child {c} does not exist"));
+                return Err(HierarchyError::NoChild { node: i, child: c });
             }
             if parent[c].is_some() {
-                return Err(format!("node {c} has more than one parent"));
+                return Err(HierarchyError::TwoParents(c));
             }
             parent[c] = Some(i);
         }
@@ -713,9 +734,7 @@ fn check_hierarchy_counted(nodes: &[Node]) -> std::result::Result<usize, String>
         stack.extend(nodes[i].children.iter().copied());
     }
     if let Some(start) = reached.iter().position(|&r| !r) {
-        return Err(format!(
-            "node {start} is part of a cycle in the node hierarchy"
-        ));
+        return Err(HierarchyError::Cycle(start));
     }
     Ok(visits)
 }
@@ -854,7 +873,7 @@ mod tests {
             glb.extend_from_slice(&2u32.to_le_bytes());
             glb.extend_from_slice(&length.to_le_bytes());
             glb.extend_from_slice(&[0; 20]);
-            let e = split_glb(&glb).err().unwrap();
+            let e = split_glb(&glb).err().unwrap().to_string();
             assert!(e.contains("less than the header"), "{e}");
         }
         assert!(split_glb(b"glTF\x02\0\0").is_err());
@@ -879,7 +898,7 @@ mod tests {
         let mut nodes = chain(4);
         nodes[3].children = vec![1];
         nodes[0].children = Vec::new();
-        let e = check_hierarchy(&nodes).unwrap_err();
+        let e = check_hierarchy(&nodes).unwrap_err().to_string();
         assert_eq!(e, "node 1 is part of a cycle in the node hierarchy");
     }
 

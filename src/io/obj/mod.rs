@@ -158,17 +158,18 @@ fn read_impl(
     let stem = Path::new(name)
         .file_stem()
         .map_or_else(|| name.to_string(), |s| s.to_string_lossy().into_owned());
-    let mut prep = preprocess(text, &stem).map_err(|m| Error::input(path, m))?;
+    let fail = |error| Error::Obj {
+        path: path.to_path_buf(),
+        error,
+    };
+    let mut prep = preprocess(text, &stem).map_err(fail)?;
     let n_v = prep.data.positions.len();
     let strip_colors = prep.colored > 0 && prep.colored < n_v;
     if prep.colored < n_v {
         prep.data.colors = Vec::new();
     }
     if prep.faces.is_empty() {
-        return Err(Error::input(
-            path,
-            "no faces: the OBJ file has no polygon (f) element to crack",
-        ));
+        return Err(fail(ObjError::NoFaces));
     }
     // Each (object, group, material) becomes a primitive.
     crate::io::check_primitive_count(
@@ -176,7 +177,7 @@ fn read_impl(
         "objects (one per object, group and material)",
         max_memory,
     )
-    .map_err(|m| Error::input(path, m))?;
+    .map_err(|e| fail(e.into()))?;
     let mut warnings = skipped_warnings(&prep, name, strip_colors);
 
     // The material libraries: the one place an OBJ reads another file,
@@ -184,10 +185,7 @@ fn read_impl(
     let mut mtl = MtlState::default();
     for lib in &prep.libraries {
         if !files {
-            return Err(Error::input(
-                path,
-                format!("names the material library '{lib}'; an asset read from memory must hold all its data (read the file with crackle::read)"),
-            ));
+            return Err(fail(ObjError::LibraryInMemory(lib.clone())));
         }
         mtl.load_libraries(base_dir, name, Path::new(lib));
     }
@@ -372,8 +370,8 @@ fn unreferenced_vertices(prep: &Prepared, n_v: usize) -> usize {
 /// number of its first physical line.
 fn logical_lines(
     text: &str,
-    mut f: impl FnMut(&str, usize) -> Result<(), String>,
-) -> Result<(), String> {
+    mut f: impl FnMut(&str, usize) -> Result<(), ObjError>,
+) -> Result<(), ObjError> {
     let mut pending = String::new();
     let mut pending_no = 0;
     for (i, raw) in text.lines().enumerate() {
@@ -437,7 +435,7 @@ fn number(tok: &str) -> Option<f32> {
     tok.parse::<f32>().ok().filter(|x| x.is_finite())
 }
 
-fn preprocess(text: &str, stem: &str) -> Result<Prepared, String> {
+fn preprocess(text: &str, stem: &str) -> Result<Prepared, ObjError> {
     let mut p = Prepared {
         objects: vec![stem.to_string()],
         sections: vec![Section {
@@ -463,7 +461,7 @@ impl Prepared {
         no: usize,
         stem: &str,
         state: &mut Section,
-    ) -> Result<(), String> {
+    ) -> Result<(), ObjError> {
         let (kw, rest) = split_keyword(line);
         match kw {
             "v" => self.vertex(strip_comment(rest), no),
@@ -520,18 +518,19 @@ impl Prepared {
         }
     }
 
-    fn vertex(&mut self, rest: &str, no: usize) -> Result<(), String> {
+    fn vertex(&mut self, rest: &str, no: usize) -> Result<(), ObjError> {
+        let invalid = || line(no, LineFault::Vertex(rest.to_string()));
         let mut values = [0f32; 6];
         let mut n = 0;
         for tok in rest.split_whitespace() {
-            let x = number(tok).ok_or_else(|| format!("line {no}: invalid vertex 'v {rest}' (expected x y z [w | r g b] as finite numbers)"))?;
+            let x = number(tok).ok_or_else(invalid)?;
             if n < 6 {
                 values[n] = x;
             }
             n += 1;
         }
         if n < 3 {
-            return Err(format!("line {no}: invalid vertex 'v {rest}' (expected x y z [w | r g b] as finite numbers)"));
+            return Err(invalid());
         }
         let [x, y, z, a, b, c] = values;
         let mut position = [x, y, z];
@@ -539,7 +538,7 @@ impl Prepared {
             3 => {}
             4 => {
                 if a == 0.0 {
-                    return Err(format!("line {no}: vertex 'v {rest}' has w = 0"));
+                    return Err(line(no, LineFault::ZeroW(rest.to_string())));
                 }
                 position = position.map(|p| p / a);
             }
@@ -555,42 +554,40 @@ impl Prepared {
         Ok(())
     }
 
-    fn texcoord(&mut self, rest: &str, no: usize) -> Result<(), String> {
+    fn texcoord(&mut self, rest: &str, no: usize) -> Result<(), ObjError> {
+        let invalid = || line(no, LineFault::TexCoord(rest.to_string()));
         let mut uv = [0f32; 2];
         let mut n = 0;
         for tok in rest.split_whitespace().take(3) {
-            let x = number(tok).ok_or_else(|| format!("line {no}: invalid texture coordinate 'vt {rest}' (expected u [v [w]] as finite numbers)"))?;
+            let x = number(tok).ok_or_else(invalid)?;
             if n < 2 {
                 uv[n] = x;
             }
             n += 1;
         }
         if n == 0 {
-            return Err(format!("line {no}: invalid texture coordinate 'vt {rest}' (expected u [v [w]] as finite numbers)"));
+            return Err(invalid());
         }
         self.data.texcoords.push(uv);
         Ok(())
     }
 
-    fn normal(&mut self, rest: &str, no: usize) -> Result<(), String> {
+    fn normal(&mut self, rest: &str, no: usize) -> Result<(), ObjError> {
+        let invalid = || line(no, LineFault::Normal(rest.to_string()));
         let mut v = [0f32; 3];
         let mut n = 0;
         for tok in rest.split_whitespace().take(3) {
-            v[n] = number(tok).ok_or_else(|| {
-                format!("line {no}: invalid normal 'vn {rest}' (expected x y z as finite numbers)")
-            })?;
+            v[n] = number(tok).ok_or_else(invalid)?;
             n += 1;
         }
         if n < 3 {
-            return Err(format!(
-                "line {no}: invalid normal 'vn {rest}' (expected x y z as finite numbers)"
-            ));
+            return Err(invalid());
         }
         self.data.normals.push(v);
         Ok(())
     }
 
-    fn face(&mut self, rest: &str, no: usize) -> Result<(), String> {
+    fn face(&mut self, rest: &str, no: usize) -> Result<(), ObjError> {
         let start = self.corners.len();
         for tok in rest.split_whitespace() {
             let mut parts = tok.split('/');
@@ -599,9 +596,7 @@ impl Prepared {
             let vn = parts.next().unwrap_or("");
             if parts.next().is_some() || v.is_empty() {
                 self.corners.truncate(start);
-                return Err(format!(
-                    "line {no}: invalid face vertex '{tok}' (expected v, v/vt, v//vn or v/vt/vn)"
-                ));
+                return Err(line(no, LineFault::FaceVertex(tok.to_string())));
             }
             let corner = Corner {
                 v: resolve_index(v, self.data.positions.len(), "vertex", no)?,
@@ -640,18 +635,95 @@ fn strip_comment(s: &str) -> &str {
 
 /// A 1-based (or negative, relative) OBJ index to a 0-based one, checked
 /// against the `count` elements defined so far.
-fn resolve_index(tok: &str, count: usize, what: &str, no: usize) -> Result<u32, String> {
-    let i: i64 = tok
-        .parse()
-        .map_err(|_| format!("line {no}: invalid {what} index '{tok}'"))?;
+fn resolve_index(tok: &str, count: usize, what: &'static str, no: usize) -> Result<u32, ObjError> {
+    let i: i64 = tok.parse().map_err(|_| {
+        line(
+            no,
+            LineFault::Index {
+                what,
+                token: tok.to_string(),
+            },
+        )
+    })?;
     let idx = if i > 0 { i - 1 } else { count as i64 + i };
     if i == 0 || idx < 0 || idx >= count as i64 || idx >= ABSENT as i64 {
-        return Err(format!(
-            "line {no}: {what} index {i} is out of range ({count} {what}{} defined before this line)",
-            if count == 1 { "" } else { "s" }
+        return Err(line(
+            no,
+            LineFault::OutOfRange {
+                what,
+                index: i,
+                count,
+            },
         ));
     }
     Ok(idx as u32)
+}
+
+/// Fault `fault` of line `no`.
+fn line(no: usize, fault: LineFault) -> ObjError {
+    ObjError::Line { line: no, fault }
+}
+
+/// An OBJ file that cannot be read.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum ObjError {
+    /// A malformed line.
+    #[error("line {line}: {fault}")]
+    Line {
+        /// The line's number (its first physical line).
+        line: usize,
+        /// What is wrong with it.
+        fault: LineFault,
+    },
+    /// No polygon.
+    #[error("no faces: the OBJ file has no polygon (f) element to crack")]
+    NoFaces,
+    /// More objects than the memory budget allows.
+    #[error(transparent)]
+    Primitives(#[from] crate::io::PrimitiveBudgetError),
+    /// A material library named by a file read from memory.
+    #[error("names the material library '{0}'; an asset read from memory must hold all its data (read the file with crackle::read)")]
+    LibraryInMemory(String),
+}
+
+/// What is wrong with one OBJ line.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum LineFault {
+    /// A vertex without three finite numbers.
+    #[error("invalid vertex 'v {0}' (expected x y z [w | r g b] as finite numbers)")]
+    Vertex(String),
+    /// A vertex with w = 0.
+    #[error("vertex 'v {0}' has w = 0")]
+    ZeroW(String),
+    /// A texture coordinate without a finite number.
+    #[error("invalid texture coordinate 'vt {0}' (expected u [v [w]] as finite numbers)")]
+    TexCoord(String),
+    /// A normal without three finite numbers.
+    #[error("invalid normal 'vn {0}' (expected x y z as finite numbers)")]
+    Normal(String),
+    /// A face corner that is not `v`, `v/vt`, `v//vn` or `v/vt/vn`.
+    #[error("invalid face vertex '{0}' (expected v, v/vt, v//vn or v/vt/vn)")]
+    FaceVertex(String),
+    /// An index that is not a number.
+    #[error("invalid {what} index '{token}'")]
+    Index {
+        /// `vertex`, `texture coordinate` or `normal`.
+        what: &'static str,
+        /// The token.
+        token: String,
+    },
+    /// An index to an element not defined before the line.
+    #[error("{what} index {index} is out of range ({count} {what}{} defined before this line)", if *count == 1 { "" } else { "s" })]
+    OutOfRange {
+        /// `vertex`, `texture coordinate` or `normal`.
+        what: &'static str,
+        /// The index as written.
+        index: i64,
+        /// Elements defined so far.
+        count: usize,
+    },
 }
 
 /// The file's vertex data by file index.
