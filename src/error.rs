@@ -34,9 +34,16 @@ pub enum Error {
     /// A pipeline is invalid (exit code 2 on the command line).
     #[error(transparent)]
     Pipeline(#[from] PipelineError),
-    /// A configuration value is invalid.
-    #[error("invalid configuration: {0}")]
-    Config(String),
+    /// A pipeline's key cannot be met by this asset (a mask's material
+    /// the input does not have, a texture that cannot be used); the message
+    /// names the asset and the key. The command line exits with 2 for it.
+    #[error("{}: {error}", asset.display())]
+    Config {
+        /// The asset.
+        asset: PathBuf,
+        /// What is wrong, naming the key.
+        error: ConfigError,
+    },
     /// What was asked cannot be done with this input or these options (a
     /// name the input does not have, a cell size above the triangle
     /// budget, a bad mask or frames request); the message says which.
@@ -44,22 +51,22 @@ pub enum Error {
     #[error("{0}")]
     Usage(String),
     /// A stage failed on one mesh of an asset.
-    #[error("{}: {mesh}: {message}", asset.display())]
+    #[error("{}: {mesh}: {error}", asset.display())]
     Mesh {
         /// The asset.
         asset: PathBuf,
         /// The mesh's label.
         mesh: String,
         /// What failed (the stage's error).
-        message: String,
+        error: Box<dyn std::error::Error + Send + Sync>,
     },
     /// A mesh edit the pipeline made was refused (a bug, not bad input).
-    #[error("{mesh}: {message}")]
+    #[error("{mesh}: {error}")]
     Internal {
         /// The mesh's label.
         mesh: String,
-        /// What was refused.
-        message: String,
+        /// What was refused (the edit's error).
+        error: Box<dyn std::error::Error + Send + Sync>,
     },
     /// The time-lapse frames could not be made or written.
     #[error("{0}")]
@@ -96,11 +103,15 @@ impl Error {
         Error::File(IoError::input(path, message))
     }
     /// A stage's failure on mesh `mesh` of `asset`.
-    pub fn mesh(asset: &std::path::Path, mesh: &str, message: impl std::fmt::Display) -> Self {
+    pub fn mesh(
+        asset: &std::path::Path,
+        mesh: &str,
+        error: impl Into<Box<dyn std::error::Error + Send + Sync>>,
+    ) -> Self {
         Error::Mesh {
             asset: asset.to_path_buf(),
             mesh: mesh.to_string(),
-            message: message.to_string(),
+            error: error.into(),
         }
     }
 }

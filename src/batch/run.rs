@@ -150,7 +150,7 @@ pub fn execute(
                     .map(|s| s.to_string())
                     .or_else(|| p.downcast_ref::<String>().cloned())
                     .unwrap_or_default();
-                Err(format!("internal error (please report it): {what}"))
+                Err(AssetError::Panic(what))
             });
             let seconds = t0.elapsed().as_secs_f64();
             let outcome = match result {
@@ -195,7 +195,7 @@ pub fn execute(
                     }
                     Outcome {
                         status: Status::Failed,
-                        error: Some(e),
+                        error: Some(e.to_string()),
                         warning: None,
                         seconds,
                         produced: Produced::Nothing,
@@ -276,21 +276,52 @@ fn chain(e: &Error) -> String {
     s
 }
 
+/// Why one asset of a batch failed.
+#[derive(Debug, thiserror::Error)]
+enum AssetError {
+    /// Its folder below the output folder cannot be made.
+    #[error(transparent)]
+    Folder(#[from] crate::io::write::DirError),
+    /// Cracking or copying it failed. The message holds the error's causes,
+    /// and speaks of a held output folder by the name the user gave
+    /// (`shown`: the held path and that name, [`HeldDir::renaming`]).
+    ///
+    /// [`HeldDir::renaming`]: crate::io::write::HeldDir::renaming
+    #[error("{}", failed(error, shown.as_ref()))]
+    Failed {
+        /// The error.
+        error: Error,
+        /// The held path and its name.
+        shown: Option<(String, String)>,
+    },
+    /// A panic (a bug), with its message.
+    #[error("internal error (please report it): {0}")]
+    Panic(String),
+}
+
+/// The text of [`AssetError::Failed`].
+fn failed(error: &Error, shown: Option<&(String, String)>) -> String {
+    let text = chain(error);
+    match shown {
+        Some((held, name)) => text.replace(held.as_str(), name),
+        None => text,
+    }
+}
+
 /// Crack or copy one asset.
 fn run_asset(
     asset: &Asset,
     plan: &Plan,
     options: &Options,
     on_stage: &dyn Fn(&str),
-) -> std::result::Result<Done, String> {
+) -> std::result::Result<Done, AssetError> {
     match &asset.action {
         Action::Crack(k) => {
             // Every folder from the output folder down to the output's
             // is a real folder: a link there would put the output (and its
             // side files) anywhere.
             let dir = asset.output.parent().unwrap_or(Path::new("."));
-            let held =
-                crate::io::write::make_dirs_below(&options.out, dir).map_err(|e| e.to_string())?;
+            let held = crate::io::write::make_dirs_below(&options.out, dir)?;
             let output = match asset.output.file_name() {
                 Some(name) => held.path().join(name),
                 None => asset.output.clone(),
@@ -311,7 +342,10 @@ fn run_asset(
                 prefix_images,
                 &mut Stages(on_stage),
             )
-            .map_err(|e| held.show(&chain(&e)))?;
+            .map_err(|error| AssetError::Failed {
+                error,
+                shown: held.renaming(),
+            })?;
             report.output = held.show(&report.output);
             for f in &mut report.files {
                 *f = held.show(f);
@@ -331,7 +365,8 @@ fn run_asset(
         }
         Action::Copy => {
             on_stage("copy");
-            copy_asset(asset, &options.out).map_err(|e| chain(&e))
+            copy_asset(asset, &options.out)
+                .map_err(|error| AssetError::Failed { error, shown: None })
         }
         Action::Skip => Ok(Done {
             status: Status::Skipped,

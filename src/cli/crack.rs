@@ -186,10 +186,10 @@ impl SimArgs {
         // The look flags set the entries of the pipeline as given.
         let mut sets: Vec<String> = extra.to_vec();
         let base = parse(&sets).map_err(usage)?;
-        sets.extend(self.look.sets(&base).map_err(super::UsageError)?);
+        sets.extend(self.look.sets(&base)?);
         sets.extend(self.sets.iter().cloned());
         let mut p = parse(&sets).map_err(usage)?;
-        self.apply_flags(&mut p).map_err(super::UsageError)?;
+        self.apply_flags(&mut p)?;
         p.check_all().map_err(usage)?;
         p.select.fix.extend(self.fix.iter().cloned());
         Ok(p)
@@ -208,7 +208,7 @@ impl SimArgs {
     }
 
     /// Set the typed field of every flag given, unless a `--set` names it.
-    fn apply_flags(&self, p: &mut Pipeline) -> Result<(), String> {
+    fn apply_flags(&self, p: &mut Pipeline) -> Result<(), super::UsageError> {
         macro_rules! flag {
             ($field:ident) => {
                 if let Some(v) = self.$field.clone() {
@@ -232,9 +232,9 @@ impl SimArgs {
         }
         if let Some(name) = &self.integrator {
             if !self.set_names("simulation.integrator") {
-                s.integrator = name
-                    .parse()
-                    .map_err(|e| format!("{}: simulation.integrator: {e}", p.source_name))?;
+                s.integrator = name.parse().map_err(|e| {
+                    super::UsageError(format!("{}: simulation.integrator: {e}", p.source_name))
+                })?;
             }
         }
         if self.unbonded && !self.set_names("simulation.bonded") {

@@ -2,6 +2,7 @@
 //! cracks by name, each short for one or a few pipeline keys (`--set`),
 //! listed in `--help` before the advanced simulation options.
 
+use super::UsageError;
 use crackle::pipeline::Pipeline;
 
 /// The look of the cracks. Each flag is short for the `--set` named in its
@@ -39,15 +40,21 @@ pub struct LookArgs {
 }
 
 /// Three finite numbers `a,b,c`.
-fn triple(flag: &str, text: &str) -> Result<[f64; 3], String> {
+fn triple(flag: &str, text: &str) -> Result<[f64; 3], UsageError> {
     let v: Vec<f64> = text
         .split(',')
         .map(|s| s.trim().parse::<f64>())
         .collect::<Result<_, _>>()
-        .map_err(|_| format!("{flag} '{text}': give three numbers separated by commas"))?;
+        .map_err(|_| {
+            UsageError(format!(
+                "{flag} '{text}': give three numbers separated by commas"
+            ))
+        })?;
     match v.as_slice() {
         [a, b, c] if v.iter().all(|x| x.is_finite()) => Ok([*a, *b, *c]),
-        _ => Err(format!("{flag} '{text}': give three finite numbers")),
+        _ => Err(UsageError(format!(
+            "{flag} '{text}': give three finite numbers"
+        ))),
     }
 }
 
@@ -74,7 +81,7 @@ impl LookArgs {
     /// # Errors
     /// A malformed value, or an impact or mask flag on a pipeline with no
     /// entry to take it (the message says which preset has one).
-    pub fn sets(&self, base: &Pipeline) -> Result<Vec<String>, String> {
+    pub fn sets(&self, base: &Pipeline) -> Result<Vec<String>, UsageError> {
         let mut sets = Vec::new();
         if let Some(w) = self.width {
             sets.push(format!("post.bake_width={w:?}"));
@@ -129,7 +136,9 @@ impl LookArgs {
                 None => ("image", m.as_str()),
             };
             if value.is_empty() {
-                return Err(format!("--mask '{m}': name an image file or material:NAME"));
+                return Err(UsageError(format!(
+                    "--mask '{m}': name an image file or material:NAME"
+                )));
             }
             let quoted = toml_string(value);
             for i in 0..base.stress.len() {

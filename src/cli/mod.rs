@@ -227,13 +227,19 @@ enum Command {
 #[error("{0}")]
 pub struct UsageError(pub String);
 
+impl From<&str> for UsageError {
+    fn from(message: &str) -> Self {
+        UsageError(message.to_string())
+    }
+}
+
 /// Exit code for an error: 2 for usage/configuration, 1 otherwise.
 pub fn exit_code(e: &anyhow::Error) -> u8 {
     if e.downcast_ref::<UsageError>().is_some()
         || matches!(
             e.downcast_ref::<crackle::Error>(),
             Some(
-                crackle::Error::Config(_)
+                crackle::Error::Config { .. }
                     | crackle::Error::Usage(_)
                     | crackle::Error::Pipeline(_)
                     | crackle::Error::FramesRequest(_)
@@ -283,7 +289,7 @@ fn weld_options(rel: f64) -> anyhow::Result<crackle::mesh::WeldOptions> {
 
 /// Run the parsed command; returns the exit code.
 /// A size in bytes: a number with an optional K, M or G (powers of 1024).
-fn parse_size(s: &str) -> Result<u64, String> {
+fn parse_size(s: &str) -> Result<u64, UsageError> {
     let t = s.trim();
     let (num, shift) = match t.chars().last().map(|c| c.to_ascii_uppercase()) {
         Some('K') => (&t[..t.len() - 1], 10),
@@ -291,13 +297,14 @@ fn parse_size(s: &str) -> Result<u64, String> {
         Some('G') => (&t[..t.len() - 1], 30),
         _ => (t, 0),
     };
-    let n: u64 = num
-        .trim()
-        .parse()
-        .map_err(|_| format!("'{s}' is not a size (a number of bytes, or with K, M or G)"))?;
+    let n: u64 = num.trim().parse().map_err(|_| {
+        UsageError(format!(
+            "'{s}' is not a size (a number of bytes, or with K, M or G)"
+        ))
+    })?;
     n.checked_mul(1u64 << shift)
         .filter(|&b| b > 0)
-        .ok_or_else(|| format!("'{s}' is not a usable size"))
+        .ok_or_else(|| UsageError(format!("'{s}' is not a usable size")))
 }
 
 pub fn run(cli: Cli) -> anyhow::Result<u8> {

@@ -179,9 +179,9 @@ fn draw<DB: plotters::prelude::DrawingBackend>(
     rows: &[Row],
     root: plotters::drawing::DrawingArea<DB, plotters::coord::Shift>,
     title: &str,
-) -> Result<(), String> {
+) -> anyhow::Result<()> {
     use plotters::prelude::*;
-    let e = |x: &dyn std::fmt::Debug| format!("{x:?}");
+    let e = |x: &dyn std::fmt::Debug| anyhow::anyhow!("{x:?}");
     let pts: Vec<&Row> = rows
         .iter()
         .filter(|r| r.kind == "relaxation" && r.error > 0.0 && r.seconds > 0.0)

@@ -39,6 +39,14 @@ pub enum IoError {
         /// What is wrong, naming the line.
         error: super::obj::ObjError,
     },
+    /// The output document cannot be made.
+    #[error("{path}: cannot write: {error}")]
+    Document {
+        /// The output file.
+        path: PathBuf,
+        /// What went wrong.
+        error: super::gltf_write::DocumentError,
+    },
     /// A folder below the output folder cannot be made or used.
     #[error(transparent)]
     Folder(#[from] super::write::DirError),

@@ -43,12 +43,12 @@ pub enum PathError {
         reference: String,
     },
     /// The asset's folder cannot be resolved.
-    #[error("the asset's folder '{}' cannot be read: {source}", folder.display())]
+    #[error("the asset's folder '{}' cannot be read: {error}", folder.display())]
     Folder {
         /// The folder.
         folder: PathBuf,
         /// The OS error.
-        source: std::io::Error,
+        error: std::io::Error,
     },
     /// Nothing by that name.
     #[error("'{reference}' not found")]
@@ -57,12 +57,12 @@ pub enum PathError {
         reference: String,
     },
     /// The file cannot be resolved or read.
-    #[error("'{reference}' cannot be read: {source}")]
+    #[error("'{reference}' cannot be read: {error}")]
     Unreadable {
         /// The reference as written.
         reference: String,
         /// The OS error.
-        source: std::io::Error,
+        error: std::io::Error,
     },
     /// A symbolic link to a file outside the asset's folder.
     #[error("'{reference}' is a symbolic link to '{}', outside the asset's folder '{}' (only files inside it are read)", real.display(), folder.display())]
@@ -151,9 +151,9 @@ pub fn real_file_inside(
     } else {
         base_dir
     };
-    let real_base = base.canonicalize().map_err(|source| PathError::Folder {
+    let real_base = base.canonicalize().map_err(|error| PathError::Folder {
         folder: base.to_path_buf(),
-        source,
+        error,
     })?;
     let real = match path.canonicalize() {
         Ok(r) => r,
@@ -162,10 +162,10 @@ pub fn real_file_inside(
                 reference: reference(),
             })
         }
-        Err(source) => {
+        Err(error) => {
             return Err(PathError::Unreadable {
                 reference: reference(),
-                source,
+                error,
             })
         }
     };
@@ -182,9 +182,9 @@ pub fn real_file_inside(
             reference: reference(),
             what,
         }),
-        Err(source) => Err(PathError::Unreadable {
+        Err(error) => Err(PathError::Unreadable {
             reference: reference(),
-            source,
+            error,
         }),
     }
 }

@@ -138,10 +138,20 @@ impl HeldDir {
     /// `text` (a path or a message) with the held path replaced by the
     /// name the user knows the folder by.
     pub fn show(&self, text: &str) -> String {
-        match &self.held {
-            Some((_, p)) => text.replace(&*p.to_string_lossy(), &self.shown.to_string_lossy()),
+        match self.renaming() {
+            Some((held, shown)) => text.replace(&held, &shown),
             None => text.to_string(),
         }
+    }
+
+    /// The held path and the name the user knows the folder by, as text,
+    /// when they differ ([`HeldDir::show`] replaces the one by the other).
+    pub fn renaming(&self) -> Option<(String, String)> {
+        let (_, p) = self.held.as_ref()?;
+        Some((
+            p.to_string_lossy().into_owned(),
+            self.shown.to_string_lossy().into_owned(),
+        ))
     }
 }
 
@@ -152,9 +162,9 @@ impl HeldDir {
 /// folder is opened from the one above it without following a link, and
 /// the last is held open ([`HeldDir`]). Errors name the folder.
 pub fn make_dirs_below(root: &Path, dir: &Path) -> Result<HeldDir, DirError> {
-    std::fs::create_dir_all(root).map_err(|source| DirError::Create {
+    std::fs::create_dir_all(root).map_err(|error| DirError::Create {
         dir: root.to_path_buf(),
-        source,
+        error,
     })?;
     let rest = dir.strip_prefix(root).map_err(|_| DirError::NotInside {
         dir: dir.to_path_buf(),
@@ -197,7 +207,7 @@ pub fn make_dirs_below(root: &Path, dir: &Path) -> Result<HeldDir, DirError> {
     };
     let read = |at: &Path| {
         let at = at.to_path_buf();
-        move |source| DirError::Read { at, source }
+        move |error| DirError::Read { at, error }
     };
     for part in parts {
         at.push(part);
@@ -211,10 +221,10 @@ pub fn make_dirs_below(root: &Path, dir: &Path) -> Result<HeldDir, DirError> {
                     // Made meanwhile by another job: checked on the next
                     // pass of the loop's test below.
                     Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {}
-                    Err(source) => {
+                    Err(error) => {
                         return Err(DirError::Create {
                             dir: at.clone(),
-                            source,
+                            error,
                         })
                     }
                 }
@@ -238,12 +248,12 @@ pub fn make_dirs_below(root: &Path, dir: &Path) -> Result<HeldDir, DirError> {
 #[non_exhaustive]
 pub enum DirError {
     /// The folder cannot be created.
-    #[error("{}: cannot create the folder: {source}", dir.display())]
+    #[error("{}: cannot create the folder: {error}", dir.display())]
     Create {
         /// The folder.
         dir: PathBuf,
         /// The OS error.
-        source: std::io::Error,
+        error: std::io::Error,
     },
     /// The folder is not below the output folder.
     #[error("{}: not inside the output folder {}", dir.display(), root.display())]
@@ -276,20 +286,20 @@ pub enum DirError {
         at: PathBuf,
     },
     /// A folder that cannot be examined.
-    #[error("{}: cannot read: {source}", at.display())]
+    #[error("{}: cannot read: {error}", at.display())]
     Read {
         /// The folder.
         at: PathBuf,
         /// The OS error.
-        source: std::io::Error,
+        error: std::io::Error,
     },
     /// A folder that cannot be opened.
-    #[error("{}: cannot open the folder: {source}", at.display())]
+    #[error("{}: cannot open the folder: {error}", at.display())]
     Open {
         /// The folder.
         at: PathBuf,
         /// The OS error.
-        source: std::io::Error,
+        error: std::io::Error,
     },
     /// A folder name with a NUL byte.
     #[error("{}: a folder name with a NUL byte", at.display())]
@@ -350,7 +360,7 @@ mod held {
     ) -> Result<File, DirError> {
         let open = |at: &Path| {
             let at = at.to_path_buf();
-            move |source| DirError::Open { at, source }
+            move |error| DirError::Open { at, error }
         };
         let mut dir = File::open(root).map_err(open(root))?;
         let mut at: PathBuf = root.to_path_buf();
@@ -365,7 +375,7 @@ mod held {
                 if e.kind() != std::io::ErrorKind::AlreadyExists {
                     return Err(DirError::Create {
                         dir: at.clone(),
-                        source: e,
+                        error: e,
                     });
                 }
             }

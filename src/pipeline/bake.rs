@@ -48,9 +48,9 @@ pub fn bake_mesh(
     cell: Option<f64>,
     post: &Post,
 ) -> crate::Result<MeshBake> {
-    let fail = |message: String| crate::Error::Internal {
+    let fail = |error: BakeError| crate::Error::Internal {
         mesh: label.to_string(),
-        message,
+        error: error.into(),
     };
     // The maps are drawn with the normals the output is shaded with.
     let _ = super::attributes::add_smooth_normals(scene, mesh_index, post.smooth_angle);
@@ -73,7 +73,7 @@ pub fn bake_mesh(
             cell,
             post,
         )
-        .map_err(|e| fail(e.to_string()))?;
+        .map_err(fail)?;
         details.push(d);
     }
     Ok(MeshBake { materials: details })

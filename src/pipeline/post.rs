@@ -227,7 +227,7 @@ fn open_mesh(
             .set_positions(&positions)
             .map_err(|err| crate::Error::Internal {
                 mesh: e.label.clone(),
-                message: err.to_string(),
+                error: err.into(),
             })?;
     }
     if post.keeps_input() {
@@ -310,7 +310,7 @@ fn cut_mesh(
             // written.
             Err(crate::Error::Internal {
                 mesh: e.label.clone(),
-                message: format!("the cracks cannot be cut into the input ({err}); with simulation.margin = 0 they stay on the simulation surface instead"),
+                error: format!("the cracks cannot be cut into the input ({err}); with simulation.margin = 0 they stay on the simulation surface instead").into(),
             })
         }
         Err(err) => {
@@ -648,7 +648,7 @@ fn straighten(
         )
         .map_err(|err| crate::Error::Internal {
             mesh: e.label.clone(),
-            message: err.to_string(),
+            error: err.into(),
         })?
     };
     s.crack_length = p.length[1];

@@ -209,8 +209,7 @@ pub fn crack_file(
     if config.pipeline.has_masks() {
         config
             .pipeline
-            .load_images_within(pipeline_dir, config.read.max_memory)
-            .map_err(|e| Error::Usage(e.to_string()))?;
+            .load_images_within(pipeline_dir, config.read.max_memory)?;
         image_seconds = t.elapsed().as_secs_f64();
     }
     let t = Instant::now();
@@ -350,7 +349,10 @@ pub fn prepare(scene: &Scene, config: &Config, observer: &mut dyn Observer) -> R
             .unwrap_or(Path::new("."));
         let masks = pipe
             .masks_for_within(scene, asset_dir, config.read.max_memory)
-            .map_err(|e| Error::Usage(format!("{}: {}", input.display(), e.error)))?;
+            .map_err(|e| Error::Config {
+                asset: input.to_path_buf(),
+                error: e.error,
+            })?;
         stages.push(Stage::new("texture", t.elapsed().as_secs_f64()));
         masks
     } else {

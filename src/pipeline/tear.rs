@@ -67,7 +67,7 @@ pub fn tear_meshes(
             .take(triangles.len())
             .collect();
         let mut d = Ductile::with_grips(&positions, &triangles, &grips, &p.ductile)
-            .map_err(|err| crate::Error::mesh(input, &e.label, err.to_string()))?;
+            .map_err(|err| crate::Error::mesh(input, &e.label, err))?;
         let mut cg_max = 0;
         // The time-lapse: frame k when the ends have moved apart by k / (N
         // - 1) of the pull's distance, from the untorn solid; frames the run

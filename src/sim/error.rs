@@ -75,7 +75,7 @@ impl ParamError {
 pub enum SimError {
     /// A parameter is invalid.
     #[error("invalid parameter: {0}")]
-    Params(#[from] ParamError),
+    Params(ParamError),
     /// The mesh or the stress field does not fit the parameters (no edge
     /// of positive length, a field of another mesh, a step too small).
     #[error("invalid parameter: {0}")]
@@ -86,4 +86,10 @@ pub enum SimError {
     /// A mesh invariant broke (a bug).
     #[error("internal mesh error: {0}")]
     Mesh(#[from] MeshError),
+}
+
+impl From<ParamError> for SimError {
+    fn from(e: ParamError) -> Self {
+        SimError::Params(e)
+    }
 }

@@ -65,8 +65,12 @@ pub struct BatchArgs<'a> {
 }
 
 /// `K/N` with 1 <= K <= N.
-fn parse_shard(s: &str) -> Result<(usize, usize), String> {
-    let bad = || format!("--shard '{s}': expected K/N with 1 <= K <= N, e.g. 2/4");
+fn parse_shard(s: &str) -> Result<(usize, usize), UsageError> {
+    let bad = || {
+        UsageError(format!(
+            "--shard '{s}': expected K/N with 1 <= K <= N, e.g. 2/4"
+        ))
+    };
     let (k, n) = s.split_once('/').ok_or_else(bad)?;
     let (k, n): (usize, usize) = (
         k.trim().parse().map_err(|_| bad())?,
@@ -96,7 +100,7 @@ fn choice(a: &BatchArgs) -> anyhow::Result<Choice> {
 }
 
 pub fn run(a: BatchArgs) -> anyhow::Result<u8> {
-    let shard = a.shard.map(parse_shard).transpose().map_err(UsageError)?;
+    let shard = a.shard.map(parse_shard).transpose()?;
     if a.rules.is_some() && a.sim.has_choice() {
         return Err(UsageError(
             "--rules chooses the pipeline of each asset; it cannot be combined with --pipeline or --preset".into(),

@@ -151,10 +151,10 @@ pub(super) fn load_buffers(
                 } else {
                     let file = resolve_file_inside(base_dir, uri)
                         .map_err(|e| fail(BufferFault::Reference(e)))?;
-                    let open = |source| {
+                    let open = |error| {
                         fail(BufferFault::Open {
                             file: file.clone(),
-                            source,
+                            error,
                         })
                     };
                     // Opened without following a link: one swapped in after
@@ -172,10 +172,10 @@ pub(super) fn load_buffers(
                     opened
                         .take(declared)
                         .read_to_end(&mut data)
-                        .map_err(|source| {
+                        .map_err(|error| {
                             fail(BufferFault::ReadFile {
                                 file: file.clone(),
-                                source,
+                                error,
                             })
                         })?;
                     data

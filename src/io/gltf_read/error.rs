@@ -12,7 +12,7 @@ use std::path::PathBuf;
 pub enum GltfError {
     /// The GLB container is malformed.
     #[error("invalid GLB container: {0}")]
-    Glb(#[from] GlbError),
+    Glb(GlbError),
     /// The JSON does not parse.
     #[error("invalid JSON: {0}")]
     Json(serde_json::Error),
@@ -342,12 +342,12 @@ pub enum BufferFault {
     #[error("{0}")]
     Reference(PathError),
     /// The file cannot be opened.
-    #[error("cannot open '{}': {source}", file.display())]
+    #[error("cannot open '{}': {error}", file.display())]
     Open {
         /// The file.
         file: PathBuf,
         /// The OS error.
-        source: std::io::Error,
+        error: std::io::Error,
     },
     /// The file is shorter than declared.
     #[error("'{}' has {len} bytes but byteLength declares {declared}", file.display())]
@@ -360,12 +360,12 @@ pub enum BufferFault {
         declared: u64,
     },
     /// The file cannot be read.
-    #[error("cannot read '{}': {source}", file.display())]
+    #[error("cannot read '{}': {error}", file.display())]
     ReadFile {
         /// The file.
         file: PathBuf,
         /// The OS error.
-        source: std::io::Error,
+        error: std::io::Error,
     },
 }
 

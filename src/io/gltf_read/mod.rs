@@ -107,7 +107,7 @@ fn read_document(
     options: &crate::io::ReadOptions,
 ) -> std::result::Result<Scene, GltfError> {
     let (json_bytes, bin): (Vec<u8>, Option<Vec<u8>>) = if bytes.starts_with(b"glTF") {
-        let glb = split_glb(bytes)?;
+        let glb = split_glb(bytes).map_err(GltfError::Glb)?;
         (glb.json.into_owned(), glb.bin.map(|b| b.into_owned()))
     } else {
         (bytes.to_vec(), None)

@@ -246,7 +246,7 @@ struct Writer<'a> {
 impl Writer<'_> {
     /// Write the scene's accessor `i` for `target` (once: again, the same
     /// accessor) and return its index in the output.
-    fn raw(&mut self, i: usize, target: Option<u32>) -> std::result::Result<usize, String> {
+    fn raw(&mut self, i: usize, target: Option<u32>) -> std::result::Result<usize, DocumentError> {
         if let Some(&a) = self.raw_written.get(&(i, target)) {
             return Ok(a);
         }
@@ -254,7 +254,7 @@ impl Writer<'_> {
             .scene
             .accessors
             .get(i)
-            .ok_or(format!("internal: accessor {i} missing"))?;
+            .ok_or(DocumentError::NoAccessor(i))?;
         let a = self.bin.raw(r, target);
         self.raw_written.insert((i, target), a);
         Ok(a)
@@ -265,7 +265,7 @@ impl Writer<'_> {
         &mut self,
         used: &BTreeSet<usize>,
         mat_map: &BTreeMap<usize, usize>,
-    ) -> std::result::Result<Vec<Value>, String> {
+    ) -> std::result::Result<Vec<Value>, DocumentError> {
         let scene = self.scene;
         let mut meshes_json = Vec::new();
         for &mi in used {
@@ -296,7 +296,7 @@ impl Writer<'_> {
         &mut self,
         p: &Primitive,
         mat_map: &BTreeMap<usize, usize>,
-    ) -> std::result::Result<Option<Value>, String> {
+    ) -> std::result::Result<Option<Value>, DocumentError> {
         let mut pj = Map::new();
         match &p.geometry {
             Geometry::Triangles(t) => {
@@ -328,7 +328,7 @@ impl Writer<'_> {
         &mut self,
         r: &RawGeometry,
         pj: &mut Map<String, Value>,
-    ) -> std::result::Result<(), String> {
+    ) -> std::result::Result<(), DocumentError> {
         let scene = self.scene;
         let mut attrs = Map::new();
         for (k, &a) in &r.attributes {
@@ -368,7 +368,7 @@ impl Writer<'_> {
     }
 
     /// The `used` skins as JSON, their inverse bind matrices copied.
-    fn skins(&mut self, used: &BTreeSet<usize>) -> std::result::Result<Vec<Value>, String> {
+    fn skins(&mut self, used: &BTreeSet<usize>) -> std::result::Result<Vec<Value>, DocumentError> {
         let scene = self.scene;
         let mut skins_json = Vec::new();
         for &s in used {
@@ -382,7 +382,7 @@ impl Writer<'_> {
     }
 
     /// The scene's animations as JSON, their samplers' accessors copied.
-    fn animations(&mut self) -> std::result::Result<Vec<Value>, String> {
+    fn animations(&mut self) -> std::result::Result<Vec<Value>, DocumentError> {
         let scene = self.scene;
         let mut anims_json = Vec::new();
         for a in &scene.animations {
@@ -409,7 +409,7 @@ impl Writer<'_> {
         glb: bool,
         stem: &str,
         prefix_images: bool,
-    ) -> std::result::Result<Images, String> {
+    ) -> std::result::Result<Images, DocumentError> {
         let scene = self.scene;
         let mut images_json = Vec::new();
         let mut image_files = Vec::new();
@@ -420,7 +420,11 @@ impl Writer<'_> {
                 ImageSource::Bytes(b) => b.clone(),
                 ImageSource::File(p) => {
                     crate::io::paths::read_capped(p, crate::io::paths::MAX_IMAGE_BYTES, "image")
-                        .map_err(|e| format!("image {i}: cannot read '{}': {e}", p.display()))?
+                        .map_err(|error| DocumentError::ImageRead {
+                            image: i,
+                            file: p.clone(),
+                            error,
+                        })?
                 }
             };
             let mime = img
@@ -436,9 +440,7 @@ impl Writer<'_> {
                 ij.insert("name".into(), n.clone().into());
             }
             if glb {
-                let mime = mime.ok_or(format!(
-                    "image {i}: unknown image type, cannot embed it in a GLB"
-                ))?;
+                let mime = mime.ok_or(DocumentError::ImageType(i))?;
                 let view = self.bin.view(&bytes, None, None);
                 ij.insert("bufferView".into(), view.into());
                 ij.insert("mimeType".into(), mime.into());
@@ -460,6 +462,36 @@ impl Writer<'_> {
     }
 }
 
+/// Why a scene's output document cannot be made.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum DocumentError {
+    /// A primitive names an accessor the scene does not have (a bug).
+    #[error("internal: accessor {0} missing")]
+    NoAccessor(usize),
+    /// A triangle names a vertex the geometry does not have (a bug).
+    #[error("internal: triangle index {index} out of range ({vertices} vertices)")]
+    TriangleIndex {
+        /// The index.
+        index: usize,
+        /// The geometry's vertices.
+        vertices: usize,
+    },
+    /// An image file cannot be read.
+    #[error("image {image}: cannot read '{}': {error}", file.display())]
+    ImageRead {
+        /// The image.
+        image: usize,
+        /// Its file.
+        file: std::path::PathBuf,
+        /// The OS error.
+        error: std::io::Error,
+    },
+    /// An image of unknown type, which a GLB cannot embed.
+    #[error("image {0}: unknown image type, cannot embed it in a GLB")]
+    ImageType(usize),
+}
+
 /// The images' JSON and the image files to write beside a `.gltf`.
 type Images = (Vec<Value>, Vec<(String, Vec<u8>)>);
 
@@ -470,7 +502,7 @@ pub(super) fn build_document(
     glb: bool,
     stem: &str,
     prefix_images: bool,
-) -> std::result::Result<Document, String> {
+) -> std::result::Result<Document, DocumentError> {
     // ---- what is used
     let used = Used::of(scene);
     let maps = Maps::of(&used);
@@ -743,7 +775,7 @@ type WrittenTriangles = (Map<String, Value>, usize, Vec<Value>);
 fn write_triangles(
     bin: &mut Bin,
     t: &TriGeometry,
-) -> std::result::Result<WrittenTriangles, String> {
+) -> std::result::Result<WrittenTriangles, DocumentError> {
     let n = t.positions.len();
     // Vertices keep their order (an unused one is left out): an output
     // that keeps the input's mesh keeps its vertex order and indices.
@@ -752,9 +784,10 @@ fn write_triangles(
         for &v in tri {
             let v = v as usize;
             if v >= n {
-                return Err(format!(
-                    "internal: triangle index {v} out of range ({n} vertices)"
-                ));
+                return Err(DocumentError::TriangleIndex {
+                    index: v,
+                    vertices: n,
+                });
             }
             used[v] = true;
         }

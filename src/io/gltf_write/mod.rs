@@ -20,6 +20,7 @@ mod finite;
 mod names;
 mod refs;
 use document::build_document;
+pub use document::DocumentError;
 pub use files::*;
 use names::uri_encode;
 
@@ -77,10 +78,11 @@ pub fn write_scene_with(scene: &Scene, path: &Path, prefix_images: bool) -> Resu
         .and_then(|s| s.to_str())
         .unwrap_or("scene")
         .to_string();
-    let mut doc = build_document(scene, glb, &stem, prefix_images).map_err(|m| Error::Output {
-        path: path.into(),
-        message: m,
-    })?;
+    let mut doc =
+        build_document(scene, glb, &stem, prefix_images).map_err(|error| Error::Document {
+            path: path.into(),
+            error,
+        })?;
     if !glb {
         name_side_files_by_content(&mut doc, &stem);
     }
@@ -155,7 +157,10 @@ pub fn glb_scene_bytes(scene: &Scene, name: &Path) -> Result<Vec<u8>> {
     if let Some(message) = finite::first_non_finite(scene) {
         return Err(fail(message));
     }
-    let doc = build_document(scene, true, "scene", false).map_err(fail)?;
+    let doc = build_document(scene, true, "scene", false).map_err(|error| Error::Document {
+        path: name.into(),
+        error,
+    })?;
     let json = serde_json::to_vec(&doc.json).map_err(|e| fail(e.to_string()))?;
     Ok(glb_bytes(&json, &doc.bin))
 }
