@@ -614,3 +614,82 @@ fn the_files_of_each_module_import_each_other_without_a_cycle() {
         cycles.join("\n")
     );
 }
+
+/// Every `Result<..., String>` in `code`: a `Result` whose last type
+/// argument is `String`, its brackets matched (nested and multi-line ones
+/// count, `->` inside it is no bracket).
+fn string_results(code: &str) -> Vec<String> {
+    let mut found = Vec::new();
+    let mut from = 0;
+    while let Some(k) = code[from..].find("Result<") {
+        let open = from + k + "Result<".len();
+        let (mut depth, mut last_arg, mut end) = (1, open, None);
+        let mut prev = ' ';
+        for (i, c) in code[open..].char_indices() {
+            match c {
+                '<' | '(' | '[' => depth += 1,
+                '>' if prev == '-' => {}
+                '>' | ')' | ']' => {
+                    depth -= 1;
+                    if depth == 0 {
+                        end = Some(open + i);
+                        break;
+                    }
+                }
+                ',' if depth == 1 => last_arg = open + i + 1,
+                _ => {}
+            }
+            prev = c;
+        }
+        if let Some(end) = end {
+            let last = code[last_arg..end].trim();
+            if last_arg > open && (last == "String" || last == "std::string::String") {
+                let text = &code[from + k..=end];
+                found.push(text.split_whitespace().collect::<Vec<_>>().join(" "));
+            }
+        }
+        from = open;
+    }
+    found
+}
+
+/// No error is a plain `String`: each layer's error is a type whose
+/// variants carry what went wrong (ARCHITECTURE.md, Errors), tests
+/// included.
+#[test]
+fn no_result_has_a_string_error() {
+    assert_eq!(
+        string_results(
+            "fn a() -> Result<Vec<(u8, u8)>,\n    String> {}\nfn b() -> Result<(), Error> {}\n\
+             fn c(f: impl Fn() -> Result<u8, String>) -> std::result::Result<Option<Result<u8, String>>, E> {}\n\
+             fn d() -> Result<String> {}"
+        ),
+        [
+            "Result<Vec<(u8, u8)>, String>",
+            "Result<u8, String>",
+            "Result<u8, String>"
+        ]
+    );
+    let src = src_dir();
+    let mut files = Vec::new();
+    rs_files(&src, &mut files);
+    let mut found = Vec::new();
+    for f in &files {
+        let rel = f.strip_prefix(&src).expect("inside src").display();
+        let text = std::fs::read_to_string(f).expect("readable");
+        let code: Vec<&str> = text
+            .lines()
+            .map(|l| l.find("//").map_or(l, |k| &l[..k]))
+            .collect();
+        for r in string_results(&code.join("\n")) {
+            found.push(format!("{rel}: {r}"));
+        }
+    }
+    assert!(files.len() > 100, "the source files were not found");
+    assert!(
+        found.is_empty(),
+        "errors that are plain strings ({}):\n{}",
+        found.len(),
+        found.join("\n")
+    );
+}

@@ -650,6 +650,35 @@ impl SceneReader<'_> {
             }
             None => (0..n as u32).collect(),
         };
+        let targets = self.read_targets(p, n)?;
+        let triangles = assemble_triangles(prim_mode, &index_list);
+        let mut geo = TriGeometry {
+            positions,
+            attributes,
+            triangles,
+            targets,
+            group: None,
+        };
+        let fixed = normalize_vectors(&mut geo);
+        if fixed > 0 {
+            self.scene.warnings.push(format!(
+                "{fixed} zero or non-finite normals/tangents replaced by the face normal or (1,0,0)"
+            ));
+        }
+        Ok(Primitive {
+            material,
+            geometry: Geometry::Triangles(geo),
+            rest,
+        })
+    }
+
+    /// A crackable primitive's morph targets, each attribute decoded and
+    /// checked against the primitive's `n` vertices.
+    fn read_targets(
+        &self,
+        p: &Value,
+        n: usize,
+    ) -> std::result::Result<Vec<Vec<VertexAttribute>>, GltfError> {
         let mut targets = Vec::new();
         for (ti, t) in arr(p, "targets").iter().enumerate() {
             let mut tattrs = Vec::new();
@@ -680,25 +709,7 @@ impl SceneReader<'_> {
             }
             targets.push(tattrs);
         }
-        let triangles = assemble_triangles(prim_mode, &index_list);
-        let mut geo = TriGeometry {
-            positions,
-            attributes,
-            triangles,
-            targets,
-            group: None,
-        };
-        let fixed = normalize_vectors(&mut geo);
-        if fixed > 0 {
-            self.scene.warnings.push(format!(
-                "{fixed} zero or non-finite normals/tangents replaced by the face normal or (1,0,0)"
-            ));
-        }
-        Ok(Primitive {
-            material,
-            geometry: Geometry::Triangles(geo),
-            rest,
-        })
+        Ok(targets)
     }
 }
 

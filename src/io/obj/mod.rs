@@ -30,9 +30,9 @@ use prim::PrimBuilder;
 /// its folder) into a [`Scene`].
 ///
 /// # Errors
-/// [`Error::Io`] when the file cannot be read; [`Error::Input`] naming the
+/// [`Error::Io`] when the file cannot be read; [`Error::Obj`] naming the
 /// line when it is malformed (bad number, index out of range...) or has no
-/// face. Missing material libraries and textures are only warnings
+/// face ([`ObjError`]). Missing material libraries and textures are only warnings
 /// ([`Scene::warnings`]).
 pub fn read_obj(path: &Path) -> Result<Scene, Error> {
     read_obj_with(path, &crate::io::ReadOptions::default())
@@ -1113,7 +1113,7 @@ mod tests {
     fn errors_name_the_problem() {
         let e = read_str("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n").unwrap_err();
         let msg = e.to_string();
-        assert!(matches!(e, Error::Input { .. }));
+        assert!(matches!(e, Error::Obj { .. }));
         assert!(
             msg.contains("line 4") && msg.contains("out of range") && msg.contains("test.obj"),
             "{msg}"
