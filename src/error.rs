@@ -42,7 +42,7 @@ pub enum Error {
         /// The asset.
         asset: PathBuf,
         /// What is wrong, naming the key.
-        error: ConfigError,
+        error: Box<ConfigError>,
     },
     /// What was asked cannot be done with this input or these options (a
     /// name the input does not have, a cell size above the triangle
@@ -122,8 +122,9 @@ impl Error {
 pub struct PipelineError {
     /// File path or `preset NAME`.
     pub source_name: String,
-    /// What is wrong, naming the key.
-    pub error: ConfigError,
+    /// What is wrong, naming the key (boxed: a pipeline's errors are
+    /// rare, and the library's error stays small).
+    pub error: Box<ConfigError>,
 }
 
 /// Result with the library's error.

@@ -290,7 +290,7 @@ enum AssetError {
     #[error("{}", failed(error, shown.as_ref()))]
     Failed {
         /// The error.
-        error: Error,
+        error: Box<Error>,
         /// The held path and its name.
         shown: Option<(String, String)>,
     },
@@ -343,7 +343,7 @@ fn run_asset(
                 &mut Stages(on_stage),
             )
             .map_err(|error| AssetError::Failed {
-                error,
+                error: Box::new(error),
                 shown: held.renaming(),
             })?;
             report.output = held.show(&report.output);
@@ -365,8 +365,10 @@ fn run_asset(
         }
         Action::Copy => {
             on_stage("copy");
-            copy_asset(asset, &options.out)
-                .map_err(|error| AssetError::Failed { error, shown: None })
+            copy_asset(asset, &options.out).map_err(|error| AssetError::Failed {
+                error: Box::new(error),
+                shown: None,
+            })
         }
         Action::Skip => Ok(Done {
             status: Status::Skipped,

@@ -358,7 +358,7 @@ impl Pipeline {
     ) -> Result<Pipeline, PipelineError> {
         let err = |error: ConfigError| PipelineError {
             source_name: source_name.to_string(),
-            error,
+            error: Box::new(error),
         };
         let mut value: toml::Table = text.parse().map_err(|e| err(ConfigError::Syntax(e)))?;
         for s in sets {
@@ -385,9 +385,9 @@ impl Pipeline {
         let Some((_, text)) = PRESETS.iter().find(|(n, _)| *n == name) else {
             return Err(PipelineError {
                 source_name: format!("preset {name}"),
-                error: ConfigError::NoPreset {
+                error: Box::new(ConfigError::NoPreset {
                     presets: PRESETS.iter().map(|(n, _)| n.to_string()).collect(),
-                },
+                }),
             });
         };
         Pipeline::parse(text, &format!("preset {name}"), sets)
@@ -400,7 +400,7 @@ impl Pipeline {
     pub fn check_all(&self) -> Result<(), PipelineError> {
         self.check().map_err(|error| PipelineError {
             source_name: self.source_name.clone(),
-            error,
+            error: Box::new(error),
         })
     }
 
@@ -467,7 +467,7 @@ impl Pipeline {
             };
             let err = |m: MaskImageError| PipelineError {
                 source_name: self.source_name.clone(),
-                error: e.error(i, EntryError::MaskImage(m)),
+                error: Box::new(e.error(i, EntryError::MaskImage(m))),
             };
             let grey = if let Some(name) = image.strip_prefix("builtin:") {
                 let (_, bytes) =
@@ -533,7 +533,7 @@ impl Pipeline {
         self.masks_in(scene, asset_dir, budget)
             .map_err(|error| PipelineError {
                 source_name: self.source_name.clone(),
-                error,
+                error: Box::new(error),
             })
     }
 
@@ -625,7 +625,7 @@ impl Pipeline {
             .collect::<Result<Vec<Term>, ConfigError>>()
             .map_err(|error| PipelineError {
                 source_name: self.source_name.clone(),
-                error,
+                error: Box::new(error),
             })
     }
 }
