@@ -664,6 +664,15 @@ fn line(no: usize, fault: LineFault) -> ObjError {
     ObjError::Line { line: no, fault }
 }
 
+/// `what` (`vertex`, `normal`...) in the plural unless `count` is 1.
+fn counted(what: &str, count: usize) -> String {
+    match (what, count) {
+        (_, 1) => what.to_string(),
+        ("vertex", _) => "vertices".to_string(),
+        _ => format!("{what}s"),
+    }
+}
+
 /// An OBJ file that cannot be read.
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
@@ -715,7 +724,7 @@ pub enum LineFault {
         token: String,
     },
     /// An index to an element not defined before the line.
-    #[error("{what} index {index} is out of range ({count} {what}{} defined before this line)", if *count == 1 { "" } else { "s" })]
+    #[error("{what} index {index} is out of range ({count} {} defined before this line)", counted(what, *count))]
     OutOfRange {
         /// `vertex`, `texture coordinate` or `normal`.
         what: &'static str,
@@ -1115,7 +1124,9 @@ mod tests {
         let msg = e.to_string();
         assert!(matches!(e, Error::Obj { .. }));
         assert!(
-            msg.contains("line 4") && msg.contains("out of range") && msg.contains("test.obj"),
+            msg.contains("line 4")
+                && msg.contains("out of range (3 vertices defined")
+                && msg.contains("test.obj"),
             "{msg}"
         );
         let e = read_str("v 0 0 0\nv 1 0 0\nv 0 1 0\nf -1 -2 -4\n")
