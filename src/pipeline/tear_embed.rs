@@ -24,7 +24,13 @@ struct Locator<'a> {
 
 impl<'a> Locator<'a> {
     fn new(d: &'a Ductile) -> Locator<'a> {
-        let index = d.tets.iter().enumerate().map(|(i, t)| (*t, i)).collect();
+        // By the grid's nodes: a virtual node stands at its home.
+        let index = d
+            .tets
+            .iter()
+            .enumerate()
+            .map(|(i, t)| (t.map(|n| d.home(n as usize) as u32), i))
+            .collect();
         Locator { d, index }
     }
 

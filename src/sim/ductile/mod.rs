@@ -7,6 +7,17 @@
 //! their cut plane (their stiffness and mass scale with it), so a tear
 //! opens smoothly through them; everything is updated in place.
 //!
+//! Virtual nodes (Molino, Bridson and Fedkiw 2004, [`virtual_nodes`]): a
+//! node outside the material whose tetrahedra the tear has separated into
+//! groups not tied through material gets a copy per group after the
+//! first, numbered after the grid's nodes, each copy's tetrahedra naming
+//! it. A tetrahedron's material is convex (the level set is linear in it),
+//! so tetrahedra are never split: only nodes. Pieces that have come apart
+//! share no node, and no force passes between them through the slivers
+//! of a gap narrower than a cube. The mechanics, the multigrid (a copy
+//! stands at its grid node's place on every level) and the torn surface
+//! (one vertex per cut edge between two node ids) follow the copies.
+//!
 //! Units: the object's longest side is [`DuctileParams::size`] metres
 //! whatever the scene's unit, material constants are SI, pulls are
 //! fractions of that length per second: the same setup gives the same
@@ -21,9 +32,11 @@ pub mod fem;
 pub mod grid;
 mod multigrid;
 mod params;
+mod pieces;
 mod redistance;
 mod solve;
 pub mod surface;
+mod virtual_nodes;
 
 use crate::sim::ParamError;
 pub use params::{DuctileParams, GripError, Pull, PullMode};
@@ -31,7 +44,6 @@ pub use params::{DuctileParams, GripError, Pull, PullMode};
 use fem::{Element, Lame, Rest};
 use grid::{inside_fraction, EmbedError, Grid};
 use rayon::prelude::*;
-use std::collections::HashMap;
 
 /// The least material (in cubes) a piece holds to count: less is a sliver
 /// of rounding along the surface.
@@ -122,6 +134,11 @@ pub struct DuctileReport {
     pub cg_max_iterations: usize,
     /// Steps whose solve missed the tolerance.
     pub cg_unconverged: usize,
+    /// CG iterations a step on average before the level set first moved,
+    /// and after the object came apart (0 without such steps).
+    pub cg_mean_whole: f64,
+    /// See `cg_mean_whole`.
+    pub cg_mean_apart: f64,
     /// Multigrid cycles built (one is kept while it works).
     pub multigrid_builds: usize,
     /// Pull distance (fraction of the object's length, both ends together)
@@ -131,6 +148,9 @@ pub struct DuctileReport {
     pub separated_pull: Option<f64>,
     /// Pieces at the end.
     pub fragments: usize,
+    /// Virtual nodes at the end (copies of grid nodes the tear separated
+    /// the material around).
+    pub virtual_nodes: usize,
     /// Pull distance at the end.
     pub pull: f64,
     /// Wall time per step (filled by the caller that times it).
@@ -156,6 +176,10 @@ pub struct Ductile {
     pub phi0: Vec<f64>,
     /// Tetrahedra around each node (ascending), for gathering in order.
     node_tets: Vec<Vec<(u32, u8)>>,
+    /// The grid node each node stands at: itself for the grid's nodes,
+    /// the node it was copied from for a virtual node (see
+    /// [`virtual_nodes`]), which are numbered after the grid's.
+    home: Vec<u32>,
     /// Which nodes the pull moves: -1 / +1 (the two ends) or 0.
     pub pulled: Vec<i8>,
     params: DuctileParams,
@@ -314,7 +338,7 @@ impl Ductile {
         };
         let (mu, lambda) = fem::lame(params.young, params.poisson);
         let n = rest_x.len();
-        Ok(Ductile {
+        let mut d = Ductile {
             grid,
             tets,
             rest,
@@ -324,6 +348,7 @@ impl Ductile {
             phi0: phi.clone(),
             phi,
             node_tets,
+            home: (0..n as u32).collect(),
             pulled,
             params: params.clone(),
             lame: Lame { mu, lambda },
@@ -337,7 +362,14 @@ impl Ductile {
             mg: None,
             kept_elements: None,
             mg_builds: 0,
-        })
+        };
+        // Material apart from the start (shells closer than a cube) does
+        // not share a node either.
+        if params.virtual_nodes {
+            let all: Vec<usize> = (0..n).collect();
+            d.split_nodes(&all);
+        }
+        Ok(d)
     }
 
     /// A point in metres in the scene's units.
@@ -425,8 +457,15 @@ impl Ductile {
         if reach <= 1.0 {
             return psi;
         }
-        let mut num: Vec<f64> = psi.iter().zip(mass).map(|(p, m)| p * m).collect();
-        let mut den = mass.to_vec();
+        // On the grid's nodes: a virtual node's share goes to the node it
+        // stands at, and it reads that node's average.
+        let n_grid = self.grid.n_nodes();
+        let (mut num, mut den) = (vec![0.0; n_grid], vec![0.0; n_grid]);
+        for (i, (p, m)) in psi.iter().zip(mass).enumerate() {
+            let h = self.home(i);
+            num[h] += p * m;
+            den[h] += m;
+        }
         let kernel: Vec<f64> = (0..)
             .map(|d| 1.0 - f64::from(d) / reach)
             .take_while(|&w| w > 0.0)
@@ -453,10 +492,11 @@ impl Ductile {
                     || self.node_tets[i]
                         .iter()
                         .any(|&(e, _)| self.tets[e as usize].iter().any(|&j| rose[j as usize]));
-                if at_front || mass[i] <= 0.0 || den[i] <= 0.0 {
+                let h = self.home(i);
+                if at_front || mass[i] <= 0.0 || den[h] <= 0.0 {
                     psi[i]
                 } else {
-                    num[i] / den[i]
+                    num[h] / den[h]
                 }
             })
             .collect()
@@ -555,6 +595,7 @@ impl Ductile {
         let elements = self.elements(&weights);
         let mass = self.masses(&weights);
         let psi = self.driving_energy(&elements, &weights, &mass);
+        let before = (self.params.virtual_nodes).then(|| self.phi.clone());
         report.tearing_nodes = self.advance_level_set(&psi, dt);
         if report.tearing_nodes > 0 {
             if self.params.redistance {
@@ -578,6 +619,12 @@ impl Ductile {
                 .zip(&mass)
                 .map(|(v, m)| m * (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]))
                 .sum::<f64>();
+        // Where the tear separated the material around a node, each side
+        // gets its own copy of it (the elements kept hold as they are).
+        if let Some(before) = before.filter(|_| report.tearing_nodes > 0) {
+            let candidates = self.split_candidates(&before);
+            self.split_nodes(&candidates);
+        }
         report
     }
 
@@ -682,6 +729,8 @@ impl Ductile {
         // A solid in several pieces from the start (an input of separate
         // shells) comes apart when it has more.
         let initial = self.fragments();
+        // CG iterations and steps, whole and apart.
+        let (mut whole, mut apart) = ((0, 0), (0, 0));
         while self.pull_fraction() < self.params.pull.distance
             && report.steps < self.params.max_steps
         {
@@ -698,116 +747,23 @@ impl Ductile {
             if report.separated_pull.is_none() && s.tearing_nodes > 0 && self.fragments() > initial
             {
                 report.separated_pull = Some(self.pull_fraction());
+            } else if report.separated_pull.is_some() {
+                apart = (apart.0 + s.cg_iterations, apart.1 + 1);
+            }
+            if report.first_tear_pull.is_none() {
+                whole = (whole.0 + s.cg_iterations, whole.1 + 1);
             }
             on_step(self, &s);
         }
+        let mean = |(sum, steps): (usize, usize)| sum as f64 / steps.max(1) as f64;
+        report.cg_mean_whole = mean(whole);
+        report.cg_mean_apart = mean(apart);
         report.time = self.time;
         report.multigrid_builds = self.mg_builds;
         report.pull = self.pull_fraction();
         report.fragments = self.fragments();
+        report.virtual_nodes = self.virtual_nodes();
         report
-    }
-
-    /// Each tetrahedron's piece (the root of its union; `u32::MAX` for
-    /// one without a node inside) and the material each piece holds.
-    /// Tetrahedra sharing a node inside are one piece; with `bridge` < 1,
-    /// so are those sharing a node outside whose inside fractions are
-    /// both at least `bridge` (material there holds the pieces together
-    /// through that node).
-    fn piece_roots(&self, bridge: f64) -> (Vec<u32>, HashMap<u32, f64>) {
-        let inside: Vec<bool> = self.phi.iter().map(|&p| p < 0.0).collect();
-        let mut parent: Vec<u32> = (0..self.tets.len() as u32).collect();
-        fn find(p: &mut [u32], mut x: u32) -> u32 {
-            while p[x as usize] != x {
-                p[x as usize] = p[p[x as usize] as usize];
-                x = p[x as usize];
-            }
-            x
-        }
-        // The material in a tetrahedron is convex (phi is linear in it):
-        // tetrahedra sharing an inside node are one piece.
-        let mut joined: Vec<u32> = Vec::new();
-        for (n, ts) in self.node_tets.iter().enumerate() {
-            joined.clear();
-            if inside[n] {
-                joined.extend(ts.iter().map(|&(e, _)| e));
-            } else if bridge < 1.0 {
-                joined.extend(
-                    ts.iter()
-                        .map(|&(e, _)| e)
-                        .filter(|&e| self.inside(e as usize) >= bridge),
-                );
-            }
-            for w in joined.windows(2) {
-                let (a, b) = (find(&mut parent, w[0]), find(&mut parent, w[1]));
-                if a != b {
-                    parent[a.max(b) as usize] = a.min(b);
-                }
-            }
-        }
-        let mut roots = vec![u32::MAX; self.tets.len()];
-        let mut material: HashMap<u32, f64> = HashMap::new();
-        for e in 0..self.tets.len() as u32 {
-            if self.tets[e as usize].iter().any(|&n| inside[n as usize]) {
-                let r = find(&mut parent, e);
-                roots[e as usize] = r;
-                *material.entry(r).or_insert(0.0) +=
-                    self.rest[e as usize].volume * self.inside(e as usize);
-            }
-        }
-        (roots, material)
-    }
-
-    /// Pieces of material.
-    pub fn fragments(&self) -> usize {
-        // A piece counts when it holds at least a thousandth of a cube of
-        // material: nodes on the surface whose sign is rounding make
-        // slivers of nothing.
-        let least = SLIVER * self.grid.h.powi(3);
-        let (_, material) = self.piece_roots(f64::INFINITY);
-        material.values().filter(|&&v| v >= least).count()
-    }
-
-    /// For the multigrid: the nodes of each piece holding at least a
-    /// twentieth of the material, and one more set with the rest (smaller
-    /// pieces), when the material is in more than one such piece; none
-    /// while it is whole. Pieces here are held together also through a
-    /// node outside whose tetrahedra on both sides hold a tenth of their
-    /// volume of material or more (a cut plane of nodes between two
-    /// sizeable slices of material still ties them; slivers hanging on to
-    /// a node in the gap do not). A node goes with the piece of its first
-    /// tetrahedron (in index order) that has one.
-    fn piece_nodes(&self) -> Vec<Vec<bool>> {
-        let (roots, material) = self.piece_roots(BRIDGE);
-        let total: f64 = material.values().sum();
-        let mut big: Vec<u32> = material
-            .iter()
-            .filter(|(_, &v)| v >= 0.05 * total)
-            .map(|(&r, _)| r)
-            .collect();
-        if big.len() < 2 {
-            return Vec::new();
-        }
-        big.sort_unstable();
-        let n = self.x.len();
-        let mut masks = vec![vec![false; n]; big.len() + 1];
-        let mut rest = false;
-        for (node, ts) in self.node_tets.iter().enumerate() {
-            let Some(r) = ts
-                .iter()
-                .map(|&(e, _)| roots[e as usize])
-                .find(|&r| r != u32::MAX)
-            else {
-                continue;
-            };
-            let k = big.binary_search(&r).unwrap_or(big.len());
-            rest |= k == big.len();
-            masks[k][node] = true;
-        }
-        if !rest {
-            masks.pop();
-        }
-        masks
     }
 
     /// Parameters.
@@ -840,3 +796,5 @@ fn delta_integral(phi0: f64, t: f64, eps: f64) -> f64 {
 mod level_set_tests;
 #[cfg(test)]
 mod tests;
+#[cfg(test)]
+mod virtual_tests;

@@ -12,6 +12,13 @@
 //! against the l1-Jacobi smoother it replaced. The CG needs a number of
 //! iterations nearly independent of the grid's resolution.
 //!
+//! Virtual nodes (copies of a grid node the tear separated the material
+//! around) are unknowns of the finest level beyond the grid's nodes: their
+//! rows, and the blocks coupling a grid node to one, are sparse rows of
+//! their own beside the stencil (`irregular.rs`); a copy is smoothed in its
+//! grid node's colour and interpolated from the coarse levels as its grid
+//! node is. The coarse levels are the grid's.
+//!
 //! Once the material has come apart, each piece gets coarse levels of its
 //! own (the interpolation reaching only its fine nodes): a coarse node
 //! straddling the tear would tie the pieces together, and on the torn
@@ -34,8 +41,12 @@
 
 use rayon::prelude::*;
 
+mod assemble;
 mod dense;
+mod irregular;
+use assemble::assemble;
 use dense::Dense;
+use irregular::Irregular;
 
 /// A 3 x 3 block, row-major.
 type Block = [f64; 9];
@@ -96,8 +107,13 @@ struct Level {
     diag_inv: Vec<Block>,
     /// The nodes of each of the eight colours (the parities of the three
     /// coordinates): no two nodes of a colour share a stencil, so a colour
-    /// is updated at once, in any order, with the same result.
+    /// is updated at once, in any order, with the same result. A virtual
+    /// node takes its home's colour: it is coupled only to nodes at other
+    /// grid places.
     colours: Vec<Vec<usize>>,
+    /// The finest level's virtual nodes and the blocks that involve them
+    /// (empty on coarse levels).
+    extra: Irregular,
 }
 
 impl Level {
@@ -110,12 +126,33 @@ impl Level {
         (c[2] * self.dims[1] + c[1]) * self.dims[0] + c[0]
     }
 
-    /// Node `n`'s row: its used slots' blocks.
-    /// Nodes on this level.
+    /// Grid nodes on this level.
     fn nodes(&self) -> usize {
         self.dims.iter().product()
     }
 
+    /// Unknowns (as 3-vectors) on this level: its grid nodes, then its
+    /// virtual nodes.
+    fn unknowns(&self) -> usize {
+        self.nodes() + self.extra.home.len()
+    }
+
+    /// The grid node unknown `n` stands at.
+    fn home(&self, n: usize) -> usize {
+        let grid = self.nodes();
+        if n < grid {
+            n
+        } else {
+            self.extra.home[n - grid] as usize
+        }
+    }
+
+    /// The unknowns at grid node `i`: itself, then its virtual nodes.
+    fn at(&self, i: usize) -> impl Iterator<Item = usize> + '_ {
+        std::iter::once(i).chain(self.extra.copies(i).iter().map(|&v| v as usize))
+    }
+
+    /// Node `n`'s row: its used slots' blocks.
     fn row(&self, n: usize) -> &[Block] {
         let ns = self.slots.len();
         &self.packed[n * ns..(n + 1) * ns]
@@ -156,6 +193,7 @@ impl Level {
             slot_steps,
             diag_inv: Vec::new(),
             colours: Vec::new(),
+            extra: Irregular::default(),
         }
     }
 
@@ -196,33 +234,46 @@ impl Level {
                 })
             })
             .collect();
-        self.smooth = self
-            .packed
-            .par_chunks(ns)
-            .map(|row| {
+        let grid = self.nodes();
+        let zero = [0.0; 9];
+        let diagonal = |n: usize| -> &Block {
+            if n < grid {
+                &self.packed[n * ns + centre]
+            } else {
+                self.extra.diagonal(n).unwrap_or(&zero)
+            }
+        };
+        let abs_sum = |b: &Block, k: usize| (0..3).map(|l| b[3 * k + l].abs()).sum::<f64>();
+        self.smooth = (0..self.unknowns())
+            .into_par_iter()
+            .with_min_len(MIN_LEN)
+            .map(|n| {
+                let stencil: &[Block] = if n < grid {
+                    &self.packed[n * ns..(n + 1) * ns]
+                } else {
+                    &[]
+                };
+                let extra = &self.extra.blocks[self.extra.row(n)];
                 std::array::from_fn(|k| {
-                    if row[centre][4 * k] <= 0.0 {
+                    if diagonal(n)[4 * k] <= 0.0 {
                         return 0.0;
                     }
-                    let sum: f64 = row
-                        .iter()
-                        .map(|b| (0..3).map(|l| b[3 * k + l].abs()).sum::<f64>())
-                        .sum();
+                    let sum: f64 = stencil.iter().map(|b| abs_sum(b, k)).sum::<f64>()
+                        + extra.iter().map(|b| abs_sum(b, k)).sum::<f64>();
                     1.0 / sum
                 })
             })
             .collect();
-        self.diag_inv = self
-            .packed
-            .par_chunks(ns)
-            .zip(&self.smooth)
-            .map(|(row, smooth)| {
-                let d = &row[centre];
+        self.diag_inv = (0..self.unknowns())
+            .into_par_iter()
+            .with_min_len(MIN_LEN)
+            .map(|n| {
+                let d = diagonal(n);
                 let sym = std::array::from_fn(|j| {
                     let (k, l) = (j / 3, j % 3);
                     f64::from((0.5 * (d[j] + d[3 * l + k])) as f32)
                 });
-                block_inverse(&sym, smooth)
+                block_inverse(&sym, &self.smooth[n])
             })
             .collect();
         // Nodes without a row (no material near them, or fixed) keep x = 0
@@ -232,7 +283,7 @@ impl Level {
             if self.smooth[n] == [0.0; 3] {
                 continue;
             }
-            let c = self.coords(n);
+            let c = self.coords(self.home(n));
             colours[(c[0] % 2) + 2 * (c[1] % 2) + 4 * (c[2] % 2)].push(n);
         }
         self.colours = colours;
@@ -249,10 +300,15 @@ impl Level {
         x: &[[f64; 3]],
         off_diagonal: bool,
     ) -> [f64; 3] {
-        let last = x.len() as i64 - 1;
+        let grid = self.nodes();
+        let last = grid as i64 - 1;
         let mut acc = b[n];
         let ns = self.slots.len();
-        let row = &self.cycle_rows[n * ns..(n + 1) * ns];
+        let row: &[CycleBlock] = if n < grid {
+            &self.cycle_rows[n * ns..(n + 1) * ns]
+        } else {
+            &[]
+        };
         for (blk, &step) in row.iter().zip(&self.slot_steps) {
             if off_diagonal && step == 0 {
                 continue;
@@ -263,15 +319,33 @@ impl Level {
                 acc[k] -= blk[3 * k] * y[0] + blk[3 * k + 1] * y[1] + blk[3 * k + 2] * y[2];
             }
         }
+        for i in self.extra.row(n) {
+            let m = self.extra.cols[i] as usize;
+            if off_diagonal && m == n {
+                continue;
+            }
+            let (y, blk) = (x[m], self.extra.cycle[i].map(f64::from));
+            for k in 0..3 {
+                acc[k] -= blk[3 * k] * y[0] + blk[3 * k + 1] * y[1] + blk[3 * k + 2] * y[2];
+            }
+        }
         acc
     }
 
     /// `sum_m A_nm x_m` over node `n`'s used slots in order.
     fn row_product(&self, n: usize, x: &[[f64; 3]]) -> [f64; 3] {
-        let last = x.len() as i64 - 1;
+        let grid = self.nodes();
+        let last = grid as i64 - 1;
         let mut acc = [0.0; 3];
-        for (blk, &step) in self.row(n).iter().zip(&self.slot_steps) {
+        let row: &[Block] = if n < grid { self.row(n) } else { &[] };
+        for (blk, &step) in row.iter().zip(&self.slot_steps) {
             let y = x[neighbour_index(n, step, last)];
+            for k in 0..3 {
+                acc[k] += blk[3 * k] * y[0] + blk[3 * k + 1] * y[1] + blk[3 * k + 2] * y[2];
+            }
+        }
+        for i in self.extra.row(n) {
+            let (y, blk) = (x[self.extra.cols[i] as usize], &self.extra.blocks[i]);
             for k in 0..3 {
                 acc[k] += blk[3 * k] * y[0] + blk[3 * k + 1] * y[1] + blk[3 * k + 2] * y[2];
             }
@@ -422,25 +496,33 @@ fn coarsen(fine: &Level, mask: &[bool]) -> Level {
         .map(|cn| {
             let cc = scratch.coords(cn);
             let mut row = [[0.0; 9]; 27];
-            for_children(fine, cc, |i, wi| {
-                if !in_mask(mask, i) {
-                    return;
-                }
-                for (blk, &s) in fine.row(i).iter().zip(&fine.slots) {
-                    if blk.iter().all(|&x| x == 0.0) {
-                        continue;
+            let mut add = |wi: f64, j: usize, blk: &Block| {
+                for_parents(fine.coords(fine.home(j)), |p, wp| {
+                    let d = std::array::from_fn(|k| p[k] as i64 - cc[k] as i64);
+                    let w = wi * wp;
+                    let out = &mut row[slot(d)];
+                    for (o, b) in out.iter_mut().zip(blk) {
+                        *o += w * b;
                     }
-                    let Some(j) = fine.neighbour(i, s).filter(|&j| in_mask(mask, j)) else {
-                        continue;
-                    };
-                    for_parents(fine.coords(j), |p, wp| {
-                        let d = std::array::from_fn(|k| p[k] as i64 - cc[k] as i64);
-                        let w = wi * wp;
-                        let out = &mut row[slot(d)];
-                        for (o, b) in out.iter_mut().zip(blk) {
-                            *o += w * b;
+                });
+            };
+            for_children(fine, cc, |i, wi| {
+                for u in fine.at(i).filter(|&u| in_mask(mask, u)) {
+                    let stencil: &[Block] = if u == i { fine.row(i) } else { &[] };
+                    for (blk, &s) in stencil.iter().zip(&fine.slots) {
+                        if blk.iter().all(|&x| x == 0.0) {
+                            continue;
                         }
-                    });
+                        if let Some(j) = fine.neighbour(i, s).filter(|&j| in_mask(mask, j)) {
+                            add(wi, j, blk);
+                        }
+                    }
+                    for e in fine.extra.row(u) {
+                        let (j, blk) = (fine.extra.cols[e] as usize, &fine.extra.blocks[e]);
+                        if in_mask(mask, j) && blk.iter().any(|&x| x != 0.0) {
+                            add(wi, j, blk);
+                        }
+                    }
                 }
             });
             row
@@ -457,113 +539,6 @@ fn coarsen(fine: &Level, mask: &[bool]) -> Level {
         .collect();
     coarse.set_smoother();
     coarse
-}
-
-/// The finest level: the tetrahedra's stiffness added into each node's
-/// row, the mass on the diagonal, the fixed unknowns' rows and columns left
-/// out. A tetrahedron adds only to the rows of its two planes of nodes
-/// (its cube's layer along z): the layers of one parity touch disjoint
-/// planes and are added in parallel, the even ones first, each in the
-/// tetrahedra's order, so every row's sum runs in a fixed order.
-fn assemble(op: &Operator<'_>) -> Level {
-    let [nx, ny, nz] = op.dims;
-    let plane = nx * ny;
-    let coords = |n: u32| {
-        let n = n as usize;
-        [n % nx, (n / nx) % ny, n / plane].map(|c| c as i64)
-    };
-    // Slot of corner `d` in corner `c`'s row, for corners at `cs`.
-    let corner_slot =
-        |cs: &[[i64; 3]; 4], c: usize, d: usize| slot(std::array::from_fn(|a| cs[d][a] - cs[c][a]));
-    let used = op
-        .tets
-        .par_iter()
-        .fold(
-            || [false; 27],
-            |mut used, t| {
-                let cs = t.map(coords);
-                for c in 0..4 {
-                    for d in 0..4 {
-                        used[corner_slot(&cs, c, d)] = true;
-                    }
-                }
-                used
-            },
-        )
-        .reduce(|| [false; 27], |a, b| std::array::from_fn(|s| a[s] || b[s]));
-    let slots: Vec<usize> = (0..27).filter(|&s| used[s] || s == 13).collect();
-    let mut at = [usize::MAX; 27];
-    for (i, &s) in slots.iter().enumerate() {
-        at[s] = i;
-    }
-    let ns = slots.len();
-    // The tetrahedra of each layer, in their order.
-    let n_layers = nz.saturating_sub(1).max(1);
-    let mut layers: Vec<Vec<usize>> = vec![Vec::new(); n_layers];
-    let plane_u32 = plane as u32;
-    for (e, t) in op.tets.iter().enumerate() {
-        let z = t.iter().map(|&n| n / plane_u32).min().unwrap_or(0) as usize;
-        layers[z.min(n_layers - 1)].push(e);
-    }
-    let mut level = Level::empty(op.dims, slots);
-    let mut packed = vec![[0.0; 9]; plane * nz * ns];
-    let add_layer = |z: usize, rows: &mut [Block]| {
-        let first = z * plane;
-        for &e in &layers[z] {
-            let t = &op.tets[e];
-            let k = (op.stiffness)(e);
-            let cs = t.map(coords);
-            for (c, &n) in t.iter().enumerate() {
-                for d in 0..4 {
-                    let s = at[corner_slot(&cs, c, d)];
-                    let out = &mut rows[(n as usize - first) * ns + s];
-                    for (o, x) in out.iter_mut().zip(&k[c][d]) {
-                        *o += x;
-                    }
-                }
-            }
-        }
-    };
-    // Even layers: planes (2i, 2i + 1); odd ones: (2i + 1, 2i + 2).
-    packed
-        .par_chunks_mut(2 * plane * ns)
-        .enumerate()
-        .for_each(|(i, rows)| {
-            if 2 * i < layers.len() {
-                add_layer(2 * i, rows);
-            }
-        });
-    if plane * ns < packed.len() {
-        packed[plane * ns..]
-            .par_chunks_mut(2 * plane * ns)
-            .enumerate()
-            .for_each(|(i, rows)| {
-                if 2 * i + 1 < layers.len() {
-                    add_layer(2 * i + 1, rows);
-                }
-            });
-    }
-    // The mass on the diagonal; the fixed unknowns' rows and columns left
-    // out.
-    let centre = at[13];
-    packed.par_chunks_mut(ns).enumerate().for_each(|(n, row)| {
-        for k in 0..3 {
-            row[centre][4 * k] += op.mass[n];
-        }
-        for (blk, &s) in row.iter_mut().zip(&level.slots) {
-            let m = level.neighbour(n, s);
-            for k in 0..3 {
-                for l in 0..3 {
-                    let off = m.is_none_or(|m| op.fixed[m][l]);
-                    if op.fixed[n][k] || off {
-                        blk[3 * k + l] = 0.0;
-                    }
-                }
-            }
-        }
-    });
-    level.packed = packed;
-    level
 }
 
 /// The preconditioner: the finest level (the grid's nodes) and below it
@@ -643,9 +618,9 @@ fn restrict(level: &Level, coarse: &Level, r: &[[f64; 3]], mask: &[bool]) -> Vec
         .map(|cn| {
             let mut acc = [0.0; 3];
             for_children(level, coarse.coords(cn), |i, w| {
-                if in_mask(mask, i) {
+                for u in level.at(i).filter(|&u| in_mask(mask, u)) {
                     for k in 0..3 {
-                        acc[k] += w * r[i][k];
+                        acc[k] += w * r[u][k];
                     }
                 }
             });
@@ -669,7 +644,7 @@ fn interpolate(level: &Level, coarse: &Level, xc: &[[f64; 3]], x: &mut [[f64; 3]
             if !in_mask(mask, n) || level.smooth[n] == [0.0; 3] {
                 return;
             }
-            for_parents(level.coords(n), |p, w| {
+            for_parents(level.coords(level.home(n)), |p, w| {
                 let v = xc[coarse.index(p)];
                 for k in 0..3 {
                     if level.smooth[n][k] > 0.0 {
@@ -718,17 +693,20 @@ fn smoothed(
     }
 }
 
-/// Whether node `i` is in `mask` (empty: every node is).
+/// Whether node `i` is in `mask` (empty: every node is; a node beyond it,
+/// a virtual node made after it, is not).
 fn in_mask(mask: &[bool], i: usize) -> bool {
-    mask.is_empty() || mask[i]
+    mask.is_empty() || mask.get(i).copied().unwrap_or(false)
 }
 
 /// What the fine level is assembled from.
 pub struct Operator<'a> {
     /// Nodes along each axis.
     pub dims: [usize; 3],
-    /// Tetrahedra (node indices).
+    /// Tetrahedra (node indices: the grid's nodes, then virtual ones).
     pub tets: &'a [[u32; 4]],
+    /// Each node's grid node (itself for the grid's).
+    pub home: &'a [u32],
     /// The stiffness of tetrahedron `e` already times `ck`: block `[c][d]`
     /// couples corner `c`'s force to corner `d`'s displacement (zero for a
     /// tetrahedron without material).
@@ -784,6 +762,12 @@ impl Multigrid {
             Below::Direct(_) => 1,
             Below::Coarse(h) => h.len(),
         }
+    }
+
+    /// Unknowns (3-vectors) of the finest level: the grid's nodes and the
+    /// virtual ones.
+    pub fn unknowns(&self) -> usize {
+        self.fine.unknowns()
     }
 
     /// `ap = A p` with the finest level's rows (the operator it was built

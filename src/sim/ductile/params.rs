@@ -247,6 +247,12 @@ pub struct DuctileParams {
     /// at the same speed on any grid; false: the distance to the input's
     /// surface throughout, as a reference. Default true.
     pub redistance: bool,
+    /// Virtual nodes: a grid node around which the tear has separated the
+    /// material is duplicated, one copy per side (see `virtual_nodes.rs`),
+    /// so pieces apart share no node; false: pieces stay tied through the
+    /// grid nodes of a gap narrower than a cube, as a reference. Default
+    /// true.
+    pub virtual_nodes: bool,
     /// Radius (metres) of the nonlocal average through which the level set
     /// reads the strain-energy density where no tear has started yet: each
     /// node's energy is the mean of the nodes' around it, weighted by their
@@ -290,6 +296,7 @@ impl Default for DuctileParams {
             max_cg: 2000,
             multigrid: true,
             redistance: true,
+            virtual_nodes: true,
             nonlocal: 0.0125,
             smooth_tear: 10,
             max_steps: 10_000,

@@ -65,7 +65,11 @@ impl Ductile {
         let working = kept
             .as_ref()
             .is_some_and(|mg| mg.last <= mg.iterations + mg.iterations / 4 + 2);
-        if working && !kept.as_ref().is_some_and(|mg| mg.torn) {
+        // Virtual nodes made since (a tear) change the unknowns.
+        let same = kept
+            .as_ref()
+            .is_some_and(|mg| mg.multigrid.unknowns() == self.x.len());
+        if working && same && !kept.as_ref().is_some_and(|mg| mg.torn) {
             self.mg = kept;
             return false;
         }
@@ -78,6 +82,7 @@ impl Ductile {
         let op = Operator {
             dims: self.grid.nodes_per_axis(),
             tets: &self.tets,
+            home: &self.home,
             stiffness: &stiffness,
             mass: &cm_mass,
             fixed,

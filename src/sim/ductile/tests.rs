@@ -332,7 +332,7 @@ fn stretched(grid: usize, multigrid: bool) -> (Ductile, usize) {
 
 /// `<B r, s> = <r, B s>` and `<B r, r> > 0` for the cycle `d` keeps, on
 /// vectors over the free unknowns (nodes with material, not pulled).
-fn assert_cycle_symmetric_and_positive(d: &Ductile) {
+pub(super) fn assert_cycle_symmetric_and_positive(d: &Ductile) {
     let mg = &d.mg.as_ref().expect("a cycle").multigrid;
     let mass = d.masses(&d.weights());
     let n = d.x.len();

@@ -29,10 +29,16 @@ impl Dense {
         let m = dofs.len();
         let mut a = vec![0.0; m * m];
         for (row, &(n, k)) in dofs.iter().enumerate() {
-            for (blk, &s) in level.row(n).iter().zip(&level.slots) {
-                let Some(q) = level.neighbour(n, s) else {
-                    continue;
-                };
+            let stencil: &[super::Block] = if n < level.nodes() { level.row(n) } else { &[] };
+            let grid = stencil
+                .iter()
+                .zip(&level.slots)
+                .filter_map(|(blk, &s)| level.neighbour(n, s).map(|q| (q, blk)));
+            let extra = level
+                .extra
+                .row(n)
+                .map(|i| (level.extra.cols[i] as usize, &level.extra.blocks[i]));
+            for (q, blk) in grid.chain(extra) {
                 for l in 0..3 {
                     let col = id[q][l];
                     if col != usize::MAX {
