@@ -22,6 +22,9 @@ fn the_tear_preset_tears_the_notched_block_into_pieces() {
     assert!(d["ductile"]["cg_iterations"].as_u64().unwrap() > 0, "{d}");
     assert!(d["ductile"]["separated_pull"].as_f64().is_some(), "{d}");
     assert!(d["pieces"].as_u64().unwrap() >= 2, "{d}");
+    // The pieces apart share no node: the nodes the tear separated the
+    // material around have copies.
+    assert!(d["ductile"]["virtual_nodes"].as_u64().unwrap() > 0, "{d}");
     // The summary says what the model made: pieces and torn area, not
     // "0 cracks".
     let area = d["torn_area"].as_f64().unwrap();
@@ -329,6 +332,17 @@ fn spot_tears_into_pieces_in_few_steps() {
     assert!(d["separated_pull"].as_f64().is_some(), "{d}");
     assert!(d["steps"].as_u64().unwrap() < 200, "{d}");
     assert!(d["fragments"].as_u64().unwrap() >= 2, "{d}");
+    // Once chips are off, the pieces solve about as fast as the whole: each
+    // has coarse levels of its own (with the chips' shared with the body,
+    // 67-76 iterations a step against 13).
+    let (whole, apart) = (
+        d["cg_mean_whole"].as_f64().unwrap(),
+        d["cg_mean_apart"].as_f64().unwrap(),
+    );
+    assert!(
+        whole > 0.0 && apart <= 1.5 * whole,
+        "{apart} CG iterations a step apart against {whole} whole"
+    );
     if let Some(v) = common::validator() {
         v.assert_clean(&out);
     }

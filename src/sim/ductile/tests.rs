@@ -384,10 +384,11 @@ fn the_multigrid_cycle_is_symmetric_and_positive() {
 /// Once the block has come apart, each piece gets coarse levels of its
 /// own: a coarse node straddling the tear would tie the pieces together
 /// where only slivers of material hang on to the nodes in the gap. At 16
-/// cubes the steps after the separation take 18.1 CG iterations on
-/// average against 10 before the tear (22.7 with one set of coarse levels
-/// for both pieces, checked; at the preset's 40 cubes 13 a step against
-/// 35), and the cycle stays symmetric and positive.
+/// cubes the steps after the separation take 12.0 CG iterations on
+/// average against 10.9 before the tear, the pieces sharing no node
+/// (virtual nodes; 18.1 against 10 without them, 22.7 with one set of
+/// coarse levels for both pieces as well; at the preset's 40 cubes 13 a
+/// step against 35), and the cycle stays symmetric and positive.
 #[test]
 fn the_pieces_of_a_torn_block_solve_as_fast_as_the_whole_block() {
     let (pos, t) = notched_block(0.4);
@@ -412,8 +413,9 @@ fn the_pieces_of_a_torn_block_solve_as_fast_as_the_whole_block() {
         before.len() >= 3 && after.len() >= 3,
         "{before:?} {after:?}"
     );
+    eprintln!("{a} CG iterations a step apart against {b} whole");
     assert!(
-        a <= 2.0 * b,
+        a <= 1.5 * b,
         "{a} iterations a step apart against {b} whole"
     );
     let mg = &d.mg.as_ref().expect("a cycle").multigrid;
