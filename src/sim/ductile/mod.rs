@@ -7,7 +7,7 @@
 //! their cut plane (their stiffness and mass scale with it), so a tear
 //! opens smoothly through them; everything is updated in place.
 //!
-//! Virtual nodes (Molino, Bridson and Fedkiw 2004, [`virtual_nodes`]): a
+//! Virtual nodes (Molino, Bridson and Fedkiw 2004, `virtual_nodes.rs`): a
 //! node outside the material whose tetrahedra the tear has separated into
 //! groups not tied through material gets a copy per group after the
 //! first, numbered after the grid's nodes, each copy's tetrahedra naming
