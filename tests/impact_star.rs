@@ -68,6 +68,46 @@ fn glass_impact_is_a_star_that_thins_out_and_is_not_cut_off() {
     );
 }
 
+/// The star holds over seeds and on a regular grid a DCC tool makes, not
+/// only on the seed the test above pins: seeds 2 to 8 on the jittered plate
+/// and 1 to 8 on the regular one (160 x 160, one diagonal per square). Over
+/// these the radial share from 0.2 to 0.8 R measured 0.683-0.845 and the
+/// fullest band of 0.05 R 0.071-0.101 (the regular plate's seed 2): its
+/// tenth is asked within 5%. With the ring tension at full strength up to
+/// the hit, the first rings closed into a polygon around it: radial share
+/// under 0.65 on 3 of 16 seeds (0.632), a band of 0.117.
+#[test]
+fn the_star_holds_over_seeds_and_on_a_regular_grid() {
+    let dir = tempfile::tempdir().unwrap();
+    let radius = 0.25 * 200f64.sqrt();
+    let plates = [
+        ("jittered", shapes::jittered_plate(160, 10.0, 0.3, 1), 2..=8),
+        ("regular", shapes::regular_plate(160, 10.0), 1..=8),
+    ];
+    let mut failures = Vec::new();
+    for (name, text, seeds) in plates {
+        let input = dir.path().join(format!("{name}.obj"));
+        shapes::write_obj(&input, &text);
+        for seed in seeds {
+            let out = dir.path().join(format!("{name}-{seed}.glb"));
+            let seed = seed.to_string();
+            common::crack_lines(&input, &out, "glass-impact", &["--seed", &seed]);
+            let lines = measure::read_model(&out).rest_lines("crack_lines");
+            let s = measure::impact_stats(&lines, [0.0; 3], [0.0, 1.0, 0.0], radius);
+            let radial = s["radial_share_0.2_0.8"].as_f64().unwrap();
+            let band = s["max_band_share_0.05"].as_f64().unwrap();
+            let fall =
+                s["per_area_0.6_0.9"].as_f64().unwrap() / s["per_area_0_0.3"].as_f64().unwrap();
+            if radial < 0.65 || band > 0.105 || fall > 0.5 {
+                failures.push(format!(
+                    "{name} seed {seed}: radial {radial:.3}, band {band:.3}, fall {fall:.2}"
+                ));
+            }
+        }
+    }
+    assert!(failures.is_empty(), "{failures:#?}");
+}
+
 /// The radial cracks at half the radius grow as the square root of the
 /// impact speed (Vandenberghe, Vermorel and Villermaux 2013): 16 times the
 /// speed, 4 times the cracks, within 25%, over three seeds each.
@@ -142,7 +182,8 @@ fn crackle_stats_reports_the_impact_as_the_independent_measure_does() {
 /// other (`in_turn`: the second lands once the first's cracks have come to
 /// rest): each makes its star, and where they meet a crack ends on the
 /// other star's instead of crossing it, so the two stars are one network
-/// with no node where four cracks meet.
+/// with no node where four cracks meet away from the hits (a star's rays
+/// may all start at its hit).
 #[test]
 fn two_hits_make_two_stars_that_end_on_each_other() {
     let dir = tempfile::tempdir().unwrap();
@@ -183,7 +224,16 @@ fn two_hits_make_two_stars_that_end_on_each_other() {
             let rays = s["radial_crossings_0.5"].as_u64().unwrap();
             assert!(rays >= 5, "{name}: {rays} radial cracks around {hit:?}");
         }
-        let four = graph.degree.iter().filter(|&&d| d >= 4).count();
+        // A star's rays may meet at its hit; elsewhere a node where four
+        // cracks meet is one crack crossing another.
+        let off_hits = |n: usize| {
+            let q = graph.nodes[n];
+            hits.iter()
+                .all(|h| (q[0] - h[0]).hypot(q[2] - h[2]) > 0.1 * radius)
+        };
+        let four = (0..graph.nodes.len())
+            .filter(|&n| graph.degree[n] >= 4 && off_hits(n))
+            .count();
         assert_eq!(four, 0, "{name}: {four} nodes where four cracks meet");
         // The node nearest each hit: both in one piece of the network.
         let nearest = |p: [f64; 3]| {

@@ -15,7 +15,9 @@
 //!   falls below the toughness. It is nearly all along `N` rays from the hit
 //!   (seeded angles, each ray its own strength, so rays end at different
 //!   distances), which is where the star's cracks start and run;
-//! - radial tension (cracks open across it: arcs), decaying as
+//! - radial tension (cracks open across it: arcs), rising from the hit
+//!   as `x^2 / (1 + x^2)` with `x = d / 0.3 R` (the wedges between the
+//!   rays bend and break away from the hit, not under it) and decaying as
 //!   `1 / (1 + (d / 0.7 R)^4)`, along rings at
 //!   `0.2 R * 1.6^(j + p - 1/2)`, in a seeded half of the sectors between
 //!   rays; each sector has its own phase `p` in [0, 1), spread evenly over
@@ -68,7 +70,15 @@ const HOOP_DECAY: f64 = 0.8;
 /// hit's wide sectors with arcs that curled into rays).
 const RING_DECAY: f64 = 0.7;
 /// Ring tension against the hoop tension on a ray.
-const RING_STRENGTH: f64 = 0.4;
+const RING_STRENGTH: f64 = 0.5;
+/// Where the ring tension rises, in radii: it is `x^2 / (1 + x^2)` of
+/// full with `x = d / (0.3 R)`, a tenth at 0.1 R, half at 0.3 R. Rising
+/// from the hit, the arcs break the wedges between the rays; at full
+/// strength up to the hit, the first rings (0.2 and 0.32 R, closer than
+/// a cell) closed into a polygon around it that held up to 12% of the
+/// length in one band of 0.05 R, and the star's radial share fell under
+/// 0.65 on 3 of 16 seeds (regular and jittered plates).
+const RING_INNER: f64 = 0.3;
 /// How far a ray may move from even spacing, as a share of the gap.
 const RAY_JITTER: f64 = 0.4;
 /// Hoop tension between rays, as a share of that on a ray.
@@ -244,7 +254,9 @@ impl Star {
             ring = ring.max((-((d - rj) / self.width).powi(2)).exp());
         }
         let ring_decay = 1.0 / (1.0 + (rho / RING_DECAY).powi(4));
-        let radial = self.load * RING_STRENGTH * ring_decay * ring;
+        let rise = (rho / RING_INNER).powi(2);
+        let ring_rise = rise / (1.0 + rise);
+        let radial = self.load * RING_STRENGTH * ring_decay * ring_rise * ring;
         let hoop_dir = v3::cross(n, away);
         Sym3::outer(hoop_dir) * hoop + Sym3::outer(away) * radial
     }
