@@ -98,10 +98,6 @@ pub enum Error {
 }
 
 impl Error {
-    /// An input error for `path`.
-    pub fn input(path: impl Into<PathBuf>, message: impl Into<String>) -> Self {
-        Error::File(IoError::input(path, message))
-    }
     /// A stage's failure on mesh `mesh` of `asset`.
     pub fn mesh(
         asset: &std::path::Path,

@@ -88,11 +88,11 @@ pub fn read(path: &Path) -> Result<Scene> {
 /// Those of [`read`], and a reference to a file.
 pub fn read_bytes(bytes: &[u8], name: &str) -> Result<Scene> {
     let path = Path::new(name);
-    let refuse = |what: &str| {
-        Err(Error::from(io::IoError::input(
-            path,
-            format!("names the file '{what}'; an asset read from memory must hold all its data (embed it, or read the file with crackle::read)"),
-        )))
+    let refuse = |uri: String| {
+        Err(Error::from(io::IoError::NamesFile {
+            path: path.to_path_buf(),
+            uri,
+        }))
     };
     let text = bytes.trim_ascii_start();
     if bytes.starts_with(b"glTF") || text.starts_with(b"{") {
@@ -107,13 +107,15 @@ pub fn read_bytes(bytes: &[u8], name: &str) -> Result<Scene> {
             .as_ref()
             .and_then(|j| io::gltf_read::file_uris(j).first().map(|u| u.to_string()))
         {
-            return refuse(&uri);
+            return refuse(uri);
         }
         // Malformed documents are reported by the reader itself.
         return Ok(io::gltf_read::read_gltf_bytes(bytes, Path::new(""), path)?);
     }
-    let text = std::str::from_utf8(bytes)
-        .map_err(|e| io::IoError::input(path, format!("neither glTF nor OBJ text: {e}")))?;
+    let text = std::str::from_utf8(bytes).map_err(|error| io::IoError::NotText {
+        path: path.to_path_buf(),
+        error,
+    })?;
     Ok(io::obj::read_obj_from_memory(text, name)?)
 }
 

@@ -244,11 +244,13 @@ pub fn compare_files_with(
 /// Read an asset; the error names the file.
 fn read(path: &Path, options: &crate::io::ReadOptions) -> Result<Scene> {
     crate::io::read_with(path, options).map_err(|e| {
-        let msg = e.to_string();
-        if msg.contains(&path.display().to_string()) {
+        if e.to_string().contains(&path.display().to_string()) {
             Error::File(e)
         } else {
-            Error::input(path, msg)
+            Error::File(crate::io::IoError::Asset {
+                path: path.to_path_buf(),
+                error: Box::new(e),
+            })
         }
     })
 }

@@ -36,10 +36,9 @@ impl Format {
             Some("obj") => Ok(Format::Obj),
             Some("gltf") => Ok(Format::Gltf),
             Some("glb") => Ok(Format::Glb),
-            _ => Err(Error::input(
-                path,
-                "unknown file type (expected .obj, .gltf or .glb)",
-            )),
+            _ => Err(Error::UnknownType {
+                path: path.to_path_buf(),
+            }),
         }
     }
 }

@@ -79,9 +79,30 @@ pub enum PathError {
     NotRegular {
         /// The reference as written.
         reference: String,
-        /// What it is (`a folder`, `a device`...).
-        what: &'static str,
+        /// What it is.
+        what: NotRegular,
     },
+}
+
+/// What a path names instead of a regular file.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[non_exhaustive]
+pub enum NotRegular {
+    /// A named pipe.
+    #[error("a FIFO")]
+    Fifo,
+    /// A socket.
+    #[error("a socket")]
+    Socket,
+    /// A block or character device.
+    #[error("a device")]
+    Device,
+    /// A folder.
+    #[error("a folder")]
+    Folder,
+    /// Anything else.
+    #[error("not a file")]
+    Other,
 }
 
 /// Largest model file (OBJ, glTF, GLB) or external glTF buffer read: 4 GiB.
@@ -191,7 +212,7 @@ pub fn real_file_inside(
 
 /// The metadata of a regular file (links followed), else what the path
 /// names instead.
-fn regular_file(path: &Path) -> std::io::Result<Result<std::fs::Metadata, &'static str>> {
+fn regular_file(path: &Path) -> std::io::Result<Result<std::fs::Metadata, NotRegular>> {
     let meta = std::fs::metadata(path)?;
     let kind = meta.file_type();
     if kind.is_file() {
@@ -201,19 +222,19 @@ fn regular_file(path: &Path) -> std::io::Result<Result<std::fs::Metadata, &'stat
     {
         use std::os::unix::fs::FileTypeExt;
         if kind.is_fifo() {
-            return Ok(Err("a FIFO"));
+            return Ok(Err(NotRegular::Fifo));
         }
         if kind.is_socket() {
-            return Ok(Err("a socket"));
+            return Ok(Err(NotRegular::Socket));
         }
         if kind.is_block_device() || kind.is_char_device() {
-            return Ok(Err("a device"));
+            return Ok(Err(NotRegular::Device));
         }
     }
     Ok(Err(if kind.is_dir() {
-        "a folder"
+        NotRegular::Folder
     } else {
-        "not a file"
+        NotRegular::Other
     }))
 }
 

@@ -16,9 +16,9 @@ pub fn write_output(
     prefix_images: bool,
 ) -> Result<crate::io::gltf_write::WriteSummary> {
     if let Some(dir) = output.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir).map_err(|e| crate::io::IoError::Output {
+        std::fs::create_dir_all(dir).map_err(|error| crate::io::IoError::OutputFolder {
             path: dir.to_path_buf(),
-            message: format!("cannot create the output folder: {e}"),
+            error,
         })?;
     }
     Ok(crate::io::gltf_write::write_scene_with(

@@ -22,6 +22,7 @@ mod refs;
 use document::build_document;
 pub use document::DocumentError;
 pub use files::*;
+pub use finite::NonFinite;
 use names::uri_encode;
 
 /// What was written.
@@ -51,15 +52,12 @@ pub fn write_scene(scene: &Scene, path: &Path) -> Result<WriteSummary> {
 pub fn write_scene_with(scene: &Scene, path: &Path, prefix_images: bool) -> Result<WriteSummary> {
     let format = Format::from_path(path)?;
     if format == Format::Obj {
-        return Err(Error::Output {
-            path: path.into(),
-            message: "OBJ output is not supported; use .gltf or .glb".into(),
-        });
+        return Err(Error::ObjOutput { path: path.into() });
     }
-    if let Some(message) = finite::first_non_finite(scene) {
-        return Err(Error::Output {
+    if let Some(value) = finite::first_non_finite(scene) {
+        return Err(Error::NonFinite {
             path: path.into(),
-            message,
+            value,
         });
     }
     let glb = format == Format::Glb;
@@ -98,9 +96,9 @@ pub fn write_scene_with(scene: &Scene, path: &Path, prefix_images: bool) -> Resu
         side_files_of(path, &out_dir)
     };
     let mut files: Vec<(PathBuf, Vec<u8>)> = Vec::new();
-    let json_bytes = serde_json::to_vec(&doc.json).map_err(|e| Error::Output {
+    let json_bytes = serde_json::to_vec(&doc.json).map_err(|error| Error::Encode {
         path: path.into(),
-        message: e.to_string(),
+        error,
     })?;
     if glb {
         files.push((path.to_path_buf(), glb_bytes(&json_bytes, &doc.bin)));
@@ -150,18 +148,20 @@ pub fn write_scene_with(scene: &Scene, path: &Path, prefix_images: bool) -> Resu
 /// # Errors
 /// A non-finite value, or an image that cannot be read or has an unknown type.
 pub fn glb_scene_bytes(scene: &Scene, name: &Path) -> Result<Vec<u8>> {
-    let fail = |message: String| Error::Output {
-        path: name.into(),
-        message,
-    };
-    if let Some(message) = finite::first_non_finite(scene) {
-        return Err(fail(message));
+    if let Some(value) = finite::first_non_finite(scene) {
+        return Err(Error::NonFinite {
+            path: name.into(),
+            value,
+        });
     }
     let doc = build_document(scene, true, "scene", false).map_err(|error| Error::Document {
         path: name.into(),
         error,
     })?;
-    let json = serde_json::to_vec(&doc.json).map_err(|e| fail(e.to_string()))?;
+    let json = serde_json::to_vec(&doc.json).map_err(|error| Error::Encode {
+        path: name.into(),
+        error,
+    })?;
     Ok(glb_bytes(&json, &doc.bin))
 }
 
