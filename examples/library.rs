@@ -31,8 +31,7 @@ fn go() -> crackle::Result<()> {
         .map(PathBuf::from)
         .unwrap_or_else(|| std::env::temp_dir().join("crackle-library-example"));
     std::fs::create_dir_all(&folder).map_err(|e| crackle::io::IoError::io(&folder, e))?;
-    let preset =
-        |name: &str| Pipeline::preset(name, &[]).map_err(|e| crackle::Error::Usage(e.to_string()));
+    let preset = |name: &str| Pipeline::preset(name, &[]).map_err(crackle::Error::from);
 
     // File to file: read, run, write, as `crackle crack` does.
     let output = folder.join("cracked.glb");

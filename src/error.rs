@@ -10,10 +10,14 @@ use crate::sim::SimError;
 use crate::stress::texture::TextureError;
 use std::path::PathBuf;
 
+mod batch;
 mod config;
+mod run;
+pub use batch::{BatchError, InputsError, RuleError, RulesError};
 pub use config::{
     ConfigError, EntryError, FramesError, MaskImageError, MaskMaterialError, SetError,
 };
+pub use run::{FrameError, Uncrackable, UsageError};
 
 /// Everything that can go wrong in the library.
 #[derive(Debug, thiserror::Error)]
@@ -48,8 +52,16 @@ pub enum Error {
     /// name the input does not have, a cell size above the triangle
     /// budget, a bad mask or frames request); the message says which.
     /// The command line exits with 2 for it.
-    #[error("{0}")]
-    Usage(String),
+    #[error(transparent)]
+    Usage(#[from] UsageError),
+    /// A batch's inputs or outputs cannot be used as given (exit code 2 on
+    /// the command line).
+    #[error(transparent)]
+    Inputs(#[from] InputsError),
+    /// A batch's rules file cannot be used (exit code 2 on the command
+    /// line).
+    #[error(transparent)]
+    Rules(#[from] RulesError),
     /// A stage failed on one mesh of an asset.
     #[error("{}: {mesh}: {error}", asset.display())]
     Mesh {
@@ -69,8 +81,8 @@ pub enum Error {
         error: Box<dyn std::error::Error + Send + Sync>,
     },
     /// The time-lapse frames could not be made or written.
-    #[error("{0}")]
-    Frames(String),
+    #[error(transparent)]
+    Frames(#[from] FrameError),
     /// The time-lapse frames asked for cannot be made (exit code 2 on the
     /// command line).
     #[error(transparent)]
@@ -80,21 +92,13 @@ pub enum Error {
     NothingToCrack {
         /// The asset.
         path: PathBuf,
-        /// Why (the reader's warnings, or that it has no triangle mesh).
-        why: String,
+        /// Why.
+        why: Uncrackable,
     },
     /// A batch could not read an input folder or write its outputs, copies
     /// or state (the message names the file).
-    #[error("{0}")]
-    Batch(String),
-    /// Output could not be produced.
-    #[error("{path}: cannot write: {message}")]
-    Output {
-        /// The file.
-        path: PathBuf,
-        /// What went wrong.
-        message: String,
-    },
+    #[error(transparent)]
+    Batch(#[from] BatchError),
 }
 
 impl Error {

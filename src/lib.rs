@@ -18,8 +18,7 @@
 //!
 //! # fn main() -> crackle::Result<()> {
 //! let mut scene = crackle::read("teapot.obj".as_ref())?;
-//! let pipeline = Pipeline::preset("glaze", &["simulation.seed=7".into()])
-//!     .map_err(|e| crackle::Error::Usage(e.to_string()))?;
+//! let pipeline = Pipeline::preset("glaze", &["simulation.seed=7".into()])?;
 //! let config = Config::in_memory(pipeline, "teapot.obj");
 //! let report = crackle::run(&mut scene, &config, &mut crackle::Quiet)?;
 //! println!("{} cracks", report.cracks);

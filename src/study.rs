@@ -184,7 +184,7 @@ pub fn study(scene: &Scene, config: &Config, options: &StudyOptions) -> Result<S
     }) else {
         return Err(Error::NothingToCrack {
             path: input.to_path_buf(),
-            why: "no crackable mesh".into(),
+            why: crate::error::Uncrackable::NoCrackableMesh,
         });
     };
     let e = &prepared.entries[k];

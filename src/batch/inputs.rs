@@ -2,8 +2,9 @@
 //! followed), globs, output collisions, and the files an asset refers to.
 
 use super::{Action, Asset};
+use crate::error::{BatchError, InputsError};
 use crate::io::paths::{read_capped, real_file_inside, MAX_MODEL_BYTES, MAX_MTL_BYTES};
-use crate::{Error, Result};
+use crate::Result;
 use serde_json::Value;
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Component, Path, PathBuf};
@@ -87,7 +88,10 @@ pub(crate) fn walk_seen(
         return Ok(());
     }
     let mut entries: Vec<PathBuf> = std::fs::read_dir(dir)
-        .map_err(|e| Error::Batch(format!("{}: cannot read the folder: {e}", dir.display())))?
+        .map_err(|error| BatchError::ReadFolder {
+            dir: dir.to_path_buf(),
+            error,
+        })?
         .filter_map(|e| e.ok().map(|e| e.path()))
         .collect();
     entries.sort();
@@ -134,9 +138,7 @@ pub(crate) fn collect_inputs(
     out_canon: &Path,
 ) -> Result<Vec<Asset>> {
     if inputs.is_empty() {
-        return Err(Error::Usage(
-            "no input: give files, folders or globs".into(),
-        ));
+        return Err(InputsError::NoInput.into());
     }
     let mut assets: Vec<Asset> = Vec::new();
     // The same file under the same relative path once (a link to a file
@@ -161,9 +163,7 @@ pub(crate) fn collect_inputs(
                 .map(|n| n.to_string_lossy().into_owned())
                 .unwrap_or_default();
             if !is_mesh_file(path) {
-                return Err(Error::Usage(format!(
-                    "{spec}: not an .obj, .gltf or .glb file"
-                )));
+                return Err(InputsError::NotMesh { spec: spec.clone() }.into());
             }
             push(path.to_path_buf(), rel, &mut assets);
         } else if path.is_dir() {
@@ -195,7 +195,10 @@ pub(crate) fn collect_inputs(
             let glob = globset::GlobBuilder::new(&pattern_parts.join("/"))
                 .literal_separator(true)
                 .build()
-                .map_err(|e| Error::Usage(format!("{spec}: invalid glob: {e}")))?
+                .map_err(|error| InputsError::Glob {
+                    spec: spec.clone(),
+                    error,
+                })?
                 .compile_matcher();
             let mut files = Vec::new();
             if base_dir.is_dir() {
@@ -213,7 +216,7 @@ pub(crate) fn collect_inputs(
                 log::warn!("{spec}: no .obj, .gltf or .glb file matches");
             }
         } else {
-            return Err(Error::Usage(format!("{spec}: no such file or folder")));
+            return Err(InputsError::NotFound { spec: spec.clone() }.into());
         }
     }
     assets.sort_by(|a, b| a.rel.cmp(&b.rel).then(a.input.cmp(&b.input)));
@@ -230,19 +233,19 @@ pub(crate) fn check_outputs(assets: &[Asset]) -> Result<()> {
     for a in assets.iter().filter(|a| a.action != Action::Skip) {
         let o = canonical_or_lexical(&a.output);
         if inputs.contains_key(&o) {
-            return Err(Error::Usage(format!(
-                "{}: the output {} is an input; choose another --out",
-                a.input.display(),
-                a.output.display()
-            )));
+            return Err(InputsError::OutputIsInput {
+                input: a.input.clone(),
+                output: a.output.clone(),
+            }
+            .into());
         }
         if let Some(other) = outputs.insert(o, a) {
-            return Err(Error::Usage(format!(
-                "{} and {} would both write {}; rename one or split the batch",
-                other.input.display(),
-                a.input.display(),
-                a.output.display()
-            )));
+            return Err(InputsError::SameOutput {
+                first: other.input.clone(),
+                second: a.input.clone(),
+                output: a.output.clone(),
+            }
+            .into());
         }
     }
     Ok(())

@@ -26,7 +26,7 @@ pub use run::{execute, triage, BatchObserver, Triage};
 use crate::io::ReadOptions;
 use crate::mesh::WeldOptions;
 use crate::pipeline::{CrackReport, Pipeline};
-use crate::{Error, Result};
+use crate::Result;
 use std::path::{Path, PathBuf};
 
 /// Name of the state file in the output folder.
@@ -257,19 +257,20 @@ impl Plan {
 /// this shard's assets.
 ///
 /// # Errors
-/// [`Error::Usage`] for an input that is not there or not a mesh, a bad
+/// [`Error::Inputs`](crate::Error::Inputs) for an input that is not there or not a mesh, a bad
 /// glob, an output folder that is an input folder, or colliding outputs;
-/// [`Error::Batch`] for a folder that cannot be read.
+/// [`Error::Batch`](crate::Error::Batch) for a folder that cannot be read.
 pub fn plan(options: &Options, choice: Choice) -> Result<Plan> {
     let out = &options.out;
     let out_canon = canonical_or_lexical(out);
     for spec in &options.inputs {
         let p = Path::new(spec);
         if p.is_dir() && canonical_or_lexical(p) == out_canon {
-            return Err(Error::Usage(format!(
-                "--out {} is the input folder {spec}: the outputs would be read as inputs next time; choose another folder (one inside it is fine)",
-                out.display()
-            )));
+            return Err(crate::error::InputsError::OutIsInput {
+                out: out.clone(),
+                spec: spec.clone(),
+            }
+            .into());
         }
     }
     let mut assets = inputs::collect_inputs(&options.inputs, options.recursive, &out_canon)?;

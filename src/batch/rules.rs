@@ -2,13 +2,21 @@
 //! fingerprint of a pipeline.
 
 use super::{Action, PipeSpec, Rules};
+use crate::error::{InputsError, RuleError, RulesError};
 use crate::io::paths::read_capped;
 use crate::pipeline::Pipeline;
 use crate::{Error, Result};
 use std::path::{Path, PathBuf};
 
-/// Makes a rule's pipeline from its file, its preset and its `set` list.
-pub type MakePipeline<'a> = dyn Fn(Option<&Path>, Option<&str>, &[String]) -> Result<Pipeline> + 'a;
+/// Makes a rule's pipeline from its file, its preset and its `set` list;
+/// its error is the caller's, and reaches the user as
+/// [`RuleError::Pipeline`].
+pub type MakePipeline<'a> = dyn Fn(
+        Option<&Path>,
+        Option<&str>,
+        &[String],
+    ) -> std::result::Result<Pipeline, Box<dyn std::error::Error + Send + Sync>>
+    + 'a;
 
 /// The rules file.
 #[derive(serde::Deserialize)]
@@ -60,12 +68,18 @@ impl RuleGlob {
 /// overrides.
 ///
 /// # Errors
-/// [`Error::Usage`] naming the file and the rule.
+/// [`Error::Rules`] naming the file and the rule.
 pub fn load_rules(path: &Path, make: &MakePipeline) -> Result<Rules> {
-    let text = crate::io::paths::read_config_text(path, "rules file")
-        .map_err(|e| Error::Usage(format!("{}: cannot read the rules: {e}", path.display())))?;
-    let file: RulesFile =
-        toml::from_str(&text).map_err(|e| Error::Usage(format!("{}: {e}", path.display())))?;
+    let text = crate::io::paths::read_config_text(path, "rules file").map_err(|error| {
+        RulesError::Read {
+            path: path.to_path_buf(),
+            error,
+        }
+    })?;
+    let file: RulesFile = toml::from_str(&text).map_err(|error| RulesError::Syntax {
+        path: path.to_path_buf(),
+        error,
+    })?;
     let dir = path
         .parent()
         .filter(|d| !d.as_os_str().is_empty())
@@ -74,28 +88,29 @@ pub fn load_rules(path: &Path, make: &MakePipeline) -> Result<Rules> {
         None | Some("skip") => Action::Skip,
         Some("copy") => Action::Copy,
         Some(x) => {
-            return Err(Error::Usage(format!(
-                "{}: unmatched = \"{x}\": expected \"skip\" or \"copy\"",
-                path.display()
-            )))
+            return Err(RulesError::Unmatched {
+                path: path.to_path_buf(),
+                value: x.to_string(),
+            }
+            .into())
         }
     };
     let mut pipes: Vec<PipeSpec> = Vec::new();
     let mut rules = Vec::new();
     for (i, r) in file.rules.iter().enumerate() {
-        let at = |m: String| {
-            Error::Usage(format!(
-                "{}: rule {} ('{}'): {m}",
-                path.display(),
-                i + 1,
-                r.glob
-            ))
+        let at = |error: RuleError| {
+            Error::from(RulesError::Rule {
+                path: path.to_path_buf(),
+                number: i + 1,
+                glob: r.glob.clone(),
+                error,
+            })
         };
         let pattern = r.glob.trim_start_matches("./");
         let matcher = globset::GlobBuilder::new(pattern)
             .literal_separator(true)
             .build()
-            .map_err(|e| at(format!("invalid glob: {e}")))?
+            .map_err(|e| at(RuleError::Glob(e)))?
             .compile_matcher();
         let glob = RuleGlob {
             matcher,
@@ -104,11 +119,11 @@ pub fn load_rules(path: &Path, make: &MakePipeline) -> Result<Rules> {
         let action = match r.action.as_deref().unwrap_or("crack") {
             "crack" => {
                 if r.preset.is_some() && r.pipeline.is_some() {
-                    return Err(at("give preset or pipeline, not both".into()));
+                    return Err(at(RuleError::PresetAndPipeline));
                 }
                 let file_path = r.pipeline.as_ref().map(|p| dir.join(p));
                 let pipeline = make(file_path.as_deref(), r.preset.as_deref(), &r.set)
-                    .map_err(|e| at(e.to_string()))?;
+                    .map_err(|e| at(RuleError::Pipeline(e)))?;
                 pipes.push(PipeSpec::new(
                     file_path,
                     r.preset.clone(),
@@ -118,16 +133,14 @@ pub fn load_rules(path: &Path, make: &MakePipeline) -> Result<Rules> {
                 Action::Crack(pipes.len() - 1)
             }
             "copy" | "skip" if r.preset.is_some() || r.pipeline.is_some() || !r.set.is_empty() => {
-                return Err(at(
-                    "a copy or skip rule takes no preset, pipeline or set".into()
-                ))
+                return Err(at(RuleError::PipelineNotCracked))
             }
             "copy" => Action::Copy,
             "skip" => Action::Skip,
             x => {
-                return Err(at(format!(
-                    "action = \"{x}\": expected \"crack\", \"copy\" or \"skip\""
-                )))
+                return Err(at(RuleError::UnknownAction {
+                    action: x.to_string(),
+                }))
             }
         };
         rules.push((glob, action));
@@ -145,7 +158,7 @@ impl PipeSpec {
     /// images it reads.
     ///
     /// # Errors
-    /// [`Error::Usage`] when a mask image cannot be read.
+    /// [`Error::Inputs`] when a mask image cannot be read.
     pub fn new(
         file: Option<PathBuf>,
         preset: Option<String>,
@@ -181,7 +194,11 @@ impl PipeSpec {
                 };
                 fingerprint.extend(
                     read_capped(&p, crate::io::paths::MAX_IMAGE_BYTES, "mask image").map_err(
-                        |e| Error::Usage(format!("{label}: mask image {}: {e}", p.display())),
+                        |error| InputsError::MaskImage {
+                            label: label.clone(),
+                            path: p.clone(),
+                            error,
+                        },
                     )?,
                 );
             }

@@ -4,6 +4,7 @@
 use super::inputs::{scan_references, slash_path, source_rel};
 use super::state::{action_fingerprint, asset_key, State};
 use super::{Action, Asset, Options, Outcome, Plan, Produced, Status, STATE_FILE};
+use crate::error::BatchError;
 use crate::io::IoError;
 use crate::pipeline::{crack_file, Config};
 use crate::{Error, Result};
@@ -99,11 +100,9 @@ pub fn execute(
     observer: &dyn BatchObserver,
 ) -> Result<(Vec<Outcome>, f64)> {
     let out = &options.out;
-    std::fs::create_dir_all(out).map_err(|e| {
-        Error::Batch(format!(
-            "{}: cannot create the output folder: {e}",
-            out.display()
-        ))
+    std::fs::create_dir_all(out).map_err(|error| BatchError::CreateOutput {
+        out: out.clone(),
+        error,
     })?;
     let started = Instant::now();
     let jobs = options.workers();
@@ -122,7 +121,7 @@ pub fn execute(
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(jobs)
         .build()
-        .map_err(|e| Error::Batch(format!("cannot start {jobs} worker threads: {e}")))?;
+        .map_err(|error| BatchError::Threads { jobs, error })?;
     pool.install(|| {
         use rayon::prelude::*;
         todo.par_iter().with_max_len(1).for_each(|&i| {
@@ -398,9 +397,11 @@ fn copy_asset(asset: &Asset, out_root: &Path) -> Result<Done> {
         // A file the asset names but the folder does not hold: the copy
         // would name a file the output does not have.
         if let Err(e) = std::fs::symlink_metadata(&s) {
-            return Err(Error::Batch(format!(
-                "names '{rel}', which cannot be read ({e}): not copied"
-            )));
+            return Err(BatchError::MissingSource {
+                source_file: rel,
+                error: e,
+            }
+            .into());
         }
         sources.push(rel);
     }
@@ -418,23 +419,29 @@ fn copy_asset(asset: &Asset, out_root: &Path) -> Result<Done> {
     let mut bytes = 0u64;
     let copied = (|| -> Result<()> {
         for (from, to, name) in &files {
-            let real = real_file_inside(in_dir, from, name)
-                .map_err(|e| Error::Batch(format!("{}: {e}", asset.input.display())))?;
+            let real =
+                real_file_inside(in_dir, from, name).map_err(|error| BatchError::Source {
+                    input: asset.input.clone(),
+                    error,
+                })?;
             let dir = to.parent().unwrap_or(Path::new("."));
             let held = crate::io::write::make_dirs_below(out_root, dir).map_err(IoError::from)?;
-            let src = crate::io::paths::open_no_follow(&real)
-                .map_err(|e| Error::Batch(format!("{}: cannot read: {e}", from.display())))?;
+            let src =
+                crate::io::paths::open_no_follow(&real).map_err(|error| BatchError::ReadCopy {
+                    from: from.clone(),
+                    error,
+                })?;
             let at = match to.file_name() {
                 Some(name) => held.path().join(name),
                 None => to.clone(),
             };
             let (tmp, n) =
-                crate::io::write::copy_temp(&src, &at, MAX_MODEL_BYTES).map_err(|e| {
-                    Error::Batch(format!(
-                        "{}: cannot copy to {}: {e}",
-                        from.display(),
-                        to.display()
-                    ))
+                crate::io::write::copy_temp(&src, &at, MAX_MODEL_BYTES).map_err(|error| {
+                    BatchError::Copy {
+                        from: from.clone(),
+                        to: to.clone(),
+                        error,
+                    }
                 })?;
             // The held folders stay open (and their paths valid) until
             // every file is in place.
@@ -444,8 +451,10 @@ fn copy_asset(asset: &Asset, out_root: &Path) -> Result<Done> {
             outputs.push(to.display().to_string());
         }
         for (tmp, at, to) in &staged {
-            std::fs::rename(tmp, at)
-                .map_err(|e| Error::Batch(format!("{}: cannot write: {e}", to.display())))?;
+            std::fs::rename(tmp, at).map_err(|error| BatchError::WriteCopy {
+                to: to.clone(),
+                error,
+            })?;
         }
         Ok(())
     })();

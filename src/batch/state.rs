@@ -1,8 +1,9 @@
 //! What a batch remembers between runs: each asset's key (its content, its sources' and the action's fingerprint), the state file and its lock, and atomic copies.
 
 use super::{Action, Asset, OutFormat, PipeSpec};
+use crate::error::BatchError;
 use crate::io::paths::{real_file_inside, stream_capped, MAX_MODEL_BYTES};
-use crate::{Error, Result};
+use crate::Result;
 use sha2::{Digest, Sha256};
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
@@ -156,11 +157,9 @@ impl State {
     /// leaves the last complete state and concurrent batches (shards into
     /// one folder) lose nothing.
     pub(crate) fn save(&mut self, path: &Path) -> Result<()> {
-        let err = |e: std::io::Error| {
-            Error::Batch(format!(
-                "{}: cannot write the batch state: {e}",
-                path.display()
-            ))
+        let err = |error: std::io::Error| BatchError::WriteState {
+            path: path.to_path_buf(),
+            error,
         };
         let _lock = StateLock::acquire(path).map_err(err)?;
         let mut merged = State::load(path);
@@ -169,12 +168,11 @@ impl State {
                 merged.assets.insert(k.clone(), e.clone());
             }
         }
-        let bytes = serde_json::to_vec_pretty(&merged).map_err(|e| {
-            Error::Batch(format!(
-                "{}: cannot write the batch state: {e}",
-                path.display()
-            ))
-        })?;
+        let bytes =
+            serde_json::to_vec_pretty(&merged).map_err(|error| BatchError::EncodeState {
+                path: path.to_path_buf(),
+                error,
+            })?;
         crate::io::write::write_atomic(path, &bytes).map_err(err)?;
         self.saved = Some(Instant::now());
         Ok(())

@@ -241,6 +241,8 @@ pub fn exit_code(e: &anyhow::Error) -> u8 {
             Some(
                 crackle::Error::Config { .. }
                     | crackle::Error::Usage(_)
+                    | crackle::Error::Inputs(_)
+                    | crackle::Error::Rules(_)
                     | crackle::Error::Pipeline(_)
                     | crackle::Error::FramesRequest(_)
             )

@@ -209,7 +209,8 @@ pub fn compare_with(sa: &Scene, sb: &Scene, tolerance: f64, mode: Mode) -> Compa
 /// Read and compare two files.
 ///
 /// # Errors
-/// [`Error::Usage`] for a tolerance that is not a finite number >= 0, and
+/// [`Error::Usage`] ([`UsageError::Tolerance`](crate::error::UsageError::Tolerance))
+/// for a tolerance that is not a finite number >= 0, and
 /// an unreadable file (the message names it).
 pub fn compare_files(
     a: &Path,
@@ -232,9 +233,7 @@ pub fn compare_files_with(
     options: &crate::io::ReadOptions,
 ) -> Result<Comparison> {
     if !(tolerance.is_finite() && tolerance >= 0.0) {
-        return Err(Error::Usage(format!(
-            "--tolerance {tolerance} must be a finite number >= 0"
-        )));
+        return Err(crate::error::UsageError::Tolerance { tolerance }.into());
     }
     let sa = read(a, options)?;
     let sb = read(b, options)?;

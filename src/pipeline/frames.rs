@@ -17,6 +17,7 @@
 use super::Post;
 use crate::bridge::SimEntry;
 pub use crate::error::FramesError;
+use crate::error::{FrameError, UsageError};
 use crate::mesh::SimMesh;
 use crate::scene::Scene;
 use crate::sim::{Observer, SimParams, SimReport, Snapshot};
@@ -139,18 +140,18 @@ pub struct Replay<'a> {
 /// than once (`simulation.cycles`), whose later cycles have no frames.
 ///
 /// # Errors
-/// [`crate::Error::Usage`] naming the input.
+/// [`UsageError::FramesWithCycles`] naming the input.
 pub fn refuse_cycles(
     frames: Option<&Frames>,
     params: &[SimParams],
     input: &Path,
 ) -> crate::Result<()> {
     match params.iter().find(|p| p.cycles > 1) {
-        Some(p) if frames.is_some() => Err(crate::Error::Usage(format!(
-            "{}: --frames shows one drying; simulation.cycles = {} ages its cracks after it, which has no frames (leave out --frames or use cycles = 1)",
-            input.display(),
-            p.cycles
-        ))),
+        Some(p) if frames.is_some() => Err(UsageError::FramesWithCycles {
+            asset: input.to_path_buf(),
+            cycles: p.cycles,
+        }
+        .into()),
         _ => Ok(()),
     }
 }
@@ -175,10 +176,12 @@ pub fn replay_frames(
         |end: f64| -> Vec<f64> { (0..n).map(|k| end * k as f64 / (n - 1) as f64).collect() };
     // The replay is the first run again, so it reaches every target (the
     // last at its final time); anything else is a bug, not a short frame set.
-    let short = |label: &str, got: usize| {
-        crate::Error::Frames(format!(
-            "{label}: frames: the replay reached {got} of {n} frames"
-        ))
+    let short = |label: &str, reached: usize| {
+        crate::Error::from(FrameError::Short {
+            mesh: label.to_string(),
+            reached,
+            count: n,
+        })
     };
     // One simulated mesh: each frame is handed over as soon as it is
     // reached, so memory does not grow with N.
@@ -198,8 +201,12 @@ pub fn replay_frames(
             sink: Some(&mut write),
             error: None,
         };
-        crate::sim::run_with(&mut entry.sim, r.params, r.field, &mut keeper)
-            .map_err(|e| crate::Error::Frames(format!("{}: frames: {e}", entry.label)))?;
+        crate::sim::run_with(&mut entry.sim, r.params, r.field, &mut keeper).map_err(|error| {
+            FrameError::Replay {
+                mesh: entry.label.clone(),
+                error,
+            }
+        })?;
         if let Some(e) = keeper.error {
             return Err(e);
         }
@@ -218,8 +225,12 @@ pub fn replay_frames(
             error: None,
         };
         let mut entry = r.start;
-        crate::sim::run_with(&mut entry.sim, r.params, r.field, &mut keeper)
-            .map_err(|e| crate::Error::Frames(format!("{}: frames: {e}", entry.label)))?;
+        crate::sim::run_with(&mut entry.sim, r.params, r.field, &mut keeper).map_err(|error| {
+            FrameError::Replay {
+                mesh: entry.label.clone(),
+                error,
+            }
+        })?;
         if keeper.count < n {
             return Err(short(&entry.label, keeper.count));
         }

@@ -5,7 +5,7 @@ use super::Pipeline;
 use crate::bridge::SimEntry;
 use crate::scene::{Geometry, Scene};
 use crate::sim::SimParams;
-use crate::{Error, Result};
+use crate::Result;
 use std::path::Path;
 
 /// Each mesh's simulation parameters (its fixed groups from the
@@ -24,11 +24,12 @@ pub(super) fn mesh_params(
         params_of.push(pipe.params(&groups));
     }
     if let Some(missing) = pipe.select.fix.iter().find(|n| !matched.contains(n)) {
-        return Err(Error::Usage(format!(
-            "--fix {missing}: no crackable primitive of {} has that material or group name (names: {})",
-            input.display(),
-            all_names(scene).join(", ")
-        )));
+        return Err(crate::error::UsageError::NoFixName {
+            name: missing.clone(),
+            asset: input.to_path_buf(),
+            names: all_names(scene),
+        }
+        .into());
     }
     Ok(params_of)
 }

@@ -10,6 +10,7 @@ use super::report::{
 };
 use super::{Bounds, Pipeline, Placement};
 use crate::bridge::{build_sim_meshes, SimEntry};
+use crate::error::{FrameError, Uncrackable, UsageError};
 use crate::geometry::curvature::CurvatureField;
 use crate::mesh::remesh;
 use crate::mesh::WeldOptions;
@@ -69,9 +70,7 @@ pub trait Observer {
     /// # Errors
     /// Any error stops the run and is returned by it.
     fn frame(&mut self, index: usize, count: usize, _scene: &Scene) -> Result<()> {
-        Err(Error::Frames(format!(
-            "frame {index} of {count}: this observer does not take time-lapse frames (implement Observer::frame, or use crack_file, which writes them)"
-        )))
+        Err(FrameError::NotTaken { index, count }.into())
     }
 }
 
@@ -89,9 +88,11 @@ pub fn read_crackable(input: &Path, options: &crate::io::ReadOptions) -> Result<
     }
     if scene.triangle_count() == 0 {
         let why = if scene.warnings.is_empty() {
-            "it has no triangle mesh".to_string()
+            Uncrackable::NoTriangleMesh
         } else {
-            scene.warnings.join("; ")
+            Uncrackable::Warnings {
+                warnings: scene.warnings.clone(),
+            }
         };
         return Err(Error::NothingToCrack {
             path: input.to_path_buf(),
@@ -117,10 +118,10 @@ fn tear_run(
         .iter()
         .any(|p| p.model != crate::sim::Model::Ductile)
     {
-        return Err(Error::Usage(format!(
-            "{}: model = \"ductile\" must be every simulated mesh's model in one run",
-            input.display()
-        )));
+        return Err(UsageError::MixedModels {
+            asset: input.to_path_buf(),
+        }
+        .into());
     }
     let post = &config.pipeline.post.within(config.read.max_memory);
     let surface_only: Vec<&str> = [
@@ -136,11 +137,11 @@ fn tear_run(
     .map(|(k, _)| k)
     .collect();
     if !surface_only.is_empty() {
-        return Err(Error::Usage(format!(
-            "{}: model = \"ductile\" has no post.{} (its output is the torn solid, each piece its own node, with post.lines and post.bake for the tear's border)",
-            input.display(),
-            surface_only.join(", post.")
-        )));
+        return Err(UsageError::DuctileSurfaceOnly {
+            asset: input.to_path_buf(),
+            keys: surface_only,
+        }
+        .into());
     }
     let t = Instant::now();
     observer.stage("tear");
@@ -226,11 +227,9 @@ pub fn crack_file(
         written: Vec::new(),
     };
     if let Some(f) = frames.frames {
-        std::fs::create_dir_all(&f.dir).map_err(|e| {
-            Error::Frames(format!(
-                "{}: cannot create the frames folder: {e}",
-                f.dir.display()
-            ))
+        std::fs::create_dir_all(&f.dir).map_err(|error| FrameError::Folder {
+            dir: f.dir.clone(),
+            error,
         })?;
     }
     let mut run = run(&mut scene, &config, &mut frames)?;
@@ -365,8 +364,12 @@ pub fn prepare(scene: &Scene, config: &Config, observer: &mut dyn Observer) -> R
     if pipe.post.bake {
         // The maps' textures by their headers, before any simulation.
         let meshes: Vec<usize> = entries.iter().map(|e| e.mesh_index).collect();
-        super::bake::check_material_images(scene, &meshes, config.read.max_memory)
-            .map_err(|e| Error::Usage(format!("{}: {e}", input.display())))?;
+        super::bake::check_material_images(scene, &meshes, config.read.max_memory).map_err(
+            |error| UsageError::BakeTexture {
+                asset: input.to_path_buf(),
+                error,
+            },
+        )?;
     }
     let mut params_of = super::params::mesh_params(scene, &entries, pipe, input)?;
     for (e, p) in entries.iter_mut().zip(&params_of) {
@@ -560,12 +563,12 @@ fn select_meshes(
             .iter()
             .find(|n| !entries.iter().any(|e| &name_of(e.mesh_index) == *n))
         {
-            let names: Vec<String> = entries.iter().map(|e| name_of(e.mesh_index)).collect();
-            return Err(Error::Usage(format!(
-                "select.meshes: {} has no crackable mesh named '{missing}' (meshes: {})",
-                input.display(),
-                names.join(", ")
-            )));
+            return Err(UsageError::NoMesh {
+                asset: input.to_path_buf(),
+                name: missing.clone(),
+                meshes: entries.iter().map(|e| name_of(e.mesh_index)).collect(),
+            }
+            .into());
         }
         entries.retain(|e| pipe.select.meshes.contains(&name_of(e.mesh_index)));
     }
@@ -608,15 +611,15 @@ fn remesh_to_cell_size(
         if let Some(target) = plan {
             let estimate = remesh::estimate_triangles(&e.sim, target);
             if estimate > p.max_triangles {
-                return Err(Error::Usage(format!(
-                    "{}: {}: a cell size of {:.6} (edges of {:.6}) needs about {} triangles, above simulation.max_triangles = {}; ask for a larger cell size or raise max_triangles",
-                    input.display(),
-                    e.label,
-                    target * crate::sim::film::EDGES_PER_CELL,
-                    target,
-                    estimate,
-                    p.max_triangles
-                )));
+                return Err(UsageError::CellTooSmall {
+                    asset: input.to_path_buf(),
+                    mesh: e.label.clone(),
+                    cell: target * crate::sim::film::EDGES_PER_CELL,
+                    edge: target,
+                    triangles: estimate,
+                    max_triangles: p.max_triangles,
+                }
+                .into());
             }
             total += estimate as u64;
         }
@@ -627,16 +630,14 @@ fn remesh_to_cell_size(
     // size made a 5 MB OBJ ask for billions of triangles).
     let need = total.saturating_mul(SIM_TRIANGLE_BYTES);
     if need > max_memory {
-        return Err(Error::Usage(format!(
-            "{}: the simulation surface{} of {} mesh{} need{} about {total} triangles, about {} MiB at {SIM_TRIANGLE_BYTES} bytes each, more than the memory budget of {} MiB (--max-memory); ask for a larger cell size or raise --max-memory",
-            input.display(),
-            if entries.len() == 1 { "" } else { "s" },
-            entries.len(),
-            if entries.len() == 1 { "" } else { "es" },
-            if entries.len() == 1 { "s" } else { "" },
-            need >> 20,
-            max_memory >> 20
-        )));
+        return Err(UsageError::OverMemory {
+            asset: input.to_path_buf(),
+            meshes: entries.len(),
+            triangles: total,
+            bytes_per_triangle: SIM_TRIANGLE_BYTES,
+            budget: max_memory,
+        }
+        .into());
     }
     let mut meshes = Vec::new();
     for ((e, p), plan) in entries.iter_mut().zip(params_of).zip(plans) {
@@ -797,7 +798,7 @@ pub fn stress_field(
     };
     let terms = pipe
         .terms(&place, masks)
-        .map_err(|e| Error::Usage(format!("stress: {}", e.error)))?;
+        .map_err(|e| UsageError::Stress { error: e.error })?;
     let field = StressField::build_with(&e.sim, &terms, seed, curvature)
         .map_err(|err| Error::mesh(input, &e.label, err))?;
     for i in &field.projected_masks {

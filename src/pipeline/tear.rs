@@ -47,11 +47,11 @@ pub fn tear_meshes(
     let mut out = Vec::new();
     let mut handed = 0;
     if frames.is_some() && entries.len() > 1 {
-        return Err(crate::Error::Usage(format!(
-            "{}: --frames with model = \"ductile\" follows one torn mesh; this run tears {} (select one with select.meshes)",
-            input.display(),
-            entries.len()
-        )));
+        return Err(crate::error::UsageError::DuctileFramesMeshes {
+            asset: input.to_path_buf(),
+            meshes: entries.len(),
+        }
+        .into());
     }
     // Frames are drawn on the scene as it was before tearing.
     let template = frames.map(|_| scene.clone());

@@ -86,9 +86,7 @@ fn parse_shard(s: &str) -> Result<(usize, usize), UsageError> {
 fn choice(a: &BatchArgs) -> anyhow::Result<Choice> {
     if let Some(path) = a.rules {
         let make = |file: Option<&Path>, preset: Option<&str>, sets: &[String]| {
-            a.sim
-                .pipeline_with(file, preset, sets)
-                .map_err(|e| crackle::Error::Usage(format!("{e:#}")))
+            a.sim.pipeline_with(file, preset, sets).map_err(Into::into)
         };
         return Ok(Choice::Rules(batch::load_rules(path, &make)?));
     }
