@@ -693,3 +693,141 @@ fn no_result_has_a_string_error() {
         found.join("\n")
     );
 }
+
+/// Every tuple variant of an error enum (one deriving `thiserror::Error`,
+/// or named `...Error`) in `code` whose fields are all `String`, as
+/// `Enum::Variant`: a preformatted message where the error should carry
+/// what went wrong as typed fields.
+fn string_variants(code: &str) -> Vec<String> {
+    let mut found = Vec::new();
+    let mut from = 0;
+    while let Some(k) = code[from..].find("enum ") {
+        let at = from + k;
+        from = at + "enum ".len();
+        if at > 0 && code[..at].ends_with(|c: char| c.is_alphanumeric() || c == '_') {
+            continue;
+        }
+        let name: String = code[from..]
+            .chars()
+            .take_while(|c| c.is_alphanumeric() || *c == '_')
+            .collect();
+        let attributes = &code[code[..at].rfind(['}', ';']).map_or(0, |j| j + 1)..at];
+        if name.is_empty() || !(name.ends_with("Error") || attributes.contains("thiserror::Error"))
+        {
+            continue;
+        }
+        let Some(open) = code[from..].find('{').map(|j| from + j + 1) else {
+            break;
+        };
+        let mut depth = 1;
+        let mut end = code.len();
+        for (i, c) in code[open..].char_indices() {
+            match c {
+                '{' => depth += 1,
+                '}' => {
+                    depth -= 1;
+                    if depth == 0 {
+                        end = open + i;
+                        break;
+                    }
+                }
+                _ => {}
+            }
+        }
+        for line in code[open..end].lines() {
+            let t = line.trim().trim_end_matches(',');
+            let Some((variant, rest)) = t.split_once('(') else {
+                continue;
+            };
+            let Some(fields) = rest.strip_suffix(')') else {
+                continue;
+            };
+            let is_ident = variant.starts_with(|c: char| c.is_ascii_uppercase())
+                && variant.chars().all(|c| c.is_alphanumeric() || c == '_');
+            let all_strings = fields
+                .split(',')
+                .map(str::trim)
+                .filter(|f| !f.is_empty())
+                .all(|f| f == "String" || f == "std::string::String");
+            if is_ident && !fields.trim().is_empty() && all_strings {
+                found.push(format!("{name}::{variant}"));
+            }
+        }
+        from = end.min(code.len());
+    }
+    found
+}
+
+/// Error variants that still carry only a `String`, each to become typed
+/// fields (issue 44); the list only shrinks. The crate's [`Error`], the
+/// I/O layer's `IoError` and the batch and run errors have none.
+const STRING_VARIANTS_LEFT: &[&str] = &[
+    "MeshError::InvalidOption",
+    "MeshError::InvalidEdit",
+    "MeshError::Invariant",
+    "EmbedError::NotOriented",
+    "ParamError::UnknownName",
+    "SimError::Param",
+    "SimError::Diverged",
+    "TextureError::Transform",
+    "FieldError::Invalid",
+    "GltfError::Version",
+    "ObjError::LibraryInMemory",
+    "LineFault::Vertex",
+    "LineFault::ZeroW",
+    "LineFault::TexCoord",
+    "LineFault::Normal",
+    "LineFault::FaceVertex",
+    "AccessorFault::Type",
+    "AssetError::Panic",
+];
+
+/// No error variant is a bare `(String)`: the library's errors carry what
+/// went wrong as typed fields, and wrap the layer's own error where there
+/// is one (ARCHITECTURE.md, Errors).
+#[test]
+fn no_error_variant_is_a_bare_string() {
+    assert_eq!(
+        string_variants(
+            "#[derive(Debug, thiserror::Error)]\npub enum Fault {\n    #[error(\"{0}\")]\n    Usage(String),\n    \
+             Path { path: String },\n    Two(String, std::string::String),\n    Typed(Box<Fault>),\n}\n\
+             pub enum Plain { A(String) }\npub enum OtherError {\n    Message(String),\n}\n"
+        ),
+        ["Fault::Usage", "Fault::Two", "OtherError::Message"]
+    );
+    let src = src_dir();
+    let mut files = Vec::new();
+    rs_files(&src, &mut files);
+    let mut found = Vec::new();
+    for f in &files {
+        let rel = f
+            .strip_prefix(&src)
+            .expect("inside src")
+            .display()
+            .to_string();
+        let text = std::fs::read_to_string(f).expect("readable");
+        for v in string_variants(&code_of(&text)) {
+            found.push((v, rel.clone()));
+        }
+    }
+    assert!(files.len() > 100, "the source files were not found");
+    let new: Vec<String> = found
+        .iter()
+        .filter(|(v, _)| !STRING_VARIANTS_LEFT.contains(&v.as_str()))
+        .map(|(v, f)| format!("{f}: {v}"))
+        .collect();
+    assert!(
+        new.is_empty(),
+        "error variants that carry only a String ({}); give them typed fields:\n{}",
+        new.len(),
+        new.join("\n")
+    );
+    let gone: Vec<&&str> = STRING_VARIANTS_LEFT
+        .iter()
+        .filter(|v| !found.iter().any(|(f, _)| f == *v))
+        .collect();
+    assert!(
+        gone.is_empty(),
+        "no longer String variants; remove them from STRING_VARIANTS_LEFT: {gone:?}"
+    );
+}
