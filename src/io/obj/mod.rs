@@ -21,6 +21,7 @@ use serde_json::Map;
 use std::collections::{HashMap, HashSet};
 use std::path::{Path, PathBuf};
 
+mod chunked;
 mod mtl;
 mod prim;
 use mtl::*;
@@ -51,7 +52,6 @@ pub fn read_obj_with(path: &Path, options: &crate::io::ReadOptions) -> Result<Sc
         crate::io::model_what(options.max_memory),
     )
     .map_err(|e| Error::io(path, e))?;
-    let text = String::from_utf8_lossy(&bytes);
     let base_dir = match path.parent() {
         Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
         _ => PathBuf::from("."),
@@ -60,7 +60,7 @@ pub fn read_obj_with(path: &Path, options: &crate::io::ReadOptions) -> Result<Sc
         || "model.obj".to_string(),
         |n| n.to_string_lossy().into_owned(),
     );
-    read_impl(&text, &base_dir, &name, path, options.max_memory, true)
+    read_impl(&bytes, &base_dir, &name, path, options.max_memory, true)
 }
 
 /// Read OBJ text as if it were the file `name` in the folder `base_dir`
@@ -70,7 +70,7 @@ pub fn read_obj_with(path: &Path, options: &crate::io::ReadOptions) -> Result<Sc
 /// As [`read_obj`]; errors name `base_dir/name`.
 pub fn read_obj_from_str(text: &str, base_dir: &Path, name: &str) -> Result<Scene, Error> {
     read_impl(
-        text,
+        text.as_bytes(),
         base_dir,
         name,
         &base_dir.join(name),
@@ -87,7 +87,7 @@ pub fn read_obj_from_str(text: &str, base_dir: &Path, name: &str) -> Result<Scen
 /// As [`read_obj`], and an `mtllib` line, naming the library.
 pub fn read_obj_from_memory(text: &str, name: &str) -> Result<Scene, Error> {
     read_impl(
-        text,
+        text.as_bytes(),
         Path::new(""),
         name,
         Path::new(name),
@@ -115,12 +115,19 @@ struct Section {
     material: Option<String>,
 }
 
-/// One face: `len` corners from `start` in [`Prepared::corners`].
+/// One face: `len` corners from `start` in its [`Part`]'s corners.
 #[derive(Clone, Copy, Debug)]
 struct FaceRec {
     section: usize,
     start: usize,
     len: usize,
+}
+
+/// Faces in file order with the corners they name.
+#[derive(Default)]
+struct Part {
+    faces: Vec<FaceRec>,
+    corners: Vec<Corner>,
 }
 
 /// The parsed file: its numbers, sections, faces and what else it held.
@@ -132,8 +139,21 @@ struct Prepared {
     libraries: Vec<String>,
     objects: Vec<String>,
     sections: Vec<Section>,
+    /// The faces, in file order (one part per chunk of the text).
+    parts: Vec<Part>,
+    /// The faces and corners of the text being parsed (moved into `parts`).
     faces: Vec<FaceRec>,
     corners: Vec<Corner>,
+    /// Parsing one chunk of the text ([`chunked`]): `o`/`g`/`usemtl`
+    /// statements are kept here in order (a face's `section` is how many
+    /// came before it in the chunk), not applied.
+    events: Option<Vec<chunked::Event>>,
+    /// Parsing a chunk: per kind (v, vt, vn), the fewest elements the text
+    /// before the chunk must define for its indices to be in range.
+    need: [i64; 3],
+    /// Parsing a chunk: some index is relative (negative), stored as
+    /// [`chunked::REL`] plus its offset from the chunk's start.
+    relative: bool,
     colored: usize,
     skipped_elements: usize,
     short_faces: usize,
@@ -143,9 +163,9 @@ struct Prepared {
 
 /// Read OBJ `text` (the file `name` in `base_dir`, `path` in messages)
 /// within `max_memory`; with `files`, the material libraries it names are
-/// read, else one is an error.
+/// read, else one is an error. Bytes that are not UTF-8 are read as U+FFFD.
 fn read_impl(
-    text: &str,
+    text: &[u8],
     base_dir: &Path,
     name: &str,
     path: &Path,
@@ -154,7 +174,7 @@ fn read_impl(
 ) -> Result<Scene, Error> {
     // A UTF-8 byte-order mark (Windows editors write one) is not part of
     // the first line: left there, it hid that line (often the `mtllib`).
-    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+    let text = text.strip_prefix("\u{feff}".as_bytes()).unwrap_or(text);
     let stem = Path::new(name)
         .file_stem()
         .map_or_else(|| name.to_string(), |s| s.to_string_lossy().into_owned());
@@ -162,13 +182,13 @@ fn read_impl(
         path: path.to_path_buf(),
         error,
     };
-    let mut prep = preprocess(text, &stem).map_err(fail)?;
+    let mut prep = chunked::prepare(text, &stem, chunked::CHUNK_BYTES).map_err(fail)?;
     let n_v = prep.data.positions.len();
     let strip_colors = prep.colored > 0 && prep.colored < n_v;
     if prep.colored < n_v {
         prep.data.colors = Vec::new();
     }
-    if prep.faces.is_empty() {
+    if prep.parts.iter().all(|p| p.faces.is_empty()) {
         return Err(fail(ObjError::NoFaces));
     }
     // Each (object, group, material) becomes a primitive.
@@ -208,10 +228,11 @@ fn read_impl(
         textures: HashMap::new(),
         file_names: HashSet::new(),
     };
-    let objects = object_primitives(&prep, &data, &mut materials, &mut scene);
+    let parts = std::mem::take(&mut prep.parts);
+    let (objects, unreferenced) =
+        object_primitives(&prep, parts, &data, &mut materials, &mut scene);
     add_objects(objects, &prep, &data, &mut scene);
     // Positions no face uses are not carried into the scene: say how many.
-    let unreferenced = unreferenced_vertices(&prep, data.positions.len());
     if unreferenced > 0 {
         scene.warnings.push(format!(
             "{unreferenced} vertices are not used by any face and are left out"
@@ -234,7 +255,7 @@ fn read_impl(
 /// material) states that hold a face.
 fn primitive_count(prep: &Prepared) -> usize {
     let mut used = vec![false; prep.sections.len()];
-    for f in &prep.faces {
+    for f in prep.parts.iter().flat_map(|p| &p.faces) {
         used[f.section] = true;
     }
     prep.sections
@@ -280,51 +301,57 @@ fn skipped_warnings(prep: &Prepared, name: &str, strip_colors: bool) -> Vec<Stri
     warnings
 }
 
-/// The faces gathered into primitives per object, in order of first use
-/// (one per group and material; materials added to `scene` as met).
+/// The faces of `parts` gathered into primitives per object, in order of
+/// first use (one per group and material; materials added to `scene` as
+/// met), and the number of positions no face uses. Each part is dropped
+/// once read.
 fn object_primitives(
     prep: &Prepared,
+    parts: Vec<Part>,
     data: &Data,
     materials: &mut MaterialBuilder<'_>,
     scene: &mut Scene,
-) -> Vec<Vec<PrimBuilder>> {
+) -> (Vec<Vec<PrimBuilder>>, usize) {
     let mut objects: Vec<Vec<PrimBuilder>> = vec![Vec::new(); prep.objects.len()];
     let mut prim_of_section: Vec<Option<usize>> = vec![None; prep.sections.len()];
     let mut scratch = prim::Scratch::new(data.positions.len());
-    for face in &prep.faces {
-        let prim = match prim_of_section[face.section] {
-            Some(p) => p,
-            None => {
-                let section = &prep.sections[face.section];
-                let material = section
-                    .material
-                    .as_ref()
-                    .and_then(|m| materials.material(m, scene))
-                    .or_else(|| Some(default_material(scene)));
-                let prims = &mut objects[section.object];
-                let p = match prims
-                    .iter()
-                    .position(|p| p.group == section.group && p.material == material)
-                {
-                    Some(p) => p,
-                    None => {
-                        prims.push(PrimBuilder::new(
-                            section.group.clone(),
-                            material,
-                            &mut scratch,
-                        ));
-                        prims.len() - 1
-                    }
-                };
-                prim_of_section[face.section] = Some(p);
-                p
-            }
-        };
-        let object = prep.sections[face.section].object;
-        let corners = &prep.corners[face.start..face.start + face.len];
-        objects[object][prim].add_face(corners, &data.positions, &mut scratch);
+    for part in parts {
+        for face in &part.faces {
+            let prim = match prim_of_section[face.section] {
+                Some(p) => p,
+                None => {
+                    let section = &prep.sections[face.section];
+                    let material = section
+                        .material
+                        .as_ref()
+                        .and_then(|m| materials.material(m, scene))
+                        .or_else(|| Some(default_material(scene)));
+                    let prims = &mut objects[section.object];
+                    let p = match prims
+                        .iter()
+                        .position(|p| p.group == section.group && p.material == material)
+                    {
+                        Some(p) => p,
+                        None => {
+                            prims.push(PrimBuilder::new(
+                                section.group.clone(),
+                                material,
+                                &mut scratch,
+                            ));
+                            prims.len() - 1
+                        }
+                    };
+                    prim_of_section[face.section] = Some(p);
+                    p
+                }
+            };
+            let object = prep.sections[face.section].object;
+            let corners = &part.corners[face.start..face.start + face.len];
+            objects[object][prim].add_face(corners, &data.positions, &mut scratch);
+        }
     }
-    objects
+    let unreferenced = scratch.unused_positions();
+    (objects, unreferenced)
 }
 
 /// One mesh and one root node per object with a primitive, into `scene`.
@@ -350,17 +377,6 @@ fn add_objects(objects: Vec<Vec<PrimBuilder>>, prep: &Prepared, data: &Data, sce
             ..Default::default()
         });
     }
-}
-
-/// The number of the file's `n_v` positions no face uses.
-fn unreferenced_vertices(prep: &Prepared, n_v: usize) -> usize {
-    let mut referenced = vec![false; n_v];
-    for c in &prep.corners {
-        if let Some(r) = referenced.get_mut(c.v as usize) {
-            *r = true;
-        }
-    }
-    referenced.iter().filter(|r| !**r).count()
 }
 
 // ---------------------------------------------------------------------------
@@ -435,22 +451,28 @@ fn number(tok: &str) -> Option<f32> {
     tok.parse::<f32>().ok().filter(|x| x.is_finite())
 }
 
-fn preprocess(text: &str, stem: &str) -> Result<Prepared, ObjError> {
-    let mut p = Prepared {
-        objects: vec![stem.to_string()],
-        sections: vec![Section {
-            object: 0,
-            group: None,
-            material: None,
-        }],
-        ..Default::default()
-    };
-    let mut state = Section {
+/// The state at the start of a file: its first object (named `stem`), no
+/// group, no material.
+fn start_state(stem: &str) -> (Prepared, Section) {
+    let state = Section {
         object: 0,
         group: None,
         material: None,
     };
+    let p = Prepared {
+        objects: vec![stem.to_string()],
+        sections: vec![state.clone()],
+        ..Default::default()
+    };
+    (p, state)
+}
+
+/// Parse the whole text in one pass (what gives the exact error of a
+/// malformed file).
+fn preprocess(text: &str, stem: &str) -> Result<Prepared, ObjError> {
+    let (mut p, mut state) = start_state(stem);
     logical_lines(text, |line, no| p.line(line, no, stem, &mut state))?;
+    p.end_part();
     Ok(p)
 }
 
@@ -472,28 +494,15 @@ impl Prepared {
                 self.skipped_elements += 1;
                 Ok(())
             }
-            "o" => {
+            "o" | "g" | "usemtl" => {
                 let name = rest.trim();
-                self.objects.push(if name.is_empty() {
-                    stem.to_string()
-                } else {
-                    name.to_string()
-                });
-                state.object = self.objects.len() - 1;
-                state.group = None;
-                self.set_state(state);
-                Ok(())
-            }
-            "g" => {
-                let name = rest.trim();
-                state.group = (!name.is_empty()).then(|| name.to_string());
-                self.set_state(state);
-                Ok(())
-            }
-            "usemtl" => {
-                let name = rest.trim();
-                state.material = (!name.is_empty()).then(|| name.to_string());
-                self.set_state(state);
+                let name = (!name.is_empty()).then(|| name.to_string());
+                let event = match kw {
+                    "o" => chunked::Event::Object(name),
+                    "g" => chunked::Event::Group(name),
+                    _ => chunked::Event::Material(name),
+                };
+                self.statement(event, stem, state);
                 Ok(())
             }
             "mtllib" => {
@@ -509,6 +518,33 @@ impl Prepared {
             }
             _ => Ok(()),
         }
+    }
+
+    /// Move the faces parsed so far into a new part.
+    fn end_part(&mut self) {
+        self.parts.push(Part {
+            faces: std::mem::take(&mut self.faces),
+            corners: std::mem::take(&mut self.corners),
+        });
+    }
+
+    /// Apply an `o`/`g`/`usemtl` statement to `state` (or, parsing a
+    /// chunk, keep it for later).
+    fn statement(&mut self, event: chunked::Event, stem: &str, state: &mut Section) {
+        if let Some(events) = &mut self.events {
+            events.push(event);
+            return;
+        }
+        match event {
+            chunked::Event::Object(name) => {
+                self.objects.push(name.unwrap_or_else(|| stem.to_string()));
+                state.object = self.objects.len() - 1;
+                state.group = None;
+            }
+            chunked::Event::Group(name) => state.group = name,
+            chunked::Event::Material(name) => state.material = name,
+        }
+        self.set_state(state);
     }
 
     /// Start a new section when the state changed.
@@ -599,16 +635,16 @@ impl Prepared {
                 return Err(line(no, LineFault::FaceVertex(tok.to_string())));
             }
             let corner = Corner {
-                v: resolve_index(v, self.data.positions.len(), "vertex", no)?,
+                v: self.index(v, 0, no)?,
                 vt: if vt.is_empty() {
                     ABSENT
                 } else {
-                    resolve_index(vt, self.data.texcoords.len(), "texture coordinate", no)?
+                    self.index(vt, 1, no)?
                 },
                 vn: if vn.is_empty() {
                     ABSENT
                 } else {
-                    resolve_index(vn, self.data.normals.len(), "normal", no)?
+                    self.index(vn, 2, no)?
                 },
             };
             self.corners.push(corner);
@@ -619,12 +655,32 @@ impl Prepared {
             self.short_faces += 1;
             return Ok(());
         }
+        let section = match &self.events {
+            Some(events) => events.len(),
+            None => self.sections.len() - 1,
+        };
         self.faces.push(FaceRec {
-            section: self.sections.len() - 1,
+            section,
             start,
             len,
         });
         Ok(())
+    }
+
+    /// Face index `tok` of `kind` (0 `v`, 1 `vt`, 2 `vn`) on line `no`:
+    /// resolved against the elements defined so far, or, parsing a chunk,
+    /// as [`chunked::chunk_index`] keeps it.
+    fn index(&mut self, tok: &str, kind: usize, no: usize) -> Result<u32, ObjError> {
+        let count = match kind {
+            0 => self.data.positions.len(),
+            1 => self.data.texcoords.len(),
+            _ => self.data.normals.len(),
+        };
+        if self.events.is_some() {
+            return chunked::chunk_index(tok, count, &mut self.need[kind], &mut self.relative);
+        }
+        let what = ["vertex", "texture coordinate", "normal"][kind];
+        resolve_index(tok, count, what, no)
     }
 }
 

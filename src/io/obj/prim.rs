@@ -24,6 +24,11 @@ impl Scratch {
             builders: 0,
         }
     }
+
+    /// The number of positions no face given to a builder used.
+    pub(super) fn unused_positions(&self) -> usize {
+        self.last.iter().filter(|l| l.0 == u32::MAX).count()
+    }
 }
 
 /// A primitive being built: unique (v, vt, vn) corners become its vertices.
