@@ -31,6 +31,7 @@ if [ ! -x "$venv/bin/python" ]; then
   "$venv/bin/pip" install -q trimesh==5.2.0 numpy || die "pip install trimesh failed"
 fi
 cargo build --release --quiet
+crackle=${CARGO_TARGET_DIR:-target}/release/crackle
 out=$(mktemp -d)
 trap 'rm -rf "$out"' EXIT
 secs() { # command... -> wall seconds
@@ -50,7 +51,7 @@ print(f'{name}: peer/crackle {r[len(r) // 2]:.2f}x (range {r[0]:.2f}-{r[-1]:.2f}
 echo "bunny 1.1M GLB: gltf-transform copy | crackle convert (s)"
 for _ in $(seq "$runs"); do
   a=$(secs "$gt" copy "$bunny" "$out/gt.glb")
-  b=$(secs ./target/release/crackle convert -q "$bunny" "$out/c.glb")
+  b=$(secs "$crackle" convert -q "$bunny" "$out/c.glb")
   echo "$a $b"
 done | tee "$out/bunny.txt"
 ratios bunny < "$out/bunny.txt"
@@ -62,7 +63,7 @@ t = time.time()
 trimesh.load(sys.argv[1], process=False).export(sys.argv[2])
 print(f'{time.time() - t:.3f}')
 " "$ogre" "$out/tm.glb")
-  b=$(secs ./target/release/crackle convert -q "$ogre" "$out/c.glb")
+  b=$(secs "$crackle" convert -q "$ogre" "$out/c.glb")
   echo "$a $b"
 done | tee "$out/ogre.txt"
 ratios ogre < "$out/ogre.txt"
