@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # springs-mud on a 20,000-triangle jittered plate (100 x 100 cells), release
 # build: wall time, peak memory, breaks and steps, at the preset's cell size
-# and at a half and a quarter of it (4x and 16x the simulated triangles:
-# the simulate stage's seconds per simulated triangle show how it scales).
+# and at a half, a quarter and an eighth of it (1.9k, 7.6k, 29k and 114k
+# simulated triangles: the simulate stage's seconds per simulated triangle
+# show how it scales).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 cargo build --release --quiet
@@ -26,7 +27,7 @@ with open(sys.argv[1], "w") as f:
             b, c, d = a + 1, a + n + 1, a + n + 2
             f.write(f"f {a} {b} {d}\nf {a} {d} {c}\n")
 PY
-for cell in 0.2 0.1 0.05; do
+for cell in 0.2 0.1 0.05 0.025; do
 /usr/bin/time -v ./target/release/crackle crack "$work/plate.obj" "$work/out.glb" \
     --preset springs-mud --cell-size-relative "$cell" -q --report "$work/r.json" 2> "$work/time"
 python3 - "$work/r.json" "$work/time" "$cell" <<'PY'

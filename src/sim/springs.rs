@@ -239,9 +239,18 @@ impl Springs {
         }
     }
 
-    /// The node-to-spring lists from the springs' endpoints.
+    /// The node-to-spring lists from the springs' endpoints. Each list is
+    /// allocated at its length, in node order, so the lists lie in memory
+    /// as the force pass reads them (grown by pushes in spring order they
+    /// lay scattered: at 114k simulated triangles the pass waited on them
+    /// for half its time).
     fn rebuild_lists(&mut self) {
-        self.adjacency = vec![Vec::new(); self.x.len()];
+        let mut count = vec![0usize; self.x.len()];
+        for s in self.springs.iter().filter(|s| !s.broken) {
+            count[s.a as usize] += 1;
+            count[s.b as usize] += 1;
+        }
+        self.adjacency = count.into_iter().map(Vec::with_capacity).collect();
         for (i, s) in self.springs.iter().enumerate() {
             if s.broken {
                 continue;
