@@ -766,20 +766,16 @@ const STRING_VARIANTS_LEFT: &[&str] = &[
     "MeshError::InvalidEdit",
     "MeshError::Invariant",
     "EmbedError::NotOriented",
-    "ParamError::UnknownName",
     "SimError::Param",
     "SimError::Diverged",
     "TextureError::Transform",
     "FieldError::Invalid",
-    "GltfError::Version",
     "ObjError::LibraryInMemory",
     "LineFault::Vertex",
     "LineFault::ZeroW",
     "LineFault::TexCoord",
     "LineFault::Normal",
     "LineFault::FaceVertex",
-    "AccessorFault::Type",
-    "AssetError::Panic",
 ];
 
 /// No error variant is a bare `(String)`: the library's errors carry what

@@ -144,12 +144,12 @@ pub fn execute(
                 run_asset(asset, plan, options, &on_stage)
             }))
             .unwrap_or_else(|p| {
-                let what = p
+                let payload = p
                     .downcast_ref::<&str>()
                     .map(|s| s.to_string())
                     .or_else(|| p.downcast_ref::<String>().cloned())
                     .unwrap_or_default();
-                Err(AssetError::Panic(what))
+                Err(AssetError::Panic { payload })
             });
             let seconds = t0.elapsed().as_secs_f64();
             let outcome = match result {
@@ -294,8 +294,11 @@ enum AssetError {
         shown: Option<(String, String)>,
     },
     /// A panic (a bug), with its message.
-    #[error("internal error (please report it): {0}")]
-    Panic(String),
+    #[error("internal error (please report it): {payload}")]
+    Panic {
+        /// The panic's message (empty when it was not text).
+        payload: String,
+    },
 }
 
 /// The text of [`AssetError::Failed`].

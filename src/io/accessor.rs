@@ -57,8 +57,11 @@ pub enum AccessorFault {
     #[error("missing {0}")]
     Missing(&'static str),
     /// `type` is not SCALAR, VEC2..4 or MAT2..4.
-    #[error("invalid type '{0}'")]
-    Type(String),
+    #[error("invalid type '{kind}'")]
+    Type {
+        /// The accessor's `type`.
+        kind: String,
+    },
     /// `componentType` is not a glTF component type.
     #[error("invalid componentType {0}")]
     ComponentType(u32),
@@ -348,7 +351,7 @@ impl<'a> AccessorReader<'a> {
             .ok_or_else(|| missing("type"))?
             .to_string();
         let components = type_components(&kind)
-            .ok_or_else(|| fault(index, AccessorFault::Type(kind.clone())))?;
+            .ok_or_else(|| fault(index, AccessorFault::Type { kind: kind.clone() }))?;
         let element_size = element_size(ct, &kind)
             .ok_or_else(|| fault(index, AccessorFault::ComponentType(ct)))?;
         let count = get_usize(a, "count")?.ok_or_else(|| missing("count"))?;

@@ -35,8 +35,11 @@ pub enum ParamError {
     },
     /// A name (an integrator's) that is not one of the known ones; the
     /// message lists them.
-    #[error("{0}")]
-    UnknownName(String),
+    #[error("{}", crate::sim::params::unknown_integrator(name))]
+    UnknownName {
+        /// The name given.
+        name: String,
+    },
 }
 
 impl ParamError {
@@ -64,7 +67,7 @@ impl ParamError {
         match self {
             ParamError::Range { key, .. } | ParamError::Invalid { key, .. } => Some(key),
             ParamError::Both { first, .. } => Some(first),
-            ParamError::UnknownName(_) => None,
+            ParamError::UnknownName { .. } => None,
         }
     }
 }

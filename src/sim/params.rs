@@ -534,10 +534,23 @@ impl std::str::FromStr for Integrator {
 
     /// An integrator by its pipeline name (`local-euler`, `backward-euler`...).
     fn from_str(s: &str) -> Result<Self, super::ParamError> {
-        use serde::Deserialize;
-        Integrator::deserialize(
-            serde::de::value::StrDeserializer::<serde::de::value::Error>::new(s),
-        )
-        .map_err(|e| super::ParamError::UnknownName(e.to_string()))
+        integrator_named(s).map_err(|_| super::ParamError::UnknownName {
+            name: s.to_string(),
+        })
     }
+}
+
+/// The integrator named `s`, as the pipeline's parser reads it.
+fn integrator_named(s: &str) -> Result<Integrator, serde::de::value::Error> {
+    use serde::Deserialize;
+    Integrator::deserialize(serde::de::value::StrDeserializer::<serde::de::value::Error>::new(s))
+}
+
+/// The message for an integrator name that is not one: the parser's, which
+/// lists the known names.
+pub(crate) fn unknown_integrator(name: &str) -> String {
+    integrator_named(name)
+        .err()
+        .map(|e| e.to_string())
+        .unwrap_or_else(|| format!("unknown integrator `{name}`"))
 }

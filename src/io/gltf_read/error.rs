@@ -20,8 +20,11 @@ pub enum GltfError {
     #[error("the glTF JSON is not an object")]
     NotObject,
     /// A glTF version other than 2.x.
-    #[error("unsupported glTF version '{0}' (only 2.x is read)")]
-    Version(String),
+    #[error("unsupported glTF version '{version}' (only 2.x is read)")]
+    Version {
+        /// The file's `asset.version`.
+        version: String,
+    },
     /// No `asset.version`.
     #[error("missing asset.version (not a glTF 2.0 file)")]
     NoVersion,
@@ -221,7 +224,10 @@ pub enum Element {
         primitive: usize,
     },
     /// A vertex attribute (`POSITION`, `NORMAL`...).
-    Attribute(String),
+    Attribute {
+        /// The attribute's semantic name.
+        semantic: String,
+    },
     /// The primitive's indices.
     Indices,
     /// An attribute of a morph target.
@@ -251,7 +257,7 @@ impl std::fmt::Display for Element {
                 name: None,
                 primitive,
             } => write!(f, "mesh {mesh} primitive {primitive}"),
-            Element::Attribute(a) => write!(f, "{a}"),
+            Element::Attribute { semantic } => write!(f, "{semantic}"),
             Element::Indices => write!(f, "indices"),
             Element::Target { target, attribute } => {
                 write!(f, "morph target {target} {attribute}")

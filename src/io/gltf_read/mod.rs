@@ -119,7 +119,11 @@ fn read_document(
     let version = root.pointer("/asset/version").and_then(Value::as_str);
     match version {
         Some(v) if v.starts_with("2.") => {}
-        Some(v) => return Err(GltfError::Version(v.to_string())),
+        Some(v) => {
+            return Err(GltfError::Version {
+                version: v.to_string(),
+            })
+        }
         None => return Err(GltfError::NoVersion),
     }
     // Extensions the tool cannot decode: refuse by name.
@@ -593,9 +597,9 @@ impl SceneReader<'_> {
         // Crackable triangles: decode.
         let pos_acc = attrs["POSITION"];
         let attribute = |sem: &str| {
-            let sem = sem.to_string();
+            let semantic = sem.to_string();
             move |e: crate::io::accessor::AccessorError| {
-                GltfError::from(e).at(Element::Attribute(sem))
+                GltfError::from(e).at(Element::Attribute { semantic })
             }
         };
         let (info, pos) = self.acc.read_f32(pos_acc).map_err(attribute("POSITION"))?;
