@@ -12,6 +12,7 @@ use crate::math::Sym3;
 use crate::mesh::{FaceId, SimMesh, VertexId};
 use crate::sim::crack::{crack_node_avoiding, CrackRules};
 use crate::sim::diffusion::{eigen_diffusion_around, relieve_beside};
+use crate::sim::error::Misfit;
 use crate::sim::finish::crowded_junction;
 use crate::sim::finish::finish_cracks;
 use crate::sim::forces::{separation_tensor, Elements};
@@ -67,9 +68,7 @@ pub fn run_with(
 ) -> Result<SimReport, SimError> {
     if params.model == Model::Springs {
         if field.is_some() {
-            return Err(SimError::Param(
-                "stress terms do not apply to model = \"springs\" (its load is the drying of the springs)".into(),
-            ));
+            return Err(Misfit::FieldOnSprings.into());
         }
         return crate::sim::springs::run(mesh, params, observer);
     }
@@ -94,7 +93,7 @@ fn run_cycles(
     // The run checks the parameters: cycles above 1 only with a cell size.
     let mut report = run_once(mesh, params, field, observer)?;
     let Some(cell) = params.cell_size_for(&fresh) else {
-        return Err(SimError::Param("cycles above 1 need a cell size".into()));
+        return Err(Misfit::CyclesWithoutCell.into());
     };
     let ageing = Ageing::for_cell(cell);
     let mut net = CrackNetwork::of_cracks(mesh);
@@ -456,11 +455,11 @@ pub(in crate::sim) fn start(
             || f.evolve.len() != mesh.n_faces()
             || !(f.separation_scale.is_empty() || f.separation_scale.len() == mesh.n_faces())
         {
-            return Err(SimError::Param(format!(
-                "the stress field has {} faces, the mesh {}",
-                f.init.len(),
-                mesh.n_faces()
-            )));
+            return Err(Misfit::FieldFaces {
+                field: f.init.len(),
+                mesh: mesh.n_faces(),
+            }
+            .into());
         }
     }
     let film = params
@@ -473,9 +472,7 @@ pub(in crate::sim) fn start(
         None => mesh.mean_edge_length(),
     };
     if !(unit.is_finite() && unit > 0.0) {
-        return Err(SimError::Param(
-            "the mesh has no edge of positive length".into(),
-        ));
+        return Err(Misfit::NoEdgeLength.into());
     }
     let mut report = SimReport {
         triangles: [mesh.n_faces(), 0],

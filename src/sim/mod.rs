@@ -28,7 +28,7 @@ pub mod tangent;
 
 pub use crack::{crack_node, CrackEvent, CrackRules};
 pub use driver::{relax_only, run, run_with};
-pub use error::{ParamError, SimError};
+pub use error::{Divergence, Misfit, ParamError, SimError};
 pub use forces::{element_forces, node_forces, separation_tensor, split_tensile, Elements};
 pub use observer::{Observer, Snapshot};
 pub use params::{Integrator, Model, Propagation, Relaxation, SimParams, AUTO_STEP_LIMIT};

@@ -14,7 +14,9 @@ use crate::math::v3;
 use crate::mesh::{HalfedgeId, SimMesh, VertexId};
 pub use crate::sim::params::{DryingLaw, SpringParams};
 use crate::sim::per_element::{Born, Grows, PerNode};
-use crate::sim::{Observer, ParamError, SimError, SimParams, SimReport, Snapshot};
+use crate::sim::{
+    Divergence, Misfit, Observer, ParamError, SimError, SimParams, SimReport, Snapshot,
+};
 
 mod finish;
 
@@ -371,9 +373,7 @@ pub fn run(
     params.validate()?;
     let unit = mesh.mean_edge_length();
     if !(unit > 0.0 && unit.is_finite()) {
-        return Err(SimError::Param(
-            "the mesh has no edge of positive length".into(),
-        ));
+        return Err(Misfit::NoEdgeLength.into());
     }
     let mut st = Springs::new(mesh, params, unit);
     let n = st.x.len();
@@ -421,10 +421,13 @@ pub fn run(
     snapshot(mesh, &st, &report, observer);
     let steps_f = (sp.max_time / dt).ceil();
     if !(steps_f.is_finite() && steps_f <= MAX_STEPS as f64) {
-        return Err(SimError::Param(format!(
-            "springs: max_time {} needs {steps_f:.3e} steps of {dt:.3e} (the stable step of the stiffest spring); at most {MAX_STEPS} are run: lower the stiffness range or max_time",
-            sp.max_time
-        )));
+        return Err(Misfit::SpringSteps {
+            max_time: sp.max_time,
+            steps: steps_f,
+            dt,
+            limit: MAX_STEPS,
+        }
+        .into());
     }
     // Quasistatic drying: after a break the load is held (no drying) for
     // `settle` while the network settles, so the break's neighbours, not
@@ -479,10 +482,12 @@ pub fn run(
             break;
         }
         if !st.x.iter().flatten().all(|c| c.is_finite()) {
-            return Err(SimError::Diverged(format!(
-                "the spring model diverged at time {:.3} (step {dt:.3e}, stable step {stable:.3e})",
-                report.time
-            )));
+            return Err(Divergence::Springs {
+                time: report.time,
+                dt,
+                stable,
+            }
+            .into());
         }
     }
     if report.cracks < params.max_cracks && join_near_tips(mesh, &mut st, &mut report, unit)? > 0 {

@@ -144,8 +144,42 @@ pub enum TextureError {
         base: PathBuf,
     },
     /// A `KHR_texture_transform` object is malformed.
-    #[error("KHR_texture_transform: {0}")]
-    Transform(String),
+    #[error("KHR_texture_transform: {fault}")]
+    Transform {
+        /// What is wrong with it.
+        fault: TransformFault,
+    },
+}
+
+/// What is wrong with a `KHR_texture_transform` object.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum TransformFault {
+    /// The value is not an object.
+    #[error("expected an object, got {got}")]
+    NotObject {
+        /// The value.
+        got: Value,
+    },
+    /// `rotation` is not a finite number.
+    #[error("rotation must be a number, got {got}")]
+    Rotation {
+        /// The value.
+        got: Value,
+    },
+    /// `offset` or `scale` is not an array of 2 finite numbers.
+    #[error("{field} must be an array of 2 numbers, got {got}")]
+    Pair {
+        /// The field (`offset`, `scale`).
+        field: &'static str,
+        /// The value.
+        got: Value,
+    },
+}
+
+impl From<TransformFault> for TextureError {
+    fn from(fault: TransformFault) -> Self {
+        TextureError::Transform { fault }
+    }
 }
 
 /// Texture wrap mode (glTF sampler `wrapS` / `wrapT`).
@@ -264,15 +298,16 @@ impl UvTransform {
     pub fn from_json(v: &Value) -> Result<UvTransform, TextureError> {
         let obj = v
             .as_object()
-            .ok_or_else(|| TextureError::Transform(format!("expected an object, got {v}")))?;
+            .ok_or_else(|| TransformFault::NotObject { got: v.clone() })?;
         let mut t = UvTransform::default();
         if let Some(o) = obj.get("offset") {
             t.offset = vec2(o, "offset")?;
         }
         if let Some(r) = obj.get("rotation") {
-            t.rotation = r.as_f64().filter(|r| r.is_finite()).ok_or_else(|| {
-                TextureError::Transform(format!("rotation must be a number, got {r}"))
-            })?;
+            t.rotation = r
+                .as_f64()
+                .filter(|r| r.is_finite())
+                .ok_or_else(|| TransformFault::Rotation { got: r.clone() })?;
         }
         if let Some(s) = obj.get("scale") {
             t.scale = vec2(s, "scale")?;
@@ -281,8 +316,11 @@ impl UvTransform {
     }
 }
 
-fn vec2(v: &Value, field: &str) -> Result<[f64; 2], TextureError> {
-    let bad = || TextureError::Transform(format!("{field} must be an array of 2 numbers, got {v}"));
+fn vec2(v: &Value, field: &'static str) -> Result<[f64; 2], TransformFault> {
+    let bad = || TransformFault::Pair {
+        field,
+        got: v.clone(),
+    };
     let a = v.as_array().filter(|a| a.len() == 2).ok_or_else(bad)?;
     let x = a[0].as_f64().filter(|x| x.is_finite()).ok_or_else(bad)?;
     let y = a[1].as_f64().filter(|y| y.is_finite()).ok_or_else(bad)?;
@@ -991,7 +1029,7 @@ mod tests {
             json!({"rotation": "90deg"}),
         ] {
             let e = UvTransform::from_json(&bad).unwrap_err();
-            assert!(matches!(e, TextureError::Transform(_)), "{bad}");
+            assert!(matches!(e, TextureError::Transform { .. }), "{bad}");
             assert!(e.to_string().starts_with("KHR_texture_transform"), "{e}");
         }
     }

@@ -208,14 +208,14 @@ pub(in crate::sim) fn relax_round(
             && !loading
             && phase.energy > energy_before * (1.0 + 1e-6) + 1e-300)
     {
-        return Err(SimError::Diverged(format!(
-            "relaxation diverged with integrator {} (energy {:.3e} -> {:.3e}); relax_dt {} is above the stable step {:.3e}: use a smaller relax_dt or another integrator",
-            params.integrator.name(),
-            energy_before,
-            phase.energy,
-            params.relax_dt,
-            report.stable_dt
-        )));
+        return Err(crate::sim::error::Divergence::Relaxation {
+            integrator: params.integrator,
+            before: energy_before,
+            after: phase.energy,
+            relax_dt: params.relax_dt,
+            stable_dt: report.stable_dt,
+        }
+        .into());
     }
     Ok(fans)
 }
