@@ -133,6 +133,20 @@ fn has_slot(json: &Map<String, Value>, slot: &str) -> bool {
     }
 }
 
+/// Why the asked UV set cannot take the maps.
+#[derive(Clone, Copy, Debug, thiserror::Error)]
+enum AtlasWhy {
+    /// The mesh lacks the set.
+    #[error("the mesh has no TEXCOORD_{0}")]
+    NoSet(u32),
+    /// `bake_atlas = "always"`.
+    #[error("bake_atlas = \"always\"")]
+    Always,
+    /// The set overlaps itself on this share of its texels.
+    #[error("TEXCOORD_{set} overlaps itself on {:.1}% of its texels (mirrored, stacked or tiled islands)", 100.0 * .overlap)]
+    Overlaps { set: u32, overlap: f64 },
+}
+
 /// Why the crack maps of one material's primitives cannot be baked.
 #[derive(Debug, thiserror::Error)]
 enum BakeError {
@@ -140,7 +154,7 @@ enum BakeError {
     #[error("cannot bake crack maps: {why}, and post.bake_atlas = \"never\" (give the mesh UVs or allow an automatic atlas)")]
     AtlasNever {
         /// Why an atlas is needed (no UVs, overlapping UVs).
-        why: String,
+        why: AtlasWhy,
     },
     /// Every UV set is taken.
     #[error("every TEXCOORD_0..7 set is taken; no room for an automatic atlas")]
@@ -187,8 +201,8 @@ fn bake_group(
     // an atlas in a new set (the asset's own sets stay as they are).
     let (set, mut atlas_report) = match why_atlas(scene, mesh_index, prims, post) {
         None => (post.bake_texcoord, None),
-        Some((why, overlap)) => {
-            let (set, report) = make_atlas(scene, mesh_index, prims, post, (&why, overlap))?;
+        Some(why) => {
+            let (set, report) = make_atlas(scene, mesh_index, prims, post, why)?;
             (set, Some(report))
         }
     };
@@ -542,14 +556,8 @@ fn with_flat_normals(geo: &TriGeometry) -> TriGeometry {
 }
 
 /// Why the asked UV set cannot take the maps (missing, overlapping, or an
-/// atlas always asked for), with the share of its texels that overlap when
-/// it was measured; `None` when it can.
-fn why_atlas(
-    scene: &Scene,
-    mesh_index: usize,
-    prims: &[usize],
-    post: &Post,
-) -> Option<(String, Option<f64>)> {
+/// atlas always asked for); `None` when it can.
+fn why_atlas(scene: &Scene, mesh_index: usize, prims: &[usize], post: &Post) -> Option<AtlasWhy> {
     let asked = post.bake_texcoord;
     let has_set = prims.iter().all(|&p| {
         tri_geometry(scene, mesh_index, p)
@@ -557,29 +565,25 @@ fn why_atlas(
             .is_some()
     });
     if !has_set {
-        return Some((format!("the mesh has no {}", set_name(asked)), None));
+        return Some(AtlasWhy::NoSet(asked));
     }
     if post.bake_atlas == "always" {
-        return Some(("bake_atlas = \"always\"".to_string(), None));
+        return Some(AtlasWhy::Always);
     }
     // The overlap is a share of texels: 1024 texels across measure it.
     let (uvs, tris) = gather_uvs(scene, mesh_index, prims, asked);
     let r = bake::rasterize(&uvs, &tris, post.bake_size.min(1024), 0);
     let overlap = r.overlap_fraction();
-    (overlap > MAX_OVERLAP).then(|| {
-        let why = format!(
-            "{} overlaps itself on {:.1}% of its texels (mirrored, stacked or tiled islands)",
-            set_name(asked),
-            100.0 * overlap
-        );
-        (why, Some(overlap))
+    (overlap > MAX_OVERLAP).then_some(AtlasWhy::Overlaps {
+        set: asked,
+        overlap,
     })
 }
 
 /// An automatic atlas in a new UV set of the primitives, the first one
 /// none of them has (the asset's own sets stay as they are); returns it with
-/// the report's `atlas` entry. `why` says why, with the own set's overlap
-/// when [`why_atlas`] measured it. A vertex whose corners get different
+/// the report's `atlas` entry. `why` says why (with the own set's overlap
+/// when [`why_atlas`] measured it). A vertex whose corners get different
 /// atlas UVs (on a chart's or a repacked island's border) is split; every
 /// other vertex keeps its index.
 ///
@@ -590,13 +594,15 @@ fn make_atlas(
     mesh_index: usize,
     prims: &[usize],
     post: &Post,
-    (why, overlap): (&str, Option<f64>),
+    why: AtlasWhy,
 ) -> Result<(u32, AtlasReport), BakeError> {
     if post.bake_atlas == "never" {
-        return Err(BakeError::AtlasNever {
-            why: why.to_string(),
-        });
+        return Err(BakeError::AtlasNever { why });
     }
+    let overlap = match why {
+        AtlasWhy::Overlaps { overlap, .. } => Some(overlap),
+        _ => None,
+    };
     let any_has = |scene: &Scene, k: u32| {
         prims.iter().any(|&p| {
             tri_geometry(scene, mesh_index, p)

@@ -123,8 +123,11 @@ pub enum EmbedError {
     #[error("the surface is empty or flat")]
     Empty,
     /// parry3d refused the surface (it is not an oriented manifold).
-    #[error("the surface cannot be used for inside tests: {0}")]
-    NotOriented(String),
+    #[error("the surface cannot be used for inside tests: {error:?}")]
+    NotOriented {
+        /// parry3d's refusal.
+        error: parry3d::shape::TriMeshBuilderError,
+    },
 }
 
 /// The signed distance of each of `points` to the closed, outward-oriented
@@ -159,7 +162,7 @@ pub fn signed_distances(
         triangles.to_vec(),
         TriMeshFlags::ORIENTED | TriMeshFlags::MERGE_DUPLICATE_VERTICES,
     )
-    .map_err(|e| EmbedError::NotOriented(format!("{e:?}")))?;
+    .map_err(|error| EmbedError::NotOriented { error })?;
     Ok(points
         .par_iter()
         .map(|p| {
