@@ -147,7 +147,7 @@ pub enum TextureError {
     #[error("KHR_texture_transform: {fault}")]
     Transform {
         /// What is wrong with it.
-        fault: TransformFault,
+        fault: Box<TransformFault>,
     },
 }
 
@@ -178,7 +178,9 @@ pub enum TransformFault {
 
 impl From<TransformFault> for TextureError {
     fn from(fault: TransformFault) -> Self {
-        TextureError::Transform { fault }
+        TextureError::Transform {
+            fault: Box::new(fault),
+        }
     }
 }
 
