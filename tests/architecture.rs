@@ -765,7 +765,6 @@ const STRING_VARIANTS_LEFT: &[&str] = &[
     "MeshError::InvalidOption",
     "MeshError::InvalidEdit",
     "MeshError::Invariant",
-    "FieldError::Invalid",
     "ObjError::LibraryInMemory",
     "LineFault::Vertex",
     "LineFault::ZeroW",

@@ -7,8 +7,8 @@
 //! Positions, directions and radii are in the mesh's own coordinates (scene
 //! units of the mesh before its node transforms).
 
-pub use super::frame::FieldError;
 use super::frame::{face_frame, in_plane, unit};
+pub use super::frame::{FieldError, TermFault};
 use super::mask_coords::MaskCoords;
 use crate::geometry::curvature::{self, Curvature, CurvatureField};
 use crate::math::{v3, Sym3};
@@ -222,31 +222,27 @@ fn hash01(seed: u64, key: u64) -> f64 {
 impl Term {
     /// Check the term's values, naming the one that is wrong.
     pub fn validate(&self) -> Result<(), FieldError> {
-        let bad = |m: String| Err(FieldError::Invalid(m));
+        let bad = |fault: TermFault| Err(fault.into());
         if !self.init.is_finite() || !self.evolve.is_finite() {
-            return bad("init and evolve weights must be finite numbers".into());
+            return bad(TermFault::Weights);
         }
         match &self.kind {
             TermKind::Directional { direction, checks } => {
                 if unit(*direction).is_none() {
-                    return bad(format!(
-                        "direction must be a nonzero vector, got {direction:?}"
-                    ));
+                    return bad(TermFault::Direction(*direction));
                 }
                 if let Some(len) = checks {
                     if !(0.5..=50.0).contains(len) {
-                        return bad(format!(
-                            "checks must be 0.5 to 50 cell sizes long, got {len}"
-                        ));
+                        return bad(TermFault::Checks(*len));
                     }
                 }
             }
             TermKind::Concentric { center, axis } => {
                 if unit(*axis).is_none() {
-                    return bad(format!("axis must be a nonzero vector, got {axis:?}"));
+                    return bad(TermFault::Axis(*axis));
                 }
                 if center.iter().any(|x| !x.is_finite()) {
-                    return bad(format!("center must be finite, got {center:?}"));
+                    return bad(TermFault::Center(*center));
                 }
             }
             TermKind::Impact {
@@ -257,36 +253,34 @@ impl Term {
                 in_turn,
             } => {
                 if *in_turn && *radial_cracks == 0 {
-                    return bad("in_turn needs stars: give 'speed' or 'radial_cracks'".into());
+                    return bad(TermFault::InTurnWithoutStars);
                 }
                 if *in_turn && self.evolve != 0.0 {
-                    return bad("in_turn hits load at once: give 'init', not 'evolve'".into());
+                    return bad(TermFault::InTurnEvolves);
                 }
                 if !(radius.is_finite() && *radius > 0.0) {
-                    return bad(format!("radius must be > 0, got {radius}"));
+                    return bad(TermFault::Radius(*radius));
                 }
                 if !(concentric_factor.is_finite() && *concentric_factor >= 0.0) {
-                    return bad(format!(
-                        "concentric_factor must be >= 0, got {concentric_factor}"
-                    ));
+                    return bad(TermFault::ConcentricFactor(*concentric_factor));
                 }
                 if *radial_cracks > super::impact::MAX_RAYS {
-                    return bad(format!(
-                        "radial_cracks must be at most {}, got {radial_cracks}",
-                        super::impact::MAX_RAYS
-                    ));
+                    return bad(TermFault::RadialCracks {
+                        got: *radial_cracks,
+                        max: super::impact::MAX_RAYS,
+                    });
                 }
                 if points.iter().flatten().any(|x| !x.is_finite()) {
-                    return bad("impact points must be finite".into());
+                    return bad(TermFault::Points);
                 }
             }
             TermKind::Curvature { scale } => {
                 if let Some(sc) = scale {
                     if !(sc.strength.is_finite() && sc.strength >= 0.0) {
-                        return bad(format!("strength must be >= 0, got {}", sc.strength));
+                        return bad(TermFault::Strength(sc.strength));
                     }
                     if !(sc.max_factor.is_finite() && sc.max_factor > 0.0) {
-                        return bad(format!("max_factor must be > 0, got {}", sc.max_factor));
+                        return bad(TermFault::MaxFactor(sc.max_factor));
                     }
                 }
             }
@@ -642,8 +636,11 @@ impl StressField {
         seed: u64,
         curvature: Option<&CurvatureField>,
     ) -> Result<StressField, FieldError> {
-        let named = |i: usize| {
-            move |FieldError::Invalid(m)| FieldError::Invalid(format!("stress term {i}: {m}"))
+        let named = |index: usize| {
+            move |e: FieldError| match e {
+                FieldError::Value { fault } => FieldError::Term { index, fault },
+                other => other,
+            }
         };
         for (i, t) in terms.iter().enumerate() {
             t.validate().map_err(named(i))?;
@@ -659,11 +656,10 @@ impl StressField {
         };
         if let Some(k) = curvature {
             if k.per_face.len() != mesh.n_faces() || k.per_face_tensor.len() != mesh.n_faces() {
-                return Err(FieldError::Invalid(format!(
-                    "the curvature estimate has {} faces, the mesh {}",
-                    k.per_face.len(),
-                    mesh.n_faces()
-                )));
+                return Err(FieldError::CurvatureFaces {
+                    estimate: k.per_face.len(),
+                    mesh: mesh.n_faces(),
+                });
             }
         }
         let curvature_rms = match curvature {

@@ -35,9 +35,9 @@ impl<'a> MaskCoords<'a> {
             .iter()
             .any(|c| c.name.starts_with("TEXCOORD_"))
         {
-            return Err(FieldError::Invalid(format!(
-                "the mask samples {name}, which the mesh does not have (it has other UV sets: pick one with the mask's tex_coord)"
-            )));
+            return Err(FieldError::NoUvSet {
+                tex_coord: mask.tex_coord,
+            });
         }
         let (lo, hi) = mesh.bounding_box();
         let size = (0..3).map(|k| hi[k] - lo[k]).fold(0.0, f64::max);
