@@ -3,7 +3,7 @@
 
 use super::attributes::{Channel, WedgeAttributes};
 use super::defects::DefectReport;
-use super::error::MeshError;
+use super::error::{MeshError, OptionFault};
 use super::halfedge::{double_area, norm, sub, SimMesh};
 use super::ids::INVALID;
 use super::weld::{weld, Welded};
@@ -309,9 +309,7 @@ impl SimMesh {
 /// `face_groups` and wedge channels of the right lengths.
 fn check_input(input: &MeshInput, rel: f64) -> Result<(), MeshError> {
     if !(rel.is_finite() && rel >= 0.0) {
-        return Err(MeshError::InvalidOption(format!(
-            "relative_tolerance must be finite and >= 0, got {rel}"
-        )));
+        return Err(OptionFault::RelativeTolerance(rel).into());
     }
     let nv_in = input.positions.len();
     let nt_in = input.triangles.len();
@@ -322,9 +320,11 @@ fn check_input(input: &MeshInput, rel: f64) -> Result<(), MeshError> {
         });
     }
     if nv_in >= INVALID as usize || nt_in >= (INVALID / 3) as usize {
-        return Err(MeshError::InvalidOption(format!(
-            "mesh too large ({nv_in} vertices, {nt_in} triangles)"
-        )));
+        return Err(OptionFault::TooLarge {
+            vertices: nv_in,
+            triangles: nt_in,
+        }
+        .into());
     }
     if !input.face_groups.is_empty() && input.face_groups.len() != nt_in {
         return Err(MeshError::LengthMismatch {
@@ -1027,7 +1027,7 @@ mod tests {
         };
         assert!(matches!(
             SimMesh::build(&g, &bad),
-            Err(MeshError::InvalidOption(_))
+            Err(MeshError::InvalidOption { .. })
         ));
     }
 

@@ -41,8 +41,11 @@ pub enum MeshError {
         got: usize,
     },
     /// An option value is invalid.
-    #[error("invalid option: {0}")]
-    InvalidOption(String),
+    #[error("invalid option: {fault}")]
+    InvalidOption {
+        /// Which option, and how.
+        fault: OptionFault,
+    },
     /// An edit was asked for something impossible (boundary edge to open,
     /// parameter out of range, id out of range).
     #[error("invalid mesh edit: {0}")]
@@ -51,4 +54,48 @@ pub enum MeshError {
     /// [`SimMesh::validate`](super::SimMesh::validate)).
     #[error("mesh invariant violated: {0}")]
     Invariant(String),
+}
+
+/// An invalid option of a mesh operation ([`MeshError::InvalidOption`]).
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum OptionFault {
+    /// A weld tolerance that is negative or not finite.
+    #[error("relative_tolerance must be finite and >= 0, got {0}")]
+    RelativeTolerance(f64),
+    /// More vertices or triangles than the ids can hold.
+    #[error("mesh too large ({vertices} vertices, {triangles} triangles)")]
+    TooLarge {
+        /// The input's vertices.
+        vertices: usize,
+        /// The input's triangles.
+        triangles: usize,
+    },
+    /// A margin width or ring spacing that is not a positive number.
+    #[error("a margin needs a positive width and ring spacing, got {width} and {spacing}")]
+    MarginSize {
+        /// The width.
+        width: f64,
+        /// The ring spacing.
+        spacing: f64,
+    },
+    /// A margin of more than 1000 rings.
+    #[error("a margin of {width} in rings of {spacing} needs {rings} rings (at most 1000)")]
+    MarginRings {
+        /// The width.
+        width: f64,
+        /// The ring spacing.
+        spacing: f64,
+        /// The rings it needs.
+        rings: usize,
+    },
+    /// A remeshing target edge length that is not a positive number.
+    #[error("remeshing needs a positive target edge length, got {0}")]
+    RemeshTarget(f64),
+}
+
+impl From<OptionFault> for MeshError {
+    fn from(fault: OptionFault) -> Self {
+        MeshError::InvalidOption { fault }
+    }
 }

@@ -20,7 +20,7 @@
 
 use super::attributes::Channel;
 use super::build::{MeshInput, WeldOptions};
-use super::error::MeshError;
+use super::error::{MeshError, OptionFault};
 use super::halfedge::SimMesh;
 use super::ids::HalfedgeId;
 use super::spatial::{add, cross, dot, norm, scale, sub, Faces};
@@ -73,16 +73,17 @@ pub fn extend(
     spacing: f64,
 ) -> Result<(SimMesh, MarginReport), MeshError> {
     if !(width.is_finite() && width > 0.0 && spacing.is_finite() && spacing > 0.0) {
-        return Err(MeshError::InvalidOption(format!(
-            "a margin needs a positive width and ring spacing, got {width} and {spacing}"
-        )));
+        return Err(OptionFault::MarginSize { width, spacing }.into());
     }
     let mut report = MarginReport::default();
     let rings = (width / spacing).ceil().max(1.0) as usize;
     if rings > 1000 {
-        return Err(MeshError::InvalidOption(format!(
-            "a margin of {width} in rings of {spacing} needs {rings} rings (at most 1000)"
-        )));
+        return Err(OptionFault::MarginRings {
+            width,
+            spacing,
+            rings,
+        }
+        .into());
     }
     let mut loops = border_loops(mesh);
     let all = loops.len();

@@ -22,7 +22,7 @@
 //! edge or vertex once, and projection uses a uniform grid over the input.
 
 use super::build::WeldOptions;
-use super::error::MeshError;
+use super::error::{MeshError, OptionFault};
 use super::halfedge::SimMesh;
 use super::hash::FxHashSet;
 use super::ids::{FaceId, VertexId};
@@ -136,9 +136,7 @@ pub fn remesh(
 ) -> Result<(SimMesh, RemeshReport), MeshError> {
     let target = options.target_edge;
     if !(target.is_finite() && target > 0.0) {
-        return Err(MeshError::InvalidOption(format!(
-            "remeshing needs a positive target edge length, got {target}"
-        )));
+        return Err(OptionFault::RemeshTarget(target).into());
     }
     let mean = mesh.mean_edge_length();
     let long_share = long_edge_area_share(mesh, 4.0 / 3.0 * target);
