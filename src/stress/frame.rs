@@ -29,12 +29,6 @@ pub enum FieldError {
         /// The mesh's faces.
         mesh: usize,
     },
-    /// A mask samples a UV set the mesh lacks while it has others.
-    #[error("the mask samples TEXCOORD_{tex_coord}, which the mesh does not have (it has other UV sets: pick one with the mask's tex_coord)")]
-    NoUvSet {
-        /// The mask's `tex_coord`.
-        tex_coord: u32,
-    },
 }
 
 /// A value of a stress term out of range (the value as given).
@@ -85,6 +79,12 @@ pub enum TermFault {
     /// A curvature `max_factor` not above 0.
     #[error("max_factor must be > 0, got {0}")]
     MaxFactor(f64),
+    /// The mask samples a UV set the mesh lacks while it has others.
+    #[error("the mask samples TEXCOORD_{tex_coord}, which the mesh does not have (it has other UV sets: pick one with the mask's tex_coord)")]
+    NoUvSet {
+        /// The mask's `tex_coord`.
+        tex_coord: u32,
+    },
 }
 
 impl From<TermFault> for FieldError {

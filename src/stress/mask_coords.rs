@@ -1,7 +1,7 @@
 //! Where a stress term's mask samples on a mesh: the UV set it names, or,
 //! on a mesh with no UV set at all, a projection along the three axes.
 
-use super::frame::{face_frame, FieldError};
+use super::frame::{face_frame, FieldError, TermFault};
 use super::texture::Mask;
 use crate::mesh::{FaceId, SimMesh};
 
@@ -35,9 +35,10 @@ impl<'a> MaskCoords<'a> {
             .iter()
             .any(|c| c.name.starts_with("TEXCOORD_"))
         {
-            return Err(FieldError::NoUvSet {
+            return Err(TermFault::NoUvSet {
                 tex_coord: mask.tex_coord,
-            });
+            }
+            .into());
         }
         let (lo, hi) = mesh.bounding_box();
         let size = (0..3).map(|k| hi[k] - lo[k]).fold(0.0, f64::max);
