@@ -10,7 +10,7 @@
 //! part of its area, and the halfedges of a split face may change their
 //! endpoints.
 
-use super::error::MeshError;
+use super::error::{EditFault, FlipRefusal, MeshError};
 use super::halfedge::SimMesh;
 use super::ids::{FaceId, HalfedgeId, VertexId, WedgeId, INVALID};
 
@@ -54,10 +54,11 @@ impl SimMesh {
         if h.idx() < self.n_halfedges() {
             Ok(())
         } else {
-            Err(MeshError::InvalidEdit(format!(
-                "halfedge {h} out of range ({} halfedges)",
-                self.n_halfedges()
-            )))
+            Err(EditFault::HalfedgeRange {
+                halfedge: h,
+                count: self.n_halfedges(),
+            }
+            .into())
         }
     }
 
@@ -134,9 +135,7 @@ impl SimMesh {
     pub fn split_edge(&mut self, h: HalfedgeId, t: f64) -> Result<SplitEdgeResult, MeshError> {
         self.check_halfedge(h)?;
         if !(t > 0.0 && t < 1.0) {
-            return Err(MeshError::InvalidEdit(format!(
-                "split_edge parameter {t} not in (0, 1)"
-            )));
+            return Err(EditFault::SplitParameter(t).into());
         }
         let h0 = h.idx();
         let h1 = self.next(h).idx();
@@ -229,15 +228,14 @@ impl SimMesh {
     /// `f` out of range, or a coordinate not finite and strictly positive.
     pub fn split_face(&mut self, f: FaceId, bary: [f64; 3]) -> Result<SplitFaceResult, MeshError> {
         if f.idx() >= self.n_faces() {
-            return Err(MeshError::InvalidEdit(format!(
-                "face {f} out of range ({} faces)",
-                self.n_faces()
-            )));
+            return Err(EditFault::FaceRange {
+                face: f,
+                count: self.n_faces(),
+            }
+            .into());
         }
         if !bary.iter().all(|&x| x.is_finite() && x > 0.0) {
-            return Err(MeshError::InvalidEdit(format!(
-                "split_face barycentric coordinates {bary:?} must be finite and > 0"
-            )));
+            return Err(EditFault::Barycentric(bary).into());
         }
         let sum: f64 = bary.iter().sum();
         let bary = bary.map(|x| x / sum);
@@ -292,11 +290,11 @@ impl SimMesh {
     /// `c` and `d` already joined.
     pub fn flip_edge(&mut self, h: HalfedgeId) -> Result<(), MeshError> {
         self.check_halfedge(h)?;
-        let refuse = |why: &str| Err(MeshError::InvalidEdit(format!("flip_edge {h}: {why}")));
+        let refuse = |why: FlipRefusal| Err(EditFault::Flip { halfedge: h, why }.into());
         let h0 = h.idx();
         let o0 = self.he_twin[h0];
         if o0 == INVALID {
-            return refuse("a boundary edge");
+            return refuse(FlipRefusal::Boundary);
         }
         let o0 = o0 as usize;
         let (f, g) = (h0 / 3, o0 / 3);
@@ -310,16 +308,16 @@ impl SimMesh {
         let [wa, wb, wc] = [h0, h1, h2].map(|x| self.he_wedge[x]);
         let wd = self.he_wedge[o2];
         if self.he_wedge[o1] != wa || self.he_wedge[o0] != wb {
-            return refuse("a seam");
+            return refuse(FlipRefusal::Seam);
         }
         if self.face_groups[f] != self.face_groups[g] {
-            return refuse("faces of two groups");
+            return refuse(FlipRefusal::Groups);
         }
         if c == d
             || self.find_halfedge(VertexId(c), VertexId(d)).is_some()
             || self.find_halfedge(VertexId(d), VertexId(c)).is_some()
         {
-            return refuse("its far corners are already joined");
+            return refuse(FlipRefusal::Joined);
         }
         // The quad's outer edges (twin, crack flag): a->d, d->b, b->c, c->a.
         let outer = [o1, o2, h1, h2].map(|x| (self.he_twin[x], self.he_crack[x]));
@@ -377,9 +375,7 @@ impl SimMesh {
     pub fn open_edge(&mut self, h: HalfedgeId) -> Result<OpenEdgeResult, MeshError> {
         self.check_halfedge(h)?;
         let Some(t) = self.twin(h) else {
-            return Err(MeshError::InvalidEdit(format!(
-                "open_edge: halfedge {h} is already on a boundary"
-            )));
+            return Err(EditFault::AlreadyOpen(h).into());
         };
         let ends = [(self.origin(h), h), (self.origin(t), t)];
         let was_boundary = ends.map(|(v, _)| self.is_boundary_vertex(v));

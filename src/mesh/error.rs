@@ -1,5 +1,7 @@
 //! Errors of mesh building, editing and validation.
 
+use super::ids::{FaceId, HalfedgeId, VertexId};
+
 /// What can go wrong when building, editing or validating a
 /// [`SimMesh`](super::SimMesh).
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -48,8 +50,11 @@ pub enum MeshError {
     },
     /// An edit was asked for something impossible (boundary edge to open,
     /// parameter out of range, id out of range).
-    #[error("invalid mesh edit: {0}")]
-    InvalidEdit(String),
+    #[error("invalid mesh edit: {fault}")]
+    InvalidEdit {
+        /// What was asked, and why it cannot be done.
+        fault: EditFault,
+    },
     /// A mesh invariant does not hold (reported by
     /// [`SimMesh::validate`](super::SimMesh::validate)).
     #[error("mesh invariant violated: {0}")]
@@ -97,5 +102,153 @@ pub enum OptionFault {
 impl From<OptionFault> for MeshError {
     fn from(fault: OptionFault) -> Self {
         MeshError::InvalidOption { fault }
+    }
+}
+
+/// An impossible mesh edit ([`MeshError::InvalidEdit`]).
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum EditFault {
+    /// A halfedge id out of range.
+    #[error("halfedge {halfedge} out of range ({count} halfedges)")]
+    HalfedgeRange {
+        /// The id.
+        halfedge: HalfedgeId,
+        /// The mesh's halfedges.
+        count: usize,
+    },
+    /// A face id out of range.
+    #[error("face {face} out of range ({count} faces)")]
+    FaceRange {
+        /// The id.
+        face: FaceId,
+        /// The mesh's faces.
+        count: usize,
+    },
+    /// An edge split parameter not strictly inside (0, 1).
+    #[error("split_edge parameter {0} not in (0, 1)")]
+    SplitParameter(f64),
+    /// Face split coordinates not all finite and positive.
+    #[error("split_face barycentric coordinates {0:?} must be finite and > 0")]
+    Barycentric([f64; 3]),
+    /// An edge that cannot be flipped.
+    #[error("flip_edge {halfedge}: {why}")]
+    Flip {
+        /// The edge's halfedge.
+        halfedge: HalfedgeId,
+        /// Why not.
+        why: FlipRefusal,
+    },
+    /// An edge to open that is already on a boundary.
+    #[error("open_edge: halfedge {0} is already on a boundary")]
+    AlreadyOpen(HalfedgeId),
+    /// Positions of another vertex count.
+    #[error("set_positions: {positions} positions for {vertices} vertices")]
+    PositionCount {
+        /// The positions given.
+        positions: usize,
+        /// The mesh's vertices.
+        vertices: usize,
+    },
+    /// A position that is not finite.
+    #[error("set_positions: vertex {0} is not finite")]
+    NotFinite(usize),
+    /// Cracks to cut into a mesh without faces.
+    #[error("the input mesh has no faces to cut")]
+    NoFacesToCut,
+    /// Too many crack segments that cannot be cut into the input.
+    #[error("{skipped} of {segments} crack segments cannot be cut into the input, e.g. {example}")]
+    SkippedSegments {
+        /// The segments left out.
+        skipped: usize,
+        /// All segments.
+        segments: usize,
+        /// The first one left out.
+        example: Box<SkippedSegment>,
+    },
+}
+
+/// Why an edge cannot be flipped ([`EditFault::Flip`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum FlipRefusal {
+    /// It is on the boundary.
+    #[error("a boundary edge")]
+    Boundary,
+    /// It is a seam.
+    #[error("a seam")]
+    Seam,
+    /// Its faces are of two groups.
+    #[error("faces of two groups")]
+    Groups,
+    /// Its far corners are already joined.
+    #[error("its far corners are already joined")]
+    Joined,
+}
+
+/// A crack segment that cannot be cut into the input ([`EditFault::SkippedSegments`]).
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[error("crack segment {index} from {from:?} to {to:?}: {why}")]
+pub struct SkippedSegment {
+    /// The segment.
+    pub index: usize,
+    /// Its start.
+    pub from: [f64; 3],
+    /// Its end.
+    pub to: [f64; 3],
+    /// Why it cannot be walked.
+    pub why: WalkFault,
+}
+
+/// Why one crack segment cannot be walked across the input's faces.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum WalkFault {
+    /// The walk did not reach its end.
+    #[error("the walk did not reach its end")]
+    NotReached,
+    /// The walk strayed away from its end.
+    #[error("the walk strayed away from its end")]
+    Strayed,
+    /// The walk came back to a vertex.
+    #[error("the walk came back to a vertex")]
+    CameBack,
+    /// The ends are not joined by the input's edges nearby.
+    #[error("its ends are not joined by the input's edges nearby")]
+    NotJoined,
+    /// No edge to cross from a vertex.
+    #[error("the walk from vertex {vertex} found no edge to cross")]
+    NoEdgeToCross {
+        /// The vertex.
+        vertex: VertexId,
+    },
+    /// A vertex without faces.
+    #[error("vertex {vertex} has no face to walk through")]
+    NoFace {
+        /// The vertex.
+        vertex: VertexId,
+    },
+    /// No face of a vertex faces the end.
+    #[error("no face of vertex {vertex} faces the crack's end")]
+    NoFaceFacing {
+        /// The vertex.
+        vertex: VertexId,
+    },
+    /// A split on the way failed.
+    #[error(transparent)]
+    Split {
+        /// The split's error.
+        error: Box<MeshError>,
+    },
+}
+
+impl From<MeshError> for WalkFault {
+    fn from(e: MeshError) -> Self {
+        WalkFault::Split { error: Box::new(e) }
+    }
+}
+
+impl From<EditFault> for MeshError {
+    fn from(fault: EditFault) -> Self {
+        MeshError::InvalidEdit { fault }
     }
 }

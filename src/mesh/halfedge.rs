@@ -17,7 +17,7 @@
 //! counter-clockwise faces), ending at a missing twin for boundary vertices.
 
 use super::attributes::WedgeAttributes;
-use super::error::MeshError;
+use super::error::{EditFault, MeshError};
 use super::ids::{FaceId, HalfedgeId, VertexId, WedgeId, INVALID};
 use crate::math::v3;
 pub(super) use crate::math::v3::{cross, norm, sub};
@@ -157,19 +157,17 @@ impl SimMesh {
     /// A length that is not the vertex count, or a non-finite coordinate.
     pub fn set_positions(&mut self, positions: &[[f64; 3]]) -> Result<(), MeshError> {
         if positions.len() != self.positions.len() {
-            return Err(MeshError::InvalidEdit(format!(
-                "set_positions: {} positions for {} vertices",
-                positions.len(),
-                self.positions.len()
-            )));
+            return Err(EditFault::PositionCount {
+                positions: positions.len(),
+                vertices: self.positions.len(),
+            }
+            .into());
         }
         if let Some(i) = positions
             .iter()
             .position(|p| p.iter().any(|x| !x.is_finite()))
         {
-            return Err(MeshError::InvalidEdit(format!(
-                "set_positions: vertex {i} is not finite"
-            )));
+            return Err(EditFault::NotFinite(i).into());
         }
         self.positions.copy_from_slice(positions);
         self.bump();

@@ -25,7 +25,7 @@
 //! the crack network: every search uses a uniform grid, and each segment's
 //! walk visits only the faces it crosses.
 
-use super::error::MeshError;
+use super::error::{EditFault, MeshError, SkippedSegment, WalkFault};
 use super::halfedge::SimMesh;
 use super::ids::{FaceId, HalfedgeId, VertexId};
 use super::spatial::{
@@ -222,40 +222,27 @@ fn cut_segments(
         let shell = cut.shell_of(va);
         let vb = ends.vertex(cut, *b, Some(shell))?;
         let time = times.get(i).copied().unwrap_or(f64::NAN);
-        if let Err(m) = cut.walk(va, vb, time) {
+        if let Err(why) = cut.walk(va, vb, time) {
             skipped += 1;
-            first_skip.get_or_insert_with(|| format!("crack segment {i} from {a:?} to {b:?}: {m}"));
+            first_skip.get_or_insert(SkippedSegment {
+                index: i,
+                from: *a,
+                to: *b,
+                why,
+            });
         }
     }
     if skipped * 100 > segments.len() * MAX_SKIPPED_PERCENT {
-        return Err(MeshError::InvalidEdit(format!(
-            "{skipped} of {} crack segments cannot be cut into the input, e.g. {}",
-            segments.len(),
-            first_skip.unwrap_or_default()
-        )));
+        if let Some(example) = first_skip {
+            return Err(EditFault::SkippedSegments {
+                skipped,
+                segments: segments.len(),
+                example: Box::new(example),
+            }
+            .into());
+        }
     }
     Ok(skipped)
-}
-
-/// Why one crack segment cannot be walked across the input's faces.
-#[derive(Debug, thiserror::Error)]
-enum WalkError {
-    #[error("the walk did not reach its end")]
-    NotReached,
-    #[error("the walk strayed away from its end")]
-    Strayed,
-    #[error("the walk came back to a vertex")]
-    CameBack,
-    #[error("its ends are not joined by the input's edges nearby")]
-    NotJoined,
-    #[error("the walk from vertex {vertex} found no edge to cross")]
-    NoEdgeToCross { vertex: VertexId },
-    #[error("vertex {vertex} has no face to walk through")]
-    NoFace { vertex: VertexId },
-    #[error("no face of vertex {vertex} faces the crack's end")]
-    NoFaceFacing { vertex: VertexId },
-    #[error(transparent)]
-    Split(#[from] MeshError),
 }
 
 /// The opened edges as segments at rest, and their times.
@@ -330,9 +317,7 @@ impl Ends {
             return Ok(self.at[&(k, sh)]);
         }
         let Some((f, bary)) = cut.locate(p, n, self.reach, None) else {
-            return Err(MeshError::InvalidEdit(
-                "the input mesh has no faces to cut".into(),
-            ));
+            return Err(EditFault::NoFacesToCut.into());
         };
         let v = cut.insert_at(f, bary)?;
         let sh = cut.shell_of(v);
@@ -574,7 +559,7 @@ impl Cutter {
     /// the input that touch or pass through each other (panels modelled
     /// apart), each end is cut straight towards the other as far as it
     /// comes closer.
-    fn walk(&mut self, va: VertexId, vb: VertexId, time: f64) -> Result<(), WalkError> {
+    fn walk(&mut self, va: VertexId, vb: VertexId, time: f64) -> Result<(), WalkFault> {
         let path = match self.straight(va, vb) {
             Ok(path) => path,
             Err(_) => match self.along_edges(va, vb) {
@@ -603,7 +588,7 @@ impl Cutter {
 
     /// The vertices of a straight walk from `va` to `vb`, crossed edges
     /// split. Fails when the walk comes back to a vertex or strays.
-    fn straight(&mut self, va: VertexId, vb: VertexId) -> Result<Vec<VertexId>, WalkError> {
+    fn straight(&mut self, va: VertexId, vb: VertexId) -> Result<Vec<VertexId>, WalkFault> {
         let target = self.mesh.position(vb);
         let start = norm(sub(target, self.mesh.position(va)));
         let mut path = vec![va];
@@ -614,14 +599,14 @@ impl Cutter {
                 break;
             }
             if path.len() > 10_000 {
-                return Err(WalkError::NotReached);
+                return Err(WalkFault::NotReached);
             }
             let next = self.step(v, target)?;
             if norm(sub(target, self.mesh.position(next))) > 1.5 * start + 1e-12 {
-                return Err(WalkError::Strayed);
+                return Err(WalkFault::Strayed);
             }
             if path.contains(&next) {
-                return Err(WalkError::CameBack);
+                return Err(WalkFault::CameBack);
             }
             path.push(next);
             v = next;
@@ -654,7 +639,7 @@ impl Cutter {
     /// The shortest path from `va` to `vb` along the mesh's edges (A*
     /// with the straight distance), searching at most [`MAX_SEARCH`]
     /// vertices.
-    fn along_edges(&self, va: VertexId, vb: VertexId) -> Result<Vec<VertexId>, WalkError> {
+    fn along_edges(&self, va: VertexId, vb: VertexId) -> Result<Vec<VertexId>, WalkFault> {
         use std::cmp::Reverse;
         use std::collections::{BinaryHeap, HashMap};
         let target = self.mesh.position(vb);
@@ -693,7 +678,7 @@ impl Cutter {
                 }
             }
         }
-        Err(WalkError::NotJoined)
+        Err(WalkFault::NotJoined)
     }
 
     fn mark(&mut self, a: VertexId, b: VertexId, time: f64) {
@@ -709,7 +694,7 @@ impl Cutter {
     /// One step of a walk from `v` towards `target`: the next vertex,
     /// where the straight way out of `v`'s fan crosses the opposite edge
     /// of the face it leaves through.
-    fn step(&mut self, v: VertexId, target: [f64; 3]) -> Result<VertexId, WalkError> {
+    fn step(&mut self, v: VertexId, target: [f64; 3]) -> Result<VertexId, WalkFault> {
         for attempt in 0..=MAX_STEP_FLIPS {
             let (g, t) = self.exit(v, target)?;
             let (a, b) = (self.mesh.origin(g), self.mesh.dest(g));
@@ -734,13 +719,13 @@ impl Cutter {
             }
             return Ok(self.split(g, t)?);
         }
-        Err(WalkError::NoEdgeToCross { vertex: v })
+        Err(WalkFault::NoEdgeToCross { vertex: v })
     }
 
     /// The edge a straight walk from `v` towards `target` leaves `v`'s fan
     /// through (the halfedge from `a` to `b`, in a face of `v`) and where it
     /// crosses it (`t` from `a`).
-    fn exit(&self, v: VertexId, target: [f64; 3]) -> Result<(HalfedgeId, f64), WalkError> {
+    fn exit(&self, v: VertexId, target: [f64; 3]) -> Result<(HalfedgeId, f64), WalkFault> {
         let pv = self.mesh.position(v);
         let d = sub(target, pv);
         let mut best: Option<(f64, HalfedgeId)> = None;
@@ -768,10 +753,10 @@ impl Cutter {
             }
         }
         let Some((score, h)) = best else {
-            return Err(WalkError::NoFace { vertex: v });
+            return Err(WalkFault::NoFace { vertex: v });
         };
         if score < -0.05 {
-            return Err(WalkError::NoFaceFacing { vertex: v });
+            return Err(WalkFault::NoFaceFacing { vertex: v });
         }
         // The opposite edge, from a to b.
         let g = self.mesh.next(h);
