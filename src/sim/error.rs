@@ -35,11 +35,19 @@ pub enum ParamError {
     },
     /// A name (an integrator's) that is not one of the known ones; the
     /// message lists them.
-    #[error("{}", crate::sim::params::unknown_integrator(name))]
+    #[error("unknown variant `{name}`, expected one of {}", quoted(known))]
     UnknownName {
         /// The name given.
         name: String,
+        /// The known names.
+        known: &'static [&'static str],
     },
+}
+
+/// `names` each in backquotes, joined by commas.
+fn quoted(names: &[&str]) -> String {
+    let quoted: Vec<String> = names.iter().map(|n| format!("`{n}`")).collect();
+    quoted.join(", ")
 }
 
 impl ParamError {
@@ -153,10 +161,10 @@ pub enum Divergence {
     },
     /// The energy of a relaxation stopped being finite, or grew under the
     /// paper's explicit step.
-    #[error("relaxation diverged with integrator {} (energy {before:.3e} -> {after:.3e}); relax_dt {relax_dt} is above the stable step {stable_dt:.3e}: use a smaller relax_dt or another integrator", integrator.name())]
+    #[error("relaxation diverged with integrator {integrator} (energy {before:.3e} -> {after:.3e}); relax_dt {relax_dt} is above the stable step {stable_dt:.3e}: use a smaller relax_dt or another integrator")]
     Relaxation {
-        /// The integrator.
-        integrator: super::Integrator,
+        /// The integrator's name.
+        integrator: &'static str,
         /// The energy before.
         before: f64,
         /// The energy after.

@@ -534,23 +534,45 @@ impl std::str::FromStr for Integrator {
 
     /// An integrator by its pipeline name (`local-euler`, `backward-euler`...).
     fn from_str(s: &str) -> Result<Self, super::ParamError> {
-        integrator_named(s).map_err(|_| super::ParamError::UnknownName {
+        use serde::Deserialize;
+        Integrator::deserialize(
+            serde::de::value::StrDeserializer::<serde::de::value::Error>::new(s),
+        )
+        .map_err(|_| super::ParamError::UnknownName {
             name: s.to_string(),
+            known: INTEGRATOR_NAMES,
         })
     }
 }
 
-/// The integrator named `s`, as the pipeline's parser reads it.
-fn integrator_named(s: &str) -> Result<Integrator, serde::de::value::Error> {
-    use serde::Deserialize;
-    Integrator::deserialize(serde::de::value::StrDeserializer::<serde::de::value::Error>::new(s))
-}
+/// The integrators' names, in the order the pipeline's parser lists them.
+const INTEGRATOR_NAMES: &[&str] = &[
+    "auto",
+    "local-euler",
+    "euler",
+    "paper-euler",
+    "backward-euler",
+    "equilibrium",
+    "rkl",
+];
 
-/// The message for an integrator name that is not one: the parser's, which
-/// lists the known names.
-pub(crate) fn unknown_integrator(name: &str) -> String {
-    integrator_named(name)
-        .err()
-        .map(|e| e.to_string())
-        .unwrap_or_else(|| format!("unknown integrator `{name}`"))
+#[cfg(test)]
+mod integrator_names {
+    use super::*;
+
+    /// The names are the parser's, and its message is the error's.
+    #[test]
+    fn unknown_integrator_lists_the_parsers_names() {
+        use serde::Deserialize;
+        let serde_says = Integrator::deserialize(serde::de::value::StrDeserializer::<
+            serde::de::value::Error,
+        >::new("nope"))
+        .unwrap_err()
+        .to_string();
+        let e = "nope".parse::<Integrator>().unwrap_err();
+        assert_eq!(e.to_string(), serde_says);
+        for n in INTEGRATOR_NAMES {
+            assert_eq!(n.parse::<Integrator>().unwrap().name(), *n);
+        }
+    }
 }

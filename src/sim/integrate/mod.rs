@@ -209,7 +209,7 @@ pub(in crate::sim) fn relax_round(
             && phase.energy > energy_before * (1.0 + 1e-6) + 1e-300)
     {
         return Err(crate::sim::error::Divergence::Relaxation {
-            integrator: params.integrator,
+            integrator: params.integrator.name(),
             before: energy_before,
             after: phase.energy,
             relax_dt: params.relax_dt,
