@@ -114,6 +114,24 @@ fn src_dir() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("src")
 }
 
+/// Every `.rs` file under `src/`, in path order: its path relative to
+/// `src/` and its text.
+fn source_files() -> Vec<(PathBuf, String)> {
+    let src = src_dir();
+    let mut files = Vec::new();
+    rs_files(&src, &mut files);
+    files
+        .into_iter()
+        .map(|f| {
+            let text = std::fs::read_to_string(&f).expect("readable");
+            (
+                f.strip_prefix(&src).expect("inside src").to_path_buf(),
+                text,
+            )
+        })
+        .collect()
+}
+
 /// Top-level module of a library file (`None` for the binary's files).
 fn module_of(rel: &Path) -> Option<String> {
     let first = rel.components().next()?.as_os_str().to_string_lossy();
@@ -123,19 +141,14 @@ fn module_of(rel: &Path) -> Option<String> {
 
 /// Module -> (imported module -> files that import it).
 fn import_graph() -> BTreeMap<String, BTreeMap<String, Vec<String>>> {
-    let src = src_dir();
-    let mut files = Vec::new();
-    rs_files(&src, &mut files);
     let mut graph: BTreeMap<String, BTreeMap<String, Vec<String>>> = BTreeMap::new();
-    for f in files {
-        let rel = f.strip_prefix(&src).expect("inside src").to_path_buf();
+    for (rel, text) in source_files() {
         let Some(module) = module_of(&rel) else {
             continue;
         };
         if rel.to_string_lossy().ends_with("_tests.rs") {
             continue;
         }
-        let text = std::fs::read_to_string(&f).expect("readable");
         let entry = graph.entry(module.clone()).or_default();
         for r in crate_refs(&code_of(&text)) {
             if r != module {
@@ -230,21 +243,17 @@ fn the_module_graph_has_no_cycle() {
 
 #[test]
 fn the_command_line_is_small_and_library_files_are_readable() {
-    let src = src_dir();
-    let mut files = Vec::new();
-    rs_files(&src, &mut files);
+    let files = source_files();
     let (mut cli, mut total) = (0usize, 0usize);
     let mut long = Vec::new();
-    for f in &files {
-        let text = std::fs::read_to_string(f).expect("readable");
-        let rel = f.strip_prefix(&src).expect("inside src");
+    for (rel, text) in &files {
         let lines = text.lines().count();
         total += lines;
         if rel.starts_with("cli") || rel == Path::new("main.rs") {
             cli += lines;
         }
         let name = rel.to_string_lossy();
-        let code_lines = code_of(&text).lines().count();
+        let code_lines = code_of(text).lines().count();
         if !name.ends_with("_tests.rs") && code_lines > MAX_FILE_LINES {
             long.push(format!("{name}: {code_lines} lines before its tests"));
         }
@@ -307,21 +316,14 @@ fn no_function_is_longer_than_about_150_lines() {
         function_lengths("fn a() {\n    x;\n}\n    fn b() {\n        y;\n        z;\n    }\n"),
         [("a".to_string(), 3), ("b".to_string(), 4)]
     );
-    let src = src_dir();
-    let mut files = Vec::new();
-    rs_files(&src, &mut files);
+    let files = source_files();
     let mut long = Vec::new();
-    for f in &files {
-        let rel = f
-            .strip_prefix(&src)
-            .expect("inside src")
-            .display()
-            .to_string();
+    for (rel, text) in &files {
+        let rel = rel.display().to_string();
         if rel.ends_with("_tests.rs") {
             continue;
         }
-        let text = std::fs::read_to_string(f).expect("readable");
-        for (name, n) in function_lengths(&code_of(&text)) {
+        for (name, n) in function_lengths(&code_of(text)) {
             if n > MAX_FUNCTION_LINES {
                 long.push(format!("{rel}: {name} has {n} lines"));
             }
@@ -670,13 +672,10 @@ fn no_result_has_a_string_error() {
             "Result<u8, String>"
         ]
     );
-    let src = src_dir();
-    let mut files = Vec::new();
-    rs_files(&src, &mut files);
+    let files = source_files();
     let mut found = Vec::new();
-    for f in &files {
-        let rel = f.strip_prefix(&src).expect("inside src").display();
-        let text = std::fs::read_to_string(f).expect("readable");
+    for (rel, text) in &files {
+        let rel = rel.display();
         let code: Vec<&str> = text
             .lines()
             .map(|l| l.find("//").map_or(l, |k| &l[..k]))
@@ -784,18 +783,11 @@ fn no_error_variant_is_a_bare_string() {
         ),
         ["Fault::Usage", "Fault::Two", "OtherError::Message"]
     );
-    let src = src_dir();
-    let mut files = Vec::new();
-    rs_files(&src, &mut files);
+    let files = source_files();
     let mut found = Vec::new();
-    for f in &files {
-        let rel = f
-            .strip_prefix(&src)
-            .expect("inside src")
-            .display()
-            .to_string();
-        let text = std::fs::read_to_string(f).expect("readable");
-        for v in string_variants(&code_of(&text)) {
+    for (rel, text) in &files {
+        let rel = rel.display().to_string();
+        for v in string_variants(&code_of(text)) {
             found.push((v, rel.clone()));
         }
     }
