@@ -1222,6 +1222,35 @@ pub fn impact_stats(lines: &[Seg], center: P3, normal: P3, radius: f64) -> Value
         let h = dot(d, n);
         [d[0] - h * n[0], d[1] - h * n[1], d[2] - h * n[2]]
     };
+    let disc = |a: f64, b: f64| std::f64::consts::PI * (b * b - a * a);
+    let mut s = impact_stats_by(lines, radius, |p| norm(flat(p)), disc);
+    s["center"] = serde_json::json!(center);
+    s
+}
+
+/// [`impact_stats`] along a surface: distances from the hit are `surface`'s (geodesic, so a
+/// crack is radial when it runs along the distance's gradient on the surface, whatever the
+/// surface's curvature), and each band's area is the surface's own area in it.
+pub fn impact_stats_on_surface(lines: &[Seg], surface: &SurfaceDistance, radius: f64) -> Value {
+    let mut s = impact_stats_by(
+        lines,
+        radius,
+        |p| surface.at(p),
+        |a, b| surface.area_between(a, b),
+    );
+    s["center"] = serde_json::json!(surface.source);
+    s
+}
+
+/// The impact measure with distance from the hit `d` and the area between two distances
+/// `area(a, b)`: each segment cut in 64 pieces, a piece radial when its distance changes by at
+/// least cos 30 of its length, concentric when by at most sin 30.
+fn impact_stats_by(
+    lines: &[Seg],
+    radius: f64,
+    d: impl Fn(P3) -> f64,
+    area_between: impl Fn(f64, f64) -> f64,
+) -> Value {
     let bands = 15;
     let mut len = vec![0.0; bands];
     let mut radial = vec![0.0; bands];
@@ -1231,18 +1260,20 @@ pub fn impact_stats(lines: &[Seg], center: P3, normal: P3, radius: f64) -> Value
     let mut total = 0.0;
     let cos30 = (30f64).to_radians().cos();
     let sin30 = 0.5;
+    let pieces = 64;
     for s in lines {
-        let (a, b) = (flat(s[0]), flat(s[1]));
-        let pieces = 64;
+        let mut dp = d(s[0]);
         for k in 0..pieces {
-            let p = lerp(a, b, k as f64 / pieces as f64);
-            let q = lerp(a, b, (k + 1) as f64 / pieces as f64);
+            let p = lerp(s[0], s[1], k as f64 / pieces as f64);
+            let q = lerp(s[0], s[1], (k + 1) as f64 / pieces as f64);
+            let dq = d(q);
             let l = dist(p, q);
+            let (d0, d1) = (dp, dq);
+            dp = dq;
             if l == 0.0 {
                 continue;
             }
-            let m = lerp(p, q, 0.5);
-            let r = norm(m);
+            let r = 0.5 * (d0 + d1);
             total += l;
             let fi = (r / (0.05 * radius)) as usize;
             if fi < fine {
@@ -1253,7 +1284,7 @@ pub fn impact_stats(lines: &[Seg], center: P3, normal: P3, radius: f64) -> Value
                 continue;
             }
             len[bi] += l;
-            let c = (dot(sub(q, p), m) / (l * r)).abs();
+            let c = ((d1 - d0) / l).abs();
             if c >= cos30 {
                 radial[bi] += l;
             } else if c <= sin30 {
@@ -1264,7 +1295,7 @@ pub fn impact_stats(lines: &[Seg], center: P3, normal: P3, radius: f64) -> Value
     let crossings = |rc: f64| {
         lines
             .iter()
-            .filter(|s| (norm(flat(s[0])) - rc) * (norm(flat(s[1])) - rc) < 0.0)
+            .filter(|s| (d(s[0]) - rc) * (d(s[1]) - rc) < 0.0)
             .count()
     };
     // Crossing segments radial as the bands count them (within 30 degrees of the way
@@ -1274,17 +1305,15 @@ pub fn impact_stats(lines: &[Seg], center: P3, normal: P3, radius: f64) -> Value
         lines
             .iter()
             .filter(|s| {
-                let (a, b) = (flat(s[0]), flat(s[1]));
-                let m = lerp(a, b, 0.5);
-                (norm(a) - rc) * (norm(b) - rc) < 0.0
-                    && dot(sub(b, a), m).abs() >= cos30 * dist(a, b) * norm(m)
+                let (da, db) = (d(s[0]), d(s[1]));
+                (da - rc) * (db - rc) < 0.0 && (db - da).abs() >= cos30 * seg_len(s)
             })
             .count()
     };
     let band: Vec<Value> = (0..bands)
         .map(|i| {
             let (r0, r1) = (0.1 * i as f64 * radius, 0.1 * (i + 1) as f64 * radius);
-            let area = std::f64::consts::PI * (r1 * r1 - r0 * r0);
+            let area = area_between(r0, r1);
             serde_json::json!({
                 "from": 0.1 * i as f64, "length": len[i], "per_area": len[i] / area,
                 "radial": ratio(radial[i], len[i]), "concentric": ratio(conc[i], len[i]),
@@ -1292,9 +1321,9 @@ pub fn impact_stats(lines: &[Seg], center: P3, normal: P3, radius: f64) -> Value
         })
         .collect();
     let sum = |v: &[f64], a: usize, b: usize| v[a..b].iter().sum::<f64>();
-    let area = |a: f64, b: f64| std::f64::consts::PI * (b * b - a * a) * radius * radius;
+    let area = |a: f64, b: f64| area_between(a * radius, b * radius);
     serde_json::json!({
-        "center": center, "radius": radius, "total_length": total,
+        "radius": radius, "total_length": total,
         "bands": band,
         "radial_share_0.2_0.8": ratio(sum(&radial, 2, 8), sum(&len, 2, 8)),
         "concentric_share_0.2_0.8": ratio(sum(&conc, 2, 8), sum(&len, 2, 8)),
@@ -1307,6 +1336,224 @@ pub fn impact_stats(lines: &[Seg], center: P3, normal: P3, radius: f64) -> Value
         "crossings_0.75": crossings(0.75 * radius),
         "radial_crossings_0.5": radial_crossings(0.5 * radius),
     })
+}
+
+// ---- Distance along a surface ----
+
+/// Distance along a triangulated surface from one point (`source`, on or near it): Dijkstra
+/// over the faces' corners and `steiner` evenly spaced points on each edge, every two points of
+/// one face joined by the straight line across it, so a path is a polyline through the faces
+/// (within a few percent of the geodesic with 4-6 points per edge). Corners closer than 1e-7 of
+/// the diagonal are welded (seams of UVs or normals do not stop a path). A point's distance is
+/// the shortest straight line across its nearest face to that face's points (or to the source
+/// in its own face).
+pub struct SurfaceDistance {
+    /// The surface point nearest the given source.
+    pub source: P3,
+    tris: Vec<Tri>,
+    /// Per face: its points' ids (corners, then each edge's Steiner points).
+    face_points: Vec<Vec<usize>>,
+    pos: Vec<P3>,
+    dist: Vec<f64>,
+    source_face: usize,
+    faces: Grid,
+    /// Per face, 64 sub-triangles' (distance at the centroid, area).
+    samples: Vec<(f64, f64)>,
+}
+
+/// The point of triangle `t` nearest `p` (Ericson, Real-Time Collision Detection 5.1.5).
+pub fn closest_on_triangle(p: P3, t: &Tri) -> P3 {
+    let [a, b, c] = *t;
+    let (ab, ac, ap) = (sub(b, a), sub(c, a), sub(p, a));
+    let (d1, d2) = (dot(ab, ap), dot(ac, ap));
+    if d1 <= 0.0 && d2 <= 0.0 {
+        return a;
+    }
+    let bp = sub(p, b);
+    let (d3, d4) = (dot(ab, bp), dot(ac, bp));
+    if d3 >= 0.0 && d4 <= d3 {
+        return b;
+    }
+    let vc = d1 * d4 - d3 * d2;
+    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
+        return lerp(a, b, d1 / (d1 - d3));
+    }
+    let cp = sub(p, c);
+    let (d5, d6) = (dot(ab, cp), dot(ac, cp));
+    if d6 >= 0.0 && d5 <= d6 {
+        return c;
+    }
+    let vb = d5 * d2 - d1 * d6;
+    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
+        return lerp(a, c, d2 / (d2 - d6));
+    }
+    let va = d3 * d6 - d5 * d4;
+    if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
+        return lerp(b, c, (d4 - d3) / ((d4 - d3) + (d5 - d6)));
+    }
+    let denom = 1.0 / (va + vb + vc);
+    let (v, w) = (vb * denom, vc * denom);
+    [0, 1, 2].map(|i| a[i] + ab[i] * v + ac[i] * w)
+}
+
+impl SurfaceDistance {
+    /// Distances over `tris` from the surface point nearest `source`.
+    pub fn new(tris: &[Tri], source: P3, steiner: usize) -> Self {
+        let (lo, hi) = bounds(tris.iter().flatten());
+        let corners: Vec<P3> = tris.iter().flatten().copied().collect();
+        let (mut pos, map) = weld_points(&corners, 1e-7 * diagonal(lo, hi));
+        let mut edge_points: BTreeMap<[usize; 2], Vec<usize>> = BTreeMap::new();
+        let mut face_points = Vec::with_capacity(tris.len());
+        for t in 0..tris.len() {
+            let ids = [map[3 * t], map[3 * t + 1], map[3 * t + 2]];
+            let mut pts = ids.to_vec();
+            for k in 0..3 {
+                let (a, b) = (ids[k].min(ids[(k + 1) % 3]), ids[k].max(ids[(k + 1) % 3]));
+                let on_edge = edge_points.entry([a, b]).or_insert_with(|| {
+                    (1..=steiner)
+                        .map(|i| {
+                            pos.push(lerp(pos[a], pos[b], i as f64 / (steiner + 1) as f64));
+                            pos.len() - 1
+                        })
+                        .collect()
+                });
+                pts.extend_from_slice(on_edge);
+            }
+            face_points.push(pts);
+        }
+        let mean_edge = tris.iter().map(|t| dist(t[0], t[1])).sum::<f64>() / tris.len() as f64;
+        let mut faces = Grid::new(mean_edge);
+        for (f, t) in tris.iter().enumerate() {
+            let (tl, th) = bounds(t.iter());
+            let (kl, kh) = (faces.key(tl), faces.key(th));
+            for x in kl.0..=kh.0 {
+                for y in kl.1..=kh.1 {
+                    for z in kl.2..=kh.2 {
+                        faces.map.entry((x, y, z)).or_default().push(f as u32);
+                    }
+                }
+            }
+        }
+        let mut me = SurfaceDistance {
+            source,
+            tris: tris.to_vec(),
+            face_points,
+            dist: vec![f64::INFINITY; pos.len()],
+            pos,
+            source_face: 0,
+            faces,
+            samples: Vec::new(),
+        };
+        me.source_face = me.nearest_face(source);
+        me.source = closest_on_triangle(source, &me.tris[me.source_face]);
+        me.dijkstra();
+        me.samples = me.sample_areas();
+        me
+    }
+
+    fn nearest_face(&self, p: P3) -> usize {
+        let mut best = (f64::INFINITY, usize::MAX);
+        // A face within `r` of `p` has its box within `r`, so the search is done once the
+        // best face found lies within the radius searched.
+        let mut r = self.faces.cell;
+        loop {
+            self.faces.near(p, r, |f| {
+                let d = dist(p, closest_on_triangle(p, &self.tris[f]));
+                if d < best.0 || (d == best.0 && f < best.1) {
+                    best = (d, f);
+                }
+                false
+            });
+            if best.0 <= r {
+                return best.1;
+            }
+            r = best.0.max(2.0 * r);
+        }
+    }
+
+    fn dijkstra(&mut self) {
+        use std::cmp::Reverse;
+        use std::collections::BinaryHeap;
+        let mut faces_of: Vec<Vec<u32>> = vec![Vec::new(); self.pos.len()];
+        for (f, pts) in self.face_points.iter().enumerate() {
+            for &p in pts {
+                faces_of[p].push(f as u32);
+            }
+        }
+        let mut heap = BinaryHeap::new();
+        for &p in &self.face_points[self.source_face] {
+            let d = dist(self.source, self.pos[p]);
+            if d < self.dist[p] {
+                self.dist[p] = d;
+                heap.push(Reverse((d.to_bits(), p)));
+            }
+        }
+        while let Some(Reverse((bits, p))) = heap.pop() {
+            let d = f64::from_bits(bits);
+            if d > self.dist[p] {
+                continue;
+            }
+            for &f in &faces_of[p] {
+                for &q in &self.face_points[f as usize] {
+                    let dq = d + dist(self.pos[p], self.pos[q]);
+                    if dq < self.dist[q] {
+                        self.dist[q] = dq;
+                        heap.push(Reverse((dq.to_bits(), q)));
+                    }
+                }
+            }
+        }
+    }
+
+    /// Distance of `p` (on or near the surface) from the source along the surface.
+    pub fn at(&self, p: P3) -> f64 {
+        self.in_face(p, self.nearest_face(p))
+    }
+
+    fn in_face(&self, p: P3, f: usize) -> f64 {
+        let mut d = self.face_points[f]
+            .iter()
+            .map(|&q| self.dist[q] + dist(p, self.pos[q]))
+            .fold(f64::INFINITY, f64::min);
+        if f == self.source_face {
+            d = d.min(dist(p, self.source));
+        }
+        d
+    }
+
+    fn sample_areas(&self) -> Vec<(f64, f64)> {
+        let k = 8;
+        let mut out = Vec::with_capacity(self.tris.len() * k * k);
+        for (f, t) in self.tris.iter().enumerate() {
+            let area = 0.5 * norm(cross(sub(t[1], t[0]), sub(t[2], t[0]))) / (k * k) as f64;
+            let at = |i: f64, j: f64| {
+                let (u, v) = (i / k as f64, j / k as f64);
+                [0, 1, 2].map(|c| t[0][c] + u * (t[1][c] - t[0][c]) + v * (t[2][c] - t[0][c]))
+            };
+            for i in 0..k {
+                for j in 0..k - i {
+                    let (fi, fj) = (i as f64, j as f64);
+                    // The upward sub-triangle, and the downward one beside it.
+                    let c = at(fi + 1.0 / 3.0, fj + 1.0 / 3.0);
+                    out.push((self.in_face(c, f), area));
+                    if i + j + 1 < k {
+                        let c = at(fi + 2.0 / 3.0, fj + 2.0 / 3.0);
+                        out.push((self.in_face(c, f), area));
+                    }
+                }
+            }
+        }
+        out
+    }
+
+    /// The surface's area at distances in `[a, b)` from the source.
+    pub fn area_between(&self, a: f64, b: f64) -> f64 {
+        self.samples
+            .iter()
+            .filter(|(d, _)| *d >= a && *d < b)
+            .map(|(_, w)| w)
+            .sum()
+    }
 }
 
 // ---- Gap widths ----
