@@ -262,9 +262,11 @@ pub struct DuctileParams {
     /// material already torn the front runs on each node's own energy.
     /// 0: each node's own everywhere (the text's). Default 0.0125.
     pub nonlocal: f64,
-    /// Passes of Taubin smoothing over the extracted torn surface (its
-    /// vertices off the original surface), softening the grid's terraces
-    /// where the tear steps between layers of nodes; 0: none. Default 10.
+    /// Passes relaxing the extracted torn surface (its vertices off the
+    /// original surface, each within a cube of where it was cut, see
+    /// `surface.rs`), turning the grid's terraces where the tear steps
+    /// between layers of nodes into the slope they stand for; 0: none.
+    /// Default 20.
     pub smooth_tear: usize,
     /// Most steps. Default 10,000.
     pub max_steps: usize,
@@ -298,7 +300,7 @@ impl Default for DuctileParams {
             redistance: true,
             virtual_nodes: true,
             nonlocal: 0.0125,
-            smooth_tear: 10,
+            smooth_tear: 20,
             max_steps: 10_000,
             pull: Pull::default(),
             tear_material: "tear_interior".into(),

@@ -9,6 +9,7 @@
 use super::fem::edges;
 use super::grid::cut_edges;
 use super::Ductile;
+use crate::math::v3::{add, dot, scale, sub};
 use std::collections::HashMap;
 
 /// The extracted surface, in metres.
@@ -159,7 +160,7 @@ impl Ductile {
             .map(|&p| renumber[p as usize])
             .collect();
         s.pieces = kept as usize;
-        smooth_torn(&mut s, self.params.smooth_tear);
+        smooth_torn(&mut s, self.params.smooth_tear, self.grid.h);
         s
     }
 
@@ -221,15 +222,26 @@ impl Ductile {
     }
 }
 
-/// Taubin's smoothing (a shrinking pass, `lambda` 0.5, and an inflating
-/// one, `mu` -0.53) of the vertices inside the torn surface, `passes`
-/// times, at rest and deformed alike: the torn surface is cut from a grid,
-/// and where the tear steps from one layer of nodes to the next it shows
-/// the grid's terraces. Vertices on an original triangle (the tear's
-/// border and the input's surface) stay put; the triangles stay as they
-/// are. Each pass reads the last one's positions only, so the order of
-/// the vertices does not matter.
-fn smooth_torn(s: &mut TornSurface, passes: usize) {
+/// How far (in cubes, at rest) [`smooth_torn`] lets a torn vertex move
+/// from where it was cut: the grid's own uncertainty about the zero
+/// surface, which a terrace's step of one cube fits within.
+const TEAR_BAND: f64 = 1.0;
+
+/// The torn surface relaxed towards the smooth surface its terraces stand
+/// for, `passes` times: each vertex inside it (off every original
+/// triangle: the tear's border and the input's surface stay put) steps
+/// half way to its neighbours' mean, cut short at [`TEAR_BAND`] cubes
+/// from where it was cut at rest (elastic surface nets, Gibson 1998,
+/// relaxing a voxel surface within its cells). The torn surface is cut
+/// from a grid and, where the tear steps from one layer of nodes to the
+/// next, shows the grid's terraces, whose faces all face along its axes;
+/// relaxed within a cube of the cut the steps become the slope they
+/// approximate, while a shape wider than a cube stays. The deformed
+/// position takes the same step, cut short in the same proportion (the
+/// tetrahedron's map there may weigh nodes the material hardly holds).
+/// The triangles stay as they are; each pass reads the last one's
+/// positions only, so the order of the vertices does not matter.
+fn smooth_torn(s: &mut TornSurface, passes: usize, h: f64) {
     if passes == 0 {
         return;
     }
@@ -254,31 +266,47 @@ fn smooth_torn(s: &mut TornSurface, passes: usize) {
         }
     }
     let moving: Vec<usize> = (0..n).filter(|&v| free[v]).collect();
+    let cut: Vec<[f64; 3]> = moving.iter().map(|&v| s.rest[v]).collect();
+    let radius = TEAR_BAND * h;
+    let step = |x: &[[f64; 3]], v: usize| -> [f64; 3] {
+        let list = &neighbours[v];
+        let mut mean = [0.0; 3];
+        for &u in list {
+            mean = add(mean, x[u as usize]);
+        }
+        let mean = scale(mean, 1.0 / list.len() as f64);
+        scale(sub(mean, x[v]), 0.5)
+    };
     for _ in 0..passes {
-        for factor in [0.5, -0.53] {
-            for x in [&mut s.rest, &mut s.positions] {
-                let moved: Vec<[f64; 3]> = moving
-                    .iter()
-                    .map(|&v| {
-                        let list = &neighbours[v];
-                        let mut mean = [0.0; 3];
-                        for &u in list {
-                            for k in 0..3 {
-                                mean[k] += x[u as usize][k];
-                            }
-                        }
-                        let p = x[v];
-                        std::array::from_fn(|k| {
-                            p[k] + factor * (mean[k] / list.len() as f64 - p[k])
-                        })
-                    })
-                    .collect();
-                for (&v, p) in moving.iter().zip(moved) {
-                    x[v] = p;
-                }
-            }
+        let steps: Vec<([f64; 3], [f64; 3])> = moving
+            .iter()
+            .zip(&cut)
+            .map(|(&v, &origin)| {
+                let (dr, dx) = (step(&s.rest, v), step(&s.positions, v));
+                let t = within(sub(s.rest[v], origin), dr, radius);
+                (scale(dr, t), scale(dx, t))
+            })
+            .collect();
+        for (&v, (dr, dx)) in moving.iter().zip(steps) {
+            s.rest[v] = add(s.rest[v], dr);
+            s.positions[v] = add(s.positions[v], dx);
         }
     }
+}
+
+/// The largest `t` in `[0, 1]` with `|a + t d| <= radius`, for `|a| <=
+/// radius` (0 when even `t = 0` is outside, by rounding).
+fn within(a: [f64; 3], d: [f64; 3], radius: f64) -> f64 {
+    let end = add(a, d);
+    if dot(end, end) <= radius * radius {
+        return 1.0;
+    }
+    // |a + t d|^2 = radius^2: q t^2 + 2 b t + c = 0, c <= 0 < q.
+    let (q, b, c) = (dot(d, d), dot(a, d), dot(a, a) - radius * radius);
+    if q <= 0.0 || c > 0.0 {
+        return 0.0;
+    }
+    ((-b + (b * b - q * c).max(0.0).sqrt()) / q).clamp(0.0, 1.0)
 }
 
 /// Connected pieces of a triangle list (through shared vertices), numbered
@@ -310,4 +338,21 @@ fn pieces(triangles: &[[u32; 3]], n_vertices: usize) -> (Vec<u32>, usize) {
         })
         .collect();
     (piece, number.len())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::within;
+
+    /// The step cut short on the band's sphere, whole inside it, none from
+    /// outside it.
+    #[test]
+    fn a_step_stops_on_the_band() {
+        assert_eq!(within([0.0; 3], [0.5, 0.0, 0.0], 1.0), 1.0);
+        let t = within([0.5, 0.0, 0.0], [1.0, 0.0, 0.0], 1.0);
+        assert!((t - 0.5).abs() < 1e-12, "{t}");
+        let t = within([0.0, 0.6, 0.0], [1.0, 0.0, 0.0], 1.0);
+        assert!((t - 0.8).abs() < 1e-12, "{t}");
+        assert_eq!(within([2.0, 0.0, 0.0], [1.0, 0.0, 0.0], 1.0), 0.0);
+    }
 }
