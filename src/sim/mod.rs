@@ -3,6 +3,7 @@
 //! No I/O and no printing here.
 
 pub mod ageing;
+pub mod amg;
 pub mod cg;
 pub mod crack;
 mod diffusion;
@@ -31,7 +32,9 @@ pub use driver::{relax_only, run, run_with};
 pub use error::{Divergence, Misfit, ParamError, SimError};
 pub use forces::{element_forces, node_forces, separation_tensor, split_tensile, Elements};
 pub use observer::{Observer, Snapshot};
-pub use params::{Integrator, Model, Propagation, Relaxation, SimParams, AUTO_STEP_LIMIT};
+pub use params::{
+    FilmPreconditioner, Integrator, Model, Propagation, Relaxation, SimParams, AUTO_STEP_LIMIT,
+};
 pub use queue::FailureQueue;
 pub use relax::{energy, relax_step, stable_dt, RelaxStep};
-pub use report::{FinishReport, Phase, Relaxed, SimReport};
+pub use report::{FilmSolves, FinishReport, Phase, Relaxed, SimReport};

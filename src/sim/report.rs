@@ -73,6 +73,9 @@ pub struct SimReport {
     /// Implicit solves that stopped before reaching `tolerance` (iteration
     /// cap, or a breakdown); their step was still taken.
     pub cg_unconverged: usize,
+    /// A film's solves: their preconditioner, time and hierarchies.
+    #[serde(skip_serializing_if = "FilmSolves::is_empty")]
+    pub film_solves: FilmSolves,
     /// Per relaxation round (and finishing pass): the time at its end, the
     /// energy, the norm of the residual node forces, and the conjugate
     /// gradient iterations (backward Euler).
@@ -85,6 +88,39 @@ pub struct SimReport {
     /// crack (NaN: never).
     #[serde(skip)]
     pub crack_time: Vec<f64>,
+}
+
+/// A film's solves over a run: wall time in building multigrid
+/// hierarchies and in the conjugate-gradient iterations, and the largest
+/// hierarchy. Timings vary from run to run, so two of these always compare
+/// equal (a run's report is the same at any thread count).
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct FilmSolves {
+    /// `jacobi` or `multigrid`.
+    pub preconditioner: &'static str,
+    /// Solves.
+    pub solves: usize,
+    /// Multigrid hierarchies built (a solve whose rows did not change
+    /// reuses the last one).
+    pub builds: usize,
+    /// Seconds building hierarchies.
+    pub setup_seconds: f64,
+    /// Seconds in the iterations.
+    pub solve_seconds: f64,
+    /// The largest hierarchy's levels, finest first: nodes, blocks, bytes.
+    pub levels: Vec<[usize; 3]>,
+}
+
+impl FilmSolves {
+    fn is_empty(&self) -> bool {
+        self.solves == 0
+    }
+}
+
+impl PartialEq for FilmSolves {
+    fn eq(&self, _: &Self) -> bool {
+        true
+    }
 }
 
 /// The state at the end of one relaxation round.

@@ -23,7 +23,8 @@
 
 use crate::geometry::element::Element;
 use crate::math::v3;
-use crate::sim::cg::{dot, iterate, CgReport, Vectors, CHUNK};
+use crate::sim::amg::{Multigrid, Rows};
+use crate::sim::cg::{dot, iterate, iterate_with, CgReport, Vectors, CHUNK};
 use crate::sim::implicit::Operator;
 use rayon::prelude::*;
 
@@ -52,6 +53,35 @@ pub struct TangentSystem {
     z: Vec<V2>,
     p: Vec<V2>,
     ap: Vec<V2>,
+    /// Precondition by the multigrid cycle instead of the diagonal blocks.
+    use_multigrid: bool,
+    /// The multigrid hierarchy and the fingerprint of the rows it was
+    /// built for (rebuilt only when the rows change).
+    multigrid: Option<(u64, Multigrid)>,
+    /// Seconds spent building hierarchies, and solving, since made.
+    pub seconds: [f64; 2],
+    /// Hierarchies built since made.
+    pub builds: usize,
+}
+
+/// A fingerprint of the rows (hashed in fixed chunks, combined in order).
+fn fingerprint(offsets: &[u32], cols: &[u32], blocks: &[Block]) -> u64 {
+    const K: u64 = 0x9e37_79b9_7f4a_7c15;
+    let mix = |h: u64, w: u64| (h ^ w).wrapping_mul(K).rotate_left(29);
+    let words = |s: &[u32]| {
+        s.par_chunks(CHUNK)
+            .map(|c| c.iter().fold(0u64, |h, &w| mix(h, u64::from(w))))
+            .collect::<Vec<u64>>()
+    };
+    let floats: Vec<u64> = blocks
+        .par_chunks(CHUNK)
+        .map(|c| c.iter().flatten().fold(0u64, |h, &v| mix(h, v.to_bits())))
+        .collect();
+    words(offsets)
+        .into_iter()
+        .chain(words(cols))
+        .chain(floats)
+        .fold(cols.len() as u64, mix)
 }
 
 /// The inverse of the symmetric part of a 2x2 block (the identity when it
@@ -214,6 +244,36 @@ impl TangentSystem {
             .collect_into_vec(&mut self.pre);
     }
 
+    /// Precondition the solves by the multigrid cycle (`true`) or by the
+    /// inverse diagonal blocks (`false`, the default).
+    pub fn set_multigrid(&mut self, on: bool) {
+        self.use_multigrid = on;
+        if !on {
+            self.multigrid = None;
+        }
+    }
+
+    /// The multigrid hierarchy of the last solve, if any.
+    pub fn multigrid(&self) -> Option<&Multigrid> {
+        self.multigrid.as_ref().map(|m| &m.1)
+    }
+
+    /// The hierarchy for the current rows, built when they changed.
+    fn ensure_multigrid(&mut self) {
+        let key = fingerprint(&self.offsets, &self.cols, &self.blocks);
+        if self.multigrid.as_ref().is_some_and(|m| m.0 == key) {
+            return;
+        }
+        self.multigrid = None;
+        let rows = Rows {
+            offsets: &self.offsets,
+            cols: &self.cols,
+            blocks: &self.blocks,
+        };
+        self.multigrid = Some((key, Multigrid::new(rows, &self.basis)));
+        self.builds += 1;
+    }
+
     /// Number of nodes.
     pub fn n_nodes(&self) -> usize {
         self.basis.len()
@@ -293,6 +353,12 @@ impl TangentSystem {
             v.resize(n, [0.0; 2]);
         }
         let mut report = CgReport::default();
+        let clock = std::time::Instant::now();
+        if self.use_multigrid {
+            self.ensure_multigrid();
+        }
+        let built = clock.elapsed().as_secs_f64();
+        let mut multigrid = self.multigrid.take();
         let norm_b = dot(rhs, rhs).sqrt();
         if norm_b > 0.0 && norm_b.is_finite() {
             report.relative_residual = 1.0;
@@ -320,20 +386,36 @@ impl TangentSystem {
                 p: &mut p,
                 ap: &mut ap,
             };
-            let pre = &self.pre;
-            iterate(
-                product,
-                |n, r| mul_pre(&pre[n], r),
-                vectors,
-                norm_b,
-                tol,
-                max_iter,
-                &mut report,
-            );
+            match multigrid.as_mut() {
+                Some((_, mg)) => iterate_with(
+                    product,
+                    |r, z| mg.apply(r, z),
+                    vectors,
+                    norm_b,
+                    tol,
+                    max_iter,
+                    &mut report,
+                ),
+                None => {
+                    let pre = &self.pre;
+                    iterate(
+                        product,
+                        |n, r| mul_pre(&pre[n], r),
+                        vectors,
+                        norm_b,
+                        tol,
+                        max_iter,
+                        &mut report,
+                    )
+                }
+            }
         } else {
             report.converged = norm_b == 0.0;
         }
         (self.r, self.z, self.p, self.ap) = (r, z, p, ap);
+        self.multigrid = multigrid;
+        self.seconds[0] += built;
+        self.seconds[1] += clock.elapsed().as_secs_f64() - built;
         report
     }
 }
@@ -560,5 +642,77 @@ mod tests {
             .collect();
         let true_residual = dot(&r, &r).sqrt() / dot(&b, &b).sqrt();
         assert!(true_residual < 1e-9, "{true_residual}");
+    }
+
+    /// With the multigrid cycle the solve reaches the block-Jacobi solve's
+    /// solution on a refined film in far fewer iterations, the same bits at
+    /// any thread count, and a second solve of the same rows reuses the
+    /// hierarchy.
+    #[test]
+    fn the_multigrid_solve_matches_the_jacobi_solve() {
+        let mesh = jittered_plate(70, 0.3, 9);
+        let n = mesh.n_vertices();
+        let els = Elements::new(&mesh, f64::INFINITY);
+        let fans = Fans::new(&mesh);
+        let normals: Vec<[f64; 3]> = (0..n)
+            .map(|i| {
+                let v = [0.2 * (i as f64 * 0.1).sin(), 0.1, 1.0];
+                v3::scale(v, 1.0 / v3::norm(v))
+            })
+            .collect();
+        let fixed: Vec<bool> = (0..n).map(|i| i % 97 == 1).collect();
+        // A shear-lag length of a few edges, as a film's.
+        let interface = vec![1e-3; n];
+        let op = Operator {
+            fans: &fans,
+            els: &els,
+            normals: &normals,
+            fixed: &fixed,
+            interface: &interface,
+        };
+        let dt = 1e12;
+        let mut b = random(n, 31);
+        for (i, b) in b.iter_mut().enumerate() {
+            *b = if fixed[i] {
+                [0.0; 2]
+            } else {
+                [b[0] * dt, b[1] * dt]
+            };
+        }
+        let solve = |multigrid: bool| {
+            let mut sys = TangentSystem::default();
+            sys.assemble(&op, dt);
+            sys.set_multigrid(multigrid);
+            let mut y = Vec::new();
+            let report = sys.solve(&b, &mut y, 1e-10, 5000);
+            (report, y, sys)
+        };
+        let (jac, yj, _) = solve(false);
+        let (mg, ym, mut sys) = solve(true);
+        assert!(jac.converged && mg.converged, "{jac:?} {mg:?}");
+        assert!(mg.iterations * 3 < jac.iterations, "{jac:?} {mg:?}");
+        let diff: Vec<V2> = yj
+            .iter()
+            .zip(&ym)
+            .map(|(a, b)| [a[0] - b[0], a[1] - b[1]])
+            .collect();
+        assert!(dot(&diff, &diff).sqrt() < 1e-8 * dot(&yj, &yj).sqrt());
+        assert!(sys.multigrid().unwrap().stats().levels.len() >= 2);
+        sys.assemble(&op, dt);
+        let mut again = Vec::new();
+        assert_eq!(sys.solve(&b, &mut again, 1e-10, 5000), mg);
+        assert_eq!((sys.builds, again), (1, ym.clone()));
+        let run = |threads| {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap()
+                .install(|| {
+                    let (r, y, _) = solve(true);
+                    (r, y)
+                })
+        };
+        assert_eq!(run(1), run(2));
+        assert_eq!(run(1), (mg, ym));
     }
 }

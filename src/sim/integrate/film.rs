@@ -80,9 +80,23 @@ pub(in crate::sim) fn relax_film_round(
         .for_each(|b| *b = v3::scale(*b, EQUILIBRIUM_DT));
     // Solved in the nodes' tangent planes, assembled once for the solve.
     bufs.tangent.assemble(&op, EQUILIBRIUM_DT);
+    bufs.tangent
+        .set_multigrid(params.film_preconditioner == crate::sim::FilmPreconditioner::Multigrid);
     let mut x = std::mem::take(&mut st.warm);
     let cg = bufs.tangent.solve_nodes(&rhs, &mut x, tol, 10_000);
     phase.cg_iterations += cg.iterations;
+    let solves = &mut report.film_solves;
+    let t = &bufs.tangent;
+    solves.preconditioner = params.film_preconditioner.name();
+    solves.solves += 1;
+    solves.builds = t.builds;
+    [solves.setup_seconds, solves.solve_seconds] = t.seconds;
+    if let Some(mg) = t.multigrid() {
+        let levels = mg.stats().levels;
+        if levels.first().map(|l| l.0) > solves.levels.first().map(|l| l[0]) {
+            solves.levels = levels.iter().map(|&(n, b, m)| [n, b, m]).collect();
+        }
+    }
     if !cg.converged {
         report.cg_unconverged += 1;
     }

@@ -1,0 +1,82 @@
+//! The multigrid's coarsest level, solved directly.
+
+use super::{Rows, V2};
+
+/// A Cholesky factor of the coarsest level over its unknowns (a pivot
+/// that vanishes drops its unknown, left at zero).
+pub(super) struct Dense {
+    /// Lower factor, row-major `m x m` (`m` twice the nodes).
+    l: Vec<f64>,
+    dropped: Vec<bool>,
+}
+
+impl Dense {
+    /// The factor of `a` (exactly symmetric).
+    pub(super) fn new(a: Rows<'_>) -> Dense {
+        let m = 2 * a.n();
+        let mut l = vec![0.0; m * m];
+        for i in 0..a.n() {
+            for k in a.range(i) {
+                let j = a.cols[k] as usize;
+                let b = &a.blocks[k];
+                for (q, v) in b.iter().enumerate() {
+                    l[(2 * i + q / 2) * m + 2 * j + q % 2] = *v;
+                }
+            }
+        }
+        let scale = (0..m).map(|i| l[i * m + i]).fold(0.0, f64::max);
+        let mut dropped = vec![false; m];
+        for j in 0..m {
+            let mut d = l[j * m + j];
+            for k in 0..j {
+                d -= l[j * m + k] * l[j * m + k];
+            }
+            if d.is_nan() || d <= 1e-12 * scale {
+                dropped[j] = true;
+                for i in j..m {
+                    l[i * m + j] = 0.0;
+                }
+                continue;
+            }
+            let d = d.sqrt();
+            l[j * m + j] = d;
+            for i in j + 1..m {
+                let mut x = l[i * m + j];
+                for k in 0..j {
+                    x -= l[i * m + k] * l[j * m + k];
+                }
+                l[i * m + j] = x / d;
+            }
+        }
+        Dense { l, dropped }
+    }
+
+    /// `x = A^-1 b`.
+    pub(super) fn solve(&self, b: &[V2], x: &mut [V2]) {
+        let m = self.dropped.len();
+        let l = &self.l;
+        let mut y: Vec<f64> = b.iter().flat_map(|v| *v).collect();
+        for i in 0..m {
+            if self.dropped[i] {
+                y[i] = 0.0;
+                continue;
+            }
+            for k in 0..i {
+                y[i] -= l[i * m + k] * y[k];
+            }
+            y[i] /= l[i * m + i];
+        }
+        for i in (0..m).rev() {
+            if self.dropped[i] {
+                continue;
+            }
+            for k in i + 1..m {
+                y[i] -= l[k * m + i] * y[k];
+            }
+            y[i] /= l[i * m + i];
+        }
+        for (n, v) in x.iter_mut().enumerate() {
+            *v = [y[2 * n], y[2 * n + 1]];
+        }
+    }
+}
