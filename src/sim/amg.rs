@@ -206,38 +206,47 @@ impl Multigrid {
     /// with `basis[n]` node `n`'s tangent basis (the two unknowns' directions
     /// in space; zero for a fixed node).
     pub fn new(a: Rows<'_>, basis: &[[[f64; 3]; 2]]) -> Multigrid {
-        let fine = setup::symmetric(a);
-        let mut levels = vec![level(&fine)];
+        // The finest level's rows are the caller's: the cycle's copy is
+        // made symmetric as it is rounded, the setup reads them as they are.
+        let mut levels = vec![level(a)];
         let mut transfers = Vec::new();
         let mut frames = setup::Frames {
             e: basis.to_vec(),
             t: basis.to_vec(),
         };
-        let mut current = fine;
+        let mut current: Option<Owned<Block>> = None;
         let mut theta = setup::THETA;
-        while current.n() > COARSEST_NODES && levels.len() < MAX_LEVELS {
-            let Some(c) = setup::coarsen(current.rows(), &frames, theta) else {
-                break;
-            };
-            if c.coarse.n() == 0 || c.coarse.n() * 10 > current.n() * 9 {
+        loop {
+            let rows = current.as_ref().map_or(a, |c| c.rows());
+            if rows.n() <= COARSEST_NODES || levels.len() >= MAX_LEVELS {
                 break;
             }
-            levels.push(level(&c.coarse));
+            let Some(c) = setup::coarsen(rows, &frames, theta) else {
+                break;
+            };
+            if c.coarse.n() == 0 || c.coarse.n() * 10 > rows.n() * 9 {
+                break;
+            }
+            levels.push(level(c.coarse.rows()));
             transfers.push(c.transfer);
             frames = c.frames;
-            current = c.coarse;
+            current = Some(c.coarse);
             theta *= 0.5;
         }
-        let coarsest = if current.n() <= COARSEST_NODES * 2 {
-            Coarsest::Dense(Dense::new(current.rows()))
+        // The factor reads only the lower triangle: symmetric by making.
+        let rows = current.as_ref().map_or(a, |c| c.rows());
+        let coarsest = if rows.n() <= COARSEST_NODES * 2 {
+            Coarsest::Dense(Dense::new(rows))
         } else {
             Coarsest::Sweeps
         };
+        // The finest level's right-hand side and solution are the caller's.
         let work = levels
             .iter()
-            .map(|l| {
+            .enumerate()
+            .map(|(i, l)| {
                 let n = l.rows.n();
-                std::array::from_fn(|_| vec![[0.0; 2]; n])
+                std::array::from_fn(|s| vec![[0.0; 2]; if i == 0 && s < 2 { 0 } else { n }])
             })
             .collect();
         Multigrid {
@@ -261,7 +270,8 @@ impl Multigrid {
                     .get(i)
                     .map(|t| t.p.bytes() + t.rt_offsets.len() * 4 + t.rt.len() * 8)
                     .unwrap_or(0);
-                let bytes = l.rows.bytes() + n * 24 + transfer + n * 4 * 16;
+                let vectors: usize = self.work[i].iter().map(|v| v.len() * 16).sum();
+                let bytes = l.rows.bytes() + n * 24 + transfer + vectors;
                 (n, l.rows.blocks.len(), bytes)
             })
             .collect();
@@ -280,12 +290,21 @@ impl Multigrid {
     }
 }
 
-/// A level's cycle rows and smoother.
-fn level(a: &Owned<Block>) -> Level {
+/// A level's cycle rows (exactly symmetric, in single precision) and
+/// smoother.
+fn level(a: Rows<'_>) -> Level {
+    let blocks = (0..a.n())
+        .into_par_iter()
+        .with_min_len(MIN_LEN)
+        .flat_map_iter(|i| {
+            a.range(i)
+                .map(move |k| setup::mirrored(a, i, k).map(|v| v as f32))
+        })
+        .collect();
     let rows = Owned {
-        offsets: a.offsets.clone(),
-        cols: a.cols.clone(),
-        blocks: a.blocks.iter().map(|b| b.map(|v| v as f32)).collect(),
+        offsets: a.offsets.to_vec(),
+        cols: a.cols.to_vec(),
+        blocks,
     };
     let smoother = (0..rows.n())
         .into_par_iter()
@@ -334,8 +353,7 @@ fn cycle(
         }
         return;
     }
-    x.iter_mut().for_each(|v| *v = [0.0; 2]);
-    sweep(level, b, x, old, false);
+    sweep_from_zero(level, b, x);
     residual(level, b, x, r);
     let t = &transfers[0];
     let [bc, xc, ..] = &mut rest[0];
@@ -361,7 +379,17 @@ fn cycle(
 fn sweep(level: &Level, b: &[V2], x: &mut [V2], old: &mut Vec<V2>, backward: bool) {
     old.clear();
     old.extend_from_slice(x);
-    let old: &[V2] = old;
+    sweep_from(level, b, x, old, backward);
+}
+
+/// [`sweep`] from `x` = 0: nothing outside a chunk to read.
+fn sweep_from_zero(level: &Level, b: &[V2], x: &mut [V2]) {
+    x.iter_mut().for_each(|v| *v = [0.0; 2]);
+    sweep_from(level, b, x, &[], false);
+}
+
+/// [`sweep`] with the starting values `old` (empty: zero).
+fn sweep_from(level: &Level, b: &[V2], x: &mut [V2], old: &[V2], backward: bool) {
     let rows = &level.rows;
     x.par_chunks_mut(SMOOTH_CHUNK)
         .enumerate()
@@ -375,7 +403,7 @@ fn sweep(level: &Level, b: &[V2], x: &mut [V2], old: &mut Vec<V2>, backward: boo
                     let y = if (start..end).contains(&j) {
                         xs[j - start]
                     } else {
-                        old[j]
+                        old.get(j).copied().unwrap_or([0.0; 2])
                     };
                     let v = mul32(&rows.blocks[k], y);
                     acc = [acc[0] - v[0], acc[1] - v[1]];

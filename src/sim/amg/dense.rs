@@ -11,7 +11,7 @@ pub(super) struct Dense {
 }
 
 impl Dense {
-    /// The factor of `a` (exactly symmetric).
+    /// The factor of `a` (its lower triangle: the upper one is not read).
     pub(super) fn new(a: Rows<'_>) -> Dense {
         let m = 2 * a.n();
         let mut l = vec![0.0; m * m];

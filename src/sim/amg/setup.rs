@@ -94,25 +94,27 @@ fn build_rows<B: Send + Copy>(
     out
 }
 
-/// `a` made exactly symmetric: each block and its mirror's transpose
-/// averaged (a block without a mirror kept).
+/// Block `k` (in row `i`) averaged with its mirror's transpose (kept as
+/// it is without a mirror): the same numbers, bit for bit, as the mirror's
+/// own average transposed.
+pub(super) fn mirrored(a: Rows<'_>, i: usize, k: usize) -> Block {
+    let j = a.cols[k] as usize;
+    let blk = &a.blocks[k];
+    match a.range(j).find(|&m| a.cols[m] as usize == i) {
+        Some(m) => {
+            let t = transpose(&a.blocks[m]);
+            std::array::from_fn(|q| 0.5 * (blk[q] + t[q]))
+        }
+        None => *blk,
+    }
+}
+
+/// `a` made exactly symmetric (each block [`mirrored`]).
 pub(super) fn symmetric(a: Rows<'_>) -> Owned<Block> {
     let blocks = (0..a.n())
         .into_par_iter()
         .with_min_len(MIN_LEN)
-        .flat_map_iter(|i| {
-            a.range(i).map(move |k| {
-                let j = a.cols[k] as usize;
-                let blk = &a.blocks[k];
-                match a.range(j).find(|&m| a.cols[m] as usize == i) {
-                    Some(m) => {
-                        let t = transpose(&a.blocks[m]);
-                        std::array::from_fn(|q| 0.5 * (blk[q] + t[q]))
-                    }
-                    None => *blk,
-                }
-            })
-        })
+        .flat_map_iter(|i| a.range(i).map(move |k| mirrored(a, i, k)))
         .collect();
     Owned {
         offsets: a.offsets.to_vec(),
