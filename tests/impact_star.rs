@@ -469,6 +469,19 @@ fn first_hit_from_positive(tris: &[measure::Tri], k: usize, line: [f64; 3]) -> O
     })
 }
 
+/// Where the crate's default hit should land, found here independently:
+/// the first surface point on the line through the middle of the box,
+/// coming from the positive side of axis `axis`.
+fn default_hit(tris: &[measure::Tri], axis: usize) -> [f64; 3] {
+    let (lo, hi) = measure::bounds(tris.iter().flatten());
+    let mut line = [0.0; 3];
+    for i in 0..3 {
+        line[i] = 0.5 * (lo[i] + hi[i]);
+    }
+    line[axis] = hi[axis];
+    first_hit_from_positive(tris, axis, line).expect("the line meets the asset")
+}
+
 /// With no point given the hit lands where a curved asset faces the
 /// viewer, not on its highest point: on the teapot's body (from +z, the
 /// thinner horizontal side; it was the lid's knob) and on spot's flank
@@ -487,12 +500,7 @@ fn on_a_curved_asset_the_default_hit_lands_where_it_faces_the_viewer() {
         let tris = measure::read_model(&input).triangles(|_| true);
         let (lo, hi) = measure::bounds(tris.iter().flatten());
         let diag = d3(lo, hi);
-        let mut line = [0.0; 3];
-        for i in 0..3 {
-            line[i] = 0.5 * (lo[i] + hi[i]);
-        }
-        line[axis] = hi[axis];
-        let hit = first_hit_from_positive(&tris, axis, line).expect("the line meets the asset");
+        let hit = default_hit(&tris, axis);
         let out = dir.path().join(format!("{name}.glb"));
         common::crack_lines(&input, &out, "glass-impact", &[]);
         let lines = measure::read_model(&out).rest_lines("crack_lines");
@@ -593,12 +601,7 @@ fn on_curved_assets_the_star_holds_along_the_surface() {
         };
         let tris = measure::read_model(&input).triangles(|_| true);
         let (lo, hi) = measure::bounds(tris.iter().flatten());
-        let mut line = [0.0; 3];
-        for i in 0..3 {
-            line[i] = 0.5 * (lo[i] + hi[i]);
-        }
-        line[axis] = hi[axis];
-        let hit = first_hit_from_positive(&tris, axis, line).expect("the line meets the asset");
+        let hit = default_hit(&tris, axis);
         let surface = measure::SurfaceDistance::new(&tris, hit, 5);
         let radius = 0.25 * d3(lo, hi); // the preset's radius_relative
         for seed in 1..=3 {
