@@ -24,30 +24,7 @@ impl Dense {
                 }
             }
         }
-        let scale = (0..m).map(|i| l[i * m + i]).fold(0.0, f64::max);
-        let mut dropped = vec![false; m];
-        for j in 0..m {
-            let mut d = l[j * m + j];
-            for k in 0..j {
-                d -= l[j * m + k] * l[j * m + k];
-            }
-            if d.is_nan() || d <= 1e-12 * scale {
-                dropped[j] = true;
-                for i in j..m {
-                    l[i * m + j] = 0.0;
-                }
-                continue;
-            }
-            let d = d.sqrt();
-            l[j * m + j] = d;
-            for i in j + 1..m {
-                let mut x = l[i * m + j];
-                for k in 0..j {
-                    x -= l[i * m + k] * l[j * m + k];
-                }
-                l[i * m + j] = x / d;
-            }
-        }
+        let dropped = crate::math::cholesky_dropping(&mut l, m);
         Dense { l, dropped }
     }
 

@@ -55,30 +55,7 @@ impl Dense {
                 a[j * m + i] = s;
             }
         }
-        let scale = (0..m).map(|i| a[i * m + i]).fold(0.0, f64::max);
-        let mut dropped = vec![false; m];
-        for j in 0..m {
-            let mut d = a[j * m + j];
-            for k in 0..j {
-                d -= a[j * m + k] * a[j * m + k];
-            }
-            if d <= 1e-12 * scale {
-                dropped[j] = true;
-                for i in j..m {
-                    a[i * m + j] = 0.0;
-                }
-                continue;
-            }
-            let d = d.sqrt();
-            a[j * m + j] = d;
-            for i in j + 1..m {
-                let mut x = a[i * m + j];
-                for k in 0..j {
-                    x -= a[i * m + k] * a[j * m + k];
-                }
-                a[i * m + j] = x / d;
-            }
-        }
+        let dropped = crate::math::cholesky_dropping(&mut a, m);
         Dense {
             dofs,
             l: a,
