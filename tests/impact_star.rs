@@ -540,7 +540,9 @@ fn on_a_curved_asset_the_default_hit_lands_where_it_faces_the_viewer() {
 /// UV sphere of 60 x 30 (as a DCC tool makes it), from a point off the
 /// grid, from a fifth of the radius to the far side: within 0.6% of the
 /// great circle's on average and 2.5% at worst (1.9% measured, in the
-/// slivers of the poles' fans; 7% with 3 points per edge instead of 5).
+/// slivers of the poles' fans; 7% with 3 points per edge instead of 5);
+/// crack pieces along great circles from the point are radial and along
+/// circles around it concentric.
 #[test]
 fn the_measure_s_distance_along_a_sphere_is_the_great_circle() {
     let tris = measure::parse_obj(&shapes::latlong_sphere(60, 30));
@@ -567,6 +569,48 @@ fn the_measure_s_distance_along_a_sphere_is_the_great_circle() {
         "relative error: mean {}, worst {worst}",
         sum / n
     );
+    // Great circles from the source are radial, circles around it concentric,
+    // in pieces of 0.05 (a crack line's segment is a fraction of a cell).
+    let e1 = {
+        let t = [source[1], -source[0], 0.0];
+        let l = d3(t, [0.0; 3]);
+        t.map(|x| x / l)
+    };
+    let e2 = [
+        source[1] * e1[2] - source[2] * e1[1],
+        source[2] * e1[0] - source[0] * e1[2],
+        source[0] * e1[1] - source[1] * e1[0],
+    ];
+    let at = |a: f64, t: f64| {
+        [0, 1, 2].map(|i| a.cos() * source[i] + a.sin() * (t.cos() * e1[i] + t.sin() * e2[i]))
+    };
+    let step = 0.05;
+    let rays: Vec<[[f64; 3]; 2]> = (0..12)
+        .flat_map(|k| {
+            let t = 0.1 + k as f64 * std::f64::consts::TAU / 12.0;
+            (0..32).map(move |i| [i as f64 * step, (i + 1) as f64 * step, t])
+        })
+        .map(|[a, b, t]| [at(a, t), at(b, t)])
+        .collect();
+    let rings: Vec<[[f64; 3]; 2]> = [0.3f64, 0.5, 0.7, 0.9]
+        .into_iter()
+        .flat_map(|a| {
+            let n = (std::f64::consts::TAU * a.sin() / step) as usize;
+            let dt = std::f64::consts::TAU / n as f64;
+            (0..n).map(move |i| [at(a, i as f64 * dt), at(a, (i + 1) as f64 * dt)])
+        })
+        .collect();
+    let radial = measure::impact_stats_on_surface(&rays, &surface, 1.0)["radial_share_0.2_0.8"]
+        .as_f64()
+        .unwrap();
+    let concentric = measure::impact_stats_on_surface(&rings, &surface, 1.0)
+        ["concentric_share_0.2_0.8"]
+        .as_f64()
+        .unwrap();
+    assert!(
+        radial > 0.98 && concentric > 0.98,
+        "great circles {radial} radial, circles {concentric} concentric"
+    );
     // The area between two distances is the sphere's zone, 2 pi (cos a - cos b).
     let zone = surface.area_between(0.5, 1.0);
     let exact = std::f64::consts::TAU * (0.5f64.cos() - 1.0f64.cos());
@@ -576,18 +620,37 @@ fn the_measure_s_distance_along_a_sphere_is_the_great_circle() {
     );
 }
 
+/// `crackle stats FILE --json --impact HIT --radius R`'s impact section.
+fn crackle_stats_impact(file: &std::path::Path, hit: [f64; 3], radius: f64) -> serde_json::Value {
+    let (hit, radius) = (
+        format!("{},{},{}", hit[0], hit[1], hit[2]),
+        radius.to_string(),
+    );
+    let o = common::run_ok([
+        "stats".as_ref(),
+        file.as_os_str(),
+        "--json".as_ref(),
+        "--impact".as_ref(),
+        hit.as_ref(),
+        "--radius".as_ref(),
+        radius.as_ref(),
+    ]);
+    let s: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    s["impact"].clone()
+}
+
 /// On curved assets the star is measured along the surface: distances from
 /// the default hit (the teapot's body from +z, spot's flank from +x) along
 /// the input's own surface, so a crack is radial when it runs away from
 /// the hit on the surface, and each band's area is the surface's. Seeds
 /// 1-3. Length per area falls to under half from the hit to 0.6-0.9 R,
 /// nothing lies beyond 1.1 R but stray tips, and a star of rays crosses
-/// half the radius. The radial share (0.65) and fullest band
-/// (0.10) hold on the plates but not here: over seeds 1-8 the radial share
-/// is 0.55-0.67 on the teapot and 0.54-0.69 on spot, the fullest band up
-/// to 0.137 and 0.101 (the rays wander by 30-60 degrees over a fifth of
-/// their length past 0.6 R, where a plate's run straight); the bounds
-/// below guard those.
+/// half the radius; `crackle stats --impact` finds the same radial share
+/// (within 0.05, along the surface) on seed 1. Over seeds 1-8 the radial
+/// share is 0.63-0.86 on the teapot (mean 0.72) and 0.63-0.80 on spot
+/// (mean 0.71), the fullest band 0.087-0.131 and 0.074-0.100: the issue's
+/// 0.65 and 0.10 hold on most seeds, not all (3 and 4 of 16 miss); the
+/// bounds below guard what holds on every seed.
 #[test]
 fn on_curved_assets_the_star_holds_along_the_surface() {
     let dir = tempfile::tempdir().unwrap();
@@ -615,8 +678,18 @@ fn on_curved_assets_the_star_holds_along_the_surface() {
             let rays = s["radial_crossings_0.5"].as_u64().unwrap();
             let (radial, band) = (get("radial_share_0.2_0.8"), get("max_band_share_0.05"));
             let beyond = get("share_beyond_1.1");
-            if radial < 0.5
-                || band > 0.15
+            if seed == "1" {
+                // `crackle stats --impact` measures along the surface too.
+                let stats = crackle_stats_impact(&out, hit, radius);
+                let share = stats["radial_share_mid"].as_f64().unwrap();
+                if stats["along_surface"] != true || (share - radial).abs() > 0.05 {
+                    failures.push(format!(
+                        "{name} seed 1: crackle stats {stats}\nagainst radial {radial:.3}"
+                    ));
+                }
+            }
+            if radial < 0.6
+                || band > 0.135
                 || fall > 0.5
                 || beyond > 0.06
                 || !(6..=14).contains(&rays)

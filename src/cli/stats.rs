@@ -108,6 +108,14 @@ fn print_impact(h: &ImpactStats) {
         c[0], c[1], c[2], h.radius
     );
     println!(
+        "  distances             {}",
+        if h.along_surface {
+            "along the surface"
+        } else {
+            "straight (the surface does not carry them)"
+        }
+    );
+    println!(
         "  radial share          {:.3} of the length from 0.2 to 0.8 radii",
         h.radial_share_mid
     );
@@ -129,6 +137,9 @@ fn print_impact(h: &ImpactStats) {
         );
     }
     println!("    beyond              {:.4}", h.beyond);
+    if h.unreached > 0.0 {
+        println!("    out of reach        {:.4}", h.unreached);
+    }
 }
 
 /// `X,Y,Z` as a point.

@@ -1243,8 +1243,12 @@ pub fn impact_stats_on_surface(lines: &[Seg], surface: &SurfaceDistance, radius:
 }
 
 /// The impact measure with distance from the hit `d` and the area between two distances
-/// `area(a, b)`: each segment cut in 64 pieces, a piece radial when its distance changes by at
-/// least cos 30 of its length, concentric when by at most sin 30.
+/// `area(a, b)`: each segment cut in 64 pieces binned by their middles' distances; a segment
+/// (a straight piece of crack, a fraction of a cell) radial when its distance changes by at
+/// least cos 30 of its length, concentric when by at most sin 30. (Judged per piece, the
+/// surface distance's own wobble between its graph's points read as direction: great circles
+/// from the hit on a UV sphere of 400 x 200 measured 0.89-0.91 radial, its geodesic circles
+/// 0.92 concentric; per segment 1.0 and 1.0.)
 fn impact_stats_by(
     lines: &[Seg],
     radius: f64,
@@ -1263,6 +1267,7 @@ fn impact_stats_by(
     let pieces = 64;
     for s in lines {
         let mut dp = d(s[0]);
+        let whole = ((d(s[1]) - dp) / seg_len(s)).abs();
         for k in 0..pieces {
             let p = lerp(s[0], s[1], k as f64 / pieces as f64);
             let q = lerp(s[0], s[1], (k + 1) as f64 / pieces as f64);
@@ -1284,10 +1289,9 @@ fn impact_stats_by(
                 continue;
             }
             len[bi] += l;
-            let c = ((d1 - d0) / l).abs();
-            if c >= cos30 {
+            if whole >= cos30 {
                 radial[bi] += l;
-            } else if c <= sin30 {
+            } else if whole <= sin30 {
                 conc[bi] += l;
             }
         }
