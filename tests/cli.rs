@@ -1097,3 +1097,33 @@ fn a_run_that_forms_no_crack_says_why() {
     assert!(o.status.success());
     assert!(!String::from_utf8_lossy(&o.stderr).contains("no crack formed"));
 }
+
+/// The memory budget checked before remeshing counts the film's multigrid
+/// hierarchy when it is asked for: the same cell size over a small budget
+/// is refused at 1,024 bytes a triangle with Jacobi and 1,344 with
+/// multigrid, before any work and with no output.
+#[test]
+fn the_memory_budget_counts_the_film_s_multigrid() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out.glb");
+    let refusal = |extra: &[&str]| {
+        let mut args: Vec<std::ffi::OsString> = vec![
+            "crack".into(),
+            common::fixture("plate_jittered.obj").into(),
+            out.clone().into(),
+            "--preset".into(),
+            "glaze".into(),
+            "--max-memory".into(),
+            "1M".into(),
+        ];
+        args.extend(extra.iter().map(|a| a.into()));
+        let o = common::run(&args);
+        assert_eq!(o.status.code(), Some(2));
+        assert!(!out.exists());
+        String::from_utf8_lossy(&o.stderr).into_owned()
+    };
+    let jacobi = refusal(&[]);
+    let multigrid = refusal(&["--set", "simulation.film_preconditioner=multigrid"]);
+    assert!(jacobi.contains("at 1024 bytes each"), "{jacobi}");
+    assert!(multigrid.contains("at 1344 bytes each"), "{multigrid}");
+}
