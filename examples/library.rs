@@ -30,7 +30,7 @@ fn go() -> crackle::Result<()> {
         .next()
         .map(PathBuf::from)
         .unwrap_or_else(|| std::env::temp_dir().join("crackle-library-example"));
-    std::fs::create_dir_all(&folder).map_err(|e| crackle::io::IoError::io(&folder, e))?;
+    std::fs::create_dir_all(&folder).map_err(|e| crackle::error::IoError::io(&folder, e))?;
     let preset = |name: &str| Pipeline::preset(name, &[]).map_err(crackle::Error::from);
 
     // File to file: read, run, write, as `crackle crack` does.
@@ -50,13 +50,13 @@ fn go() -> crackle::Result<()> {
     );
 
     // In memory: bytes in, bytes out, no file read or written by the library.
-    let bytes = std::fs::read(&output).map_err(|e| crackle::io::IoError::io(&output, e))?;
+    let bytes = std::fs::read(&output).map_err(|e| crackle::error::IoError::io(&output, e))?;
     let mut scene = crackle::read_bytes(&bytes, "cracked.glb")?;
     let config = Config::in_memory(preset("mud")?, "cracked.glb");
     let run = crackle::run(&mut scene, &config, &mut crackle::Quiet)?;
     let glb = crackle::write_bytes(&scene)?;
     let again = folder.join("cracked_twice.glb");
-    std::fs::write(&again, &glb).map_err(|e| crackle::io::IoError::io(&again, e))?;
+    std::fs::write(&again, &glb).map_err(|e| crackle::error::IoError::io(&again, e))?;
     println!(
         "in memory: {} cracks more, {} bytes -> {}",
         run.cracks,

@@ -4,10 +4,10 @@
 //! (ARCHITECTURE.md); [`PipelineError`] is defined here and re-exported by
 //! `pipeline`.
 
-use crate::io::IoError;
-use crate::mesh::MeshError;
-use crate::sim::SimError;
-use crate::stress::texture::TextureError;
+pub use crate::io::IoError;
+pub use crate::mesh::MeshError;
+pub use crate::sim::SimError;
+pub use crate::stress::texture::TextureError;
 use std::path::PathBuf;
 
 mod batch;

@@ -1,8 +1,8 @@
 //! crackle: grow physically plausible surface crack patterns on 3D meshes and
 //! write cracked glTF.
 //!
-//! Pipeline of one asset: read ([`io`]) into a [`scene::Scene`], weld each
-//! crackable mesh into a simulation mesh ([`mesh`]), simulate, write glTF.
+//! Pipeline of one asset: read into a [`scene::Scene`], weld each
+//! crackable mesh into a simulation mesh, simulate, write glTF.
 //! The library does no printing; the binary owns files, progress and exit codes.
 //!
 //! # The front door
@@ -10,8 +10,10 @@
 //! [`read`] or [`read_bytes`] an asset, pick a [`Pipeline`] (a built-in
 //! preset or your own TOML), [`run`] it on the scene, [`write()`] or
 //! [`write_bytes`] the result; or [`crack_file`] does all of it from file to
-//! file. The modules below these are the machinery, public for tools and
-//! tests, and may change between versions.
+//! file. [`scene`] is the data model a run works on, [`error`] every error
+//! by its layer. The machinery below them is private (public only with the
+//! `internals` feature, for the crate's own tests and tools, with no
+//! stability promise).
 //!
 //! ```no_run
 //! use crackle::{Config, Pipeline};
@@ -34,22 +36,40 @@
 //!
 //! `examples/library.rs` runs both ways, file to file and in memory.
 #![warn(missing_docs)]
+// Without `internals` the machinery is private, and what only the crate's
+// own tests and tools reach (re-exports, helpers) is unused from here.
+#![cfg_attr(not(feature = "internals"), allow(dead_code, unused_imports))]
 
-pub mod batch;
-pub mod bridge;
-pub mod compare;
+/// The machinery below the front door: `pub(crate)`, so refactoring it
+/// breaks no user; public with the `internals` feature, which the crate's
+/// own tests, benchmarks and tools turn on (a dev-dependency on itself) and
+/// which carries no stability promise.
+macro_rules! internal {
+    ($($m:ident),* $(,)?) => {
+        $(
+            #[cfg(feature = "internals")]
+            pub mod $m;
+            #[cfg(not(feature = "internals"))]
+            pub(crate) mod $m;
+        )*
+    };
+}
+
+internal!(
+    batch, bridge, compare, geometry, io, math, mesh, pipeline, post, sim, stats, stress, study
+);
+
 pub mod error;
-pub mod geometry;
-pub mod io;
-pub mod math;
-pub mod mesh;
-pub mod pipeline;
-pub mod post;
 pub mod scene;
-pub mod sim;
-pub mod stats;
-pub mod stress;
-pub mod study;
+
+#[cfg(feature = "cli")]
+mod cli;
+
+/// The `crackle` command line on the process's arguments (the binary's
+/// `main`): runs the command and returns its exit code (0 ok, 1 processing
+/// failed, 2 bad usage or configuration).
+#[cfg(feature = "cli")]
+pub use cli::main as command_line;
 
 pub use error::{Error, Result};
 pub use io::gltf_write::WriteSummary;

@@ -10,6 +10,7 @@ use std::path::{Path, PathBuf};
 /// The layers, top first. A module may import from its own layer (without
 /// a cycle) and from any layer below.
 const LAYERS: &[&[&str]] = &[
+    &["cli"],
     &["pipeline", "batch", "study", "compare", "stats", "error"],
     &["post", "sim", "io"],
     &["stress", "geometry", "bridge"],
@@ -132,11 +133,11 @@ fn source_files() -> Vec<(PathBuf, String)> {
         .collect()
 }
 
-/// Top-level module of a library file (`None` for the binary's files).
+/// Top-level module of a library file (`None` for the crate roots).
 fn module_of(rel: &Path) -> Option<String> {
     let first = rel.components().next()?.as_os_str().to_string_lossy();
     let m = first.trim_end_matches(".rs").to_string();
-    (m != "cli" && m != "main" && m != "lib").then_some(m)
+    (m != "main" && m != "lib").then_some(m)
 }
 
 /// Module -> (imported module -> files that import it).
@@ -810,5 +811,45 @@ fn no_error_variant_is_a_bare_string() {
     assert!(
         gone.is_empty(),
         "no longer String variants; remove them from STRING_VARIANTS_LEFT: {gone:?}"
+    );
+}
+
+/// The machinery's modules are private without the `internals` feature
+/// (`internal!` in lib.rs), and the library's example and its front-door
+/// tests reach the crate through the public items only: no
+/// `crackle::<machinery module>` path in them.
+#[test]
+fn the_library_example_uses_the_front_door_only() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let lib = std::fs::read_to_string(root.join("src/lib.rs")).expect("lib.rs");
+    let start = lib
+        .find("internal!(")
+        .expect("the internal! list in lib.rs")
+        + 10;
+    let end = start + lib[start..].find(')').expect("closed");
+    let internal: Vec<&str> = lib[start..end].split(',').map(str::trim).collect();
+    assert!(
+        internal.contains(&"sim") && internal.contains(&"io"),
+        "{internal:?}"
+    );
+    // No machinery module is declared public outside the macro.
+    for m in &internal {
+        assert!(
+            !lib.contains(&format!("\npub mod {m};")),
+            "lib.rs: pub mod {m}"
+        );
+    }
+    let mut wrong = Vec::new();
+    for rel in ["examples/library.rs", "tests/library.rs"] {
+        let text = std::fs::read_to_string(root.join(rel)).expect(rel);
+        for m in &internal {
+            if text.contains(&format!("crackle::{m}::")) {
+                wrong.push(format!("{rel}: crackle::{m}::"));
+            }
+        }
+    }
+    assert!(
+        wrong.is_empty(),
+        "machinery reached from the front door: {wrong:?}"
     );
 }

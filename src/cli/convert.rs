@@ -2,9 +2,9 @@
 //! `--weld`, the round trip every cracking command builds on (read, weld
 //! and repair, write back).
 
+use crate::bridge::{build_sim_meshes, write_back};
+use crate::mesh::WeldOptions;
 use anyhow::Result;
-use crackle::bridge::{build_sim_meshes, write_back};
-use crackle::mesh::WeldOptions;
 use serde_json::json;
 use std::path::Path;
 use std::time::Instant;
@@ -15,11 +15,11 @@ pub fn run(
     weld: Option<&WeldOptions>,
     as_json: bool,
     quiet: bool,
-    read: &crackle::io::ReadOptions,
+    read: &crate::io::ReadOptions,
 ) -> Result<()> {
     super::check_output_format(output)?;
     let t0 = Instant::now();
-    let mut scene = crackle::pipeline::read_crackable(input, read)?;
+    let mut scene = crate::pipeline::read_crackable(input, read)?;
     let t_read = t0.elapsed();
     let t1 = Instant::now();
     let (entries, skipped) = match weld {
@@ -58,7 +58,7 @@ pub fn run(
     }
     let t_weld = t1.elapsed();
     let t2 = Instant::now();
-    let summary = crackle::pipeline::write_output(&scene, output, false)?;
+    let summary = crate::pipeline::write_output(&scene, output, false)?;
     let t_write = t2.elapsed();
     log::info!(
         "read {:.3} s, weld {:.3} s, write {:.3} s",

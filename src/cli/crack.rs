@@ -1,11 +1,11 @@
 //! `crackle crack`: its options (a pipeline plus flags), the progress it
 //! shows, and the summary line; the run itself is
-//! [`crackle::pipeline::crack_file`].
+//! [`crate::pipeline::crack_file`].
 
+use crate::mesh::WeldOptions;
+use crate::pipeline::{Config, Frames, Pipeline};
+use crate::sim::SimParams;
 use anyhow::Result;
-use crackle::mesh::WeldOptions;
-use crackle::pipeline::{Config, Frames, Pipeline};
-use crackle::sim::SimParams;
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 
@@ -169,10 +169,10 @@ impl SimArgs {
         // The rules' keys and `--set` go through the pipeline's TOML; the
         // flags then set their typed fields, except where a `--set` names
         // the same key (it comes last on the command line and wins).
-        let usage = |e: crackle::pipeline::PipelineError| super::UsageError(e.to_string());
+        let usage = |e: crate::pipeline::PipelineError| super::UsageError(e.to_string());
         let text = match (file, preset) {
             (Some(path), _) => {
-                crackle::io::paths::read_config_text(path, "pipeline").map_err(|e| {
+                crate::io::paths::read_config_text(path, "pipeline").map_err(|e| {
                     super::UsageError(format!("{}: cannot read the pipeline: {e}", path.display()))
                 })?
             }
@@ -300,7 +300,7 @@ pub struct CrackArgs<'a> {
     /// `--frames N DIR`.
     pub frames: Option<Frames>,
     /// How the input is read.
-    pub read: crackle::io::ReadOptions,
+    pub read: crate::io::ReadOptions,
 }
 
 /// The progress a run shows: a bar per simulated mesh on a terminal and a
@@ -311,7 +311,7 @@ struct Progress {
     bar: Option<indicatif::ProgressBar>,
 }
 
-impl crackle::pipeline::Observer for Progress {
+impl crate::pipeline::Observer for Progress {
     fn simulate_start(&mut self, mesh: &str, max_rounds: usize) {
         self.bar = self.show.then(|| {
             let b = indicatif::ProgressBar::new(max_rounds as u64);
@@ -354,7 +354,7 @@ impl crackle::pipeline::Observer for Progress {
 pub fn run(a: CrackArgs) -> Result<()> {
     if let Some(p) = a.report {
         for (what, other) in [("input", a.input), ("output", a.output)] {
-            if crackle::io::write::same_file(p, other) {
+            if crate::io::write::same_file(p, other) {
                 anyhow::bail!(
                     "{}: the report would overwrite the {what}; name another file",
                     p.display()
@@ -375,9 +375,9 @@ pub fn run(a: CrackArgs) -> Result<()> {
         bar: None,
     };
     let report =
-        crackle::pipeline::crack_file(config, a.pipeline_dir.as_deref(), false, &mut progress)?;
+        crate::pipeline::crack_file(config, a.pipeline_dir.as_deref(), false, &mut progress)?;
     if let Some(p) = a.report {
-        crackle::io::write::write_atomic(p, &serde_json::to_vec_pretty(&report)?)
+        crate::io::write::write_atomic(p, &serde_json::to_vec_pretty(&report)?)
             .map_err(|e| anyhow::anyhow!("{}: cannot write the report: {e}", p.display()))?;
     }
     if !a.quiet {
@@ -462,7 +462,7 @@ mod tests {
         ]);
         let p = s.pipeline().expect("valid");
         assert_eq!(p.simulation.toughness, 3.0);
-        assert_eq!(p.simulation.integrator, crackle::sim::Integrator::Rkl);
+        assert_eq!(p.simulation.integrator, crate::sim::Integrator::Rkl);
         assert_eq!(p.simulation.cell_size, Some(0.5));
         assert_eq!(p.simulation.cell_size_relative, None);
         assert_eq!(p.simulation.seed, 9);

@@ -1,6 +1,6 @@
-//! `crackle diff`: compare two assets ([`crackle::compare`]) and print the
+//! `crackle diff`: compare two assets ([`crate::compare`]) and print the
 //! result as text or JSON; `--geometry` (with `--same-indices`) compares
-//! only whether b is a's own mesh ([`crackle::compare::Mode::Geometry`]).
+//! only whether b is a's own mesh ([`crate::compare::Mode::Geometry`]).
 
 use anyhow::Result;
 use std::path::Path;
@@ -16,9 +16,9 @@ pub struct DiffArgs<'a> {
     /// Print one JSON object instead of text.
     pub json: bool,
     /// Everything, or only whether b is a's own mesh (`--geometry`).
-    pub mode: crackle::compare::Mode,
+    pub mode: crate::compare::Mode,
     /// How the files are read.
-    pub read: crackle::io::ReadOptions,
+    pub read: crate::io::ReadOptions,
 }
 
 /// Compare `a.a` with `a.b` and print the result on stdout.
@@ -28,7 +28,7 @@ pub struct DiffArgs<'a> {
 /// or a bad tolerance, both with exit code 2 (as `cmp` and `diff` do, so
 /// that 1 always means "the files differ").
 pub fn run(a: DiffArgs) -> Result<bool> {
-    let c = crackle::compare::compare_files_with(a.a, a.b, a.tolerance, a.mode, &a.read)
+    let c = crate::compare::compare_files_with(a.a, a.b, a.tolerance, a.mode, &a.read)
         .map_err(|e| super::UsageError(e.to_string()))?;
     if a.json {
         println!("{}", serde_json::to_string_pretty(&c.to_json(a.a, a.b))?);
@@ -39,10 +39,10 @@ pub fn run(a: DiffArgs) -> Result<bool> {
 }
 
 /// The comparison mode of the `--geometry` and `--same-indices` flags.
-pub fn mode(geometry: bool, same_indices: bool) -> crackle::compare::Mode {
+pub fn mode(geometry: bool, same_indices: bool) -> crate::compare::Mode {
     if geometry {
-        crackle::compare::Mode::Geometry { same_indices }
+        crate::compare::Mode::Geometry { same_indices }
     } else {
-        crackle::compare::Mode::Full
+        crate::compare::Mode::Full
     }
 }

@@ -1,9 +1,9 @@
 //! `crackle info`: scene summary and per-mesh defect report.
 
+use crate::bridge::{build_sim_meshes, mesh_label};
+use crate::mesh::WeldOptions;
+use crate::scene::{Geometry, Scene};
 use anyhow::Result;
-use crackle::bridge::{build_sim_meshes, mesh_label};
-use crackle::mesh::WeldOptions;
-use crackle::scene::{Geometry, Scene};
 use serde_json::json;
 use std::path::Path;
 
@@ -36,9 +36,9 @@ pub fn run(
     input: &Path,
     as_json: bool,
     weld: &WeldOptions,
-    read: &crackle::io::ReadOptions,
+    read: &crate::io::ReadOptions,
 ) -> Result<()> {
-    let scene = crackle::io::read_with(input, read)?;
+    let scene = crate::io::read_with(input, read)?;
     let (entries, skipped) = build_sim_meshes(&scene, weld);
     let instances = |mi: usize| scene.nodes.iter().filter(|n| n.mesh == Some(mi)).count();
     let mut meshes = Vec::new();

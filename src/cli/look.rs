@@ -3,7 +3,7 @@
 //! listed in `--help` before the advanced simulation options.
 
 use super::UsageError;
-use crackle::pipeline::Pipeline;
+use crate::pipeline::Pipeline;
 
 /// The look of the cracks. Each flag is short for the `--set` named in its
 /// help; a `--set` of the same key comes later and wins.
@@ -215,7 +215,7 @@ pub fn summary(p: &Pipeline) -> Vec<String> {
             format!(
                 "{} of the cell size (models without one: {} of the diagonal)",
                 num(post.bake_width_cells),
-                num(crackle::post::BAKE_WIDTH_OF_DIAGONAL)
+                num(crate::post::BAKE_WIDTH_OF_DIAGONAL)
             )
         },
     );

@@ -1,4 +1,7 @@
-//! Commands of the `crackle` binary.
+//! Commands of the `crackle` binary: parses arguments, runs a command, maps
+//! errors to exit codes (0 ok, 1 processing failed, 2 bad usage or
+//! configuration). Inside the library (behind the `cli` feature) so the
+//! commands reach its machinery without making it public.
 
 mod batch;
 mod convert;
@@ -12,6 +15,27 @@ mod study;
 
 use clap::{Parser, Subcommand};
 use std::path::PathBuf;
+use std::process::ExitCode;
+
+/// The `crackle` command line on the process's arguments: the exit code.
+pub fn main() -> ExitCode {
+    let args = match Cli::try_parse() {
+        Ok(a) => a,
+        Err(e) => {
+            let code = if e.use_stderr() { 2 } else { 0 };
+            let _ = e.print();
+            return ExitCode::from(code);
+        }
+    };
+    logger::init(args.verbose, args.quiet);
+    match run(args) {
+        Ok(code) => ExitCode::from(code),
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::from(exit_code(&e))
+        }
+    }
+}
 
 /// Grow surface crack patterns on 3D meshes and write cracked glTF.
 ///
@@ -54,7 +78,7 @@ enum Command {
         #[arg(long)]
         json: bool,
         /// Weld tolerance, relative to each mesh's bounding-box diagonal
-        #[arg(long, value_name = "REL", default_value_t = crackle::mesh::WeldOptions::default().relative_tolerance)]
+        #[arg(long, value_name = "REL", default_value_t = crate::mesh::WeldOptions::default().relative_tolerance)]
         weld_tolerance: f64,
     },
     /// Grow cracks on a mesh and write cracked glTF
@@ -67,7 +91,7 @@ enum Command {
         #[arg(long, value_name = "PATH")]
         report: Option<PathBuf>,
         /// Weld tolerance, relative to each mesh's bounding-box diagonal
-        #[arg(long, value_name = "REL", default_value_t = crackle::mesh::WeldOptions::default().relative_tolerance)]
+        #[arg(long, value_name = "REL", default_value_t = crate::mesh::WeldOptions::default().relative_tolerance)]
         weld_tolerance: f64,
         /// Also write N frames of the crack state through the run into DIR (a time-lapse; runs the simulation twice)
         #[arg(long, num_args = 2, value_names = ["N", "DIR"])]
@@ -92,7 +116,7 @@ enum Command {
         #[arg(long)]
         full: bool,
         /// Weld tolerance, relative to each mesh's bounding-box diagonal
-        #[arg(long, value_name = "REL", default_value_t = crackle::mesh::WeldOptions::default().relative_tolerance)]
+        #[arg(long, value_name = "REL", default_value_t = crate::mesh::WeldOptions::default().relative_tolerance)]
         weld_tolerance: f64,
         #[command(flatten)]
         sim: crack::SimArgs,
@@ -138,7 +162,7 @@ enum Command {
         #[arg(long, value_enum, value_name = "KIND")]
         emit: Option<batch::Emit>,
         /// Weld tolerance, relative to each mesh's bounding-box diagonal
-        #[arg(long, value_name = "REL", default_value_t = crackle::mesh::WeldOptions::default().relative_tolerance)]
+        #[arg(long, value_name = "REL", default_value_t = crate::mesh::WeldOptions::default().relative_tolerance)]
         weld_tolerance: f64,
         #[command(flatten)]
         sim: crack::SimArgs,
@@ -237,14 +261,14 @@ impl From<&str> for UsageError {
 pub fn exit_code(e: &anyhow::Error) -> u8 {
     if e.downcast_ref::<UsageError>().is_some()
         || matches!(
-            e.downcast_ref::<crackle::Error>(),
+            e.downcast_ref::<crate::Error>(),
             Some(
-                crackle::Error::Config { .. }
-                    | crackle::Error::Usage(_)
-                    | crackle::Error::Inputs(_)
-                    | crackle::Error::Rules(_)
-                    | crackle::Error::Pipeline(_)
-                    | crackle::Error::FramesRequest(_)
+                crate::Error::Config { .. }
+                    | crate::Error::Usage(_)
+                    | crate::Error::Inputs(_)
+                    | crate::Error::Rules(_)
+                    | crate::Error::Pipeline(_)
+                    | crate::Error::FramesRequest(_)
             )
         )
     {
@@ -256,7 +280,7 @@ pub fn exit_code(e: &anyhow::Error) -> u8 {
 
 /// `crackle presets [NAME]`: one line per preset, or one preset's TOML.
 fn presets(show: Option<&str>) -> anyhow::Result<()> {
-    use crackle::pipeline::{Pipeline, PRESETS};
+    use crate::pipeline::{Pipeline, PRESETS};
     match show {
         Some(name) => {
             let Some((_, text)) = PRESETS.iter().find(|(n, _)| *n == name) else {
@@ -280,11 +304,11 @@ fn presets(show: Option<&str>) -> anyhow::Result<()> {
     Ok(())
 }
 
-fn weld_options(rel: f64) -> anyhow::Result<crackle::mesh::WeldOptions> {
+fn weld_options(rel: f64) -> anyhow::Result<crate::mesh::WeldOptions> {
     if !(rel.is_finite() && (0.0..0.1).contains(&rel)) {
         return Err(UsageError(format!("--weld-tolerance {rel} must be in [0, 0.1)")).into());
     }
-    Ok(crackle::mesh::WeldOptions {
+    Ok(crate::mesh::WeldOptions {
         relative_tolerance: rel,
     })
 }
@@ -311,7 +335,7 @@ fn parse_size(s: &str) -> Result<u64, UsageError> {
 
 pub fn run(cli: Cli) -> anyhow::Result<u8> {
     let quiet = cli.quiet;
-    let read = crackle::io::ReadOptions {
+    let read = crate::io::ReadOptions {
         max_memory: cli.max_memory,
     };
     match cli.command {
@@ -374,7 +398,7 @@ pub fn run(cli: Cli) -> anyhow::Result<u8> {
     run_other(cli.command, quiet, &read).map(|()| 0)
 }
 
-fn run_other(command: Command, quiet: bool, read: &crackle::io::ReadOptions) -> anyhow::Result<()> {
+fn run_other(command: Command, quiet: bool, read: &crate::io::ReadOptions) -> anyhow::Result<()> {
     match command {
         Command::Batch { .. } | Command::Diff { .. } => unreachable!("handled by run"),
         Command::Info {
@@ -414,7 +438,7 @@ fn run_other(command: Command, quiet: bool, read: &crackle::io::ReadOptions) -> 
                 quiet,
                 read: *read,
                 frames: frames
-                    .map(|v| crackle::pipeline::Frames::parse(&v))
+                    .map(|v| crate::pipeline::Frames::parse(&v))
                     .transpose()?,
             })
         }
@@ -450,7 +474,7 @@ fn run_other(command: Command, quiet: bool, read: &crackle::io::ReadOptions) -> 
             match (weld, weld_tolerance) {
                 (false, None) => None,
                 (_, rel) => Some(weld_options(
-                    rel.unwrap_or(crackle::mesh::WeldOptions::default().relative_tolerance),
+                    rel.unwrap_or(crate::mesh::WeldOptions::default().relative_tolerance),
                 )?),
             }
             .as_ref(),
@@ -464,9 +488,9 @@ fn run_other(command: Command, quiet: bool, read: &crackle::io::ReadOptions) -> 
 /// A usage error unless `output` names a format crackle writes (.gltf or
 /// .glb), checked before any work.
 pub(crate) fn check_output_format(output: &std::path::Path) -> Result<(), UsageError> {
-    crackle::io::Format::from_path(output)
+    crate::io::Format::from_path(output)
         .ok()
-        .filter(|f| *f != crackle::io::Format::Obj)
+        .filter(|f| *f != crate::io::Format::Obj)
         .map(|_| ())
         .ok_or_else(|| {
             UsageError(format!(

@@ -1,7 +1,7 @@
 //! `crackle stats`: the statistics of a crack pattern in an output file.
 
+use crate::stats::{impact_stats, pattern_stats, ImpactStats, PatternInput, ReferenceEdges};
 use anyhow::{Context, Result};
-use crackle::stats::{impact_stats, pattern_stats, ImpactStats, PatternInput, ReferenceEdges};
 use std::path::Path;
 
 pub fn run(
@@ -9,15 +9,14 @@ pub fn run(
     input: Option<&Path>,
     as_json: bool,
     impact: Option<([f64; 3], f64)>,
-    read: &crackle::io::ReadOptions,
+    read: &crate::io::ReadOptions,
 ) -> Result<()> {
     if let Some((_, r)) = impact {
         if !(r.is_finite() && r > 0.0) {
             anyhow::bail!("--radius must be a positive number, got {r}");
         }
     }
-    let scene =
-        crackle::io::read_with(file, read).with_context(|| format!("{}", file.display()))?;
+    let scene = crate::io::read_with(file, read).with_context(|| format!("{}", file.display()))?;
     let pattern = PatternInput::from_scene(&scene);
     if pattern.triangles.is_empty() {
         anyhow::bail!("{}: no triangles to measure", file.display());
@@ -27,8 +26,8 @@ pub fn run(
     }
     let reference = match input {
         Some(path) => {
-            let s = crackle::io::read_with(path, read)
-                .with_context(|| format!("{}", path.display()))?;
+            let s =
+                crate::io::read_with(path, read).with_context(|| format!("{}", path.display()))?;
             let p = PatternInput::from_scene(&s);
             Some(ReferenceEdges::new(&p.positions, &p.triangles))
         }
@@ -124,7 +123,7 @@ fn print_impact(h: &ImpactStats) {
         h.crossings_half
     );
     println!("  by distance (radii)   radial  concentric  all  per area");
-    let w = crackle::stats::impact::BAND;
+    let w = crate::stats::impact::BAND;
     for i in 0..h.total.len() {
         println!(
             "    {:.1}-{:.1}            {:.4}  {:.4}  {:.4}  {:.4}",

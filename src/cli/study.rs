@@ -1,26 +1,26 @@
 //! `crackle study`: error against run time for every relaxation integrator
-//! on one mesh and pipeline ([`crackle::study`]).
+//! on one mesh and pipeline ([`crate::study`]).
 //!
 //! Output: a table on stdout; with `--out`, `study.csv`, `study.json`, and
 //! the plot as `study.svg` and `study.png`.
 
-use crackle::pipeline::Config;
-use crackle::study::{Row, StudyOptions, TARGET_ERROR};
+use crate::pipeline::Config;
+use crate::study::{Row, StudyOptions, TARGET_ERROR};
 use serde_json::json;
 use std::path::{Path, PathBuf};
 
 /// Options of the study command.
 pub struct StudyArgs<'a> {
     pub input: &'a Path,
-    pub pipeline: crackle::pipeline::Pipeline,
+    pub pipeline: crate::pipeline::Pipeline,
     pub pipeline_dir: Option<PathBuf>,
     pub out: Option<&'a Path>,
     pub rounds: usize,
     pub repeat: usize,
     pub full: bool,
-    pub weld: crackle::mesh::WeldOptions,
+    pub weld: crate::mesh::WeldOptions,
     /// How the input is read.
-    pub read: crackle::io::ReadOptions,
+    pub read: crate::io::ReadOptions,
 }
 
 /// Run the study and print (and write) its results.
@@ -30,7 +30,7 @@ pub fn run(mut a: StudyArgs) -> anyhow::Result<()> {
             .load_images(a.pipeline_dir.as_deref())
             .map_err(|e| super::UsageError(e.to_string()))?;
     }
-    let scene = crackle::pipeline::read_crackable(a.input, &a.read)?;
+    let scene = crate::pipeline::read_crackable(a.input, &a.read)?;
     let config = Config {
         pipeline: a.pipeline,
         weld: a.weld,
@@ -44,7 +44,7 @@ pub fn run(mut a: StudyArgs) -> anyhow::Result<()> {
         repeat: a.repeat,
         full: a.full,
     };
-    let study = crackle::study::study(&scene, &config, &options)?;
+    let study = crate::study::study(&scene, &config, &options)?;
     let rows = &study.rows;
     let (rounds, rt, h, change) = (
         study.rounds,

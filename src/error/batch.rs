@@ -124,7 +124,7 @@ pub enum RuleError {
     #[error("give preset or pipeline, not both")]
     PresetAndPipeline,
     /// The rule's pipeline cannot be made (the error of the caller's
-    /// [`MakePipeline`](crate::batch::MakePipeline)).
+    /// `MakePipeline`).
     #[error("{0}")]
     Pipeline(Box<dyn std::error::Error + Send + Sync>),
     /// A copy or skip rule with a pipeline.

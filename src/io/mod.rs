@@ -51,8 +51,7 @@ pub const DEFAULT_MAX_MEMORY: u64 = 8 << 30;
 pub struct ReadOptions {
     /// Most bytes one glTF document's decoded accessors may take (the
     /// CLI's `--max-memory`); each document's own budget is also bounded
-    /// by its real size ([`accessor::decode_budget`]). Default
-    /// [`DEFAULT_MAX_MEMORY`].
+    /// by its real size. Default 8 GiB.
     pub max_memory: u64,
 }
 

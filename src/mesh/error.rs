@@ -3,7 +3,7 @@
 use super::ids::{FaceId, HalfedgeId, VertexId};
 
 /// What can go wrong when building, editing or validating a
-/// [`SimMesh`](super::SimMesh).
+/// `SimMesh`.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[non_exhaustive]
 pub enum MeshError {
@@ -56,7 +56,7 @@ pub enum MeshError {
         fault: EditFault,
     },
     /// A mesh invariant does not hold (reported by
-    /// [`SimMesh::validate`](super::SimMesh::validate)).
+    /// `SimMesh::validate`).
     #[error("mesh invariant violated: {0}")]
     Invariant(String),
 }

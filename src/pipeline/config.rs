@@ -193,7 +193,7 @@ pub struct Pipeline {
     /// Mesh selection.
     #[serde(default)]
     pub select: Select,
-    /// Simulation keys (units as in [`SimParams`]; lengths in mean edge
+    /// Simulation keys (units as in the simulation parameters; lengths in mean edge
     /// lengths). Its fixed boundary and groups are not keys here.
     #[serde(default)]
     pub simulation: SimParams,

@@ -198,7 +198,7 @@ fn tear_run(
 /// output's images `<stem>_<name>` (a batch, where outputs share folders).
 ///
 /// # Errors
-/// Those of [`read_crackable`], [`run`] and [`write_output`].
+/// Those of reading the asset, [`run`] and writing the output.
 pub fn crack_file(
     mut config: Config,
     pipeline_dir: Option<&Path>,

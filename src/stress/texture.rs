@@ -58,7 +58,7 @@ pub const SLOTS: [&str; 5] = [
 /// What went wrong while finding, reading or decoding a mask image.
 #[derive(Debug, thiserror::Error)]
 pub enum TextureError {
-    /// The slot name is not one of [`SLOTS`].
+    /// The slot name is not one of the glTF material's five texture slots.
     #[error("unknown texture slot '{slot}' (valid slots: {})", SLOTS.join(", "))]
     UnknownSlot {
         /// The slot asked for.
@@ -96,7 +96,7 @@ pub enum TextureError {
         /// What is wrong.
         reason: String,
     },
-    /// The image declares more pixels than [`MAX_PIXELS`].
+    /// The image declares more pixels than 16384 x 16384.
     #[error("image {image} is {width} x {height} pixels; at most {max} pixels (16384 x 16384) are accepted")]
     TooLarge {
         /// The image.
@@ -105,7 +105,7 @@ pub enum TextureError {
         width: u64,
         /// Declared height.
         height: u64,
-        /// The limit, [`MAX_PIXELS`].
+        /// The limit (16384 x 16384).
         max: u64,
     },
     /// Decoding the image would take more memory than the run's budget

@@ -1,8 +1,8 @@
 //! --emit ninja|make: the batch as a build file, one edge per asset.
 
 use super::*;
+use crate::batch::{canonical_or_lexical, scan_references, source_rel};
 use crate::cli::UsageError;
-use crackle::batch::{canonical_or_lexical, scan_references, source_rel};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 

@@ -11,12 +11,10 @@
 //! Exit codes: 0 every asset succeeded (or was up to date), 1 an asset
 //! failed, 2 bad usage or configuration, 3 nothing to do.
 
+use crate::batch::{self, Action, Asset, Choice, Options, Outcome, PipeSpec, Plan, Status, Triage};
 use crate::cli::crack::SimArgs;
 use crate::cli::UsageError;
-use crackle::batch::{
-    self, Action, Asset, Choice, Options, Outcome, PipeSpec, Plan, Status, Triage,
-};
-use crackle::mesh::WeldOptions;
+use crate::mesh::WeldOptions;
 use std::path::Path;
 
 mod emit;
@@ -61,7 +59,7 @@ pub struct BatchArgs<'a> {
     pub weld: WeldOptions,
     pub quiet: bool,
     /// How inputs are read.
-    pub read: crackle::io::ReadOptions,
+    pub read: crate::io::ReadOptions,
 }
 
 /// `K/N` with 1 <= K <= N.
@@ -229,6 +227,6 @@ fn write_report(
 ) -> anyhow::Result<()> {
     let Some(path) = path else { return Ok(()) };
     let report = batch::BatchReport::new(plan, &options.out, options.shard, outcomes, seconds);
-    crackle::io::write::write_atomic(path, &serde_json::to_vec_pretty(&report)?)
+    crate::io::write::write_atomic(path, &serde_json::to_vec_pretty(&report)?)
         .map_err(|e| anyhow::anyhow!("{}: cannot write the report: {e}", path.display()))
 }
