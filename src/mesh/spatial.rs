@@ -265,6 +265,13 @@ pub(crate) fn closest_on_triangle(p: [f64; 3], t: [[f64; 3]; 3]) -> ([f64; 3], [
     let (a, b, c) = (t[0], t[1], t[2]);
     let ab = sub(b, a);
     let ac = sub(c, a);
+    // A triangle with no area (two corners at one point, or all three on
+    // a line, as at the poles of a modelled surface): the closest point of
+    // its edges, whose divisions below would be 0 / 0.
+    let n = cross(ab, ac);
+    if dot(n, n) <= 1e-24 * dot(ab, ab) * dot(ac, ac) || dot(n, n) == 0.0 {
+        return closest_on_edges(p, t);
+    }
     let ap = sub(p, a);
     let d1 = dot(ab, ap);
     let d2 = dot(ac, ap);
@@ -305,4 +312,60 @@ pub(crate) fn closest_on_triangle(p: [f64; 3], t: [[f64; 3]; 3]) -> ([f64; 3], [
     let v = vb / denom;
     let w = vc / denom;
     (add(a, add(scale(ab, v), scale(ac, w))), [1.0 - v - w, v, w])
+}
+
+/// The closest point to `p` of the three edges of `t` (a triangle with no
+/// area), with its barycentric coordinates (finite; ties to the first edge).
+fn closest_on_edges(p: [f64; 3], t: [[f64; 3]; 3]) -> ([f64; 3], [f64; 3]) {
+    let mut best: Option<(f64, [f64; 3], [f64; 3])> = None;
+    for k in 0..3 {
+        let (i, j) = (k, (k + 1) % 3);
+        let e = sub(t[j], t[i]);
+        let ee = dot(e, e);
+        let s = if ee > 0.0 {
+            (dot(sub(p, t[i]), e) / ee).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        let q = add(t[i], scale(e, s));
+        let mut bary = [0.0; 3];
+        bary[i] = 1.0 - s;
+        bary[j] += s;
+        let d = dist2(p, q);
+        if best.is_none_or(|b| d < b.0) {
+            best = Some((d, q, bary));
+        }
+    }
+    best.map_or((t[0], [1.0, 0.0, 0.0]), |(_, q, bary)| (q, bary))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A triangle with no area gives the closest point of its edges with
+    /// finite barycentric coordinates (two corners at one point made 0 / 0:
+    /// NaN coordinates that stopped `crackle stats` cutting lines into a
+    /// surface).
+    #[test]
+    fn a_triangle_with_no_area_gives_finite_coordinates() {
+        let p = [0.5, 1.0, 0.0];
+        for t in [
+            [[0.0, 0.0, 0.0], [0.0, 0.0, 0.0], [2.0, 0.0, 0.0]],
+            [[2.0, 0.0, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, 0.0]],
+            [[0.0, 0.0, 0.0], [2.0, 0.0, 0.0], [1.0, 0.0, 0.0]],
+            [[1.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 0.0, 0.0]],
+        ] {
+            let (q, bary) = closest_on_triangle(p, t);
+            assert!(bary.iter().all(|b| b.is_finite() && *b >= 0.0), "{t:?}: {bary:?}");
+            assert!((bary.iter().sum::<f64>() - 1.0).abs() < 1e-12, "{bary:?}");
+            let at = (0..3).fold([0.0; 3], |s, k| add(s, scale(t[k], bary[k])));
+            assert!(dist2(at, q) < 1e-24, "{t:?}: {q:?} against {at:?}");
+            let want = if t[0] == t[2] { 1.0 } else { 0.5 };
+            assert!((q[0] - want).abs() < 1e-12 && q[1] == 0.0, "{t:?}: {q:?}");
+        }
+        // A proper triangle as before.
+        let (q, bary) = closest_on_triangle([0.2, 0.2, 1.0], [[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]);
+        assert!(dist2(q, [0.2, 0.2, 0.0]) < 1e-24 && (bary[0] - 0.6).abs() < 1e-12);
+    }
 }
