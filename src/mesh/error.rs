@@ -57,8 +57,174 @@ pub enum MeshError {
     },
     /// A mesh invariant does not hold (reported by
     /// `SimMesh::validate`).
-    #[error("mesh invariant violated: {0}")]
-    Invariant(String),
+    #[error("mesh invariant violated: {fault}")]
+    Invariant {
+        /// The first invariant found broken.
+        fault: InvariantFault,
+    },
+}
+
+/// A broken invariant of the half-edge mesh ([`MeshError::Invariant`]):
+/// an internal fault, never the input's (the input's defects are repaired
+/// or refused before the mesh is built).
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum InvariantFault {
+    /// Not three halfedges per face.
+    #[error("{halfedges} halfedges for {faces} faces")]
+    HalfedgeCount {
+        /// Halfedges.
+        halfedges: usize,
+        /// Faces.
+        faces: usize,
+    },
+    /// A per-element array whose length is not its elements' count.
+    #[error("{array} has {len} entries for {count} {elements}")]
+    ArrayLength {
+        /// The array.
+        array: &'static str,
+        /// Its length.
+        len: usize,
+        /// The elements' count.
+        count: usize,
+        /// Which elements (`halfedges`, `faces`, `vertices`).
+        elements: &'static str,
+    },
+    /// A crack halfedge with a twin.
+    #[error("a crack halfedge has a twin")]
+    CrackTwin,
+    /// The wedges' attribute channels of different lengths.
+    #[error("wedge channel lengths do not match {wedges} wedges")]
+    WedgeChannels {
+        /// Wedges.
+        wedges: usize,
+    },
+    /// More halfedges than ids.
+    #[error("too many halfedges")]
+    TooManyHalfedges,
+    /// A vertex position that is not finite.
+    #[error("vertex {vertex} has non-finite position {position:?}")]
+    NonFinite {
+        /// The vertex.
+        vertex: usize,
+        /// Its position.
+        position: [f64; 3],
+    },
+    /// An id an element holds out of range.
+    #[error("{element} {index} has {field} {value} out of range ({count})")]
+    OutOfRange {
+        /// The holder (`vertex`, `halfedge`).
+        element: &'static str,
+        /// Its index.
+        index: usize,
+        /// The id's field (`outgoing halfedge`, `parent`, `origin`, `wedge`, `twin`).
+        field: &'static str,
+        /// The id.
+        value: u32,
+        /// The count it must be below.
+        count: usize,
+    },
+    /// A face with a vertex twice.
+    #[error("face {face} has repeated vertex: {} {} {}", vertices[0], vertices[1], vertices[2])]
+    RepeatedVertex {
+        /// The face.
+        face: FaceId,
+        /// Its corners.
+        vertices: [VertexId; 3],
+    },
+    /// A halfedge whose `next` does not cycle in three within its face.
+    #[error("halfedge {0}: next^3 != id")]
+    NextCycle(HalfedgeId),
+    /// A halfedge that is its own twin.
+    #[error("halfedge {0} is its own twin")]
+    SelfTwin(HalfedgeId),
+    /// Twins that are not each other's.
+    #[error("twin of {halfedge} is {twin} but twin of {twin} is not {halfedge}")]
+    TwinAsymmetric {
+        /// The halfedge.
+        halfedge: HalfedgeId,
+        /// Its twin.
+        twin: HalfedgeId,
+    },
+    /// Twins that do not run opposite ways along one edge.
+    #[error("halfedge {halfedge} ({} -> {}) and twin {twin} ({} -> {}) not opposite", ends[0], ends[1], twin_ends[0], twin_ends[1])]
+    TwinNotOpposite {
+        /// The halfedge.
+        halfedge: HalfedgeId,
+        /// Its ends.
+        ends: [VertexId; 2],
+        /// Its twin.
+        twin: HalfedgeId,
+        /// The twin's ends.
+        twin_ends: [VertexId; 2],
+    },
+    /// Two halfedges from one vertex to one other.
+    #[error("halfedges h{} and h{} both go from v{from} to v{to}", halfedges[0], halfedges[1])]
+    DuplicateEdge {
+        /// The two halfedges.
+        halfedges: [u32; 2],
+        /// Where they start.
+        from: u32,
+        /// Where they end.
+        to: u32,
+    },
+    /// A vertex's outgoing halfedge that starts elsewhere.
+    #[error("outgoing halfedge {halfedge} of vertex {vertex} leaves {leaves}")]
+    OutgoingElsewhere {
+        /// The vertex.
+        vertex: VertexId,
+        /// Its outgoing halfedge.
+        halfedge: HalfedgeId,
+        /// Where that starts.
+        leaves: VertexId,
+    },
+    /// A vertex with several boundary halfedges leaving it.
+    #[error("vertex {vertex} has {count} boundary outgoing halfedges (several fans)")]
+    SeveralFans {
+        /// The vertex.
+        vertex: VertexId,
+        /// Its boundary outgoing halfedges.
+        count: u32,
+    },
+    /// A boundary vertex whose outgoing halfedge is not the boundary one.
+    #[error("vertex {vertex} is on a boundary but its outgoing halfedge {halfedge} is not")]
+    BoundaryOutgoing {
+        /// The vertex.
+        vertex: VertexId,
+        /// Its outgoing halfedge.
+        halfedge: HalfedgeId,
+    },
+    /// A vertex's fan that reaches a halfedge leaving another vertex.
+    #[error("fan of {vertex} reaches {halfedge} leaving {leaves}")]
+    FanStray {
+        /// The vertex.
+        vertex: VertexId,
+        /// The halfedge reached.
+        halfedge: HalfedgeId,
+        /// Where that starts.
+        leaves: VertexId,
+    },
+    /// A vertex's fan that does not come back to its start.
+    #[error("fan of vertex {0} does not close")]
+    FanOpen(VertexId),
+    /// An interior vertex's fan that ends at a border.
+    #[error("fan of interior vertex {vertex} ends at {halfedge}")]
+    InteriorFanEnds {
+        /// The vertex.
+        vertex: VertexId,
+        /// Where its fan ends.
+        halfedge: HalfedgeId,
+    },
+    /// A vertex whose faces are more than its one fan (non-manifold).
+    #[error("vertex {vertex} has {degree} incident faces but its fan has {fan} (non-manifold)")]
+    NonManifoldFan {
+        /// The vertex.
+        vertex: VertexId,
+        /// Its incident faces.
+        degree: u32,
+        /// Faces in its fan.
+        fan: u32,
+    },
 }
 
 /// An invalid option of a mesh operation ([`MeshError::InvalidOption`]).

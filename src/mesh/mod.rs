@@ -35,6 +35,8 @@ pub use attributes::{Channel, ChannelKind, WedgeAttributes};
 pub use build::{MeshInput, WeldOptions};
 pub use defects::DefectReport;
 pub use edit::{OpenEdgeResult, SplitEdgeResult, SplitFaceResult};
-pub use error::{EditFault, FlipRefusal, MeshError, OptionFault, SkippedSegment, WalkFault};
+pub use error::{
+    EditFault, FlipRefusal, InvariantFault, MeshError, OptionFault, SkippedSegment, WalkFault,
+};
 pub use halfedge::{SimMesh, VertexOutgoing};
 pub use ids::{FaceId, HalfedgeId, VertexId, WedgeId};

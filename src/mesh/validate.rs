@@ -1,13 +1,13 @@
 //! Full invariant check of a [`SimMesh`].
 
-use super::error::MeshError;
+use super::error::{InvariantFault as Fault, MeshError};
 use super::halfedge::SimMesh;
 use super::ids::INVALID;
 
 macro_rules! ensure {
-    ($cond:expr, $($arg:tt)*) => {
+    ($cond:expr, $fault:expr) => {
         if !$cond {
-            return Err(MeshError::Invariant(format!($($arg)*)));
+            return Err(MeshError::Invariant { fault: $fault });
         }
     };
 }
@@ -42,43 +42,42 @@ impl SimMesh {
         let nw = self.wedges.len();
 
         // Lengths.
-        ensure!(nh == 3 * nf, "{nh} halfedges for {nf} faces");
         ensure!(
-            self.he_crack.len() == nh,
-            "he_crack has {} entries for {nh} halfedges",
-            self.he_crack.len()
+            nh == 3 * nf,
+            Fault::HalfedgeCount {
+                halfedges: nh,
+                faces: nf,
+            }
         );
+        let arrays = [
+            ("he_crack", self.he_crack.len(), nh, "halfedges"),
+            ("he_twin", self.he_twin.len(), nh, "halfedges"),
+            ("he_wedge", self.he_wedge.len(), nh, "halfedges"),
+            ("face_source", self.face_source.len(), nf, "faces"),
+            ("vertex_halfedge", self.vertex_halfedge.len(), nv, "vertices"),
+            ("vertex_source", self.vertex_source.len(), nv, "vertices"),
+            ("vertex_parent", self.vertex_parent.len(), nv, "vertices"),
+        ];
+        for (array, len, count, elements) in arrays {
+            ensure!(
+                len == count,
+                Fault::ArrayLength {
+                    array,
+                    len,
+                    count,
+                    elements,
+                }
+            );
+        }
         ensure!(
             (0..nh).all(|h| !self.he_crack[h] || self.he_twin[h] == INVALID),
-            "a crack halfedge has a twin"
-        );
-        ensure!(
-            self.he_twin.len() == nh && self.he_wedge.len() == nh,
-            "halfedge arrays have lengths {} {} {}",
-            nh,
-            self.he_twin.len(),
-            self.he_wedge.len()
-        );
-        ensure!(
-            self.face_source.len() == nf,
-            "face_source has {} entries for {nf} faces",
-            self.face_source.len()
-        );
-        ensure!(
-            self.vertex_halfedge.len() == nv
-                && self.vertex_source.len() == nv
-                && self.vertex_parent.len() == nv,
-            "vertex arrays have lengths {} {} {} {}",
-            nv,
-            self.vertex_halfedge.len(),
-            self.vertex_source.len(),
-            self.vertex_parent.len()
+            Fault::CrackTwin
         );
         ensure!(
             self.wedges.is_consistent(),
-            "wedge channel lengths do not match {nw} wedges"
+            Fault::WedgeChannels { wedges: nw }
         );
-        ensure!(nh < INVALID as usize, "too many halfedges");
+        ensure!(nh < INVALID as usize, Fault::TooManyHalfedges);
         Ok(())
     }
 
@@ -93,35 +92,37 @@ impl SimMesh {
         for (v, p) in self.positions.iter().enumerate() {
             ensure!(
                 p.iter().all(|x| x.is_finite()),
-                "vertex {v} has non-finite position {p:?}"
+                Fault::NonFinite {
+                    vertex: v,
+                    position: *p,
+                }
             );
+            let range = |field, value: u32, count| Fault::OutOfRange {
+                element: "vertex",
+                index: v,
+                field,
+                value,
+                count,
+            };
             let o = self.vertex_halfedge[v];
-            ensure!(
-                (o as usize) < nh,
-                "vertex {v} has no valid outgoing halfedge ({o})"
-            );
-            ensure!(
-                (self.vertex_parent[v] as usize) < nv,
-                "vertex {v} has parent {} out of range",
-                self.vertex_parent[v]
-            );
+            ensure!((o as usize) < nh, range("outgoing halfedge", o, nh));
+            let parent = self.vertex_parent[v];
+            ensure!((parent as usize) < nv, range("parent", parent, nv));
         }
         for h in 0..nh {
+            let range = |field, value: u32, count| Fault::OutOfRange {
+                element: "halfedge",
+                index: h,
+                field,
+                value,
+                count,
+            };
             let o = self.he_origin[h];
-            ensure!(
-                (o as usize) < nv,
-                "halfedge {h} has origin {o} out of range"
-            );
+            ensure!((o as usize) < nv, range("origin", o, nv));
             let w = self.he_wedge[h];
-            ensure!(
-                (w as usize) < nw,
-                "halfedge {h} has wedge {w} out of range ({nw})"
-            );
+            ensure!((w as usize) < nw, range("wedge", w, nw));
             let t = self.he_twin[h];
-            ensure!(
-                t == INVALID || (t as usize) < nh,
-                "halfedge {h} has twin {t} out of range"
-            );
+            ensure!(t == INVALID || (t as usize) < nh, range("twin", t, nh));
         }
         Ok(())
     }
@@ -134,27 +135,34 @@ impl SimMesh {
             let [a, b, c] = self.face_vertices(f);
             ensure!(
                 a != b && b != c && a != c,
-                "face {f} has repeated vertex: {a} {b} {c}"
+                Fault::RepeatedVertex {
+                    face: f,
+                    vertices: [a, b, c],
+                }
             );
         }
         for h in self.halfedges() {
             ensure!(
                 self.next(self.next(self.next(h))) == h && self.face(self.next(h)) == self.face(h),
-                "halfedge {h}: next^3 != id"
+                Fault::NextCycle(h)
             );
             if let Some(t) = self.twin(h) {
-                ensure!(t != h, "halfedge {h} is its own twin");
+                ensure!(t != h, Fault::SelfTwin(h));
                 ensure!(
                     self.twin(t) == Some(h),
-                    "twin of {h} is {t} but twin of {t} is not {h}"
+                    Fault::TwinAsymmetric {
+                        halfedge: h,
+                        twin: t,
+                    }
                 );
                 ensure!(
                     self.origin(t) == self.dest(h) && self.dest(t) == self.origin(h),
-                    "halfedge {h} ({} -> {}) and twin {t} ({} -> {}) not opposite",
-                    self.origin(h),
-                    self.dest(h),
-                    self.origin(t),
-                    self.dest(t)
+                    Fault::TwinNotOpposite {
+                        halfedge: h,
+                        ends: [self.origin(h), self.dest(h)],
+                        twin: t,
+                        twin_ends: [self.origin(t), self.dest(t)],
+                    }
                 );
             }
         }
@@ -172,11 +180,11 @@ impl SimMesh {
         for w in keys.windows(2) {
             ensure!(
                 (w[0].0, w[0].1) != (w[1].0, w[1].1),
-                "halfedges h{} and h{} both go from v{} to v{}",
-                w[0].2,
-                w[1].2,
-                w[0].0,
-                w[0].1
+                Fault::DuplicateEdge {
+                    halfedges: [w[0].2, w[1].2],
+                    from: w[0].0,
+                    to: w[0].1,
+                }
             );
         }
         Ok(())
@@ -202,34 +210,48 @@ impl SimMesh {
             let start = self.vertex_halfedge(v);
             ensure!(
                 self.origin(start) == v,
-                "outgoing halfedge {start} of vertex {v} leaves {}",
-                self.origin(start)
+                Fault::OutgoingElsewhere {
+                    vertex: v,
+                    halfedge: start,
+                    leaves: self.origin(start),
+                }
             );
             let i = v.idx();
             ensure!(
                 boundary_out[i] <= 1,
-                "vertex {v} has {} boundary outgoing halfedges (several fans)",
-                boundary_out[i]
+                Fault::SeveralFans {
+                    vertex: v,
+                    count: boundary_out[i],
+                }
             );
             ensure!(
                 boundary_out[i] == 0 || self.is_boundary_halfedge(start),
-                "vertex {v} is on a boundary but its outgoing halfedge {start} is not"
+                Fault::BoundaryOutgoing {
+                    vertex: v,
+                    halfedge: start,
+                }
             );
             let mut count = 0u32;
             let mut x = start;
             loop {
                 ensure!(
                     self.origin(x) == v,
-                    "fan of {v} reaches {x} leaving {}",
-                    self.origin(x)
+                    Fault::FanStray {
+                        vertex: v,
+                        halfedge: x,
+                        leaves: self.origin(x),
+                    }
                 );
                 count += 1;
-                ensure!(count <= degree[i], "fan of vertex {v} does not close");
+                ensure!(count <= degree[i], Fault::FanOpen(v));
                 match self.twin(self.prev(x)) {
                     None => {
                         ensure!(
                             self.is_boundary_halfedge(start),
-                            "fan of interior vertex {v} ends at {x}"
+                            Fault::InteriorFanEnds {
+                                vertex: v,
+                                halfedge: x,
+                            }
                         );
                         break;
                     }
@@ -239,8 +261,11 @@ impl SimMesh {
             }
             ensure!(
                 count == degree[i],
-                "vertex {v} has {} incident faces but its fan has {count} (non-manifold)",
-                degree[i]
+                Fault::NonManifoldFan {
+                    vertex: v,
+                    degree: degree[i],
+                    fan: count,
+                }
             );
         }
         Ok(())
@@ -254,7 +279,10 @@ mod tests {
 
     fn expect_invariant(m: &crate::mesh::SimMesh, what: &str) {
         match m.validate() {
-            Err(MeshError::Invariant(msg)) => assert!(msg.contains(what), "{msg}"),
+            Err(MeshError::Invariant { fault }) => {
+                let msg = fault.to_string();
+                assert!(msg.contains(what), "{msg}");
+            }
             other => panic!("expected invariant error containing {what:?}, got {other:?}"),
         }
     }

@@ -205,7 +205,9 @@ fn read_impl(
     let mut mtl = MtlState::default();
     for lib in &prep.libraries {
         if !files {
-            return Err(fail(ObjError::LibraryInMemory(lib.clone())));
+            return Err(fail(ObjError::LibraryInMemory {
+                library: lib.clone(),
+            }));
         }
         mtl.load_libraries(base_dir, name, Path::new(lib));
     }
@@ -555,7 +557,9 @@ impl Prepared {
     }
 
     fn vertex(&mut self, rest: &str, no: usize) -> Result<(), ObjError> {
-        let invalid = || line(no, LineFault::Vertex(rest.to_string()));
+        let invalid = || line(no, LineFault::Vertex {
+                rest: rest.to_string(),
+            });
         let mut values = [0f32; 6];
         let mut n = 0;
         for tok in rest.split_whitespace() {
@@ -574,7 +578,9 @@ impl Prepared {
             3 => {}
             4 => {
                 if a == 0.0 {
-                    return Err(line(no, LineFault::ZeroW(rest.to_string())));
+                    return Err(line(no, LineFault::ZeroW {
+                        rest: rest.to_string(),
+                    }));
                 }
                 position = position.map(|p| p / a);
             }
@@ -591,7 +597,9 @@ impl Prepared {
     }
 
     fn texcoord(&mut self, rest: &str, no: usize) -> Result<(), ObjError> {
-        let invalid = || line(no, LineFault::TexCoord(rest.to_string()));
+        let invalid = || line(no, LineFault::TexCoord {
+                rest: rest.to_string(),
+            });
         let mut uv = [0f32; 2];
         let mut n = 0;
         for tok in rest.split_whitespace().take(3) {
@@ -609,7 +617,9 @@ impl Prepared {
     }
 
     fn normal(&mut self, rest: &str, no: usize) -> Result<(), ObjError> {
-        let invalid = || line(no, LineFault::Normal(rest.to_string()));
+        let invalid = || line(no, LineFault::Normal {
+                rest: rest.to_string(),
+            });
         let mut v = [0f32; 3];
         let mut n = 0;
         for tok in rest.split_whitespace().take(3) {
@@ -632,7 +642,9 @@ impl Prepared {
             let vn = parts.next().unwrap_or("");
             if parts.next().is_some() || v.is_empty() {
                 self.corners.truncate(start);
-                return Err(line(no, LineFault::FaceVertex(tok.to_string())));
+                return Err(line(no, LineFault::FaceVertex {
+                    token: tok.to_string(),
+                }));
             }
             let corner = Corner {
                 v: self.index(v, 0, no)?,
@@ -748,8 +760,11 @@ pub enum ObjError {
     #[error(transparent)]
     Primitives(#[from] crate::io::PrimitiveBudgetError),
     /// A material library named by a file read from memory.
-    #[error("names the material library '{0}'; an asset read from memory must hold all its data (read the file with crackle::read)")]
-    LibraryInMemory(String),
+    #[error("names the material library '{library}'; an asset read from memory must hold all its data (read the file with crackle::read)")]
+    LibraryInMemory {
+        /// The library as the file names it.
+        library: String,
+    },
 }
 
 /// What is wrong with one OBJ line.
@@ -757,20 +772,35 @@ pub enum ObjError {
 #[non_exhaustive]
 pub enum LineFault {
     /// A vertex without three finite numbers.
-    #[error("invalid vertex 'v {0}' (expected x y z [w | r g b] as finite numbers)")]
-    Vertex(String),
+    #[error("invalid vertex 'v {rest}' (expected x y z [w | r g b] as finite numbers)")]
+    Vertex {
+        /// The line after its keyword.
+        rest: String,
+    },
     /// A vertex with w = 0.
-    #[error("vertex 'v {0}' has w = 0")]
-    ZeroW(String),
+    #[error("vertex 'v {rest}' has w = 0")]
+    ZeroW {
+        /// The line after its keyword.
+        rest: String,
+    },
     /// A texture coordinate without a finite number.
-    #[error("invalid texture coordinate 'vt {0}' (expected u [v [w]] as finite numbers)")]
-    TexCoord(String),
+    #[error("invalid texture coordinate 'vt {rest}' (expected u [v [w]] as finite numbers)")]
+    TexCoord {
+        /// The line after its keyword.
+        rest: String,
+    },
     /// A normal without three finite numbers.
-    #[error("invalid normal 'vn {0}' (expected x y z as finite numbers)")]
-    Normal(String),
+    #[error("invalid normal 'vn {rest}' (expected x y z as finite numbers)")]
+    Normal {
+        /// The line after its keyword.
+        rest: String,
+    },
     /// A face corner that is not `v`, `v/vt`, `v//vn` or `v/vt/vn`.
-    #[error("invalid face vertex '{0}' (expected v, v/vt, v//vn or v/vt/vn)")]
-    FaceVertex(String),
+    #[error("invalid face vertex '{token}' (expected v, v/vt, v//vn or v/vt/vn)")]
+    FaceVertex {
+        /// The corner as written.
+        token: String,
+    },
     /// An index that is not a number.
     #[error("invalid {what} index '{token}'")]
     Index {
