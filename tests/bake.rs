@@ -5,8 +5,8 @@
 
 mod common;
 
+use crackle::io::image_decode::{decode_channels, Channels};
 use crackle::scene::{Geometry, ImageSource, Scene};
-use crackle::stress::texture::{decode_channels, Channels};
 use std::path::Path;
 use std::process::Command;
 

@@ -40,8 +40,8 @@ impl ImageFiles for Files {
         read_limited(&path, name)
     }
 
-    fn budget(&self) -> u64 {
-        self.budget.unwrap_or(u64::MAX)
+    fn decode(&self, bytes: &[u8], name: &str) -> Result<GreyImage, TextureError> {
+        super::image_decode::grey_within(bytes, name, self.budget.unwrap_or(u64::MAX))
     }
 }
 
@@ -49,7 +49,7 @@ impl ImageFiles for Files {
 ///
 /// # Errors
 /// [`TextureError::Io`] when the file cannot be read or is larger than
-/// [`MAX_FILE_BYTES`], and the errors of [`GreyImage::decode`].
+/// [`MAX_FILE_BYTES`], and the errors of [`super::image_decode::grey`].
 pub fn open_grey(path: &Path) -> Result<GreyImage, TextureError> {
     open_grey_within(path, u64::MAX)
 }
@@ -62,7 +62,7 @@ pub fn open_grey(path: &Path) -> Result<GreyImage, TextureError> {
 pub fn open_grey_within(path: &Path, budget: u64) -> Result<GreyImage, TextureError> {
     let name = format!("'{}'", path.display());
     let bytes = read_limited(path, &name)?;
-    GreyImage::decode_within(&bytes, &name, budget)
+    super::image_decode::grey_within(&bytes, &name, budget)
 }
 
 /// The path to read: as given without `base_dir`; with it, the real path,

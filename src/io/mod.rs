@@ -5,6 +5,7 @@ mod error;
 pub mod gltf_read;
 pub mod gltf_write;
 pub mod image;
+pub mod image_decode;
 pub mod obj;
 pub mod paths;
 pub mod write;

@@ -10,9 +10,8 @@ use crate::post::bake::{self, atlas, Cracks, Layer, Look, Profile, Surface};
 use crate::post::Post;
 use crate::post::{BAKE_SIZE_CAP, BAKE_TEXELS_PER_CRACK};
 use crate::scene::{Geometry, Image, ImageSource, Material, Scene, TriGeometry};
-use crate::stress::texture::{
-    check_within, decode_channels_within, texture_of_material, Channels, TextureError,
-};
+use crate::io::image_decode::{check_within, decode_channels_within, Channels};
+use crate::stress::texture::{texture_of_material, TextureError};
 use serde_json::{json, Map, Value};
 use std::collections::BTreeMap;
 

@@ -28,7 +28,7 @@ pub use crate::error::{
 pub use crate::post::Post;
 use crate::scene::Scene;
 use crate::sim::SimParams;
-use crate::stress::texture::{mask_from_material, GreyImage, Mask, SLOTS};
+use crate::stress::texture::{mask_from_material, Mask, SLOTS};
 use crate::stress::{CurvatureMeasure, Term};
 use serde::Deserialize;
 use std::path::Path;
@@ -483,7 +483,7 @@ impl Pipeline {
                                     .collect(),
                             })
                         })?;
-                GreyImage::decode(bytes, image).map_err(|e| err(e.into()))?
+                crate::io::image_decode::grey(bytes, image).map_err(|e| err(e.into()))?
             } else {
                 let path = Path::new(image);
                 let path = match base_dir {

@@ -27,10 +27,10 @@
 //! treating transparent pixels as black would turn them into full stress).
 //! 16-bit PNGs keep their precision (value / 65535).
 //!
-//! Decoding uses the pure-Rust `png` and `zune-jpeg` crates. Sizes are
+//! This layer does no I/O and decodes no file format: the caller's
+//! [`ImageFiles`] reads and decodes (`crate::io::image_decode`, sizes
 //! checked from the header before any pixel buffer is allocated: at most
-//! [`MAX_PIXELS`] pixels, and the decoder's buffer size must agree with the
-//! header.
+//! [`MAX_PIXELS`] pixels).
 
 use crate::scene::{Image, ImageSource, Scene};
 use serde_json::{Map, Value};
@@ -44,7 +44,7 @@ pub const MAX_PIXELS: u64 = 16384 * 16384;
 pub const MAX_FILE_BYTES: u64 = 1 << 30;
 
 /// Memory the PNG decoder may use for its own buffers (rows, ancillary chunks).
-const PNG_DECODER_LIMIT: usize = 256 << 20;
+pub(crate) const PNG_DECODER_LIMIT: usize = 256 << 20;
 
 /// The material texture slots a mask can come from.
 pub const SLOTS: [&str; 5] = [
@@ -341,36 +341,6 @@ pub struct GreyImage {
 }
 
 impl GreyImage {
-    /// Decode a PNG (1 to 16 bits; grey, grey + alpha, RGB, RGBA or palette;
-    /// interlaced or not) or a JPEG (baseline or progressive; grey, YCbCr,
-    /// CMYK) into luminance (see the module documentation for the formula).
-    /// The format is recognised from the bytes; `name` names the image in
-    /// errors.
-    ///
-    /// # Errors
-    /// [`TextureError::TooLarge`] when the header declares more than
-    /// [`MAX_PIXELS`] pixels (checked before decoding pixels),
-    /// [`TextureError::Decode`] when the bytes are not a PNG, JPEG or WebP or do not
-    /// decode.
-    pub fn decode(bytes: &[u8], name: &str) -> Result<GreyImage, TextureError> {
-        Self::decode_within(bytes, name, u64::MAX)
-    }
-
-    /// [`GreyImage::decode`] refusing, before decoding, an image whose
-    /// decoded values would take more than `budget` bytes
-    /// ([`TextureError::OverBudget`]).
-    ///
-    /// # Errors
-    /// Those of [`GreyImage::decode`] and [`TextureError::OverBudget`].
-    pub fn decode_within(bytes: &[u8], name: &str, budget: u64) -> Result<GreyImage, TextureError> {
-        let (width, height, data) = decode_channels_within(bytes, name, Channels::Luma, budget)?;
-        Ok(GreyImage {
-            width,
-            height,
-            data,
-        })
-    }
-
     /// The luminance of texel `(x, y)` (`y = 0` is the top row), or `None`
     /// outside the image.
     pub fn texel(&self, x: u32, y: u32) -> Option<f32> {
@@ -409,13 +379,11 @@ impl GreyImage {
     }
 }
 
-#[path = "texture_decode.rs"]
-mod decode;
-pub use decode::{check_within, decode_channels, decode_channels_within, Channels};
 
-/// Where a material mask's image files come from. This layer does no I/O:
-/// the caller supplies the files (`crate::io::image::Files` reads them
-/// inside an asset's folder, with a size cap).
+/// Where a material mask's image files come from and how they decode. This
+/// layer does no I/O and decodes no format: the caller supplies both
+/// (`crate::io::image::Files` reads inside an asset's folder, with a size
+/// cap, and decodes within the run's memory budget).
 pub trait ImageFiles {
     /// The bytes of the image file at `path`; `name` labels the image in
     /// errors.
@@ -424,11 +392,13 @@ pub trait ImageFiles {
     /// [`TextureError::Io`] or [`TextureError::OutsideBase`].
     fn read(&self, path: &Path, name: &str) -> Result<Vec<u8>, TextureError>;
 
-    /// The most bytes one decoded image may take (the run's memory
-    /// budget). Default: no limit beyond [`MAX_PIXELS`].
-    fn budget(&self) -> u64 {
-        u64::MAX
-    }
+    /// The image `bytes` (a file's or embedded) decoded into luminance,
+    /// within the run's memory budget; `name` labels the image in errors.
+    ///
+    /// # Errors
+    /// [`TextureError::Decode`], [`TextureError::TooLarge`] or
+    /// [`TextureError::OverBudget`].
+    fn decode(&self, bytes: &[u8], name: &str) -> Result<GreyImage, TextureError>;
 }
 
 /// A texture-stress mask: an image with its sampler and UV transform.
@@ -530,7 +500,7 @@ pub fn mask_from_material(
     let t = texture_of_material(scene, material, slot)?;
     let bytes = t.bytes(scene, files)?;
     Ok(Mask {
-        image: GreyImage::decode_within(&bytes, &t.name, files.budget())?,
+        image: files.decode(&bytes, &t.name)?,
         wrap_s: t.wrap_s,
         wrap_t: t.wrap_t,
         transform: t.transform,
@@ -727,7 +697,7 @@ pub fn texture_of_material(
 
 #[cfg(test)]
 mod tests {
-    use super::decode::luma;
+    use crate::io::image_decode::luma;
     use super::*;
     use crate::scene::Material;
     use base64::Engine as _;
@@ -791,7 +761,7 @@ mod tests {
 
     /// A 4x1 row 0, 1/3, 2/3, 1 decoded from an 8-bit grey PNG.
     fn ramp() -> GreyImage {
-        let img = GreyImage::decode(&grey8(4, 1, &[0, 85, 170, 255]), "ramp").unwrap();
+        let img = crate::io::image_decode::grey(&grey8(4, 1, &[0, 85, 170, 255]), "ramp").unwrap();
         assert_eq!((img.width, img.height), (4, 1));
         for (i, want) in [0.0, 1.0 / 3.0, 2.0 / 3.0, 1.0].into_iter().enumerate() {
             assert_close(img.data[i], want, "ramp texel");
@@ -827,7 +797,7 @@ mod tests {
     #[test]
     fn row_zero_is_the_top_v_zero() {
         // Top row black, bottom row white: small v samples the top.
-        let img = GreyImage::decode(&grey8(1, 2, &[0, 255]), "column").unwrap();
+        let img = crate::io::image_decode::grey(&grey8(1, 2, &[0, 255]), "column").unwrap();
         assert_close(
             img.sample([0.5, 0.25], Wrap::Repeat, Wrap::ClampToEdge),
             0.0,
@@ -1047,7 +1017,7 @@ mod tests {
             None,
             &[51, 0, 204, 255],
         );
-        let img = GreyImage::decode(&ga, "ga").unwrap();
+        let img = crate::io::image_decode::grey(&ga, "ga").unwrap();
         assert_close(img.data[0], 0.2, "grey+alpha 0");
         assert_close(img.data[1], 0.8, "grey+alpha 1");
 
@@ -1063,7 +1033,7 @@ mod tests {
                 Some((pal, trns)),
                 &[0, 1, 2, 3],
             );
-            let img = GreyImage::decode(&p, "palette").unwrap();
+            let img = crate::io::image_decode::grey(&p, "palette").unwrap();
             assert_close(img.data[0], 0.2126, "red");
             assert_close(img.data[1], 0.7152, "green");
             assert_close(img.data[2], 0.0722, "blue");
@@ -1078,7 +1048,7 @@ mod tests {
             Some((pal, None)),
             &[0b00_01_10_11],
         );
-        let img = GreyImage::decode(&p, "palette2").unwrap();
+        let img = crate::io::image_decode::grey(&p, "palette2").unwrap();
         assert_close(img.data[0], 0.2126, "2-bit red");
         assert_close(img.data[3], 1.0, "2-bit white");
 
@@ -1091,7 +1061,7 @@ mod tests {
             None,
             &[0x00, 0x00, 0x80, 0x00, 0xFF, 0xFF],
         );
-        let img = GreyImage::decode(&g16, "g16").unwrap();
+        let img = crate::io::image_decode::grey(&g16, "g16").unwrap();
         assert_close(img.data[0], 0.0, "16-bit 0");
         assert_close(img.data[1], 32768.0 / 65535.0, "16-bit mid");
         assert_close(img.data[2], 1.0, "16-bit max");
@@ -1105,7 +1075,7 @@ mod tests {
             None,
             &[0xFF, 0xFF, 0x00, 0x00, 0x80, 0x00, 0x00, 0x00],
         );
-        let img = GreyImage::decode(&rgba16, "rgba16").unwrap();
+        let img = crate::io::image_decode::grey(&rgba16, "rgba16").unwrap();
         assert_close(
             img.data[0],
             0.2126 + 0.0722 * 32768.0 / 65535.0,
@@ -1121,7 +1091,7 @@ mod tests {
             None,
             &[128, 128, 128],
         );
-        let img = GreyImage::decode(&rgb, "rgb").unwrap();
+        let img = crate::io::image_decode::grey(&rgb, "rgb").unwrap();
         assert_close(img.data[0], 128.0 / 255.0, "RGB grey");
 
         // 1-bit grey expands to 0 / 1.
@@ -1133,7 +1103,7 @@ mod tests {
             None,
             &[0b1010_0001],
         );
-        let img = GreyImage::decode(&g1, "g1").unwrap();
+        let img = crate::io::image_decode::grey(&g1, "g1").unwrap();
         let bits: Vec<f32> = img.data.clone();
         assert_eq!(bits, vec![1.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0]);
     }
@@ -1148,7 +1118,7 @@ mod tests {
             .decode(INTERLACED_PNG)
             .unwrap();
         assert_eq!(bytes[28], 1, "the fixture is interlaced");
-        let img = GreyImage::decode(&bytes, "interlaced").unwrap();
+        let img = crate::io::image_decode::grey(&bytes, "interlaced").unwrap();
         assert_eq!((img.width, img.height), (7, 5));
         for y in 0..5 {
             for x in 0..7 {
@@ -1170,13 +1140,13 @@ mod tests {
 
     #[test]
     fn jpeg_decodes_to_luminance() {
-        let img = GreyImage::decode(&b64(GREY_JPEG), "grey.jpg").unwrap();
+        let img = crate::io::image_decode::grey(&b64(GREY_JPEG), "grey.jpg").unwrap();
         assert_eq!((img.width, img.height), (16, 8));
         for y in 0..8 {
             assert!(img.texel(2, y).unwrap() < 0.02, "black half");
             assert!(img.texel(13, y).unwrap() > 0.98, "white half");
         }
-        let img = GreyImage::decode(&b64(RGB_JPEG), "rgb.jpg").unwrap();
+        let img = crate::io::image_decode::grey(&b64(RGB_JPEG), "rgb.jpg").unwrap();
         assert_eq!((img.width, img.height), (16, 16));
         let near = |x, y, want: f32| {
             let got = img.texel(x, y).unwrap();
@@ -1197,7 +1167,7 @@ mod tests {
             .position(|w| w == [0xFF, 0xC0])
             .expect("SOF0");
         bytes[sof + 5..sof + 9].copy_from_slice(&[0xFF, 0xFF, 0xFF, 0xFF]);
-        let e = GreyImage::decode(&bytes, "huge.jpg").unwrap_err();
+        let e = crate::io::image_decode::grey(&bytes, "huge.jpg").unwrap_err();
         assert!(
             matches!(
                 e,
@@ -1221,27 +1191,27 @@ mod tests {
         for b in &mut bad[idat + 6..idat + 12] {
             *b ^= 0x5A;
         }
-        let e = GreyImage::decode(&bad, "'wall_mask.png'").unwrap_err();
+        let e = crate::io::image_decode::grey(&bad, "'wall_mask.png'").unwrap_err();
         assert!(matches!(e, TextureError::Decode { .. }), "{e}");
         assert!(e.to_string().contains("wall_mask.png"), "{e}");
         // Truncated.
-        let e = GreyImage::decode(&good[..good.len() / 2], "'cut.png'").unwrap_err();
+        let e = crate::io::image_decode::grey(&good[..good.len() / 2], "'cut.png'").unwrap_err();
         assert!(e.to_string().contains("cut.png"), "{e}");
         // Truncated header.
-        let e = GreyImage::decode(&good[..20], "'short.png'").unwrap_err();
+        let e = crate::io::image_decode::grey(&good[..20], "'short.png'").unwrap_err();
         assert!(e.to_string().contains("short.png"), "{e}");
         // Not an image at all, and formats that are not decoded.
-        let e = GreyImage::decode(b"hello world, not a picture", "'notes.txt'").unwrap_err();
+        let e = crate::io::image_decode::grey(b"hello world, not a picture", "'notes.txt'").unwrap_err();
         assert!(e.to_string().contains("notes.txt"), "{e}");
         assert!(e.to_string().contains("PNG, JPEG or WebP"), "{e}");
-        let e = GreyImage::decode(b"RIFF\0\0\0\0WEBPVP8 ", "'a.webp'").unwrap_err();
+        let e = crate::io::image_decode::grey(b"RIFF\0\0\0\0WEBPVP8 ", "'a.webp'").unwrap_err();
         assert!(
             e.to_string().contains("WebP") && e.to_string().contains("a.webp"),
             "{e}"
         );
         // A JPEG cut after its header.
         let jpeg = b64(GREY_JPEG);
-        let e = GreyImage::decode(&jpeg[..24], "'cut.jpg'").unwrap_err();
+        let e = crate::io::image_decode::grey(&jpeg[..24], "'cut.jpg'").unwrap_err();
         assert!(e.to_string().contains("cut.jpg"), "{e}");
     }
 
@@ -1288,7 +1258,7 @@ mod tests {
     fn huge_png_dimensions_are_refused_before_decoding() {
         assert_eq!(crc32(b"IEND"), 0xAE42_6082, "crc32 helper");
         for (w, h) in [(100_000, 100_000), (16385, 16384), (u32::MAX >> 1, 2)] {
-            let e = GreyImage::decode(&png_header_only(w, h), "'giant.png'").unwrap_err();
+            let e = crate::io::image_decode::grey(&png_header_only(w, h), "'giant.png'").unwrap_err();
             match &e {
                 TextureError::TooLarge {
                     width, height, max, ..
@@ -1302,7 +1272,7 @@ mod tests {
         }
         // At the limit the header is accepted, and the missing data is a
         // decode error, not an allocation of the declared size up front.
-        let e = GreyImage::decode(&png_header_only(16384, 16384), "'big.png'").unwrap_err();
+        let e = crate::io::image_decode::grey(&png_header_only(16384, 16384), "'big.png'").unwrap_err();
         assert!(matches!(e, TextureError::Decode { .. }), "{e}");
     }
 

@@ -259,7 +259,7 @@ fn pngs_decode_to_what_was_encoded() {
     let data: Vec<u8> = (0..16 * 16 * 3).map(|i| (i % 251) as u8).collect();
     let png = encode_png(16, 3, &data).unwrap();
     let (w, h, back) =
-        crate::stress::texture::decode_channels(&png, "t", crate::stress::texture::Channels::Rgba)
+        crate::io::image_decode::decode_channels(&png, "t", crate::io::image_decode::Channels::Rgba)
             .unwrap();
     assert_eq!((w, h), (16, 16));
     for (i, px) in back.chunks(4).enumerate() {
@@ -276,7 +276,7 @@ fn png_kind(png: &[u8]) -> (u8, u8) {
 
 fn decoded(png: &[u8], n: usize) -> Vec<[u8; 4]> {
     let (w, h, back) =
-        crate::stress::texture::decode_channels(png, "t", crate::stress::texture::Channels::Rgba)
+        crate::io::image_decode::decode_channels(png, "t", crate::io::image_decode::Channels::Rgba)
             .unwrap();
     assert_eq!((w as usize, h as usize), (n, n));
     back.chunks(4)

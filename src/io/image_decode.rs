@@ -1,8 +1,10 @@
-//! Decoding PNG, JPEG and WebP images into luminance or RGBA values, the
-//! declared size checked (against [`MAX_PIXELS`] and a memory budget)
-//! before any pixel buffer is allocated.
+//! Decoding PNG, JPEG and WebP images (the pure-Rust `png`, `zune-jpeg`
+//! and `image-webp` crates) into luminance or RGBA values, the declared
+//! size checked (against [`MAX_PIXELS`] and a memory budget) before any
+//! pixel buffer is allocated. The stress layer samples what this decodes
+//! ([`GreyImage`]); luminance as its module describes.
 
-use super::{TextureError, MAX_PIXELS, PNG_DECODER_LIMIT};
+use crate::stress::texture::{GreyImage, TextureError, MAX_PIXELS, PNG_DECODER_LIMIT};
 
 /// What a decoded pixel becomes: its luminance (one value), or its red,
 /// green, blue and alpha (four values, alpha 1 when the image has none).
@@ -24,11 +26,39 @@ impl Channels {
     }
 }
 
-/// Decode a PNG, JPEG or WebP (as [`super::GreyImage::decode`]) into `(width, height,
+/// Decode a PNG (1 to 16 bits; grey, grey + alpha, RGB, RGBA or palette;
+/// interlaced or not), a JPEG (baseline or progressive; grey, YCbCr, CMYK)
+/// or a WebP into luminance. The format is recognised from the bytes;
+/// `name` names the image in errors.
+///
+/// # Errors
+/// [`TextureError::TooLarge`] when the header declares more than
+/// [`MAX_PIXELS`] pixels (checked before decoding pixels),
+/// [`TextureError::Decode`] when the bytes are not a PNG, JPEG or WebP or
+/// do not decode.
+pub fn grey(bytes: &[u8], name: &str) -> Result<GreyImage, TextureError> {
+    grey_within(bytes, name, u64::MAX)
+}
+
+/// [`grey`] refusing, before decoding, an image whose decoded values would
+/// take more than `budget` bytes ([`TextureError::OverBudget`]).
+///
+/// # Errors
+/// Those of [`grey`] and [`TextureError::OverBudget`].
+pub fn grey_within(bytes: &[u8], name: &str, budget: u64) -> Result<GreyImage, TextureError> {
+    let (width, height, data) = decode_channels_within(bytes, name, Channels::Luma, budget)?;
+    Ok(GreyImage {
+        width,
+        height,
+        data,
+    })
+}
+
+/// Decode a PNG, JPEG or WebP (as [`grey`]) into `(width, height,
 /// values)`, one (luma) or four (RGBA) values a pixel, row 0 at the top.
 ///
 /// # Errors
-/// Those of [`super::GreyImage::decode`].
+/// Those of [`grey`].
 pub fn decode_channels(
     bytes: &[u8],
     name: &str,
@@ -104,7 +134,7 @@ fn decode_or_check(bytes: &[u8], size: &Size) -> Result<(u32, u32, Vec<f32>), Te
 }
 
 /// Rec. 709 luma weights on the stored (not linearised) values.
-pub(super) fn luma(r: f64, g: f64, b: f64) -> f64 {
+pub(crate) fn luma(r: f64, g: f64, b: f64) -> f64 {
     0.2126 * r + 0.7152 * g + 0.0722 * b
 }
 
