@@ -19,6 +19,29 @@ pub use config::{
 };
 pub use run::{FrameError, Uncrackable, UsageError};
 
+// What the layers' errors carry, so that a caller can name and match every
+// fault: the files' and elements' faults of reading and writing, the mesh's
+// broken invariants and refused edits (with the ids they name), the
+// simulation's and the stress terms' faults.
+pub use crate::io::accessor::{AccessorError, AccessorFault, ViewFault};
+pub use crate::io::gltf_read::error::{
+    BufferFault, DataUriError, Element, GlbError, GltfError, HierarchyError,
+};
+pub use crate::io::gltf_write::document::DocumentError;
+pub use crate::io::gltf_write::finite::NonFinite;
+pub use crate::io::obj::{LineFault, ObjError};
+pub use crate::io::paths::{NotRegular, PathError};
+pub use crate::io::write::DirError;
+pub use crate::io::PrimitiveBudgetError;
+pub use crate::mesh::error::{
+    EditFault, FlipRefusal, InvariantFault, OptionFault, SkippedSegment, WalkFault,
+};
+pub use crate::mesh::{FaceId, HalfedgeId, VertexId};
+pub use crate::post::options::OptionsError;
+pub use crate::sim::{Divergence, Misfit, ParamError};
+pub use crate::stress::frame::{FieldError, TermFault};
+pub use crate::stress::texture::TransformFault;
+
 /// Everything that can go wrong in the library.
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]

@@ -39,6 +39,10 @@
 // Without `internals` the machinery is private, and what only the crate's
 // own tests and tools reach (re-exports, helpers) is unused from here.
 #![cfg_attr(not(feature = "internals"), allow(dead_code, unused_imports))]
+// Every type a user can reach through the front door can be named there
+// (`report`, `options`, `error`), so a run's report or an error's fault
+// can be matched, stored and documented.
+#![cfg_attr(not(feature = "internals"), deny(unnameable_types))]
 
 /// The machinery below the front door: `pub(crate)`, so refactoring it
 /// breaks no user; public with the `internals` feature, which the crate's
@@ -79,6 +83,47 @@ pub use pipeline::{
     RunReport,
 };
 pub use scene::Scene;
+
+/// What a run reports: the whole run ([`RunReport`]), each mesh's
+/// simulation and post stages, the frames, a file-to-file run
+/// ([`CrackReport`]). Every field is public; the same structure is the
+/// command line's `--report` JSON.
+pub mod report {
+    pub use crate::mesh::remesh::RemeshReport;
+    pub use crate::mesh::DefectReport;
+    pub use crate::pipeline::{
+        AtlasReport, BakeReport, BeforeAfter, CrackReport, CutReport, FramesReport, GapReport,
+        IslandsReport, MarginReport, MaterialBake, MeshBake, MeshRun, PathsReport, PostReport,
+        Remeshed, RunReport, Stage, StartEnd, SurfaceReport, TearReport, WallsReport,
+    };
+    pub use crate::sim::ductile::DuctileReport;
+    pub use crate::sim::{FilmSolves, FinishReport, Phase, SimReport};
+}
+
+/// The options a [`Pipeline`] holds, by section of its TOML (`select`,
+/// `simulation`, `stress`, `post`), and those of reading and welding. A
+/// pipeline is usually made from a preset or a TOML file with
+/// `key=value` overrides ([`Pipeline::preset`], [`Pipeline::parse`]); its
+/// fields may also be changed in code before [`run`], which checks them
+/// again.
+pub mod options {
+    pub use crate::io::ReadOptions;
+    pub use crate::mesh::WeldOptions;
+    pub use crate::pipeline::{Frames, MaskSpec, Select, StressEntry};
+    pub use crate::post::options::Post;
+    pub use crate::sim::crack::CrackRules;
+    pub use crate::sim::ductile::{DuctileParams, Pull, PullMode};
+    pub use crate::sim::params::{
+        DryingLaw, FilmPreconditioner, Integrator, Model, Propagation, Relaxation, SimParams,
+        SpringParams,
+    };
+    pub use crate::stress::{CurvatureMeasure, CurvatureScale};
+    // The constants the options' documentation names.
+    pub use crate::pipeline::BUILTIN_IMAGES;
+    pub use crate::post::options::{BAKE_SIZE_CAP, BAKE_TEXELS_PER_CRACK, BAKE_WIDTH_OF_DIAGONAL};
+    pub use crate::sim::params::{AUTO_STEP_LIMIT, RKL_MAX_STAGES};
+    pub use crate::stress::field::BEND_RADIUS_CELLS;
+}
 
 use std::path::Path;
 

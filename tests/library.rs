@@ -175,3 +175,35 @@ impl Drop for CwdGuard {
         let _ = std::env::set_current_dir(&self.0);
     }
 }
+
+/// Every type the front door hands out can be named there (the crate
+/// denies unnameable public types): a pipeline's options changed in code,
+/// a mesh's simulation report and an error's fault matched by their types.
+#[test]
+fn what_the_front_door_hands_out_can_be_named() {
+    use crackle::error::{Error, IoError, LineFault, ObjError};
+    use crackle::options::{Model, SimParams};
+    use crackle::report::SimReport;
+    let mut pipeline = preset("glaze");
+    let simulation: &mut SimParams = &mut pipeline.simulation;
+    assert_eq!(simulation.model, Model::Quasistatic);
+    simulation.seed = 11;
+    let text = std::fs::read(common::manifest_dir().join("fixtures/icosphere.obj")).unwrap();
+    let mut scene = crackle::read_bytes(&text, "icosphere.obj").unwrap();
+    let config = Config::in_memory(pipeline, "icosphere.obj");
+    let report = crackle::run(&mut scene, &config, &mut crackle::Quiet).unwrap();
+    let simulated: &SimReport = &report.meshes[0].report;
+    assert_eq!(simulated.cracks, report.cracks);
+    let bad = crackle::read_bytes(b"v 0 0 0\nv 1 0 nan\nf 1 2 1\n", "bad.obj");
+    match bad {
+        Err(Error::File(IoError::Obj {
+            error:
+                ObjError::Line {
+                    line: 2,
+                    fault: LineFault::Vertex { rest },
+                },
+            ..
+        })) => assert_eq!(rest, "1 0 nan"),
+        other => panic!("expected line 2's vertex fault, got {other:?}"),
+    }
+}

@@ -6,7 +6,7 @@
 mod common;
 
 use crackle::mesh::SimMesh;
-use crackle::pipeline::{Bounds, Pipeline, Placement};
+use crackle::pipeline::{machinery, Bounds, Pipeline, Placement};
 use crackle::sim::{run_with, SimParams, SimReport};
 use crackle::stress::{StressField, Term, TermKind};
 
@@ -192,11 +192,11 @@ fn run_preset(fixture: &str, preset: &str) -> (SimMesh, SimMesh, SimReport, Pipe
     let (entries, _) = crackle::bridge::build_sim_meshes(&scene, &Default::default());
     let mut p = Pipeline::preset(preset, &[]).unwrap();
     p.load_images(None).unwrap();
-    let masks = p.masks_for(&scene, path.parent().unwrap()).unwrap();
+    let masks = machinery::masks_for(&p, &scene, path.parent().unwrap()).unwrap();
     let before = entries[0].sim.clone();
     let mut mesh = before.clone();
     let b = Bounds::of(mesh.vertices().map(|v| mesh.position(v)));
-    let terms = p.terms(&Placement::local(b), &masks).unwrap();
+    let terms = machinery::terms(&p, &Placement::local(b), &masks).unwrap();
     let params = p.params(&[]);
     let field = StressField::build(&mesh, &terms, params.seed).unwrap();
     let r = run_with(&mut mesh, &params, Some(&field), &mut ()).unwrap();
@@ -241,7 +241,7 @@ fn plate_uv_map(mesh: &SimMesh) -> impl Fn([f64; 3]) -> [f64; 2] {
 #[test]
 fn texture_mask_preset_cracks_only_where_the_mask_is_dark() {
     let (before, _, r, p) = run_preset("plate_jittered.obj", "texture-mask");
-    let mask = p.image_masks[0].clone().unwrap();
+    let mask = machinery::image_mask(&p, 0).unwrap();
     let uv = plate_uv_map(&before);
     // The map is right: it reproduces every vertex's UV.
     let ch = before.wedges().channel("TEXCOORD_0").unwrap();
@@ -337,7 +337,7 @@ fn texture_mask_on_a_mesh_without_uvs_cracks_where_the_projected_mask_is_dark() 
     // axes over the box (triplanar, blended by the normal to the fourth
     // power), as the README says; the same projection here, by hand.
     let (before, _, r, p) = run_preset("icosphere.obj", "texture-mask");
-    let mask = p.image_masks[0].clone().unwrap();
+    let mask = machinery::image_mask(&p, 0).unwrap();
     let pts: Vec<[f64; 3]> = before.vertices().map(|v| before.position(v)).collect();
     let lo = [0, 1, 2].map(|k| pts.iter().map(|q| q[k]).fold(f64::INFINITY, f64::min));
     let hi = [0, 1, 2].map(|k| pts.iter().map(|q| q[k]).fold(f64::NEG_INFINITY, f64::max));

@@ -22,7 +22,7 @@ pub struct MeshInput {
     pub wedge_channels: Vec<Channel>,
 }
 
-/// Options of [`SimMesh::build`].
+/// Options of `SimMesh::build`.
 #[derive(Clone, Debug, PartialEq)]
 pub struct WeldOptions {
     /// Vertices closer than this times the bounding-box diagonal are

@@ -4,7 +4,7 @@
 use serde::Serialize;
 
 /// Statistics and defects of a mesh input, as built into a
-/// [`SimMesh`](super::SimMesh).
+/// `SimMesh`.
 ///
 /// Non-manifold, orientation and duplicate counts describe the input (after
 /// welding, before repair); boundary, loop and component counts describe the

@@ -46,17 +46,17 @@ macro_rules! define_id {
 }
 
 define_id!(
-    /// A vertex of a [`SimMesh`](super::SimMesh).
+    /// A vertex of a `SimMesh`.
     VertexId,
     "v"
 );
 define_id!(
-    /// A triangle of a [`SimMesh`](super::SimMesh).
+    /// A triangle of a `SimMesh`.
     FaceId,
     "f"
 );
 define_id!(
-    /// A halfedge of a [`SimMesh`](super::SimMesh): halfedge `3f + k` is the
+    /// A halfedge of a `SimMesh`: halfedge `3f + k` is the
     /// `k`-th edge of face `f`.
     HalfedgeId,
     "h"

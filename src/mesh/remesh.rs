@@ -89,7 +89,7 @@ impl Default for RemeshOptions {
     }
 }
 
-/// What [`remesh`] did.
+/// What `remesh` did.
 #[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
 pub struct RemeshReport {
     /// Whether the surface was remeshed (false: it was already fine enough).

@@ -208,7 +208,7 @@ pub struct Pipeline {
     pub source_name: String,
     /// Image masks decoded by [`Pipeline::load_images`], per stress entry.
     #[serde(skip)]
-    pub image_masks: Masks,
+    pub(crate) image_masks: Masks,
 }
 
 /// The built-in presets: (name, TOML).
@@ -515,7 +515,7 @@ impl Pipeline {
     /// # Errors
     /// An image mask not loaded yet, a material name the scene does not have
     /// (the message lists the names), or a texture that cannot be used.
-    pub fn masks_for(&self, scene: &Scene, asset_dir: &Path) -> Result<Masks, PipelineError> {
+    pub(crate) fn masks_for(&self, scene: &Scene, asset_dir: &Path) -> Result<Masks, PipelineError> {
         self.masks_for_within(scene, asset_dir, u64::MAX)
     }
 
@@ -524,7 +524,7 @@ impl Pipeline {
     ///
     /// # Errors
     /// Those of [`Pipeline::masks_for`], and a texture over the budget.
-    pub fn masks_for_within(
+    pub(crate) fn masks_for_within(
         &self,
         scene: &Scene,
         asset_dir: &Path,
@@ -607,7 +607,7 @@ impl Pipeline {
     /// # Errors
     /// A term with missing or conflicting keys (checked by [`Pipeline::parse`]
     /// already), or an entry with a mask spec but no loaded mask.
-    pub fn terms(
+    pub(crate) fn terms(
         &self,
         place: &Placement,
         masks: &[Option<Arc<Mask>>],
@@ -627,6 +627,39 @@ impl Pipeline {
                 source_name: self.source_name.clone(),
                 error: Box::new(error),
             })
+    }
+}
+
+/// The machinery's reach into a [`Pipeline`] (stress terms, masks), which
+/// its public face keeps private: for the crate's own tests and tools
+/// (`internals`).
+pub mod machinery {
+    use super::*;
+
+    /// [`Pipeline::terms`].
+    ///
+    /// # Errors
+    /// Those of [`Pipeline::terms`].
+    pub fn terms(
+        p: &Pipeline,
+        place: &Placement,
+        masks: &[Option<Arc<Mask>>],
+    ) -> Result<Vec<Term>, PipelineError> {
+        p.terms(place, masks)
+    }
+
+    /// [`Pipeline::masks_for`].
+    ///
+    /// # Errors
+    /// Those of [`Pipeline::masks_for`].
+    pub fn masks_for(p: &Pipeline, scene: &Scene, asset_dir: &Path) -> Result<Masks, PipelineError> {
+        p.masks_for(scene, asset_dir)
+    }
+
+    /// The image mask of stress entry `i`, once [`Pipeline::load_images`]
+    /// has decoded it.
+    pub fn image_mask(p: &Pipeline, i: usize) -> Option<Arc<Mask>> {
+        p.image_masks.get(i).cloned().flatten()
     }
 }
 

@@ -5,7 +5,7 @@
 pub mod bake;
 pub mod distance;
 pub mod islands;
-mod options;
+pub(crate) mod options;
 pub mod paths;
 pub mod taper;
 pub mod walls;

@@ -24,7 +24,7 @@ pub struct Post {
     /// Crack width: move every node by this multiple of its accumulated
     /// relaxation displacement, so the sides of each crack pull apart
     /// (unitless; 0: no width). Default 0. Width and curling are
-    /// [`crate::post::width::displace`].
+    /// `post::width::displace`.
     pub width: f64,
     /// Largest gap across a crack, in scene units (0: no limit). Default 0.
     pub max_width: f64,
@@ -64,7 +64,7 @@ pub struct Post {
     pub lines: bool,
     /// Passes that take cracks running along the simulation surface's
     /// edges (the spring model, the snapping variant) off its zig-zag
-    /// ([`crate::post::paths`]); 0 leaves them on the edges. Films that
+    /// (`post::paths`); 0 leaves them on the edges. Films that
     /// split their triangles along the crack are not touched. Default 4.
     pub smooth_paths: usize,
     /// Shader attributes on the surface: `_CRACK_DISTANCE` (distance along
@@ -76,7 +76,7 @@ pub struct Post {
     pub split_islands: bool,
     /// Bake crack maps (base colour, groove normal map, occlusion) into the
     /// mesh's UVs and give its material a variant that uses them, so any
-    /// viewer shows the cracks ([`crate::post::bake`]). Default false.
+    /// viewer shows the cracks (`post::bake`). Default false.
     pub bake: bool,
     /// Width and height of the baked maps in texels; 0: sized to the asset
     /// (a crack [`BAKE_TEXELS_PER_CRACK`] texels wide, at least the
@@ -129,7 +129,7 @@ pub struct Post {
     /// elastic crack's opening does (`sqrt(1 - (x / a)^2)` at `x` from the
     /// middle of a crack of half-length `a`; a crack ending on another or
     /// on the border as half of one), so a check between two free tips is
-    /// lens-shaped, widest in its middle ([`crate::post::taper`]).
+    /// lens-shaped, widest in its middle (`post::taper`).
     /// Default false.
     pub bake_taper: bool,
     /// Texels the maps' islands are grown by, so filtering never reads
@@ -137,13 +137,13 @@ pub struct Post {
     pub bake_dilate: u32,
     /// Smooth normals for an input without them: the crease angle in
     /// degrees (Blender's auto smooth), 0 to 180; triangles meeting at a
-    /// sharper edge stay faceted there ([`crate::geometry::normals`]). 0
+    /// sharper edge stay faceted there (`geometry::normals`). 0
     /// writes no `NORMAL` (viewers shade flat). Inputs with normals keep
     /// theirs. Default 30.
     pub smooth_angle: f64,
     /// Real grooves: cut each crack into the surface as a V channel this
     /// wide (scene units; 0: use `groove_relative`), walled down to the
-    /// crack line in `groove_material` ([`crate::post::width::groove`]).
+    /// crack line in `groove_material` (`post::width::groove`).
     /// Default 0.
     pub groove: f64,
     /// Groove width as a fraction of the cell size (the film models'
@@ -168,7 +168,7 @@ pub struct Post {
     /// it: the baked maps, the crack lines (on the input's surface) and the
     /// crack attributes; otherwise the cracks, simulated on the private
     /// simulation surface, are cut into the input's triangles exactly
-    /// along their curves ([`crate::mesh::imprint`]) and the gaps, walls,
+    /// along their curves (`mesh::imprint`) and the gaps, walls,
     /// curls, grooves and pieces are made there, the rest of the input's
     /// tessellation as it was. `simulation`: the simulation surface,
     /// cracked, in place of the input's triangles.

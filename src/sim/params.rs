@@ -118,7 +118,7 @@ pub struct SimParams {
     /// Parameters of `model = "ductile"` (`[simulation.ductile]`).
     pub ductile: crate::sim::ductile::DuctileParams,
     /// The pattern's cell size in scene units: the surface is a film bonded
-    /// to its body ([`crate::sim::film`]) whose cells come out near this
+    /// to its body (`sim::film`) whose cells come out near this
     /// diameter, whatever the triangles. Give this or
     /// `cell_size_relative`, not both; with neither, lengths are the
     /// mesh's (the mean edge length) and cells follow the triangles.
@@ -142,14 +142,14 @@ pub struct SimParams {
     pub max_triangles: usize,
     /// Drying cycles (a film only): each cycle after the first re-opens
     /// the last one's cracks, aged by one wetting and drying
-    /// ([`crate::sim::ageing`]): junctions move toward equal angles, so
+    /// (`sim::ageing`): junctions move toward equal angles, so
     /// T-junctions turn into Y-junctions and cells toward hexagons over a
     /// few cycles. Only the first drying is simulated; the further cycles
     /// age its crack network, which costs little. In 1..=50; default 1.
     pub cycles: usize,
     /// With a cell size and an output that is the input's own mesh: the
     /// pattern is grown on the surface extended beyond its open border by
-    /// a strip this many cell sizes wide ([`crate::mesh::margin`]), so the
+    /// a strip this many cell sizes wide (`mesh::margin`), so the
     /// border cuts through cells instead of lining them up along it (a
     /// ground patch, a wall: a piece of a larger surface). The strip is
     /// never written. It applies to a film (a cell size, `relaxation =
@@ -196,10 +196,10 @@ pub enum Model {
     #[default]
     Quasistatic,
     /// Mass-spring drying: every edge a spring that shrinks and breaks
-    /// (see [`crate::sim::springs`]).
+    /// (see `sim::springs`).
     Springs,
     /// Ductile tearing of a closed solid by a level set in a grid of
-    /// tetrahedra (see [`crate::sim::ductile`]).
+    /// tetrahedra (see `sim::ductile`).
     Ductile,
 }
 
@@ -211,7 +211,7 @@ pub enum FilmPreconditioner {
     /// iterations grow with the triangles per cell.
     #[default]
     Jacobi,
-    /// One V-cycle of smoothed-aggregation multigrid ([`crate::sim::amg`]):
+    /// One V-cycle of smoothed-aggregation multigrid (`sim::amg`):
     /// dearer per iteration and to build, in iterations that barely grow
     /// with the triangles. Patterns may differ in realisation from
     /// `jacobi`'s (the solves stop at the tolerance from other sides).
@@ -342,7 +342,7 @@ impl Default for SimParams {
 impl SimParams {
     /// The cell size for `mesh` in scene units, when one is asked for
     /// (relative sizes scale with the mesh's bounding-box diagonal).
-    pub fn cell_size_for(&self, mesh: &SimMesh) -> Option<f64> {
+    pub(crate) fn cell_size_for(&self, mesh: &SimMesh) -> Option<f64> {
         match (self.cell_size, self.cell_size_relative) {
             (Some(c), _) => Some(c),
             (None, Some(r)) => {

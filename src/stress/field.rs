@@ -98,7 +98,7 @@ pub enum CurvatureMeasure {
 
 impl CurvatureMeasure {
     /// The measure's value for `c` (never negative).
-    pub fn of(self, c: &Curvature) -> f64 {
+    pub(crate) fn of(self, c: &Curvature) -> f64 {
         match self {
             CurvatureMeasure::Gaussian => c.gaussian().abs(),
             CurvatureMeasure::Mean => c.mean().abs(),
@@ -110,7 +110,7 @@ impl CurvatureMeasure {
 
 /// Scaling of the separation tensor by curvature: each face gets the factor
 /// `clamp(1 + strength (m / m_ref - 1), 0, max_factor)`, with `m` the
-/// face's measure of the curvature at the cell's scale ([`cell_curvature`],
+/// face's measure of the curvature at the cell's scale (`cell_curvature`,
 /// in world units) and `m_ref` the measure of a sphere of
 /// [`BEND_RADIUS_CELLS`] cells' radius: so how much a surface bends is
 /// judged against the cell size, not against the mesh's own mean (a flat

@@ -2,7 +2,7 @@
 //! texture masks, noise) that set each triangle's rest stress.
 
 pub mod field;
-mod frame;
+pub(crate) mod frame;
 pub mod geodesic;
 pub mod impact;
 mod mask_coords;

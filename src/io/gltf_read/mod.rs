@@ -20,7 +20,7 @@ use std::collections::{BTreeMap, HashMap};
 use std::path::Path;
 
 mod buffers;
-mod error;
+pub(crate) mod error;
 use buffers::*;
 pub use error::{BufferFault, DataUriError, Element, GlbError, GltfError, HierarchyError};
 

@@ -14,9 +14,9 @@ use serde_json::Value;
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 
-mod document;
+pub(crate) mod document;
 mod files;
-mod finite;
+pub(crate) mod finite;
 mod names;
 mod refs;
 use document::build_document;
