@@ -145,7 +145,7 @@ impl Sym3 {
     }
 
     /// The 2D tensor `E^T S E` in the frame with unit axes `e1`, `e2`.
-    pub fn to_frame(&self, e1: [f64; 3], e2: [f64; 3]) -> Sym2 {
+    pub fn to_frame(self, e1: [f64; 3], e2: [f64; 3]) -> Sym2 {
         Sym2 {
             xx: self.quad(e1, e1),
             yy: self.quad(e2, e2),
