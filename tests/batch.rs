@@ -1202,19 +1202,34 @@ fn an_asset_saved_during_its_run_stays_out_of_date() {
         "--report",
         p(&rep),
     ];
-    let child = Command::new(common::crackle_bin())
+    // The save lands once the batch says it has hashed the asset's files
+    // (its info log), however slowly the machine starts it.
+    let mut child = Command::new(common::crackle_bin())
         .arg("batch")
         .args(args)
+        .arg("-v")
         .stderr(std::process::Stdio::piped())
         .spawn()
         .unwrap();
-    std::thread::sleep(std::time::Duration::from_millis(1500));
+    let mut lines = std::io::BufRead::lines(std::io::BufReader::new(child.stderr.take().unwrap()));
+    let mut stderr = String::new();
+    for line in lines.by_ref() {
+        let line = line.unwrap();
+        stderr += &line;
+        stderr.push('\n');
+        if line.contains("plate.obj: started") {
+            break;
+        }
+    }
     let mut text = std::fs::read_to_string(&plate).unwrap();
     text.push_str("# saved again\n");
     std::fs::write(&plate, text).unwrap();
-    let o = child.wait_with_output().unwrap();
-    let stderr = String::from_utf8_lossy(&o.stderr);
-    assert_eq!(o.status.code(), Some(0), "{stderr}");
+    for line in lines {
+        stderr += &line.unwrap();
+        stderr.push('\n');
+    }
+    let status = child.wait().unwrap();
+    assert_eq!(status.code(), Some(0), "{stderr}");
     let r = report(&rep);
     let row = &r["assets"][0];
     assert_eq!(row["status"], "cracked", "{r}");

@@ -139,6 +139,7 @@ pub fn execute(
             let fp = fingerprint(plan, options, asset);
             let scanned = scanned_sources(&asset.input);
             let before = asset_key(&asset.input, &scanned, &fp);
+            log::info!("{}: started (its files hashed)", asset.rel);
             // A panic is a bug; it fails this asset, not the batch.
             let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
                 run_asset(asset, plan, options, &on_stage)
