@@ -1,5 +1,5 @@
-//! Decoding PNG, JPEG and WebP images (the pure-Rust `png`, `zune-jpeg`
-//! and `image-webp` crates) into luminance or RGBA values, the declared
+//! Decoding PNG, JPEG and WebP images (the pure-Rust `png` and
+//! `zune-jpeg` crates, libwebp) into luminance or RGBA values, the declared
 //! size checked (against [`MAX_PIXELS`] and a memory budget) before any
 //! pixel buffer is allocated. The stress layer samples what this decodes
 //! ([`GreyImage`]); luminance as its module describes.

@@ -250,13 +250,19 @@ pub(crate) fn bbox(p: &[[f64; 3]]) -> ([f64; 3], [f64; 3]) {
 }
 
 pub(crate) fn closest_on_segment(p: [f64; 3], a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    add(a, scale(sub(b, a), segment_parameter(p, a, b)))
+}
+
+/// Where along `a`-`b` (0 at `a`, 1 at `b`) its closest point to `p` lies;
+/// 0 when the segment has no length.
+fn segment_parameter(p: [f64; 3], a: [f64; 3], b: [f64; 3]) -> f64 {
     let ab = sub(b, a);
     let l = dot(ab, ab);
-    if l <= 0.0 {
-        return a;
+    if l > 0.0 {
+        (dot(sub(p, a), ab) / l).clamp(0.0, 1.0)
+    } else {
+        0.0
     }
-    let t = (dot(sub(p, a), ab) / l).clamp(0.0, 1.0);
-    add(a, scale(ab, t))
 }
 
 /// The closest point of triangle `t` to `p`, and its barycentric
@@ -320,14 +326,8 @@ fn closest_on_edges(p: [f64; 3], t: [[f64; 3]; 3]) -> ([f64; 3], [f64; 3]) {
     let mut best: Option<(f64, [f64; 3], [f64; 3])> = None;
     for k in 0..3 {
         let (i, j) = (k, (k + 1) % 3);
-        let e = sub(t[j], t[i]);
-        let ee = dot(e, e);
-        let s = if ee > 0.0 {
-            (dot(sub(p, t[i]), e) / ee).clamp(0.0, 1.0)
-        } else {
-            0.0
-        };
-        let q = add(t[i], scale(e, s));
+        let s = segment_parameter(p, t[i], t[j]);
+        let q = add(t[i], scale(sub(t[j], t[i]), s));
         let mut bary = [0.0; 3];
         bary[i] = 1.0 - s;
         bary[j] += s;

@@ -510,20 +510,13 @@ impl Pipeline {
 
     /// Every entry's mask for `scene`: the decoded image masks (from
     /// [`Pipeline::load_images`]) and the material masks, whose textures are
-    /// decoded here; texture files must lie inside `asset_dir`.
+    /// decoded here, each held to `budget` bytes (the run's `--max-memory`),
+    /// checked before decoding; texture files must lie inside `asset_dir`.
     ///
     /// # Errors
     /// An image mask not loaded yet, a material name the scene does not have
-    /// (the message lists the names), or a texture that cannot be used.
-    pub(crate) fn masks_for(&self, scene: &Scene, asset_dir: &Path) -> Result<Masks, PipelineError> {
-        self.masks_for_within(scene, asset_dir, u64::MAX)
-    }
-
-    /// [`Pipeline::masks_for`] with each decoded texture held to `budget`
-    /// bytes (the run's `--max-memory`), checked before decoding.
-    ///
-    /// # Errors
-    /// Those of [`Pipeline::masks_for`], and a texture over the budget.
+    /// (the message lists the names), a texture that cannot be used or is
+    /// over the budget.
     pub(crate) fn masks_for_within(
         &self,
         scene: &Scene,
@@ -602,7 +595,7 @@ impl Pipeline {
     }
 
     /// The stress terms for a mesh placed at `place`, with the entries'
-    /// masks (from [`Pipeline::masks_for`]; empty: no masks).
+    /// masks (from [`Pipeline::masks_for_within`]; empty: no masks).
     ///
     /// # Errors
     /// A term with missing or conflicting keys (checked by [`Pipeline::parse`]
@@ -648,12 +641,12 @@ pub mod machinery {
         p.terms(place, masks)
     }
 
-    /// [`Pipeline::masks_for`].
+    /// [`Pipeline::masks_for_within`] with no memory budget.
     ///
     /// # Errors
-    /// Those of [`Pipeline::masks_for`].
+    /// Those of [`Pipeline::masks_for_within`].
     pub fn masks_for(p: &Pipeline, scene: &Scene, asset_dir: &Path) -> Result<Masks, PipelineError> {
-        p.masks_for(scene, asset_dir)
+        p.masks_for_within(scene, asset_dir, u64::MAX)
     }
 
     /// The image mask of stress entry `i`, once [`Pipeline::load_images`]
