@@ -71,8 +71,8 @@ fn glass_impact_is_a_star_that_thins_out_and_is_not_cut_off() {
 /// The star holds over seeds and on a regular grid a DCC tool makes, not
 /// only on the seed the test above pins: seeds 2 to 8 on the jittered plate
 /// and 1 to 8 on the regular one (160 x 160, one diagonal per square). Over
-/// these the radial share from 0.2 to 0.8 R measured 0.683-0.845 and the
-/// fullest band of 0.05 R 0.071-0.101 (the regular plate's seed 2): its
+/// these the radial share from 0.2 to 0.8 R measured 0.715-0.928 and the
+/// fullest band of 0.05 R 0.058-0.101 (the regular plate's seed 7): its
 /// tenth is asked within 5%. With the ring tension at full strength up to
 /// the hit, the first rings closed into a polygon around it: radial share
 /// under 0.65 on 3 of 16 seeds (0.632), a band of 0.117.
@@ -404,26 +404,44 @@ fn length_by_region(
 /// The arcs between the rays end on them: the preset's finishing runs on
 /// the tips with a crack within 0.3 cells ahead (`post.finish_reach`), so
 /// an arc's end meets the ray beside it, while the rays' outer tips stay
-/// where the load left them. Without it the arcs floated as dashes.
+/// where the load left them. An open end is an arc's when the crack it
+/// ends runs across the way out from the hit (its chord over the last
+/// 0.3 units, a twelfth of the radius, within 60 degrees of the circle
+/// through it). Without finishing the arcs floated as dashes.
 #[test]
 fn arcs_end_on_the_rays_beside_them() {
-    let ends_and_junctions = |extra: &[&str]| {
+    let ends = |extra: &[&str]| {
         let dir = tempfile::tempdir().unwrap();
         let s = impact_on_plate_in(dir.path(), extra);
         let lines = measure::read_model(&dir.path().join("out.glb")).rest_lines("crack_lines");
         let graph = measure::crack_graph(&lines, measure::DEFAULT_WELD_REL);
-        let ends = graph.degree.iter().filter(|&&d| d == 1).count();
-        let joins = graph.degree.iter().filter(|&&d| d >= 3).count();
-        (ends, joins, s)
+        let open: Vec<usize> = (0..graph.nodes.len())
+            .filter(|&n| graph.degree[n] == 1)
+            .collect();
+        let arc_ends = open
+            .iter()
+            .filter(|&&n| {
+                let (p, q) = (graph.nodes[n], graph.nodes[graph.walk_from_end(n, 0.3)]);
+                let chord = [q[0] - p[0], q[2] - p[2]];
+                let out = [p[0], p[2]]; // the hit is the origin, the plate is y = 0
+                let (lc, lo) = (chord[0].hypot(chord[1]), out[0].hypot(out[1]));
+                lc > 0.0
+                    && lo > 0.0
+                    && (chord[0] * out[0] + chord[1] * out[1]).abs() < 0.5 * lc * lo
+            })
+            .count();
+        (arc_ends, open.len(), s)
     };
-    let (ends, joins, s) = ends_and_junctions(&[]);
-    let (loose_ends, loose_joins, _) = ends_and_junctions(&["--set", "post.finish=false"]);
-    eprintln!("open ends / junctions: finished {ends} / {joins}, not {loose_ends} / {loose_joins}");
-    assert!(ends <= joins, "{ends} open ends, {joins} junctions");
-    assert!(
-        loose_ends > loose_joins,
-        "{loose_ends} open ends, {loose_joins} junctions without finishing"
+    let (arc_ends, open, s) = ends(&[]);
+    let (loose_arc_ends, loose_open, _) = ends(&["--set", "post.finish=false"]);
+    eprintln!(
+        "arc ends / open ends: finished {arc_ends} / {open}, not {loose_arc_ends} / {loose_open}"
     );
+    assert!(
+        3 * arc_ends <= loose_arc_ends,
+        "{arc_ends} arc ends finished, {loose_arc_ends} not"
+    );
+    assert!(arc_ends <= 2, "{arc_ends} arcs end in the open");
     // Still a star: no ray ran on to the pane's border.
     assert!(s["max_band_share_0.05"].as_f64().unwrap() <= 0.10, "{s}");
     let outside: f64 = s["share_beyond_1.1"].as_f64().unwrap_or(0.0);
@@ -643,14 +661,18 @@ fn crackle_stats_impact(file: &std::path::Path, hit: [f64; 3], radius: f64) -> s
 /// the default hit (the teapot's body from +z, spot's flank from +x) along
 /// the input's own surface, so a crack is radial when it runs away from
 /// the hit on the surface, and each band's area is the surface's. Seeds
-/// 1-3. Length per area falls to under half from the hit to 0.6-0.9 R,
-/// nothing lies beyond 1.1 R but stray tips, and a star of rays crosses
-/// half the radius; `crackle stats --impact` finds the same radial share
-/// (within 0.05, along the surface) on seed 1. Over seeds 1-8 the radial
-/// share is 0.63-0.86 on the teapot (mean 0.72) and 0.63-0.80 on spot
-/// (mean 0.71), the fullest band 0.087-0.131 and 0.074-0.100: the issue's
-/// 0.65 and 0.10 hold on most seeds, not all (3 and 4 of 16 miss); the
-/// bounds below guard what holds on every seed.
+/// 1-3: the radial share from 0.2 to 0.8 R at least 0.65 and no band of
+/// 0.05 R over a tenth of the length (within 5%), length per area falling to
+/// under half from the hit to 0.6-0.9 R, at most an eighth of it beyond
+/// 1.1 R (rays that run on where the load fades: 0.101 on spot's seed 3,
+/// under 0.06 with the hoop tension's decay at 0.8 R), and a star of rays
+/// across half the radius; `crackle stats
+/// --impact` finds the same radial share (within 0.05, along the surface)
+/// on seed 1. Over seeds 1-8 the radial share measured 0.70-0.90 on the
+/// teapot and 0.69-0.87 on spot, the fullest band 0.076-0.102 and
+/// 0.057-0.092; with the hoop tension's decay at 0.8 R and the rings at
+/// half the rays' strength it was 0.63-0.86 and 0.63-0.80, bands up to
+/// 0.131 (7 of 16 seeds missed 0.65 or 0.10).
 #[test]
 fn on_curved_assets_the_star_holds_along_the_surface() {
     let dir = tempfile::tempdir().unwrap();
@@ -688,10 +710,10 @@ fn on_curved_assets_the_star_holds_along_the_surface() {
                     ));
                 }
             }
-            if radial < 0.6
-                || band > 0.135
+            if radial < 0.65
+                || band > 0.105
                 || fall > 0.5
-                || beyond > 0.06
+                || beyond > 0.125
                 || !(6..=14).contains(&rays)
             {
                 failures.push(format!(

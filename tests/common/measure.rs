@@ -794,6 +794,20 @@ impl CrackGraph {
     pub fn segments(&self) -> Vec<Seg> {
         (0..self.edges.len()).map(|e| self.segment(e)).collect()
     }
+    /// Walking from open end `end` along the crack (through nodes of degree 2) until `length`
+    /// (world units) or a junction or another end: the node reached.
+    pub fn walk_from_end(&self, end: usize, length: f64) -> usize {
+        let (mut prev, mut at, mut walked) = (usize::MAX, end, 0.0);
+        loop {
+            let next = self.adjacency[at].iter().find(|&&(m, _)| m != prev);
+            let Some(&(m, _)) = next else { return at };
+            walked += dist(self.nodes[at], self.nodes[m]);
+            (prev, at) = (at, m);
+            if walked >= length || self.degree[at] != 2 {
+                return at;
+            }
+        }
+    }
     /// The connected pieces of the graph, each as its edges.
     pub fn pieces(&self) -> Vec<Vec<usize>> {
         let mut seen = vec![false; self.nodes.len()];
