@@ -666,9 +666,8 @@ fn crackle_stats_impact(file: &std::path::Path, hit: [f64; 3], radius: f64) -> s
 /// under half from the hit to 0.6-0.9 R, at most an eighth of it beyond
 /// 1.1 R (rays that run on where the load fades: 0.101 on spot's seed 3,
 /// under 0.06 with the hoop tension's decay at 0.8 R), and a star of rays
-/// across half the radius; `crackle stats
-/// --impact` finds the same radial share (within 0.05, along the surface)
-/// on seed 1. Over seeds 1-8 the radial share measured 0.70-0.90 on the
+/// across half the radius; `crackle stats --impact` finds the same radial
+/// share (within 0.05, along the surface) on seed 1. Over seeds 1-8 the radial share measured 0.70-0.90 on the
 /// teapot and 0.69-0.87 on spot, the fullest band 0.076-0.102 and
 /// 0.057-0.092; with the hoop tension's decay at 0.8 R and the rings at
 /// half the rays' strength it was 0.63-0.86 and 0.63-0.80, bands up to
