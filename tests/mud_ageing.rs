@@ -21,6 +21,8 @@ struct Pattern {
     open_tips: usize,
     /// `crackle stats`' mean cell sides and the cells it is over.
     stats_sides: (f64, u64),
+    /// `crackle stats`' share of Y among the three-way junctions.
+    stats_y_share: f64,
 }
 
 fn mud_on_plate(args: &[&str]) -> Pattern {
@@ -58,6 +60,7 @@ fn mud_on_plate(args: &[&str]) -> Pattern {
             stats["mean_cell_sides"].as_f64().unwrap(),
             stats["sided_cells"].as_u64().unwrap(),
         ),
+        stats_y_share: stats["y_share"].as_f64().unwrap(),
     }
 }
 
@@ -104,13 +107,21 @@ fn aged_mud_has_y_junctions_and_near_hexagonal_cells_on_the_first_drying_cracks(
     );
     assert_eq!((fresh.open_tips, aged.open_tips), (0, 0));
     // `crackle stats` counts the sides as the measure does (on the same
-    // inner cells, within a corner in five cells).
+    // inner cells, within a corner in five cells), and the Y share within
+    // 0.15 (it reads a junction's angles from its first segments, the
+    // measure from arms a tenth of a cell long).
     for p in [&fresh, &aged] {
         let (mean, cells) = p.stats_sides;
         assert!(
             (mean - p.mean_sides).abs() <= 0.2 && cells >= 20,
             "stats {mean} over {cells} cells, measure {}",
             p.mean_sides
+        );
+        let y = p.junctions["y_share"].as_f64().unwrap();
+        assert!(
+            (p.stats_y_share - y).abs() <= 0.15,
+            "stats' Y share {}, measure {y}",
+            p.stats_y_share
         );
     }
 }

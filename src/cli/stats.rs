@@ -65,8 +65,8 @@ pub fn run(
     );
     println!("  open tips             {}", s.dangling_tips);
     println!(
-        "  degree-3 junctions    T {}  Y {}",
-        s.t_junctions, s.y_junctions
+        "  degree-3 junctions    T {} ({:.2})  Y {} ({:.2})",
+        s.t_junctions, s.t_share, s.y_junctions, s.y_share
     );
     println!(
         "  cell sides            {:.2} on average over {} cells off the border",
@@ -119,8 +119,8 @@ fn print_impact(h: &ImpactStats) {
         h.radial_share_mid
     );
     println!(
-        "  crossing half radius  {} crack segments",
-        h.crossings_half
+        "  crossing half radius  {} crack segments, {} of them radial",
+        h.crossings_half, h.radial_crossings_half
     );
     println!("  by distance (radii)   radial  concentric  all  per area");
     let w = crate::stats::impact::BAND;

@@ -68,6 +68,10 @@ pub struct ImpactStats {
     pub radial_share_mid: f64,
     /// Crack segments crossing the circle at half the radius.
     pub crossings_half: usize,
+    /// Of `crossings_half`, the radial ones: their distance from the hit
+    /// changes by at least cos 30 degrees of their length (the radial cracks
+    /// at half the radius; an arc wiggling across the circle is not one).
+    pub radial_crossings_half: usize,
 }
 
 /// Distances from the hit along a surface: per vertex, each point's over
@@ -204,6 +208,9 @@ fn measure(
         if let (Some(da), Some(db)) = (distance(a), distance(b)) {
             if (da < half) != (db < half) {
                 s.crossings_half += 1;
+                if (db - da).abs() >= cos_in * norm(sub(b, a)) {
+                    s.radial_crossings_half += 1;
+                }
             }
         }
         let n = unit(add(normals[e[0] as usize], normals[e[1] as usize]));
@@ -309,7 +316,7 @@ mod tests {
             ..Default::default()
         };
         let s = impact_stats(&input, [0.0; 3], 1.0);
-        assert_eq!(s.crossings_half, 4);
+        assert_eq!((s.crossings_half, s.radial_crossings_half), (4, 4));
         let total: f64 = s.total.iter().sum::<f64>() + s.beyond;
         let ring = 200.0 * 2.0 * 0.65 * (std::f64::consts::PI / 200.0).sin();
         assert!((total - (4.0 + ring)).abs() < 1e-9, "{total}");
@@ -324,6 +331,34 @@ mod tests {
         assert!((s.radial_share_mid - 2.4 / (2.4 + ring)).abs() < 1e-9);
         assert!(s.per_area[0] > s.per_area[9]);
         assert_eq!(s.beyond, 0.0);
+    }
+
+    /// An arc wiggling across the half-radius circle crosses it often but
+    /// is no radial crack: the four rays are the radial crossings.
+    #[test]
+    fn an_arc_across_half_the_radius_is_not_a_radial_crack() {
+        let mut positions = vec![[0.0, 0.0, 0.0]];
+        let mut cracks = Vec::new();
+        for dir in [[1.0, 0.0], [-1.0, 0.0], [0.0, 1.0], [0.0, -1.0]] {
+            positions.push([dir[0], dir[1], 0.0]);
+            cracks.push([0, positions.len() as u32 - 1]);
+        }
+        // Ten chords between 0.49 and 0.51 R from 0.3 to 1.2 radians.
+        let first = positions.len() as u32;
+        for k in 0..=10 {
+            let (a, r) = (0.3 + 0.09 * k as f64, if k % 2 == 0 { 0.49 } else { 0.51 });
+            positions.push([r * a.cos(), r * a.sin(), 0.0]);
+            if k > 0 {
+                cracks.push([first + k - 1, first + k]);
+            }
+        }
+        let input = PatternInput {
+            positions,
+            cracks,
+            ..Default::default()
+        };
+        let s = impact_stats(&input, [0.0; 3], 1.0);
+        assert_eq!((s.crossings_half, s.radial_crossings_half), (14, 4));
     }
 
     /// A cylinder of radius 1 hit on its side, a crack around it from the

@@ -172,6 +172,11 @@ pub struct PatternStats {
     pub t_junctions: usize,
     /// Degree-3 junctions with every angle within 90..150 degrees.
     pub y_junctions: usize,
+    /// `t_junctions` over all degree-3 junctions (0 without any).
+    pub t_share: f64,
+    /// `y_junctions` over all degree-3 junctions (0 without any): under a
+    /// tenth for a first drying, over a half for aged mud.
+    pub y_share: f64,
     /// Angles at degree-3 junctions (in the plane of the surface where the
     /// node is a vertex of it, else of the crack directions), histogram of
     /// 12 bins of 15 degrees over 0..180.
@@ -587,6 +592,8 @@ pub fn pattern_stats(input: &PatternInput, reference: Option<&ReferenceEdges>) -
             junction(&mut s, pos, v, near, normals[v]);
         }
     }
+    let threes = s.degree[2].max(1) as f64;
+    (s.t_share, s.y_share) = (s.t_junctions as f64 / threes, s.y_junctions as f64 / threes);
     s.orientation = orientation(pos, &input.cracks, crack_length);
     let arm = 0.1 * s.mean_cell_diameter;
     // A node at rest finds the surface across its opened gap within a cell.
