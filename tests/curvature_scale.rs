@@ -94,14 +94,18 @@ fn a_grainy_ground_does_not_crack_and_a_bump_on_it_cracks_into_cells() {
         "{on_edges} of the length on the grid's edges"
     );
 
-    // A thousand times larger: the same pattern, a thousand times longer.
-    let big = dir.path().join("big.obj");
-    std::fs::write(&big, ground(200, 0.02, 1.5, 1000.0)).unwrap();
-    let scaled = length(&curvature_lines(&big, &dir.path().join("big.glb"))) / 1000.0;
-    assert!(
-        (scaled - total).abs() <= 0.05 * total,
-        "{scaled} at x1000 against {total}"
-    );
+    // A thousand times larger or smaller: the same pattern, a thousand
+    // times longer or shorter.
+    for (k, scale) in [1000.0, 0.001].into_iter().enumerate() {
+        let other = dir.path().join(format!("scaled-{k}.obj"));
+        std::fs::write(&other, ground(200, 0.02, 1.5, scale)).unwrap();
+        let out = dir.path().join(format!("scaled-{k}.glb"));
+        let scaled = length(&curvature_lines(&other, &out)) / scale;
+        assert!(
+            (scaled - total).abs() <= 0.05 * total,
+            "{scaled} at x{scale} against {total}"
+        );
+    }
 }
 
 /// On the teapot the cracks run across the input's triangles (none along

@@ -1,5 +1,6 @@
 //! The snapping variant (`impact-snapped`: cracks follow the simulation
-//! surface's edges) on a grid a DCC tool makes and on the teapot: its
+//! surface's edges) and the spring model (`springs-mud`, `springs-glaze`)
+//! on a grid a DCC tool makes and on the teapot: their
 //! cracks do not run along the input's own edges (the private isotropic
 //! surface), and they end on one another instead of crossing in ladders
 //! of four-way junctions. Measured with the independent measure
@@ -14,7 +15,7 @@ mod shapes;
 
 use std::path::Path;
 
-/// What the independent measure finds in `impact-snapped`'s output.
+/// What the independent measure finds in a preset's output.
 struct Snapped {
     /// Share of the crack length on the input's edges.
     on_edges: f64,
@@ -29,7 +30,12 @@ struct Snapped {
 
 /// `impact-snapped` on `input`.
 fn snapped(input: &Path, out: &Path) -> Snapped {
-    common::crack_lines(input, out, "impact-snapped", &[]);
+    measured(input, out, "impact-snapped")
+}
+
+/// `preset` on `input`, measured.
+fn measured(input: &Path, out: &Path, preset: &str) -> Snapped {
+    common::crack_lines(input, out, preset, &[]);
     let lines = measure::read_model(out).rest_lines("crack_lines");
     assert!(measure::crack_length(&lines) > 0.0, "no cracks");
     let tris = measure::read_model(input).triangles(|_| true);
@@ -87,6 +93,32 @@ fn snapped_cracks_leave_the_input_edges_and_end_on_each_other() {
     star("200x200 grid", &on_grid.lines);
     if let Some(teapot) = common::eval_data("obj/teapot/teapot.obj") {
         check("teapot", &snapped(&teapot, &dir.path().join("teapot.glb")));
+    }
+}
+
+/// The spring model's presets (`springs-mud`, `springs-glaze`) on the same
+/// 200 x 200 grid and the teapot: their springs are the private isotropic
+/// surface's edges, so their cracks leave the input's rows too, and where
+/// they meet they end on one another (no ladders of four-way junctions).
+#[test]
+fn spring_cracks_leave_the_input_edges_and_end_on_each_other() {
+    let dir = tempfile::tempdir().unwrap();
+    let grid = dir.path().join("grid.obj");
+    shapes::write_obj(&grid, &shapes::regular_plate(200, 10.0));
+    let teapot = common::eval_data("obj/teapot/teapot.obj");
+    for preset in ["springs-mud", "springs-glaze"] {
+        let out = dir.path().join(format!("{preset}-grid.glb"));
+        check(
+            &format!("{preset}, 200x200 grid"),
+            &measured(&grid, &out, preset),
+        );
+        if let Some(teapot) = &teapot {
+            let out = dir.path().join(format!("{preset}-teapot.glb"));
+            check(
+                &format!("{preset}, teapot"),
+                &measured(teapot, &out, preset),
+            );
+        }
     }
 }
 
