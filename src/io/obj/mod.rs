@@ -24,7 +24,9 @@ use std::path::{Path, PathBuf};
 mod chunked;
 mod mtl;
 mod prim;
+mod words;
 use mtl::*;
+use words::{corner_parts, split_keyword, strip_comment, words};
 use prim::PrimBuilder;
 
 /// Read an OBJ file (and the MTL libraries and textures it names, all inside
@@ -439,15 +441,6 @@ fn default_material(scene: &mut Scene) -> usize {
     scene.materials.len() - 1
 }
 
-/// The first word of `s` and the rest (trimmed at the start).
-fn split_keyword(s: &str) -> (&str, &str) {
-    let s = s.trim_start();
-    match s.find(char::is_whitespace) {
-        Some(i) => (&s[..i], s[i..].trim_start()),
-        None => (s, ""),
-    }
-}
-
 /// A finite number, read as `f32`.
 fn number(tok: &str) -> Option<f32> {
     tok.parse::<f32>().ok().filter(|x| x.is_finite())
@@ -562,7 +555,7 @@ impl Prepared {
             });
         let mut values = [0f32; 6];
         let mut n = 0;
-        for tok in rest.split_whitespace() {
+        for tok in words(rest) {
             let x = number(tok).ok_or_else(invalid)?;
             if n < 6 {
                 values[n] = x;
@@ -602,7 +595,7 @@ impl Prepared {
             });
         let mut uv = [0f32; 2];
         let mut n = 0;
-        for tok in rest.split_whitespace().take(3) {
+        for tok in words(rest).take(3) {
             let x = number(tok).ok_or_else(invalid)?;
             if n < 2 {
                 uv[n] = x;
@@ -622,7 +615,7 @@ impl Prepared {
             });
         let mut v = [0f32; 3];
         let mut n = 0;
-        for tok in rest.split_whitespace().take(3) {
+        for tok in words(rest).take(3) {
             v[n] = number(tok).ok_or_else(invalid)?;
             n += 1;
         }
@@ -635,12 +628,10 @@ impl Prepared {
 
     fn face(&mut self, rest: &str, no: usize) -> Result<(), ObjError> {
         let start = self.corners.len();
-        for tok in rest.split_whitespace() {
-            let mut parts = tok.split('/');
-            let v = parts.next().unwrap_or("");
-            let vt = parts.next().unwrap_or("");
-            let vn = parts.next().unwrap_or("");
-            if parts.next().is_some() || v.is_empty() {
+        for tok in words(rest) {
+            let parts = corner_parts(tok);
+            let [v, vt, vn] = parts.unwrap_or(["", "", ""]);
+            if parts.is_none() || v.is_empty() {
                 self.corners.truncate(start);
                 return Err(line(no, LineFault::FaceVertex {
                     token: tok.to_string(),
@@ -694,11 +685,6 @@ impl Prepared {
         let what = ["vertex", "texture coordinate", "normal"][kind];
         resolve_index(tok, count, what, no)
     }
-}
-
-/// Drop a trailing `# comment` from a numeric line.
-fn strip_comment(s: &str) -> &str {
-    s.split('#').next().unwrap_or("")
 }
 
 /// A 1-based (or negative, relative) OBJ index to a 0-based one, checked
@@ -1572,5 +1558,27 @@ mod tests {
             check_consistent(&s);
             assert_eq!(s.triangle_count(), tris, "{rel}");
         }
+    }
+
+    /// A group met again later in the file (after another group's faces
+    /// used the same positions) keeps one vertex per
+    /// (v, vt, vn) corner: its second run of faces reuses its vertices, and
+    /// a seam (the same position with another texture coordinate) is a
+    /// vertex of its own.
+    #[test]
+    fn a_section_met_again_reuses_its_vertices() {
+        let obj = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nvt 1 1\n\
+                   g a\nf 1/1 2/2 3/3\n\
+                   g b\nf 2/2 4/4 3/3\nf 1/1 2/2 3/3\n\
+                   g a\nf 2/2 4/4 3/3\nf 1/1 2/2 3/3\nf 1/2 3/3 4/4\n";
+        let scene = read_str(obj).unwrap();
+        let counts: Vec<(usize, usize)> = prims(&scene)
+            .iter()
+            .map(|(_, t)| (t.positions.len(), t.triangles.len()))
+            .collect();
+        // a: corners 1/1 2/2 3/3 4/4 and the seam 1/2; b: 2/2 4/4 3/3 1/1.
+        assert_eq!(counts, vec![(5, 4), (4, 2)]);
+        let a = prims(&scene)[0].1;
+        assert_eq!(a.triangles, vec![[0, 1, 2], [1, 3, 2], [0, 1, 2], [4, 2, 3]]);
     }
 }

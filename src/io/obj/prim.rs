@@ -8,10 +8,15 @@ use crate::mesh::hash::FxHashMap;
 pub(super) struct Scratch {
     /// The face's vertex ids.
     polygon: Vec<u32>,
-    /// Per file position: the builder (its `key`) and vertex id of the
-    /// corner with that position seen last, so the common case (a position
-    /// met again with the same texture coordinate and normal) needs no hash.
-    last: Vec<(u32, u32)>,
+    /// Per file position: the builder (its `key`) that last used it and
+    /// the newest of that builder's vertices with it (the head of its
+    /// chain, [`PrimBuilder::same_position`]): a corner is found among the
+    /// few vertices of its own position, with no hash map.
+    head: Vec<(u32, u32)>,
+    /// Chain heads of builders another builder took a position over from,
+    /// by (builder key, position): a builder met again (its group and
+    /// material recur later in the file) finds its vertices there.
+    evicted: FxHashMap<(u32, u32), u32>,
     /// Keys given to builders so far.
     builders: u32,
 }
@@ -20,14 +25,15 @@ impl Scratch {
     pub(super) fn new(positions: usize) -> Self {
         Scratch {
             polygon: Vec::new(),
-            last: vec![(u32::MAX, 0); positions],
+            head: vec![(u32::MAX, 0); positions],
+            evicted: FxHashMap::default(),
             builders: 0,
         }
     }
 
     /// The number of positions no face given to a builder used.
     pub(super) fn unused_positions(&self) -> usize {
-        self.last.iter().filter(|l| l.0 == u32::MAX).count()
+        self.head.iter().filter(|l| l.0 == u32::MAX).count()
     }
 }
 
@@ -36,10 +42,12 @@ impl Scratch {
 pub(super) struct PrimBuilder {
     pub(super) group: Option<String>,
     pub(super) material: Option<usize>,
-    /// This builder's key in [`Scratch::last`].
+    /// This builder's key in [`Scratch::head`].
     key: u32,
-    vertex_of: FxHashMap<Corner, u32>,
     vertices: Vec<Corner>,
+    /// Per vertex: the builder's previous vertex with the same position
+    /// (`u32::MAX` at a chain's end).
+    same_position: Vec<u32>,
     triangles: Vec<[u32; 3]>,
     some_vt: bool,
     missing_vt: bool,
@@ -58,8 +66,8 @@ impl PrimBuilder {
             group,
             material,
             key: scratch.builders - 1,
-            vertex_of: FxHashMap::default(),
             vertices: Vec::new(),
+            same_position: Vec::new(),
             triangles: Vec::new(),
             some_vt: false,
             missing_vt: false,
@@ -74,7 +82,12 @@ impl PrimBuilder {
         positions: &[[f32; 3]],
         scratch: &mut Scratch,
     ) {
-        let Scratch { polygon, last, .. } = scratch;
+        let Scratch {
+            polygon,
+            head,
+            evicted,
+            ..
+        } = scratch;
         polygon.clear();
         for &c in corners {
             if c.vt == ABSENT {
@@ -87,19 +100,35 @@ impl PrimBuilder {
             } else {
                 self.some_vn = true;
             }
-            let (key, seen) = last[c.v as usize];
-            let id = if key == self.key && self.vertices[seen as usize] == c {
-                seen
+            let (key, first) = head[c.v as usize];
+            let chain = if key == self.key {
+                first
             } else {
-                let next = self.vertices.len() as u32;
-                let id = *self.vertex_of.entry(c).or_insert(next);
-                if id == next {
-                    self.vertices.push(c);
+                // Take the position over, keeping its owner's chain.
+                if key != u32::MAX {
+                    evicted.insert((key, c.v), first);
                 }
-                last[c.v as usize] = (self.key, id);
-                id
+                let own = evicted.get(&(self.key, c.v)).copied();
+                own.unwrap_or(u32::MAX)
             };
-            polygon.push(id);
+            head[c.v as usize] = (self.key, chain);
+            let mut found = u32::MAX;
+            let mut at = chain;
+            while at != u32::MAX {
+                if self.vertices[at as usize] == c {
+                    found = at;
+                    break;
+                }
+                at = self.same_position[at as usize];
+            }
+            if found == u32::MAX {
+                // A new vertex, numbered in order of first use.
+                found = self.vertices.len() as u32;
+                self.vertices.push(c);
+                self.same_position.push(chain);
+                head[c.v as usize].1 = found;
+            }
+            polygon.push(found);
         }
         if polygon.len() == 3 {
             self.triangles.push([polygon[0], polygon[1], polygon[2]]);
