@@ -740,6 +740,7 @@ fn on_curved_assets_the_star_holds_along_the_surface() {
             let rays = s["radial_crossings_0.5"].as_u64().unwrap();
             let (radial, band) = (get("radial_share_0.2_0.8"), get("max_band_share_0.05"));
             let beyond = get("share_beyond_1.1");
+            eprintln!("{name} seed {seed}: radial {radial:.3}, band {band:.3}, fall {fall:.2}, beyond 1.1 R {beyond:.3}, rays {rays}");
             if seed == "1" {
                 // `crackle stats --impact` measures along the surface too.
                 let stats = crackle_stats_impact(&out, hit, radius);
