@@ -1581,4 +1581,32 @@ mod tests {
         let a = prims(&scene)[0].1;
         assert_eq!(a.triangles, vec![[0, 1, 2], [1, 3, 2], [0, 1, 2], [4, 2, 3]]);
     }
+
+    /// Many corners on one position (a pole's fan of texture coordinates,
+    /// or a hostile file's thousands): each gets its own vertex, met again
+    /// it is found (the lookup stays bounded: the first few in a chain, the
+    /// rest by hash), and the numbering is the order of first use.
+    #[test]
+    fn many_corners_on_one_position_are_found_again() {
+        let n = 300;
+        let mut obj = String::from("v 0 0 0\nv 1 0 0\nv 0 1 0\n");
+        for k in 0..n {
+            obj.push_str(&format!("vt {} 0\n", k as f64 / n as f64));
+        }
+        for _ in 0..2 {
+            for k in 1..=n {
+                obj.push_str(&format!("f 1/{k} 2/1 3/1\n"));
+            }
+        }
+        let scene = read_str(&obj).unwrap();
+        let t = prims(&scene)[0].1;
+        // Corners 1/1 2/1 3/1 first, then 1/2 .. 1/300.
+        assert_eq!(t.positions.len(), n + 2);
+        assert_eq!(t.triangles.len(), 2 * n);
+        assert_eq!(t.triangles[0], [0, 1, 2]);
+        for k in 1..n {
+            assert_eq!(t.triangles[k], [k as u32 + 2, 1, 2], "face {k}");
+        }
+        assert_eq!(t.triangles[..n], t.triangles[n..]);
+    }
 }

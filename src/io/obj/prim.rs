@@ -4,12 +4,15 @@
 use super::*;
 use crate::mesh::hash::FxHashMap;
 
+/// Most vertices a position's chain holds (see [`PrimBuilder::spill`]).
+const CHAIN: usize = 8;
+
 /// What [`PrimBuilder::add_face`] reuses from face to face.
 pub(super) struct Scratch {
     /// The face's vertex ids.
     polygon: Vec<u32>,
     /// Per file position: the builder (its `key`) that last used it and
-    /// the newest of that builder's vertices with it (the head of its
+    /// the first of that builder's vertices with it (the head of its
     /// chain, [`PrimBuilder::same_position`]): a corner is found among the
     /// few vertices of its own position, with no hash map.
     head: Vec<(u32, u32)>,
@@ -45,9 +48,14 @@ pub(super) struct PrimBuilder {
     /// This builder's key in [`Scratch::head`].
     key: u32,
     vertices: Vec<Corner>,
-    /// Per vertex: the builder's previous vertex with the same position
-    /// (`u32::MAX` at a chain's end).
+    /// Per vertex: the builder's next vertex with the same position, in
+    /// order of making (`u32::MAX` at a chain's end). A chain holds a
+    /// position's first [`CHAIN`] vertices; any more are in `spill`.
     same_position: Vec<u32>,
+    /// The vertices of positions with more than [`CHAIN`] corners (a
+    /// pole's fan of texture coordinates), by corner: the lookup stays
+    /// bounded however many corners share a position.
+    spill: FxHashMap<Corner, u32>,
     triangles: Vec<[u32; 3]>,
     some_vt: bool,
     missing_vt: bool,
@@ -68,6 +76,7 @@ impl PrimBuilder {
             key: scratch.builders - 1,
             vertices: Vec::new(),
             same_position: Vec::new(),
+            spill: FxHashMap::default(),
             triangles: Vec::new(),
             some_vt: false,
             missing_vt: false,
@@ -112,21 +121,29 @@ impl PrimBuilder {
                 own.unwrap_or(u32::MAX)
             };
             head[c.v as usize] = (self.key, chain);
-            let mut found = u32::MAX;
-            let mut at = chain;
+            let (mut found, mut at, mut prev, mut steps) = (u32::MAX, chain, u32::MAX, 0);
             while at != u32::MAX {
                 if self.vertices[at as usize] == c {
                     found = at;
                     break;
                 }
-                at = self.same_position[at as usize];
+                (prev, at, steps) = (at, self.same_position[at as usize], steps + 1);
+            }
+            if found == u32::MAX && steps == CHAIN {
+                found = self.spill.get(&c).copied().unwrap_or(u32::MAX);
             }
             if found == u32::MAX {
                 // A new vertex, numbered in order of first use.
                 found = self.vertices.len() as u32;
                 self.vertices.push(c);
-                self.same_position.push(chain);
-                head[c.v as usize].1 = found;
+                self.same_position.push(u32::MAX);
+                if prev == u32::MAX {
+                    head[c.v as usize].1 = found;
+                } else if steps < CHAIN {
+                    self.same_position[prev as usize] = found;
+                } else {
+                    self.spill.insert(c, found);
+                }
             }
             polygon.push(found);
         }
