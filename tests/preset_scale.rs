@@ -80,19 +80,7 @@ fn the_presets_do_not_depend_on_the_unit_or_the_threads() {
     let plate = shapes::jittered_plate(80, 1.0, 0.3, 2);
     let mut inputs = Vec::new();
     for (k, scale) in [1.0, 1024.0, 1e-3, 1e3].into_iter().enumerate() {
-        let scaled: String = plate
-            .lines()
-            .map(|l| match l.strip_prefix("v ") {
-                Some(rest) => {
-                    let p: Vec<String> = rest
-                        .split_whitespace()
-                        .map(|x| format!("{:e}", x.parse::<f64>().unwrap() * scale))
-                        .collect();
-                    format!("v {}\n", p.join(" "))
-                }
-                None => format!("{l}\n"),
-            })
-            .collect();
+        let scaled = shapes::map_vertices(&plate, |p| p.map(|x| x * scale));
         let path = dir.path().join(format!("plate-{k}.obj"));
         std::fs::write(&path, scaled).unwrap();
         inputs.push((path, scale));

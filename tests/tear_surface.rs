@@ -7,6 +7,8 @@
 mod common;
 #[path = "common/measure.rs"]
 mod measure;
+#[path = "common/shapes.rs"]
+mod shapes;
 
 use measure::{Tri, P3};
 
@@ -200,24 +202,7 @@ fn a_block_turned_to_the_grid_tears_without_stray_vertices() {
     let dir = tempfile::tempdir().unwrap();
     let text = std::fs::read_to_string(common::fixture("notched_block.obj")).unwrap();
     let (c, s) = (30f64.to_radians().cos(), 30f64.to_radians().sin());
-    let turned: String = text
-        .lines()
-        .map(|l| match l.strip_prefix("v ") {
-            Some(rest) => {
-                let p: Vec<f64> = rest
-                    .split_whitespace()
-                    .map(|x| x.parse().unwrap())
-                    .collect();
-                format!(
-                    "v {} {} {}\n",
-                    c * p[0] - s * p[1],
-                    s * p[0] + c * p[1],
-                    p[2]
-                )
-            }
-            None => format!("{l}\n"),
-        })
-        .collect();
+    let turned = shapes::map_vertices(&text, |p| [c * p[0] - s * p[1], s * p[0] + c * p[1], p[2]]);
     let input = dir.path().join("turned.obj");
     std::fs::write(&input, turned).unwrap();
     let out = dir.path().join("torn.glb");

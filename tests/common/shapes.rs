@@ -174,6 +174,24 @@ pub fn icosphere(subdivisions: u32) -> String {
     )
 }
 
+/// OBJ text with every vertex line's position moved by `f`, the other
+/// lines as they are.
+pub fn map_vertices(text: &str, f: impl Fn([f64; 3]) -> [f64; 3]) -> String {
+    text.lines()
+        .map(|l| match l.strip_prefix("v ") {
+            Some(rest) => {
+                let p: Vec<f64> = rest
+                    .split_whitespace()
+                    .map(|x| x.parse().unwrap())
+                    .collect();
+                let q = f([p[0], p[1], p[2]]);
+                format!("v {:e} {:e} {:e}\n", q[0], q[1], q[2])
+            }
+            None => format!("{l}\n"),
+        })
+        .collect()
+}
+
 /// Writes OBJ text to `path`, creating its folder.
 pub fn write_obj(path: &Path, text: &str) {
     if let Some(dir) = path.parent() {
