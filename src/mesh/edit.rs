@@ -10,6 +10,8 @@
 //! part of its area, and the halfedges of a split face may change their
 //! endpoints.
 
+use crate::math::GrowGently;
+
 use super::error::{EditFault, FlipRefusal, MeshError};
 use super::halfedge::SimMesh;
 use super::ids::{FaceId, HalfedgeId, VertexId, WedgeId, INVALID};
@@ -82,6 +84,11 @@ impl SimMesh {
 
     fn push_vertex(&mut self, p: [f64; 3], source: u32, parent: Option<u32>) -> u32 {
         let v = self.positions.len() as u32;
+        let n = v as usize + 1;
+        self.positions.reserve_gently(n);
+        self.vertex_halfedge.reserve_gently(n);
+        self.vertex_source.reserve_gently(n);
+        self.vertex_parent.reserve_gently(n);
         self.positions.push(p);
         self.vertex_halfedge.push(INVALID);
         self.vertex_source.push(source);
@@ -93,6 +100,13 @@ impl SimMesh {
     /// source; twins are unset. Returns its first halfedge index.
     fn push_face(&mut self, v: [u32; 3], w: [u32; 3], group: u32, source: u32) -> usize {
         let b = self.he_origin.len();
+        self.he_origin.reserve_gently(b + 3);
+        self.he_wedge.reserve_gently(b + 3);
+        self.he_twin.reserve_gently(b + 3);
+        self.he_crack.reserve_gently(b + 3);
+        let f = self.face_groups.len() + 1;
+        self.face_groups.reserve_gently(f);
+        self.face_source.reserve_gently(f);
         self.he_origin.extend_from_slice(&v);
         self.he_wedge.extend_from_slice(&w);
         self.he_twin.extend_from_slice(&[INVALID; 3]);

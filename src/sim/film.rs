@@ -32,6 +32,7 @@
 //! round, within [`SHADOW`]` * c` of a crack that round made (its relief
 //! is not solved for until the round ends).
 
+use crate::math::GrowGently;
 use crate::math::{v3, Sym3};
 use crate::mesh::{FaceId, SimMesh, VertexId};
 use crate::sim::forces::{Elements, Fans};
@@ -103,10 +104,10 @@ impl Film {
 
     /// Grow the per-node arrays to `n` nodes (new nodes are not marked).
     pub fn grow(&mut self, n: usize) {
-        self.near_crack.resize(n, false);
-        self.shadow.resize(n, 0);
-        self.run.resize(n, 0);
-        self.stamp.resize(n, 0);
+        self.near_crack.resize_gently(n, false);
+        self.shadow.resize_gently(n, 0);
+        self.run.resize_gently(n, 0);
+        self.stamp.resize_gently(n, 0);
     }
 
     /// Rebuild the interface terms when the mesh changed.

@@ -3,6 +3,7 @@
 //! Every per-node quantity is a gather over the node's fan in the mesh's fan
 //! order, so results do not depend on thread count or scheduling.
 
+use crate::math::GrowGently;
 use crate::geometry::element::{basis_norm, Element};
 use crate::math::{v3, Sym3};
 use crate::mesh::{FaceId, SimMesh, VertexId};
@@ -197,7 +198,7 @@ pub fn corner_forces_with(
     stress: impl Fn(usize, &Element) -> Sym3 + Sync,
     out: &mut Vec<[f64; 3]>,
 ) {
-    out.resize(3 * els.elements.len(), [0.0; 3]);
+    out.resize_gently(3 * els.elements.len(), [0.0; 3]);
     out.par_chunks_mut(3)
         .zip(els.elements.par_iter())
         .enumerate()

@@ -25,6 +25,7 @@
 //! dot product sums fixed chunks in order, so results do not depend on the
 //! thread count.
 
+use crate::math::GrowGently;
 use crate::geometry::element::Element;
 use crate::math::{v3, Sym3};
 use crate::sim::forces::{element_corner_forces, element_strain, gather, Elements, Fans};
@@ -202,7 +203,7 @@ impl Operator<'_> {
 
     /// The corner forces of the strain `B v` (from zero stress).
     fn strain_forces(&self, v: &[[f64; 3]], corner: &mut Vec<[f64; 3]>) {
-        corner.resize(3 * self.els.elements.len(), [0.0; 3]);
+        corner.resize_gently(3 * self.els.elements.len(), [0.0; 3]);
         let fans = self.fans;
         corner
             .par_chunks_mut(3)
@@ -223,7 +224,7 @@ impl Operator<'_> {
     /// [`strain_forces`](Self::strain_forces) from the packed faces
     /// ([`pack`](Self::pack)); the same values.
     fn packed_strain_forces(&self, packed: &[Packed], v: &[[f64; 3]], corner: &mut Vec<[f64; 3]>) {
-        corner.resize(3 * packed.len(), [0.0; 3]);
+        corner.resize_gently(3 * packed.len(), [0.0; 3]);
         corner
             .par_chunks_mut(3)
             .zip(packed.par_iter())
@@ -415,7 +416,7 @@ impl Shifted<'_> {
     ) -> CgReport {
         let (op, dt, tol) = (self.op, self.dt, self.tol);
         let n = rhs.len();
-        x.resize(n, [0.0; 3]);
+        x.resize_gently(n, [0.0; 3]);
         r.clear();
         r.extend_from_slice(rhs);
         let CgScratch {
@@ -426,7 +427,7 @@ impl Shifted<'_> {
             kp,
         } = scratch;
         for v in [&mut *z, &mut *p, &mut *kp] {
-            v.resize(n, [0.0; 3]);
+            v.resize_gently(n, [0.0; 3]);
         }
         let mut report = CgReport::default();
         let norm_b = dot(rhs, rhs).sqrt();
@@ -549,7 +550,7 @@ fn prefetch_nodes(v: &[[f64; 3]], nodes: [u32; 3]) {
 /// in now rather than at first use).
 pub fn touch(v: &mut Vec<[f64; 3]>, n: usize) {
     v.clear();
-    v.resize(n, [0.0; 3]);
+    v.resize_gently(n, [0.0; 3]);
 }
 
 /// Earlier solutions `x_i` of one system with their products `A x_i`.
@@ -662,9 +663,9 @@ pub fn subspace_start(
     }
     let n = rhs.len();
     x.clear();
-    x.resize(n, [0.0; 3]);
+    x.resize_gently(n, [0.0; 3]);
     ax.clear();
-    ax.resize(n, [0.0; 3]);
+    ax.resize_gently(n, [0.0; 3]);
     x.par_iter_mut()
         .zip(ax.par_iter_mut())
         .enumerate()

@@ -16,6 +16,7 @@
 //! The values are read and written as a slice (`Deref`); the length is
 //! the mesh's, changed only by [`Grows::grow`].
 
+use crate::math::GrowGently;
 use crate::math::{v3, Sym3};
 use crate::mesh::{SimMesh, VertexId};
 use crate::sim::crack::CrackEvent;
@@ -144,7 +145,7 @@ impl<T: Clone + Lerp + 'static> PerNode<T> {
 impl<T: Clone> Grows for PerNode<T> {
     fn grow(&mut self, mesh: &SimMesh) {
         let n = mesh.n_vertices();
-        self.values.reserve(n.saturating_sub(self.values.len()));
+        self.values.reserve_gently(n);
         while self.values.len() < n {
             let i = self.values.len();
             let v = VertexId(i as u32);
@@ -232,7 +233,7 @@ impl<T: Clone> Grows for PerFace<T> {
             return;
         }
         let n = mesh.n_faces();
-        self.values.reserve(n.saturating_sub(self.values.len()));
+        self.values.reserve_gently(n);
         while self.values.len() < n {
             let i = self.values.len() as u32;
             let x = self.born.value(mesh, i, None);

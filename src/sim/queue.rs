@@ -5,6 +5,7 @@
 //! whose stamp is stale are skipped when popped. No float-keyed map is used:
 //! the order is a total order on (`v+` by `f64::total_cmp`, node id).
 
+use crate::math::GrowGently;
 use std::cmp::Ordering;
 use std::collections::BinaryHeap;
 
@@ -55,7 +56,7 @@ impl FailureQueue {
     pub fn set(&mut self, node: u32, value: f64, threshold: f64) {
         let i = node as usize;
         if self.stamps.len() <= i {
-            self.stamps.resize(i + 1, 0);
+            self.stamps.resize_gently(i + 1, 0);
         }
         self.stamps[i] = self.stamps[i].wrapping_add(1);
         if value.is_finite() && value > threshold {

@@ -8,6 +8,7 @@
 //! decreases by `dt |g|^2` to first order, and monotonically for
 //! `dt <= 2 / lambda_max(K)`; [`stable_dt`] bounds `lambda_max` from above.
 
+use crate::math::GrowGently;
 use crate::geometry::element::Element;
 use crate::math::{v3, Sym3};
 use crate::mesh::SimMesh;
@@ -154,7 +155,7 @@ pub fn apply_virtual_displacement_energy(
     corner: &mut Vec<[f64; 3]>,
     g: &[[f64; 3]],
 ) -> f64 {
-    corner.resize(3 * els.elements.len(), [0.0; 3]);
+    corner.resize_gently(3 * els.elements.len(), [0.0; 3]);
     let parts: Vec<f64> = stress
         .par_chunks_mut(ENERGY_CHUNK)
         .zip(corner.par_chunks_mut(3 * ENERGY_CHUNK))

@@ -4,6 +4,7 @@
 //! [`apply_event`], which applies one crack's mutation events to every
 //! array ([`State::arrays`] lists them once).
 
+use crate::math::GrowGently;
 use crate::geometry::element::Element;
 use crate::math::{hash_unit, v3, Sym3};
 use crate::mesh::{FaceId, SimMesh, VertexId};
@@ -74,7 +75,7 @@ impl SegmentIndex {
     /// Record a new segment of the report (at index `i`).
     fn add(&mut self, a: [f64; 3], b: [f64; 3], i: usize) {
         self.at.insert(segment_key(a, b), i);
-        self.next.resize(i + 1, usize::MAX);
+        self.next.resize_gently(i + 1, usize::MAX);
     }
 
     /// The report's segments (and times) in the order they were recorded,
@@ -328,7 +329,7 @@ impl State {
         for a in self.arrays() {
             a.grow(mesh);
         }
-        self.els.elements.resize(mesh.n_faces(), None);
+        self.els.elements.resize_gently(mesh.n_faces(), None);
         if let Some(film) = &mut self.film {
             film.grow(mesh.n_vertices());
         }

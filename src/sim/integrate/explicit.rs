@@ -1,6 +1,7 @@
 //! Explicit steps (local-euler, euler, paper-euler): node velocities from
 //! the forces and one fused update of displacement and stress.
 
+use crate::math::GrowGently;
 use crate::math::v3;
 use crate::sim::forces::{corner_forces, Fans};
 use crate::sim::integrate::region::node_velocity;
@@ -33,7 +34,7 @@ pub(in crate::sim) fn relax_and_evolve(
     load: Load,
     g: &mut Vec<[f64; 3]>,
 ) {
-    g.resize(fans.n_vertices(), [0.0; 3]);
+    g.resize_gently(fans.n_vertices(), [0.0; 3]);
     // `st.corner` holds the forces at the current stress (set by the
     // caller before the first step, then by the fused update below).
     let (corner, fixed, unit) = (&st.corner, &st.fixed, st.unit);
@@ -139,7 +140,7 @@ impl Scheme for Explicit {
         }
         if let Some(r) = region {
             g.clear();
-            g.resize(fans.n_vertices(), [0.0; 3]);
+            g.resize_gently(fans.n_vertices(), [0.0; 3]);
             for _ in 0..steps {
                 relax_region(fans, normals, &mobility, st, dt, r, g);
             }

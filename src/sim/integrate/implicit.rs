@@ -1,5 +1,6 @@
 //! Backward Euler and equilibrium: conjugate-gradient solves of `(I + dt K) du = dt f`.
 
+use crate::math::GrowGently;
 use crate::math::{v3, Sym3};
 use crate::sim::forces::{gather, Fans};
 use crate::sim::implicit::{History, Operator};
@@ -186,7 +187,7 @@ fn right_hand_side(
 ) {
     match (force, load_force) {
         (Some(f), Some(lf)) if load_dt > 0.0 => {
-            rhs.resize(f.len(), [0.0; 3]);
+            rhs.resize_gently(f.len(), [0.0; 3]);
             rhs.par_iter_mut()
                 .zip(f.par_iter().zip(lf.par_iter()))
                 .for_each(|(b, (f, l))| {
@@ -194,7 +195,7 @@ fn right_hand_side(
                 });
         }
         (Some(f), _) => {
-            rhs.resize(f.len(), [0.0; 3]);
+            rhs.resize_gently(f.len(), [0.0; 3]);
             rhs.par_iter_mut()
                 .zip(f.par_iter())
                 .for_each(|(b, f)| *b = v3::scale(*f, solve_dt));
@@ -239,8 +240,8 @@ fn advance(
             } else {
                 (Vec::new(), Vec::new())
             };
-            hx.resize(x.len(), [0.0; 3]);
-            hax.resize(x.len(), [0.0; 3]);
+            hx.resize_gently(x.len(), [0.0; 3]);
+            hax.resize_gently(x.len(), [0.0; 3]);
             displacement
                 .par_iter_mut()
                 .zip(f.par_iter_mut())

@@ -11,6 +11,7 @@ pub(in crate::sim) mod region;
 pub(in crate::sim) mod rkl;
 pub(in crate::sim) mod scheme;
 
+use crate::math::GrowGently;
 use crate::math::v3;
 use crate::mesh::{SimMesh, VertexId};
 use crate::sim::forces::{gather, Fans};
@@ -181,7 +182,7 @@ pub(in crate::sim) fn relax_round(
         let n = force.len();
         mf.clear();
         mf.extend(force.iter().enumerate().map(|(n, f)| v3::scale(*f, mob(n))));
-        w.resize(n, [0.0; 3]);
+        w.resize_gently(n, [0.0; 3]);
         op.apply(mf, &mut cg.corner, w);
         w.iter_mut()
             .enumerate()

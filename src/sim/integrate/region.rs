@@ -1,6 +1,7 @@
 //! Local relaxation: the region of rings around new cracks, its corner
 //! forces and its explicit steps.
 
+use crate::math::GrowGently;
 use crate::math::{v3, Sym3};
 use crate::mesh::VertexId;
 use crate::sim::forces::gather;
@@ -64,7 +65,7 @@ pub(in crate::sim) fn region_corner_forces(
     corner: &mut Vec<[f64; 3]>,
     r: &Region,
 ) {
-    corner.resize(3 * els.elements.len(), [0.0; 3]);
+    corner.resize_gently(3 * els.elements.len(), [0.0; 3]);
     corner
         .par_chunks_mut(3)
         .enumerate()

@@ -1,6 +1,7 @@
 //! Runge-Kutta-Legendre super-steps (RKL2): the stage plan and one
 //! super-step.
 
+use crate::math::GrowGently;
 use crate::geometry::element::Element;
 use crate::math::{v3, Sym3};
 use crate::sim::forces::{corner_forces, Fans};
@@ -86,7 +87,7 @@ pub(in crate::sim) fn rkl_super_step(
     let (fixed, unit) = (&st.fixed, st.unit);
     let velocities =
         |corner: &[[f64; 3]], disp: &mut [[f64; 3]], out: &mut Vec<[f64; 3]>, w: f64| {
-            out.resize(n_nodes, [0.0; 3]);
+            out.resize_gently(n_nodes, [0.0; 3]);
             out.par_iter_mut()
                 .zip(disp.par_iter_mut())
                 .enumerate()
@@ -105,9 +106,9 @@ pub(in crate::sim) fn rkl_super_step(
     // Stage 1: Y1 = Y0 + mu_t1 tau F(Y0).
     let mut g0 = std::mem::take(&mut k.g0);
     velocities(&st.corner, &mut st.displacement, &mut g0, c.weights[0]);
-    k.s0.resize(n_faces, Sym3::ZERO);
-    k.s_back.resize(n_faces, Sym3::ZERO);
-    k.r0.resize(n_faces, Sym3::ZERO);
+    k.s0.resize_gently(n_faces, Sym3::ZERO);
+    k.s_back.resize_gently(n_faces, Sym3::ZERO);
+    k.r0.resize_gently(n_faces, Sym3::ZERO);
     let h1 = c.mu_t[1] * tau;
     {
         let els = &st.els;
