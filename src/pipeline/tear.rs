@@ -105,7 +105,7 @@ pub fn tear_meshes(
             );
         }
         let surface = d.surface(0.25 * d.grid.h);
-        let (torn_triangles, torn_area) = super::tear_solid::torn_area(&surface);
+        let (torn_triangles, torn_area) = super::tear_solid::torn_area(&surface, |p| d.to_scene(p));
         // The artist's surface, cut along the tear; the grid's surface
         // where the cut cannot be made.
         let embedded = match super::tear_embed::embed(e, &d, &surface) {

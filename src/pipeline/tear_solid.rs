@@ -48,8 +48,12 @@ pub(super) fn solid_of(e: &SimEntry, input: &Path) -> crate::Result<Solid> {
     Ok((positions, triangles))
 }
 
-/// The torn surface's torn triangles: how many, and their area.
-pub(super) fn torn_area(surface: &TornSurface) -> (usize, f64) {
+/// The torn surface's torn triangles: how many, and their area in the
+/// scene's units (`to_scene` maps the solid's metres to them).
+pub(super) fn torn_area(
+    surface: &TornSurface,
+    to_scene: impl Fn([f64; 3]) -> [f64; 3],
+) -> (usize, f64) {
     let torn_triangles = surface.torn.iter().filter(|&&t| t).count();
     let torn_area: f64 = surface
         .triangles
@@ -57,7 +61,7 @@ pub(super) fn torn_area(surface: &TornSurface) -> (usize, f64) {
         .zip(&surface.torn)
         .filter(|(_, &torn)| torn)
         .map(|(t, _)| {
-            let [a, b, c] = t.map(|v| surface.positions[v as usize]);
+            let [a, b, c] = t.map(|v| to_scene(surface.positions[v as usize]));
             0.5 * crate::math::v3::norm(crate::math::v3::cross(
                 crate::math::v3::sub(b, a),
                 crate::math::v3::sub(c, a),
