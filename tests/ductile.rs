@@ -37,15 +37,7 @@ fn the_tear_preset_tears_the_notched_block_into_pieces() {
     let written: f64 = measure::read_model(&out)
         .triangles(|m| m == "tear_interior")
         .iter()
-        .map(|t| {
-            let (a, b) = (sub(t[1], t[0]), sub(t[2], t[0]));
-            let n = [
-                a[1] * b[2] - a[2] * b[1],
-                a[2] * b[0] - a[0] * b[2],
-                a[0] * b[1] - a[1] * b[0],
-            ];
-            0.5 * (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt()
-        })
+        .map(measure::triangle_area)
         .sum();
     assert!(
         (area - written).abs() <= 0.25 * written,
@@ -452,8 +444,4 @@ fn a_tiny_ductile_cell_size_is_refused_by_name() {
         "{err}"
     );
     assert!(!out.exists(), "no partial output");
-}
-
-fn sub(a: measure::P3, b: measure::P3) -> measure::P3 {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
 }

@@ -56,6 +56,12 @@ fn area_along(tris: &[Tri], reference: &[P3], deg: f64) -> f64 {
     ok / all
 }
 
+/// The notched block's OBJ `text` turned 30 degrees about z.
+fn turned_block(text: &str) -> String {
+    let (c, s) = (30f64.to_radians().cos(), 30f64.to_radians().sin());
+    shapes::map_vertices(text, |p| [c * p[0] - s * p[1], s * p[0] + c * p[1], p[2]])
+}
+
 /// Edges used by one triangle of `tris` only (ends rounded to 1e-6 to
 /// match shared corners).
 fn open_edges(tris: &[Tri]) -> Vec<[P3; 2]> {
@@ -201,8 +207,7 @@ fn the_torn_block_is_its_own_surface_cut_along_the_tear() {
 fn a_block_turned_to_the_grid_tears_without_stray_vertices() {
     let dir = tempfile::tempdir().unwrap();
     let text = std::fs::read_to_string(common::fixture("notched_block.obj")).unwrap();
-    let (c, s) = (30f64.to_radians().cos(), 30f64.to_radians().sin());
-    let turned = shapes::map_vertices(&text, |p| [c * p[0] - s * p[1], s * p[0] + c * p[1], p[2]]);
+    let turned = turned_block(&text);
     let input = dir.path().join("turned.obj");
     std::fs::write(&input, turned).unwrap();
     let out = dir.path().join("torn.glb");
@@ -257,8 +262,7 @@ fn share_along_axes_across(tris: &[Tri], pull: usize) -> f64 {
 fn torn_faces_do_not_stand_along_the_grid() {
     let dir = tempfile::tempdir().unwrap();
     let text = std::fs::read_to_string(common::fixture("notched_block.obj")).unwrap();
-    let (c, s) = (30f64.to_radians().cos(), 30f64.to_radians().sin());
-    let turned = shapes::map_vertices(&text, |p| [c * p[0] - s * p[1], s * p[0] + c * p[1], p[2]]);
+    let turned = turned_block(&text);
     let random = 2.0 * (1.0 - 5f64.to_radians().cos());
     let mut failures = Vec::new();
     for (name, text, grids) in [

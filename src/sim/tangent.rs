@@ -531,17 +531,14 @@ mod tests {
         let mut els = Elements::new(&mesh, f64::INFINITY);
         els.elements[5000] = None;
         let n = mesh.n_vertices();
-        let normals = vec![[0.0, 0.0, 1.0]; n];
-        let fans = Fans::new(&mesh);
-        let fixed: Vec<bool> = (0..n).map(|i| i % 11 == 4).collect();
-        let interface = vec![0.001; n];
-        let op = Operator {
-            fans: &fans,
-            els: &els,
-            normals: &normals,
-            fixed: &fixed,
-            interface: &interface,
+        let setting = Setting {
+            fans: Fans::new(&mesh),
+            els,
+            normals: vec![[0.0, 0.0, 1.0]; n],
+            fixed: (0..n).map(|i| i % 11 == 4).collect(),
+            interface: vec![0.001; n],
         };
+        let op = setting.op();
         let mut sys = TangentSystem::default();
         sys.assemble(&op, 0.3);
         assert_eq!(sys.offsets.len(), n + 1);

@@ -32,6 +32,12 @@ fn cross(a: P3, b: P3) -> P3 {
     let c = |i: usize, j: usize| a[i] * b[j] - a[j] * b[i];
     [c(1, 2), c(2, 0), c(0, 1)]
 }
+
+/// A triangle's area.
+pub fn triangle_area(t: &Tri) -> f64 {
+    let n = cross(sub(t[1], t[0]), sub(t[2], t[0]));
+    0.5 * norm(n)
+}
 fn norm(a: P3) -> f64 {
     dot(a, a).sqrt()
 }
