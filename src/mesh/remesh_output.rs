@@ -7,7 +7,6 @@ use crate::mesh::build::MeshInput;
 use crate::mesh::halfedge::SimMesh;
 use crate::mesh::ids::FaceId;
 use rayon::prelude::*;
-use std::collections::HashMap;
 
 impl Work {
     /// The live faces along a Morton curve through their centroids (ties
@@ -74,7 +73,11 @@ impl Work {
         let mut values: Vec<f64> = Vec::new();
         let mut triangles = Vec::new();
         let mut groups = Vec::new();
-        let mut slot: HashMap<(u32, Vec<u64>), u32> = HashMap::new();
+        // The output vertices made from each work vertex, as a list
+        // through `next` (most have one; a seam's have one per side).
+        let mut first = vec![u32::MAX; self.pos.len()];
+        let mut next: Vec<u32> = Vec::new();
+        let mut vals = vec![0.0; width];
         let order = self.spatial_order();
         // Each corner's input face and coordinates, found in parallel
         // (each on its own; the results are used in order below).
@@ -92,14 +95,13 @@ impl Work {
             for k in 0..3 {
                 let v = t[k];
                 let p = self.pos[v as usize];
-                let mut vals = vec![0.0; width];
+                vals.fill(0.0);
                 if let Some((inf, bary, _)) = found[k] {
                     group = mesh.face_group(FaceId(inf));
                     if width > 0 {
                         let ws = mesh.face_wedges(FaceId(inf));
                         let mut off = 0;
-                        for (ci, ch) in channels.iter().enumerate() {
-                            let _ = ci;
+                        for ch in channels {
                             for j in 0..ch.components {
                                 vals[off + j] = (0..3)
                                     .map(|i| bary[i] * ch.data[ws[i].idx() * ch.components + j])
@@ -123,12 +125,25 @@ impl Work {
                         }
                     }
                 }
-                let k2 = (v, vals.iter().map(|x| x.to_bits()).collect::<Vec<u64>>());
-                let id = *slot.entry(k2).or_insert_with(|| {
+                // The same values bit for bit: the same output vertex.
+                let same = |id: u32| {
+                    let at = id as usize * width;
+                    values[at..at + width]
+                        .iter()
+                        .zip(&vals)
+                        .all(|(a, b)| a.to_bits() == b.to_bits())
+                };
+                let mut id = first[v as usize];
+                while id != u32::MAX && !same(id) {
+                    id = next[id as usize];
+                }
+                if id == u32::MAX {
+                    id = positions.len() as u32;
                     positions.push(p);
                     values.extend_from_slice(&vals);
-                    (positions.len() - 1) as u32
-                });
+                    next.push(first[v as usize]);
+                    first[v as usize] = id;
+                }
                 tri[k] = id;
             }
             triangles.push(tri);
