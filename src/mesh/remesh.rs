@@ -154,19 +154,11 @@ pub fn remesh(
     report.feature_edges = input.n_features;
     let sizes = input.edge_sizes(options);
     let mut w = Work::from_input(mesh, &input, sizes);
-    // Refine first: a coarse input needs several rounds of splits, which
-    // leave the new faces and vertices scattered through the arrays: the
-    // passes below walk them in a spatial order instead.
-    let mut refined = 0;
+    // Refine first: a coarse input needs several rounds of splits.
     for _ in 0..64 {
-        let splits = w.split_long();
-        refined += splits;
-        if splits == 0 {
+        if w.split_long() == 0 {
             break;
         }
-    }
-    if refined > 0 {
-        w.reorder();
     }
     // A fine input (one that would have been left as it is) is jittered
     // before the first collapses (a fine regular input would otherwise
