@@ -19,9 +19,7 @@ use rayon::prelude::*;
 /// round's load, then the equilibrium `(K + k M) du = f - k M u` of the
 /// film tied to its rest position, by conjugate gradients (the interface
 /// term makes the system positive definite, so the solve converges in few
-/// iterations whatever the triangles' shapes), started from the last
-/// round's solution (while the load grows and nothing cracks, the next
-/// increment is the same and takes a few iterations). Only the nodes of `region`
+/// iterations whatever the triangles' shapes). Only the nodes of `region`
 /// move when given. Returns the stress energy and the residual node force
 /// (elastic plus interface) at the end.
 #[allow(clippy::too_many_arguments)]
