@@ -568,3 +568,80 @@ fn grain_finer_than_the_target_is_smoothed_over_and_a_fold_is_kept() {
         );
     }
 }
+
+/// Renumbering the work mesh along the Morton curve (done after the
+/// refining splits of a large input) keeps the same surface: the same faces
+/// with the same orientation and chart, the same feature edges, and each
+/// vertex's flags and size, with every vertex's face list its faces; and
+/// it stores neighbours together (consecutive faces' centroids lie closer
+/// than in the splits' order).
+#[test]
+fn renumbering_keeps_the_work_mesh_and_stores_neighbours_together() {
+    let (m, _) = build(&grid_input(12, 9));
+    let options = RemeshOptions {
+        target_edge: 0.1,
+        ..Default::default()
+    };
+    let input = Input::new(&m, options.crease_angle_deg, options.target_edge);
+    let mut w = Work::from_input(&m, &input, input.edge_sizes(&options));
+    while w.split_long() > 0 {}
+    let bits = |p: [f64; 3]| p.map(f64::to_bits);
+    // Each live face as its corners' positions from the least one, with
+    // its chart; each vertex's state by its position.
+    let snapshot = |w: &Work| {
+        let mut faces: Vec<_> = (0..w.faces.len())
+            .filter(|&f| w.alive[f])
+            .map(|f| {
+                let t = w.faces[f].map(|v| bits(w.pos[v as usize]));
+                let k = (0..3).min_by_key(|&k| t[k]).unwrap();
+                ([t[k], t[(k + 1) % 3], t[(k + 2) % 3]], w.chart[f])
+            })
+            .collect();
+        faces.sort_unstable();
+        let mut features: Vec<_> = w
+            .features
+            .iter()
+            .map(|&(a, b)| {
+                let (p, q) = (bits(w.pos[a as usize]), bits(w.pos[b as usize]));
+                (p.min(q), p.max(q))
+            })
+            .collect();
+        features.sort_unstable();
+        let mut vertices: Vec<_> = (0..w.pos.len())
+            .filter(|&v| !w.dead_vertex[v] && !w.vf[v].is_empty())
+            .map(|v| (bits(w.pos[v]), w.nfeat[v], w.corner[v], w.size[v].to_bits()))
+            .collect();
+        vertices.sort_unstable();
+        (faces, features, vertices)
+    };
+    // Mean distance between consecutive live faces' centroids.
+    let stride = |w: &Work| {
+        let c: Vec<[f64; 3]> = (0..w.faces.len())
+            .filter(|&f| w.alive[f])
+            .map(|f| {
+                let t = w.faces[f].map(|v| w.pos[v as usize]);
+                std::array::from_fn(|k| (t[0][k] + t[1][k] + t[2][k]) / 3.0)
+            })
+            .collect();
+        c.windows(2).map(|p| norm(sub(p[1], p[0]))).sum::<f64>() / (c.len() - 1) as f64
+    };
+    let before = snapshot(&w);
+    let stride_before = stride(&w);
+    assert!(before.0.len() > 2000, "{} faces", before.0.len());
+    w.reorder();
+    assert_eq!(snapshot(&w), before, "the same surface, features and vertices");
+    for (v, fs) in w.vf.iter().enumerate() {
+        let mut mine: Vec<u32> = (0..w.faces.len() as u32)
+            .filter(|&f| w.faces[f as usize].contains(&(v as u32)))
+            .collect();
+        let mut listed = fs.clone();
+        (mine.sort_unstable(), listed.sort_unstable());
+        assert_eq!(listed, mine, "vertex {v}'s faces");
+    }
+    assert!(w.alive.iter().all(|&a| a), "dead faces dropped");
+    let stride_after = stride(&w);
+    assert!(
+        stride_after < 0.5 * stride_before,
+        "consecutive faces {stride_after} apart against {stride_before}"
+    );
+}
