@@ -122,20 +122,6 @@ pub fn estimate_triangles(mesh: &SimMesh, target_edge: f64) -> usize {
     }
 }
 
-/// Faces after the refining splits from which the work mesh is renumbered
-/// along a Morton curve before the passes. The splits append faces and
-/// vertices far from their neighbours' ids; once the work mesh outgrows the
-/// cache, the passes (which walk edges and vertices in id order) then wait
-/// on memory. Remesh stage of the teapot's glaze, renumbered against not
-/// (two alternating runs each, the 2-core project machine): 69.8k faces
-/// 1.22-1.58 s against 1.58-1.85 s (within the noise), 178k 4.4-4.5
-/// against 5.9-6.2 s, 341k 8.0-8.6 against 11.6-12.0 s, 711k 17.6-18.0
-/// against 24.3-29.4 s. Renumbering changes the realisation (the passes
-/// visit edges in another order), so it is left to the sizes where it pays
-/// and a small input's pattern stays as it was.
-const REORDER_MIN_FACES: usize = 1 << 17;
-
-
 /// Remesh `mesh` isotropically to `options.target_edge`; see the module
 /// documentation. A surface that is already fine enough (see
 /// [`RemeshOptions::coarsen`]) is returned as it is unless
@@ -168,19 +154,11 @@ pub fn remesh(
     report.feature_edges = input.n_features;
     let sizes = input.edge_sizes(options);
     let mut w = Work::from_input(mesh, &input, sizes);
-    // Refine first: a coarse input needs several rounds of splits, which
-    // leave the new faces and vertices scattered through the arrays: the
-    // passes below walk them in a spatial order instead.
-    let mut refined = 0;
+    // Refine first: a coarse input needs several rounds of splits.
     for _ in 0..64 {
-        let splits = w.split_long();
-        refined += splits;
-        if splits == 0 {
+        if w.split_long() == 0 {
             break;
         }
-    }
-    if refined > 0 && w.faces.len() >= REORDER_MIN_FACES {
-        w.reorder();
     }
     // A fine input (one that would have been left as it is) is jittered
     // before the first collapses (a fine regular input would otherwise

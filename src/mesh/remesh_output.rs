@@ -17,54 +17,49 @@ impl Work {
     /// surface is scattered through memory.
     fn spatial_order(&self) -> Vec<usize> {
         let live: Vec<usize> = (0..self.faces.len()).filter(|&f| self.alive[f]).collect();
-        morton_order(&self.pos, &self.faces, live)
-    }
-
-    /// Renumber the work mesh in [`spatial_order`](Self::spatial_order):
-    /// faces along the Morton curve, dead ones dropped, vertices as the
-    /// faces first use them (vertices no face uses dropped), each vertex's
-    /// face list made anew. The refining splits append faces and vertices
-    /// far from their neighbours' ids; the passes after them walk edges and
-    /// vertices in id order.
-    pub(super) fn reorder(&mut self) {
-        let order = self.spatial_order();
-        let mut new_id = vec![u32::MAX; self.pos.len()];
-        let mut old_of: Vec<u32> = Vec::with_capacity(self.pos.len());
-        let faces: Vec<[u32; 3]> = order
+        let centroids: Vec<[f64; 3]> = live
             .iter()
             .map(|&f| {
-                self.faces[f].map(|v| {
-                    if new_id[v as usize] == u32::MAX {
-                        new_id[v as usize] = old_of.len() as u32;
-                        old_of.push(v);
-                    }
-                    new_id[v as usize]
+                let t = self.faces[f];
+                std::array::from_fn(|k| {
+                    (self.pos[t[0] as usize][k]
+                        + self.pos[t[1] as usize][k]
+                        + self.pos[t[2] as usize][k])
+                        / 3.0
                 })
             })
             .collect();
-        let by = |v: &u32| *v as usize;
-        self.pos = old_of.iter().map(|v| self.pos[by(v)]).collect();
-        self.nfeat = old_of.iter().map(|v| self.nfeat[by(v)]).collect();
-        self.corner = old_of.iter().map(|v| self.corner[by(v)]).collect();
-        self.size = old_of.iter().map(|v| self.size[by(v)]).collect();
-        self.dead_vertex = vec![false; old_of.len()];
-        self.chart = order.iter().map(|&f| self.chart[f]).collect();
-        self.alive = vec![true; faces.len()];
-        let mut vf = vec![Vec::new(); old_of.len()];
-        for (f, t) in faces.iter().enumerate() {
-            for &v in t {
-                vf[v as usize].push(f as u32);
+        let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+        for c in &centroids {
+            for k in 0..3 {
+                lo[k] = lo[k].min(c[k]);
+                hi[k] = hi[k].max(c[k]);
             }
         }
-        self.vf = vf;
-        self.faces = faces;
-        let mut features: Vec<(u32, u32)> = self
-            .features
+        let span = (0..3).map(|k| hi[k] - lo[k]).fold(0.0, f64::max);
+        if !(span > 0.0 && span.is_finite()) {
+            return live;
+        }
+        // 21 bits per axis, interleaved.
+        let spread = |x: u64| -> u64 {
+            let mut x = x & 0x1f_ffff;
+            x = (x | x << 32) & 0x1f_0000_0000_ffff;
+            x = (x | x << 16) & 0x1f_0000_ff00_00ff;
+            x = (x | x << 8) & 0x100f_00f0_0f00_f00f;
+            x = (x | x << 4) & 0x10c3_0c30_c30c_30c3;
+            (x | x << 2) & 0x1249_2492_4924_9249
+        };
+        let scale = ((1u64 << 21) - 1) as f64 / span;
+        let mut keyed: Vec<(u64, usize)> = live
             .iter()
-            .map(|&(a, b)| super::key(new_id[a as usize], new_id[b as usize]))
+            .zip(&centroids)
+            .map(|(&f, c)| {
+                let q = |k: usize| ((c[k] - lo[k]) * scale) as u64;
+                (spread(q(0)) | spread(q(1)) << 1 | spread(q(2)) << 2, f)
+            })
             .collect();
-        features.sort_unstable();
-        self.features = features.into_iter().collect();
+        keyed.sort_unstable();
+        keyed.into_iter().map(|(_, f)| f).collect()
     }
 
     /// The result as a mesh input: every output vertex once per distinct
@@ -176,50 +171,4 @@ impl Work {
             wedge_channels,
         }
     }
-}
-
-
-/// `live` (indices of `faces`) along a Morton curve through the faces'
-/// centroids, ties by index.
-fn morton_order(pos: &[[f64; 3]], faces: &[[u32; 3]], live: Vec<usize>) -> Vec<usize> {
-    let centroids: Vec<[f64; 3]> = live
-        .iter()
-        .map(|&f| {
-            let t = faces[f];
-            std::array::from_fn(|k| {
-                (pos[t[0] as usize][k] + pos[t[1] as usize][k] + pos[t[2] as usize][k]) / 3.0
-            })
-        })
-        .collect();
-    let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
-    for c in &centroids {
-        for k in 0..3 {
-            lo[k] = lo[k].min(c[k]);
-            hi[k] = hi[k].max(c[k]);
-        }
-    }
-    let span = (0..3).map(|k| hi[k] - lo[k]).fold(0.0, f64::max);
-    if !(span > 0.0 && span.is_finite()) {
-        return live;
-    }
-    // 21 bits per axis, interleaved.
-    let spread = |x: u64| -> u64 {
-        let mut x = x & 0x1f_ffff;
-        x = (x | x << 32) & 0x1f_0000_0000_ffff;
-        x = (x | x << 16) & 0x1f_0000_ff00_00ff;
-        x = (x | x << 8) & 0x100f_00f0_0f00_f00f;
-        x = (x | x << 4) & 0x10c3_0c30_c30c_30c3;
-        (x | x << 2) & 0x1249_2492_4924_9249
-    };
-    let scale = ((1u64 << 21) - 1) as f64 / span;
-    let mut keyed: Vec<(u64, usize)> = live
-        .iter()
-        .zip(&centroids)
-        .map(|(&f, c)| {
-            let q = |k: usize| ((c[k] - lo[k]) * scale) as u64;
-            (spread(q(0)) | spread(q(1)) << 1 | spread(q(2)) << 2, f)
-        })
-        .collect();
-    keyed.sort_unstable();
-    keyed.into_iter().map(|(_, f)| f).collect()
 }
