@@ -25,6 +25,7 @@ use super::build::WeldOptions;
 use super::error::{MeshError, OptionFault};
 use super::halfedge::SimMesh;
 use super::hash::FxHashSet;
+use rayon::slice::ParallelSliceMut;
 use super::ids::{FaceId, VertexId};
 pub use super::sizing::{long_edge_area_share, FINE_ENOUGH_LONG_SHARE};
 use super::spatial::{
@@ -499,30 +500,48 @@ impl Work {
             .collect()
     }
 
-    /// Every live edge once, in a fixed order.
+    /// Every live edge once, in a fixed order: from its lower end, or from
+    /// either end of a border edge (one face). The half-edges are sorted
+    /// in two lists, from the lower end and from the upper, and merged: an
+    /// edge only the upper list holds, once, has one face. (Testing each
+    /// upper half-edge's faces instead read the faces around it, out of
+    /// order: a sixth of the remesh on the teapot at 1.9M faces.)
     fn edges(&self) -> Vec<(u32, u32)> {
-        let mut e: Vec<(u32, u32)> = Vec::with_capacity(self.faces.len() * 3 / 2 + 8);
+        let half = self.faces.len() * 3 / 2 + 8;
+        let (mut lower, mut upper) = (Vec::with_capacity(half), Vec::with_capacity(half));
         for (f, t) in self.faces.iter().enumerate() {
             if !self.alive[f] {
                 continue;
             }
             for k in 0..3 {
                 let (a, b) = (t[k], t[(k + 1) % 3]);
-                // An edge once from its lower end, or from either end of
-                // a border edge (one face).
-                if a < b
-                    || self.vf[a as usize]
-                        .iter()
-                        .filter(|&&f| self.faces[f as usize].contains(&b))
-                        .count()
-                        == 1
-                {
-                    e.push(key(a, b));
+                let (lo, hi) = key(a, b);
+                let packed = (u64::from(lo) << 32) | u64::from(hi);
+                if a < b {
+                    lower.push(packed);
+                } else {
+                    upper.push(packed);
                 }
             }
         }
-        e.sort_unstable();
-        e.dedup();
+        rayon::join(|| lower.par_sort_unstable(), || upper.par_sort_unstable());
+        lower.dedup();
+        let mut e = Vec::with_capacity(lower.len() + 8);
+        let unpack = |k: u64| ((k >> 32) as u32, k as u32);
+        let (mut i, mut j) = (0, 0);
+        while j < upper.len() {
+            let q = upper[j];
+            let run = upper[j..].iter().take_while(|&&k| k == q).count();
+            j += run;
+            while i < lower.len() && lower[i] < q {
+                e.push(unpack(lower[i]));
+                i += 1;
+            }
+            if run == 1 && lower.get(i) != Some(&q) {
+                e.push(unpack(q));
+            }
+        }
+        e.extend(lower[i..].iter().map(|&k| unpack(k)));
         e
     }
 
@@ -609,14 +628,22 @@ impl Work {
     }
 
     fn neighbours(&self, v: u32) -> Vec<u32> {
-        let mut n: Vec<u32> = self.vf[v as usize]
-            .iter()
-            .flat_map(|&f| self.faces[f as usize])
-            .filter(|&u| u != v)
-            .collect();
+        let mut n = Vec::new();
+        self.neighbours_in(v, &mut n);
+        n
+    }
+
+    /// [`Work::neighbours`] into `n` (a list reused from vertex to vertex).
+    fn neighbours_in(&self, v: u32, n: &mut Vec<u32>) {
+        n.clear();
+        n.extend(
+            self.vf[v as usize]
+                .iter()
+                .flat_map(|&f| self.faces[f as usize])
+                .filter(|&u| u != v),
+        );
         n.sort_unstable();
         n.dedup();
-        n
     }
 
     fn face_normal(&self, t: [u32; 3]) -> [f64; 3] {
@@ -770,8 +797,17 @@ impl Work {
             {
                 continue;
             }
-            let fs = self.edge_faces(a, b);
-            if fs.len() != 2 {
+            // The edge's faces, without a list made for each edge.
+            let (mut fs, mut n) = ([0u32; 2], 0);
+            for &f in &self.vf[a as usize] {
+                if self.faces[f as usize].contains(&b) {
+                    if n < 2 {
+                        fs[n] = f;
+                    }
+                    n += 1;
+                }
+            }
+            if n != 2 {
                 continue;
             }
             let (f1, f2) = (fs[0], fs[1]);

@@ -13,30 +13,29 @@ impl Work {
         // vertices are independent: in parallel, in a fixed order.
         let next: Vec<[f64; 3]> = (0..self.pos.len())
             .into_par_iter()
-            .map(|v| self.smoothed(input, v).unwrap_or(self.pos[v]))
+            .map_init(Vec::new, |nb, v| {
+                self.smoothed(input, v, nb).unwrap_or(self.pos[v])
+            })
             .collect();
         self.move_unless_turned(&next);
     }
 
-    /// Where [`Work::smooth`] sends vertex `v` (`None`: it stays).
-    fn smoothed(&self, input: &Input, v: usize) -> Option<[f64; 3]> {
+    /// Where [`Work::smooth`] sends vertex `v` (`None`: it stays); `nb`
+    /// is working memory for its neighbours.
+    fn smoothed(&self, input: &Input, v: usize, nb: &mut Vec<u32>) -> Option<[f64; 3]> {
         if self.dead_vertex[v] || self.corner[v] || self.vf[v].is_empty() {
             return None;
         }
         let vv = v as u32;
-        let nb: Vec<u32> = if self.nfeat[v] > 0 {
-            self.neighbours(vv)
-                .into_iter()
-                .filter(|&u| self.is_feature(vv, u))
-                .collect()
-        } else {
-            self.neighbours(vv)
-        };
+        self.neighbours_in(vv, nb);
+        if self.nfeat[v] > 0 {
+            nb.retain(|&u| self.is_feature(vv, u));
+        }
         if nb.is_empty() {
             return None;
         }
         let mut c = [0.0; 3];
-        for &u in &nb {
+        for &u in nb.iter() {
             c = add(c, self.pos[u as usize]);
         }
         c = scale(c, 1.0 / nb.len() as f64);
@@ -95,15 +94,16 @@ impl Work {
     pub(super) fn jitter(&mut self, input: &Input, amount: f64, seed: u64, pass: u64) {
         let next: Vec<[f64; 3]> = (0..self.pos.len())
             .into_par_iter()
-            .map(|v| {
-                self.jittered(input, amount, seed, pass, v)
+            .map_init(Vec::new, |nb, v| {
+                self.jittered(input, amount, seed, pass, v, nb)
                     .unwrap_or(self.pos[v])
             })
             .collect();
         self.move_unless_turned(&next);
     }
 
-    /// Where [`Work::jitter`] sends vertex `v` (`None`: it stays).
+    /// Where [`Work::jitter`] sends vertex `v` (`None`: it stays); `nb` is
+    /// working memory for its neighbours.
     fn jittered(
         &self,
         input: &Input,
@@ -111,13 +111,14 @@ impl Work {
         seed: u64,
         pass: u64,
         v: usize,
+        nb: &mut Vec<u32>,
     ) -> Option<[f64; 3]> {
         if self.dead_vertex[v] || self.corner[v] || self.vf[v].is_empty() {
             return None;
         }
         let vv = v as u32;
         let p = self.pos[v];
-        let nb = self.neighbours(vv);
+        self.neighbours_in(vv, nb);
         if nb.is_empty() {
             return None;
         }
@@ -130,7 +131,7 @@ impl Work {
         let reach = amount * self.size[v].min(edge);
         if self.nfeat[v] > 0 {
             // Along the feature line: between its two neighbours on it.
-            let on: Vec<u32> = nb.into_iter().filter(|&u| self.is_feature(vv, u)).collect();
+            let on: Vec<u32> = nb.iter().copied().filter(|&u| self.is_feature(vv, u)).collect();
             if on.len() != 2 {
                 return None;
             }

@@ -568,3 +568,66 @@ fn grain_finer_than_the_target_is_smoothed_over_and_a_fold_is_kept() {
         );
     }
 }
+
+/// The edge list merged from sorted half-edges is the one found by
+/// testing each upper half-edge's faces: every edge once from its lower
+/// end, a border edge from either end, and not an edge whose faces all
+/// hold it from its upper end (two faces turned against each other).
+#[test]
+fn the_edge_list_is_every_edge_once() {
+    let (mesh, _) = build(&grid_input(9, 7));
+    let input = Input::new(&mesh, 30.0, 0.0);
+    let mut w = Work::from_input(&mesh, &input, vec![1.0; mesh.n_vertices()]);
+    // Holes (faces gone, as a collapse leaves them) and a face turned over.
+    for f in [3u32, 40, 41, 77] {
+        w.alive[f as usize] = false;
+        for v in w.faces[f as usize] {
+            w.vf[v as usize].retain(|&x| x != f);
+        }
+    }
+    w.faces[20].swap(1, 2);
+    let reference = |w: &Work| {
+        let mut e = Vec::new();
+        for (f, t) in w.faces.iter().enumerate() {
+            if !w.alive[f] {
+                continue;
+            }
+            for k in 0..3 {
+                let (a, b) = (t[k], t[(k + 1) % 3]);
+                let faces = w.vf[a as usize]
+                    .iter()
+                    .filter(|&&g| w.faces[g as usize].contains(&b))
+                    .count();
+                if a < b || faces == 1 {
+                    e.push(key(a, b));
+                }
+            }
+        }
+        e.sort_unstable();
+        e.dedup();
+        e
+    };
+    let want = reference(&w);
+    assert_eq!(w.edges(), want);
+    // The turned face's edges with a neighbour held from the upper end
+    // twice are left out, and border edges from the upper end are in.
+    let all: std::collections::BTreeSet<(u32, u32)> = w
+        .faces
+        .iter()
+        .enumerate()
+        .filter(|(f, _)| w.alive[*f])
+        .flat_map(|(_, t)| (0..3).map(move |k| key(t[k], t[(k + 1) % 3])))
+        .collect();
+    assert!(want.len() < all.len(), "{} of {}", want.len(), all.len());
+    let upper_borders = want
+        .iter()
+        .filter(|&&(a, b)| {
+            w.faces
+                .iter()
+                .enumerate()
+                .filter(|(f, t)| w.alive[*f] && t.contains(&a) && t.contains(&b))
+                .all(|(_, t)| (0..3).any(|k| t[k] == b && t[(k + 1) % 3] == a))
+        })
+        .count();
+    assert!(upper_borders > 0);
+}
