@@ -822,13 +822,6 @@ impl Work {
             let opp = |t: [u32; 3]| t.into_iter().find(|&x| x != a && x != b).expect("triangle");
             let (t1, t2) = (self.faces[f1 as usize], self.faces[f2 as usize]);
             let (c, d) = (opp(t1), opp(t2));
-            if c == d
-                || self.vf[c as usize]
-                    .iter()
-                    .any(|&f| self.faces[f as usize].contains(&d))
-            {
-                continue;
-            }
             let val =
                 |v: u32| self.vf[v as usize].len() as i64 + i64::from(self.nfeat[v as usize] > 0);
             let dev = |va: i64, vb: i64, vc: i64, vd: i64| {
@@ -839,6 +832,15 @@ impl Work {
             };
             let (va, vb, vc, vd) = (val(a), val(b), val(c), val(d));
             if dev(va - 1, vb - 1, vc + 1, vd + 1) >= dev(va, vb, vc, vd) {
+                continue;
+            }
+            // Not when `c d` is an edge already (asked only of the flips
+            // that would help: the faces around `c` are read out of order).
+            if c == d
+                || self.vf[c as usize]
+                    .iter()
+                    .any(|&f| self.faces[f as usize].contains(&d))
+            {
                 continue;
             }
             // Orient: t1 runs a -> b.
