@@ -495,12 +495,26 @@ impl Work {
         w
     }
 
-    fn edge_faces(&self, a: u32, b: u32) -> Vec<u32> {
+    /// The faces holding edge `a b`, in `a`'s order.
+    fn edge_faces_iter(&self, a: u32, b: u32) -> impl Iterator<Item = u32> + '_ {
         self.vf[a as usize]
             .iter()
             .copied()
-            .filter(|&f| self.faces[f as usize].contains(&b))
-            .collect()
+            .filter(move |&f| self.faces[f as usize].contains(&b))
+    }
+
+    fn edge_faces(&self, a: u32, b: u32) -> Vec<u32> {
+        self.edge_faces_iter(a, b).collect()
+    }
+
+    /// The two faces of interior edge `a b` (`None` for a border or
+    /// non-manifold edge), without a list made for each edge.
+    fn interior_faces(&self, a: u32, b: u32) -> Option<[u32; 2]> {
+        let mut fs = self.edge_faces_iter(a, b);
+        match (fs.next(), fs.next(), fs.next()) {
+            (Some(f1), Some(f2), None) => Some([f1, f2]),
+            _ => None,
+        }
     }
 
     /// Every live edge once, in a fixed order: from its lower end, or from
@@ -805,20 +819,9 @@ impl Work {
             {
                 continue;
             }
-            // The edge's faces, without a list made for each edge.
-            let (mut fs, mut n) = ([0u32; 2], 0);
-            for &f in &self.vf[a as usize] {
-                if self.faces[f as usize].contains(&b) {
-                    if n < 2 {
-                        fs[n] = f;
-                    }
-                    n += 1;
-                }
-            }
-            if n != 2 {
+            let Some([f1, f2]) = self.interior_faces(a, b) else {
                 continue;
-            }
-            let (f1, f2) = (fs[0], fs[1]);
+            };
             let opp = |t: [u32; 3]| t.into_iter().find(|&x| x != a && x != b).expect("triangle");
             let (t1, t2) = (self.faces[f1 as usize], self.faces[f2 as usize]);
             let (c, d) = (opp(t1), opp(t2));
@@ -836,11 +839,7 @@ impl Work {
             }
             // Not when `c d` is an edge already (asked only of the flips
             // that would help: the faces around `c` are read out of order).
-            if c == d
-                || self.vf[c as usize]
-                    .iter()
-                    .any(|&f| self.faces[f as usize].contains(&d))
-            {
+            if c == d || self.edge_faces_iter(c, d).next().is_some() {
                 continue;
             }
             // Orient: t1 runs a -> b.

@@ -569,8 +569,8 @@ fn grain_finer_than_the_target_is_smoothed_over_and_a_fold_is_kept() {
     }
 }
 
-/// The edge list merged from sorted half-edges is the one found by
-/// testing each upper half-edge's faces: every edge once from its lower
+/// The edge list gathered vertex by vertex is the one found by testing
+/// each upper half-edge's faces: every edge once from its lower
 /// end, a border edge from either end, and not an edge whose faces all
 /// hold it from its upper end (two faces turned against each other).
 #[test]
