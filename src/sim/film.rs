@@ -213,7 +213,10 @@ impl Film {
 
 /// Lumped area of every node: a third of each incident element's area.
 pub fn lumped_areas(fans: &Fans, els: &Elements) -> Vec<f64> {
+    use rayon::prelude::*;
     (0..fans.n_vertices())
+        .into_par_iter()
+        .with_min_len(1024)
         .map(|v| {
             fans.fan(v)
                 .iter()
@@ -236,10 +239,35 @@ pub fn averaged_stress(
     radius: f64,
     v: VertexId,
 ) -> Sym3 {
+    // The search's lists are kept per thread: this runs for every node of
+    // every round.
+    thread_local! {
+        static SCRATCH: std::cell::RefCell<(Vec<u32>, Vec<FaceId>)> =
+            const { std::cell::RefCell::new((Vec::new(), Vec::new())) };
+    }
+    SCRATCH.with(|scratch| {
+        let (seen, stack) = &mut *scratch.borrow_mut();
+        averaged_stress_with(mesh, els, stress, unit, radius, v, seen, stack)
+    })
+}
+
+/// [`averaged_stress`] with its lists (emptied first).
+#[allow(clippy::too_many_arguments)]
+fn averaged_stress_with(
+    mesh: &SimMesh,
+    els: &Elements,
+    stress: &[Sym3],
+    unit: f64,
+    radius: f64,
+    v: VertexId,
+    seen: &mut Vec<u32>,
+    stack: &mut Vec<FaceId>,
+) -> Sym3 {
     let origin = v3::scale(mesh.position(v), 1.0 / unit);
     let r2 = radius * radius;
-    let mut seen: Vec<u32> = Vec::with_capacity(32);
-    let mut stack: Vec<FaceId> = mesh.vertex_faces(v).collect();
+    seen.clear();
+    stack.clear();
+    stack.extend(mesh.vertex_faces(v));
     let own = stack.len();
     let (mut sum, mut area) = (Sym3::ZERO, 0.0);
     let mut k = 0usize;

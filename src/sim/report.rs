@@ -107,6 +107,11 @@ pub struct FilmSolves {
     pub setup_seconds: f64,
     /// Seconds in the iterations.
     pub solve_seconds: f64,
+    /// Rows of the solves' systems, summed over the solves.
+    pub rows: usize,
+    /// Of those, the rows computed (the others were kept from the solve
+    /// before: their inputs had not changed).
+    pub rows_assembled: usize,
     /// The largest hierarchy's levels, finest first: nodes, blocks, bytes.
     pub levels: Vec<[usize; 3]>,
 }

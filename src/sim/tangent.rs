@@ -4,8 +4,9 @@
 //! in an orthonormal basis `T_n = [t1 t2]` of that plane (none when it is
 //! fixed). The shifted system `(I + dt K) x = b` of [`crate::sim::implicit`]
 //! restricted to those coordinates is `(I + dt T^T K T) y = T^T b`, with the
-//! same solution `x = T y`. Its 2x2 node blocks are assembled once per solve
-//! into compressed rows: face `e` couples its corners `a` and `b` by
+//! same solution `x = T y`. Its 2x2 node blocks are assembled for each solve
+//! into compressed rows (a row whose inputs did not change since the last
+//! solve is kept, not computed again: see `tangent_rows.rs`): face `e` couples its corners `a` and `b` by
 //!
 //! `K_ab = A_e / 2 (g_b g_a^T + (g_a . g_b) P_e)`
 //!
@@ -28,6 +29,9 @@ use crate::sim::amg::{Multigrid, Rows};
 use crate::sim::cg::{dot, iterate, iterate_with, CgReport, Vectors, CHUNK};
 use crate::sim::implicit::Operator;
 use rayon::prelude::*;
+
+#[path = "tangent_rows.rs"]
+mod rows;
 
 /// A node's two tangent coordinates.
 pub type V2 = [f64; 2];
@@ -63,6 +67,10 @@ pub struct TangentSystem {
     pub seconds: [f64; 2],
     /// Hierarchies built since made.
     pub builds: usize,
+    /// Per row: the key of the inputs it was assembled from.
+    row_keys: Vec<u64>,
+    /// Rows the last assembly computed (the others it kept).
+    pub reassembled: usize,
 }
 
 /// A fingerprint of the rows (hashed in fixed chunks, combined in order).
@@ -238,17 +246,42 @@ impl TangentSystem {
             })
             .collect_into_vec(&mut self.basis);
         let basis = &self.basis;
+        // Which rows change: those whose inputs' key is not the last
+        // assembly's (see [`rows`]); all of them the first time.
+        let keys = {
+            let (mut nodes, mut faces, mut keys) = (Vec::new(), Vec::new(), Vec::new());
+            rows::node_keys(op, basis, &mut nodes);
+            rows::face_keys(op, &mut faces);
+            rows::row_keys(op, &nodes, &faces, dt, &mut keys);
+            keys
+        };
+        let n_old = if self.offsets.len() == self.row_keys.len() + 1 {
+            self.row_keys.len().min(n_nodes)
+        } else {
+            0
+        };
+        let mut keep = vec![false; n_old];
+        keep.par_iter_mut()
+            .zip(&keys[..n_old])
+            .zip(&self.row_keys[..n_old])
+            .for_each(|((k, new), old)| *k = new == old);
+        self.reassembled = n_nodes - keep.iter().filter(|&&k| k).count();
+        self.row_keys = keys;
         // The rows are written in place: each node's length first (the
-        // node itself and its fan's other free corners once), their
-        // offsets, then every row into its own slice. Gathering the rows in
-        // blocks and joining them held the system twice, and more while
-        // the joined arrays doubled (a fifth of the peak at 1.9M nodes).
+        // node itself and its fan's other free corners once; a kept row's
+        // as it was), their offsets, the kept rows moved to theirs, then
+        // every other row into its own slice. Gathering the rows in blocks
+        // and joining them held the system twice, and more while the
+        // joined arrays doubled (a fifth of the peak at 1.9M nodes).
+        let old_offsets = std::mem::take(&mut self.offsets);
         let mut lens: Vec<u32> = Vec::new();
         (0..n_nodes)
             .into_par_iter()
-            .map(|a| row_len(op, a))
+            .map(|a| match keep.get(a) {
+                Some(true) => old_offsets[a + 1] - old_offsets[a],
+                _ => row_len(op, a),
+            })
             .collect_into_vec(&mut lens);
-        self.offsets.clear();
         self.offsets.reserve_gently(n_nodes + 1);
         self.offsets.push(0);
         let mut end = 0u32;
@@ -260,8 +293,14 @@ impl TangentSystem {
         let total = end as usize;
         self.cols.reserve_gently(total);
         self.blocks.reserve_gently(total);
-        self.cols.resize_gently(total, 0);
-        self.blocks.resize_gently(total, [0.0; 4]);
+        rows::move_kept_rows(
+            &old_offsets,
+            &self.offsets,
+            &keep,
+            &mut self.cols,
+            &mut self.blocks,
+        );
+        drop(old_offsets);
         let offsets = &self.offsets;
         let mut slices = Vec::with_capacity(n_nodes.div_ceil(CHUNK));
         let (mut cols, mut blocks) = (&mut self.cols[..], &mut self.blocks[..]);
@@ -273,11 +312,15 @@ impl TangentSystem {
             slices.push((from..to, head, bhead));
             (cols, blocks) = (rest, brest);
         }
+        let keep = &keep;
         slices.into_par_iter().for_each(|(range, cols, blocks)| {
             let base = offsets[range.start] as usize;
             let mut row_cols = Vec::new();
             let mut row_blocks = Vec::new();
             for a in range {
+                if keep.get(a) == Some(&true) {
+                    continue;
+                }
                 row_cols.clear();
                 row_blocks.clear();
                 push_row(op, basis, a, dt, &mut row_cols, &mut row_blocks);
@@ -475,7 +518,7 @@ impl TangentSystem {
 mod tests {
     use super::*;
     use crate::math::Sym3;
-    use crate::mesh::shapes::{jittered_plate, Lcg};
+    use crate::mesh::shapes::{jittered_plate, jittered_plate_input, Lcg};
     use crate::sim::forces::{Elements, Fans};
     use crate::sim::implicit::{preconditioner, CgScratch, Shifted};
 
@@ -550,6 +593,107 @@ mod tests {
             assert_eq!(sys.cols[r.clone()], cols[..], "node {a}");
             assert_eq!(sys.blocks[r], blocks[..], "node {a}");
         }
+    }
+
+    /// A system assembled again after a change computes only the rows
+    /// whose inputs changed and is, bit for bit, the system assembled anew:
+    /// a cut through the plate (its nodes above the cut copied to new
+    /// nodes, a little apart), then one node's normal, another's fixed flag,
+    /// a third's interface term and a face's element, then the step.
+    #[test]
+    fn assembling_again_computes_the_changed_rows_only() {
+        let n = 100;
+        let plate = jittered_plate_input(n, 0.3, 9);
+        let mut cut = plate.clone();
+        let id = |i: usize, j: usize| (j * (n + 1) + i) as u32;
+        let (row, from, to) = (50, 20, 70);
+        for i in from..=to {
+            let mut p = cut.positions[id(i, row) as usize];
+            p[1] += 0.05;
+            let copy = cut.positions.len() as u32;
+            cut.positions.push(p);
+            for ch in cut.wedge_channels.iter_mut() {
+                let w = ch.components;
+                let v = ch.data[id(i, row) as usize * w..][..w].to_vec();
+                ch.data.extend_from_slice(&v);
+            }
+            // The faces of the row of squares above the cut take the copy.
+            for tri in cut.triangles[2 * n * row..2 * n * (row + 1)].iter_mut() {
+                for c in tri.iter_mut() {
+                    if *c == id(i, row) {
+                        *c = copy;
+                    }
+                }
+            }
+        }
+        let setting = |input: &crate::mesh::MeshInput| {
+            let (mesh, _) = crate::mesh::shapes::build(input);
+            let nv = mesh.n_vertices();
+            Setting {
+                fans: Fans::new(&mesh),
+                els: Elements::new(&mesh, f64::INFINITY),
+                normals: (0..nv)
+                    .map(|i| {
+                        let v = [0.1 * (i as f64).sin(), 0.1 * (i as f64 * 0.7).cos(), 1.0];
+                        v3::scale(v, 1.0 / v3::norm(v))
+                    })
+                    .collect(),
+                fixed: (0..nv).map(|i| i % 13 == 6).collect(),
+                interface: vec![0.001; nv],
+            }
+        };
+        let (before, mut after) = (setting(&plate), setting(&cut));
+        assert!(after.fans.n_vertices() > before.fans.n_vertices());
+        fn first_difference<T: PartialEq>(a: &[T], b: &[T]) -> Option<usize> {
+            (0..a.len().max(b.len())).find(|&i| a.get(i) != b.get(i))
+        }
+        let same = |a: &TangentSystem, b: &TangentSystem| {
+            let found = [
+                ("offsets", first_difference(&a.offsets, &b.offsets)),
+                ("cols", first_difference(&a.cols, &b.cols)),
+                ("blocks", first_difference(&a.blocks, &b.blocks)),
+                ("pre", first_difference(&a.pre, &b.pre)),
+                ("basis", first_difference(&a.basis, &b.basis)),
+            ];
+            for (name, at) in found {
+                assert!(at.is_none(), "{name} differ first at {at:?}");
+            }
+        };
+        let anew = |s: &Setting, dt: f64| {
+            let mut sys = TangentSystem::default();
+            sys.assemble(&s.op(), dt);
+            assert_eq!(sys.reassembled, sys.n_nodes());
+            sys
+        };
+        let mut sys = TangentSystem::default();
+        sys.assemble(&before.op(), 0.3);
+        sys.assemble(&before.op(), 0.3);
+        assert_eq!(sys.reassembled, 0, "nothing changed");
+        sys.assemble(&after.op(), 0.3);
+        same(&sys, &anew(&after, 0.3));
+        let n_after = sys.n_nodes();
+        // The cut's nodes, their copies and their neighbours: a few hundred.
+        assert!(
+            (60..n_after / 10).contains(&sys.reassembled),
+            "{} of {n_after} rows computed after the cut",
+            sys.reassembled
+        );
+        after.normals[300] = [0.0, 0.6, 0.8];
+        after.fixed[7001] = !after.fixed[7001];
+        after.interface[4321] = 0.002;
+        after.els.elements[9000] = None;
+        sys.assemble(&after.op(), 0.3);
+        same(&sys, &anew(&after, 0.3));
+        assert!(
+            (4..80).contains(&sys.reassembled),
+            "{} rows computed after four small changes",
+            sys.reassembled
+        );
+        sys.assemble(&before.op(), 0.3);
+        same(&sys, &anew(&before, 0.3));
+        sys.assemble(&before.op(), 0.5);
+        assert_eq!(sys.reassembled, sys.n_nodes(), "a new step changes every row");
+        same(&sys, &anew(&before, 0.5));
     }
 
     fn random(n: usize, seed: u64) -> Vec<V2> {

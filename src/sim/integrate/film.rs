@@ -89,6 +89,8 @@ pub(in crate::sim) fn relax_film_round(
     let t = &bufs.tangent;
     solves.preconditioner = params.film_preconditioner.name();
     solves.solves += 1;
+    solves.rows += t.n_nodes();
+    solves.rows_assembled += t.reassembled;
     solves.builds = t.builds;
     [solves.setup_seconds, solves.solve_seconds] = t.seconds;
     if let Some(mg) = t.multigrid() {
