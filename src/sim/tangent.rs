@@ -4,9 +4,10 @@
 //! in an orthonormal basis `T_n = [t1 t2]` of that plane (none when it is
 //! fixed). The shifted system `(I + dt K) x = b` of [`crate::sim::implicit`]
 //! restricted to those coordinates is `(I + dt T^T K T) y = T^T b`, with the
-//! same solution `x = T y`. Its 2x2 node blocks are assembled for each solve
-//! into compressed rows (a row whose inputs did not change since the last
-//! solve is kept, not computed again: see `tangent_rows.rs`): face `e` couples its corners `a` and `b` by
+//! same solution `x = T y`. Its 2x2 node blocks are assembled for each
+//! solve into compressed rows (a row whose inputs did not change since the
+//! last solve is kept, not computed again: see `tangent_rows.rs`): face `e`
+//! couples its corners `a` and `b` by
 //!
 //! `K_ab = A_e / 2 (g_b g_a^T + (g_a . g_b) P_e)`
 //!
