@@ -154,10 +154,12 @@ fn film_cells_close() {
 }
 
 /// A film run assembles its system whole once and then only the rows its
-/// cracks changed: over a run that cracks a plate into cells, fewer than a
-/// fifth of the rows summed over its solves are computed. (That the kept
-/// rows are the ones a new assembly would compute, bit for bit, is
-/// `sim::tangent`'s `assembling_again_computes_the_changed_rows_only`.)
+/// cracks changed: over a run that cracks a plate into cells, more than the
+/// first assembly's rows but fewer than a fifth of the rows summed over its
+/// solves are computed (6.0% measured). That the kept rows are the ones a
+/// new assembly would compute, bit for bit, the assembly itself checks in
+/// the unit tests, this run's included (and `sim::tangent`'s
+/// `assembling_again_computes_the_changed_rows_only`).
 #[test]
 fn a_film_run_computes_only_the_rows_its_cracks_change() {
     let mut m = plate(24.0, 48, 11);
@@ -167,7 +169,7 @@ fn a_film_run_computes_only_the_rows_its_cracks_change() {
     assert!(r.cracks > 100 && s.solves > 5, "{} cracks, {} solves", r.cracks, s.solves);
     assert!(s.rows >= s.solves * n, "{} rows over {} solves", s.rows, s.solves);
     assert!(
-        s.rows_assembled >= n && s.rows_assembled * 5 < s.rows,
+        s.rows_assembled > n && s.rows_assembled * 5 < s.rows,
         "{} of {} rows computed",
         s.rows_assembled,
         s.rows

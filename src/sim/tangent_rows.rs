@@ -16,11 +16,14 @@ use rayon::prelude::*;
 
 /// Fold word `w` into hash `h`: a bijection of `h` for any `w` and of `w`
 /// for any `h`, so a key changes whenever one of its words does (and, for
-/// several changed words, but for chance).
+/// several changed words, but for chance: the second product carries a
+/// change of any bit of `h ^ w` into the bits above it by way of the
+/// state, so no change of one word is undone by a fixed change of the
+/// next).
 #[inline]
 fn mix(h: u64, w: u64) -> u64 {
     let z = (h ^ w).wrapping_mul(0x9e37_79b9_7f4a_7c15);
-    z ^ (z >> 29)
+    (z ^ (z >> 32)).wrapping_mul(0xd6e8_feb8_6659_fd93)
 }
 
 /// A key's last step: every bit of it reaches every bit of the result.
@@ -43,8 +46,8 @@ pub(super) fn node_keys(op: &Operator, basis: &[[[f64; 3]; 2]], out: &mut Vec<u6
                 h = mix(h, v.to_bits());
             }
             finish(match op.interface.get(n) {
-                Some(k) => mix(h, k.to_bits()),
-                None => mix(h, 0x6e6f_6e65),
+                Some(k) => mix(mix(h, 1), k.to_bits()),
+                None => mix(h, 0),
             })
         })
         .collect_into_vec(out);
