@@ -246,70 +246,55 @@ pub fn averaged_stress(
             const { std::cell::RefCell::new((Vec::new(), Vec::new())) };
     }
     SCRATCH.with(|scratch| {
+        let origin = v3::scale(mesh.position(v), 1.0 / unit);
+        let r2 = radius * radius;
         let (seen, stack) = &mut *scratch.borrow_mut();
-        averaged_stress_with(mesh, els, stress, unit, radius, v, seen, stack)
-    })
-}
-
-/// [`averaged_stress`] with its lists (emptied first).
-#[allow(clippy::too_many_arguments)]
-fn averaged_stress_with(
-    mesh: &SimMesh,
-    els: &Elements,
-    stress: &[Sym3],
-    unit: f64,
-    radius: f64,
-    v: VertexId,
-    seen: &mut Vec<u32>,
-    stack: &mut Vec<FaceId>,
-) -> Sym3 {
-    let origin = v3::scale(mesh.position(v), 1.0 / unit);
-    let r2 = radius * radius;
-    seen.clear();
-    stack.clear();
-    stack.extend(mesh.vertex_faces(v));
-    let own = stack.len();
-    let (mut sum, mut area) = (Sym3::ZERO, 0.0);
-    let mut k = 0usize;
-    while let Some(f) = stack.pop() {
-        k += 1;
-        if seen.contains(&f.0) {
-            continue;
-        }
-        seen.push(f.0);
-        let inside = k <= own || {
-            let c = mesh
-                .face_vertices(f)
-                .iter()
-                .fold([0.0; 3], |a, &u| v3::add(a, mesh.position(u)));
-            let c = v3::scale(c, 1.0 / (3.0 * unit));
-            let d = v3::sub(c, origin);
-            v3::dot(d, d) <= r2
-        };
-        if !inside {
-            continue;
-        }
-        if let Some(Some(el)) = els.elements.get(f.idx()) {
-            sum += stress[f.idx()] * el.area;
-            area += el.area;
-        }
-        if seen.len() > 4096 {
-            break; // a radius far above the element size: enough to average
-        }
-        for h in mesh.face_halfedges(f) {
-            if let Some(t) = mesh.twin(h) {
-                let g = mesh.face(t);
-                if !seen.contains(&g.0) {
-                    stack.push(g);
+        seen.clear();
+        stack.clear();
+        stack.extend(mesh.vertex_faces(v));
+        let own = stack.len();
+        let (mut sum, mut area) = (Sym3::ZERO, 0.0);
+        let mut k = 0usize;
+        while let Some(f) = stack.pop() {
+            k += 1;
+            if seen.contains(&f.0) {
+                continue;
+            }
+            seen.push(f.0);
+            let inside = k <= own || {
+                let c = mesh
+                    .face_vertices(f)
+                    .iter()
+                    .fold([0.0; 3], |a, &u| v3::add(a, mesh.position(u)));
+                let c = v3::scale(c, 1.0 / (3.0 * unit));
+                let d = v3::sub(c, origin);
+                v3::dot(d, d) <= r2
+            };
+            if !inside {
+                continue;
+            }
+            if let Some(Some(el)) = els.elements.get(f.idx()) {
+                sum += stress[f.idx()] * el.area;
+                area += el.area;
+            }
+            if seen.len() > 4096 {
+                break; // a radius far above the element size: enough to average
+            }
+            for h in mesh.face_halfedges(f) {
+                if let Some(t) = mesh.twin(h) {
+                    let g = mesh.face(t);
+                    if !seen.contains(&g.0) {
+                        stack.push(g);
+                    }
                 }
             }
         }
-    }
-    if area > 0.0 {
-        sum * (1.0 / area)
-    } else {
-        Sym3::ZERO
-    }
+        if area > 0.0 {
+            sum * (1.0 / area)
+        } else {
+            Sym3::ZERO
+        }
+    })
 }
 
 #[cfg(test)]

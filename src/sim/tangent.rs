@@ -265,8 +265,10 @@ impl TangentSystem {
         } else {
             0
         };
-        let mut keep = vec![false; n_old];
-        keep.par_iter_mut()
+        // Per row: kept (only old rows can be).
+        let mut keep = vec![false; n_nodes];
+        keep[..n_old]
+            .par_iter_mut()
             .zip(&keys[..n_old])
             .zip(&old_keys[..n_old])
             .for_each(|((k, new), old)| *k = new == old);
@@ -282,9 +284,12 @@ impl TangentSystem {
         let mut lens: Vec<u32> = Vec::new();
         (0..n_nodes)
             .into_par_iter()
-            .map(|a| match keep.get(a) {
-                Some(true) => old_offsets[a + 1] - old_offsets[a],
-                _ => row_len(op, a),
+            .map(|a| {
+                if keep[a] {
+                    old_offsets[a + 1] - old_offsets[a]
+                } else {
+                    row_len(op, a)
+                }
             })
             .collect_into_vec(&mut lens);
         self.offsets.reserve_gently(n_nodes + 1);
@@ -323,7 +328,7 @@ impl TangentSystem {
             let mut row_cols = Vec::new();
             let mut row_blocks = Vec::new();
             for a in range {
-                if keep.get(a) == Some(&true) {
+                if keep[a] {
                     continue;
                 }
                 row_cols.clear();
@@ -339,7 +344,7 @@ impl TangentSystem {
         // In the unit tests every kept row is checked against the row
         // computed anew (so every film run they make checks its cracks').
         #[cfg(test)]
-        for a in (0..n_nodes).filter(|&a| keep.get(a) == Some(&true)) {
+        for a in (0..n_nodes).filter(|&a| keep[a]) {
             let (mut cols, mut blocks) = (Vec::new(), Vec::new());
             push_row(op, basis, a, dt, &mut cols, &mut blocks);
             let r = self.offsets[a] as usize..self.offsets[a + 1] as usize;
