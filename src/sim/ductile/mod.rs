@@ -196,6 +196,11 @@ pub struct Ductile {
     slab_thickness: f64,
     /// The last implicit step's velocity change (its solve's first guess).
     last_dv: Vec<[f64; 3]>,
+    /// Whether the grips hold their nodes in every component: false while
+    /// the object is whole (a grip lets the material narrow across the
+    /// pull), true once it has come apart (a piece held by one grip alone
+    /// would otherwise slide across it).
+    grips_hold: bool,
     /// The scene's position of the metres' origin, and metres per scene
     /// unit.
     scene_frame: ([f64; 3], f64),
@@ -358,6 +363,7 @@ impl Ductile {
             axis,
             slab_thickness,
             last_dv: Vec::new(),
+            grips_hold: false,
             scene_frame: (lo, scale),
             mg: None,
             kept_elements: None,
@@ -531,6 +537,16 @@ impl Ductile {
             full * (self.time / p.ramp).min(1.0)
         } else {
             full
+        }
+    }
+
+    /// The velocity a grip gives component `k` of pulled node `i` at pull
+    /// speed `speed`: the pull along the axis, still across it.
+    fn grip_velocity(&self, i: usize, k: usize, speed: f64) -> f64 {
+        if k == self.axis {
+            f64::from(self.pulled[i]) * speed
+        } else {
+            0.0
         }
     }
 
@@ -747,6 +763,7 @@ impl Ductile {
             if report.separated_pull.is_none() && s.tearing_nodes > 0 && self.fragments() > initial
             {
                 report.separated_pull = Some(self.pull_fraction());
+                self.grips_hold = true;
             } else if report.separated_pull.is_some() {
                 apart = (apart.0 + s.cg_iterations, apart.1 + 1);
             }

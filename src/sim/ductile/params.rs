@@ -260,7 +260,7 @@ pub struct DuctileParams {
     /// when a tear starts does not follow the grid (a notch's tip is a
     /// singularity, whose peak energy grows as the grid refines). Beside
     /// material already torn the front runs on each node's own energy.
-    /// 0: each node's own everywhere (the text's). Default 0.0125.
+    /// 0: each node's own everywhere (the text's). Default 0.02.
     pub nonlocal: f64,
     /// Passes relaxing the extracted torn surface (its vertices off the
     /// original surface, each within a cube of where it was cut, see
@@ -299,7 +299,7 @@ impl Default for DuctileParams {
             multigrid: true,
             redistance: true,
             virtual_nodes: true,
-            nonlocal: 0.0125,
+            nonlocal: 0.02,
             smooth_tear: 20,
             max_steps: 10_000,
             pull: Pull::default(),

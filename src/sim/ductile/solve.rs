@@ -206,14 +206,15 @@ impl Ductile {
         let speed = self.pull_speed_now();
         let velocity_pull = self.params.pull.mode == PullMode::Velocity;
         // Fixed unknowns: nodes without material, and the pull's component
-        // of pulled nodes (they slide freely across it, as in a grip that
-        // lets the material narrow).
+        // of pulled nodes (while the object is whole they slide freely
+        // across it, as in a grip that lets the material narrow); once it
+        // has come apart, every component of them (see `grips_hold`).
         let fixed: Vec<[bool; 3]> = (0..n)
             .map(|i| {
                 if mass[i] <= 0.0 {
                     [true; 3]
                 } else if velocity_pull && self.pulled[i] != 0 {
-                    std::array::from_fn(|k| k == self.axis)
+                    std::array::from_fn(|k| k == self.axis || self.grips_hold)
                 } else {
                     [false; 3]
                 }
@@ -235,7 +236,7 @@ impl Ductile {
                     if mass[i] <= 0.0 {
                         0.0
                     } else if fixed[i][k] {
-                        f64::from(self.pulled[i]) * speed - self.v[i][k]
+                        self.grip_velocity(i, k, speed) - self.v[i][k]
                     } else {
                         self.last_dv.get(i).map_or(0.0, |d| d[k])
                     }
@@ -364,7 +365,11 @@ impl Ductile {
                 self.v[i][k] += dt * ((fe[i][k] + fx[i][k]) / mass[i] - a * self.v[i][k]);
             }
             if self.params.pull.mode == PullMode::Velocity && self.pulled[i] != 0 {
-                self.v[i][self.axis] = f64::from(self.pulled[i]) * speed;
+                for k in 0..3 {
+                    if k == self.axis || self.grips_hold {
+                        self.v[i][k] = self.grip_velocity(i, k, speed);
+                    }
+                }
             }
             for k in 0..3 {
                 self.x[i][k] += dt * self.v[i][k];
