@@ -540,6 +540,12 @@ impl Ductile {
         }
     }
 
+    /// Whether a grip fixes component `k` of its nodes: the pull's always,
+    /// the others once the object has come apart (see `grips_hold`).
+    fn grip_holds(&self, k: usize) -> bool {
+        k == self.axis || self.grips_hold
+    }
+
     /// The velocity a grip gives component `k` of pulled node `i` at pull
     /// speed `speed`: the pull along the axis, still across it.
     fn grip_velocity(&self, i: usize, k: usize, speed: f64) -> f64 {

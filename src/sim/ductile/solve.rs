@@ -214,7 +214,7 @@ impl Ductile {
                 if mass[i] <= 0.0 {
                     [true; 3]
                 } else if velocity_pull && self.pulled[i] != 0 {
-                    std::array::from_fn(|k| k == self.axis || self.grips_hold)
+                    std::array::from_fn(|k| self.grip_holds(k))
                 } else {
                     [false; 3]
                 }
@@ -366,7 +366,7 @@ impl Ductile {
             }
             if self.params.pull.mode == PullMode::Velocity && self.pulled[i] != 0 {
                 for k in 0..3 {
-                    if k == self.axis || self.grips_hold {
+                    if self.grip_holds(k) {
                         self.v[i][k] = self.grip_velocity(i, k, speed);
                     }
                 }
